@@ -1,0 +1,5 @@
+//! Acceleration structures.
+
+pub mod bvh;
+
+pub use bvh::Bvh;

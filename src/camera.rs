@@ -1,0 +1,60 @@
+//! Pinhole camera with a vertical field of view (spec §6).
+
+use crate::geometry::Ray;
+use crate::math::{normalize_div, Vec3, PI};
+use crate::scene::desc::CameraDesc;
+
+#[derive(Clone, Debug)]
+pub struct Camera {
+    pub position: Vec3,
+    /// Forward, right and up vectors scaled to the image plane's half extents.
+    forward: Vec3,
+    right: Vec3,
+    up: Vec3,
+    width: f32,
+    height: f32,
+}
+
+impl Camera {
+    /// Set-up in the original's f32 order, so `--compat` rays are bit-exact.
+    pub fn new(d: &CameraDesc, width: u32, height: u32) -> Camera {
+        let f = normalize_div(d.look_at - d.position);
+        let r = normalize_div(f.cross(d.ref_up));
+        let u = r.cross(f);
+        let hy = (((d.fov / 2.0) * PI) / 180.0).tan() * d.focal_length;
+        let hx = hy * (width as f32 / height as f32);
+        Camera { position: d.position, forward: f * d.focal_length, right: r * hx, up: u * hy, width: width as f32, height: height as f32 }
+    }
+
+    /// Direction through the continuous film position `(x, y)`; film `y` grows
+    /// upwards, `(0, 0)` is the bottom-left corner of the view.
+    #[inline]
+    pub fn direction(&self, x: f32, y: f32) -> Vec3 {
+        let sx = (x / self.width) * 2.0 - 1.0;
+        let sy = (y / self.height) * 2.0 - 1.0;
+        normalize_div((sx * self.right + sy * self.up) + self.forward)
+    }
+
+    #[inline]
+    pub fn ray(&self, x: f32, y: f32) -> Ray {
+        Ray::new(self.position, self.direction(x, y))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn image_left_is_world_minus_x_and_fov_is_vertical() {
+        let d = CameraDesc { position: Vec3::new(0.0, 1.0, 6.8), look_at: Vec3::new(0.0, 1.0, 0.0), ref_up: Vec3::Y, fov: 90.0, focal_length: 1.0 };
+        let c = Camera::new(&d, 200, 100);
+        assert!(c.direction(0.0, 50.0).x < 0.0, "left edge looks towards -x");
+        assert!(c.direction(100.0, 100.0).y > 0.0, "film y = H is the top");
+        // vertical half angle 45°, horizontal extent doubled by the 2:1 aspect
+        let top = c.direction(100.0, 100.0);
+        assert!((top.y / -top.z - 1.0).abs() < 1e-6);
+        let right = c.direction(200.0, 50.0);
+        assert!((right.x / -right.z - 2.0).abs() < 1e-6);
+    }
+}

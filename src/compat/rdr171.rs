@@ -1,0 +1,131 @@
+//! The RDR171 `intersection_test` exactly as the course's reference images were
+//! made (spec §5, §7, §13, §14). Deliberately unphysical; see the module table
+//! in [`super`].
+
+use crate::film::FilmTile;
+use crate::geometry::triangle::intersect_moller_trumbore_f64;
+use crate::geometry::Ray;
+use crate::light::Light;
+use crate::material::Material;
+use crate::math::{reflect, refract, Vec2, Vec3, INV_PI, PI};
+use crate::sampler::Mt19937Sampler;
+use crate::scene::{Hit, Interaction, Prim, Scene};
+
+struct Candidate {
+    key: (u32, u32),
+    prim: u32,
+    t: f64,
+    b: [f32; 3],
+}
+
+/// Closest hit with the original's semantics: primitives in scene order, each
+/// accepted when `t_min ≤ t ≤ f32(t_max)` and then `t_max = f32(t)`. The BVH
+/// collects every hit that could take part; they are replayed in scene order.
+pub fn intersect(scene: &Scene, ray: &Ray) -> Option<Hit> {
+    let mut cands: Vec<Candidate> = Vec::new();
+    let mut best = ray.t_max;
+    scene.bvh.traverse(ray, |i, t_max| {
+        let prim = &scene.prims[i as usize];
+        let found = match prim {
+            Prim::Triangle { p, .. } => intersect_moller_trumbore_f64(ray.o, ray.d, ray.t_min as f64, best as f64, p).map(|h| (h.t, h.bary())),
+            Prim::Sphere { sphere, .. } => sphere.intersect(ray.o, ray.d, ray.t_min, best).map(|t| (t as f64, [0.0; 3])),
+        };
+        if let Some((t, b)) = found {
+            cands.push(Candidate { key: prim.order_key(), prim: i, t, b });
+            best = best.min(t as f32);
+            // a little slack so boxes holding exact ties are not culled
+            *t_max = best.next_up().next_up();
+        }
+        false
+    });
+    cands.sort_by_key(|c| c.key);
+    let mut t_max = ray.t_max;
+    let mut hit = None;
+    for c in cands {
+        if c.t <= t_max as f64 {
+            t_max = c.t as f32;
+            hit = Some(Hit { t: t_max, prim: c.prim, b: c.b });
+        }
+    }
+    hit
+}
+
+/// `dot(d, n) < 0 ? −n : n`.
+fn face_forward(d: Vec3, n: Vec3) -> Vec3 {
+    if d.dot(n) < 0.0 {
+        -n
+    } else {
+        n
+    }
+}
+
+pub fn li(scene: &Scene, mut ray: Ray) -> Vec3 {
+    for _ in 0..scene.max_depth {
+        let Some(hit) = intersect(scene, &ray) else { return Vec3::ZERO };
+        let it = scene.interaction(&ray, &hit);
+        match scene.material_of(&it) {
+            Some(Material::Refraction { eta }) => {
+                let n = it.ns;
+                let entering = n.dot(it.wo) > 0.0;
+                let (ratio, n) = if entering { (*eta, n) } else { (1.0 / *eta, -n) };
+                let wi = refract(it.wo, n, ratio).unwrap_or_else(|| reflect(it.wo, n));
+                ray = Ray::new(it.p + face_forward(wi, it.ng) * 1e-4, wi);
+            }
+            Some(Material::Diffuse { texture, twosided }) => {
+                let albedo = scene.textures[*texture as usize].eval(it.uv);
+                return direct(scene, &it, albedo, *twosided);
+            }
+            _ => return Vec3::ZERO,
+        }
+    }
+    Vec3::ZERO
+}
+
+fn direct(scene: &Scene, it: &Interaction, albedo: Vec3, twosided: bool) -> Vec3 {
+    let n_bsdf = if twosided && it.ns.dot(it.wo) < 0.0 { -it.ns } else { it.ns };
+    let mut total = Vec3::ZERO;
+    for light in &scene.lights {
+        let Light::Point { position, flux } = light;
+        let v = *position - it.p;
+        let d = v.dot(v).sqrt();
+        let l = v / d;
+        if let Some(h) = intersect(scene, &Ray::new(it.p, l)) {
+            if h.t < d {
+                continue;
+            }
+        }
+        let cos = l.dot(it.ng).max(0.0);
+        let f = if l.dot(n_bsdf) < 0.0 || it.wo.dot(n_bsdf) < 0.0 { Vec3::ZERO } else { albedo * INV_PI };
+        total += (((*flux * f) * cos) / (4.0 * PI)) * (d * d);
+    }
+    total
+}
+
+/// Renders column by column, each with a fresh default-seeded sampler (spec §7).
+/// Columns finished before `stop` returns true are kept.
+pub fn render_columns(scene: &Scene, spp: u32, stop: &(dyn Fn() -> bool + Sync), on_column: &(dyn Fn() + Sync)) -> Vec<Option<FilmTile>> {
+    use rayon::prelude::*;
+    let (w, h) = (scene.width as i32, scene.height as i32);
+    // one column of slack: a jittered position can round up into the next pixel
+    let reach = scene.filter.reach() + 1;
+    (0..w)
+        .into_par_iter()
+        .map(|px| {
+            if stop() {
+                return None;
+            }
+            let mut sampler = Mt19937Sampler::default();
+            let mut tile = FilmTile::new(px, 0, px + 1, h, reach, w, h);
+            for py in 0..h {
+                for _ in 0..spp {
+                    let (u1, u2) = sampler.get_2d();
+                    let pos = Vec2::new(px as f32 + u1, py as f32 + u2);
+                    let l = li(scene, scene.camera.ray(pos.x, pos.y));
+                    tile.add(pos, l, &scene.filter, w, h);
+                }
+            }
+            on_column();
+            Some(tile)
+        })
+        .collect()
+}

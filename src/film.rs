@@ -1,0 +1,221 @@
+//! Film: reconstruction filters and weighted sample accumulation (spec §5).
+//!
+//! Film `y` grows upwards (row 0 is the bottom); [`Film::to_rgb_rows`] flips it
+//! so output row 0 is the top of the picture. Work is accumulated in
+//! [`FilmTile`]s that are merged in a fixed order, so the image does not depend
+//! on the number of threads.
+
+use crate::math::{Vec2, Vec3};
+use crate::scene::desc::FilterDesc;
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Filter {
+    Box { radius: f32 },
+    Gaussian { radius: f32, alpha: f32, tail: f32 },
+    Mitchell { radius: f32, b: f32, c: f32 },
+}
+
+impl Filter {
+    pub fn new(d: &FilterDesc) -> Filter {
+        match *d {
+            FilterDesc::Box { radius } => Filter::Box { radius },
+            FilterDesc::Gaussian { radius, alpha } => Filter::Gaussian { radius, alpha, tail: (-alpha * radius * radius).exp() },
+            FilterDesc::Mitchell { radius, b, c } => Filter::Mitchell { radius, b, c },
+        }
+    }
+
+    pub fn radius(&self) -> f32 {
+        match *self {
+            Filter::Box { radius } | Filter::Gaussian { radius, .. } | Filter::Mitchell { radius, .. } => radius,
+        }
+    }
+
+    /// How many pixels a sample reaches on each side of its own: ceil(r − ½).
+    pub fn reach(&self) -> i32 {
+        (self.radius() - 0.5).ceil().max(0.0) as i32
+    }
+
+    /// Weight of a sample at offset `(dx, dy)` from a pixel centre.
+    pub fn eval(&self, dx: f32, dy: f32) -> f32 {
+        let r = self.radius();
+        if dx.abs() > r || dy.abs() > r {
+            return 0.0;
+        }
+        match *self {
+            Filter::Box { .. } => 1.0,
+            Filter::Gaussian { alpha, tail, .. } => {
+                let g = |d: f32| ((-alpha * d * d).exp() - tail).max(0.0);
+                g(dx) * g(dy)
+            }
+            Filter::Mitchell { radius, b, c } => {
+                let m = |x: f32| {
+                    let x = (2.0 * x).abs();
+                    if x > 1.0 {
+                        ((-b - 6.0 * c) * x * x * x + (6.0 * b + 30.0 * c) * x * x + (-12.0 * b - 48.0 * c) * x + (8.0 * b + 24.0 * c)) / 6.0
+                    } else {
+                        ((12.0 - 9.0 * b - 6.0 * c) * x * x * x + (-18.0 + 12.0 * b + 6.0 * c) * x * x + (6.0 - 2.0 * b)) / 6.0
+                    }
+                };
+                m(dx / radius) * m(dy / radius)
+            }
+        }
+    }
+}
+
+/// A rectangle of pixels `[x0, x0+w) × [y0, y0+h)` (already including the filter's
+/// reach) accumulating samples: f32 sums in sample order, f64 weights.
+#[derive(Clone, Debug)]
+pub struct FilmTile {
+    pub x0: i32,
+    pub y0: i32,
+    pub w: i32,
+    pub h: i32,
+    pub sum: Vec<[f32; 3]>,
+    pub weight: Vec<f64>,
+}
+
+impl FilmTile {
+    /// A tile for samples taken in pixels `[x0, x1) × [y0, y1)` of a `film_w × film_h` film.
+    pub fn new(x0: i32, y0: i32, x1: i32, y1: i32, reach: i32, film_w: i32, film_h: i32) -> Self {
+        let (ax, ay) = ((x0 - reach).max(0), (y0 - reach).max(0));
+        let (bx, by) = ((x1 + reach).min(film_w), (y1 + reach).min(film_h));
+        let (w, h) = (bx - ax, by - ay);
+        FilmTile { x0: ax, y0: ay, w, h, sum: vec![[0.0; 3]; (w * h) as usize], weight: vec![0.0; (w * h) as usize] }
+    }
+
+    /// Adds radiance `l` seen through continuous film position `pos`. Samples
+    /// outside the film are dropped (spec §5.1).
+    #[inline]
+    pub fn add(&mut self, pos: Vec2, l: Vec3, filter: &Filter, film_w: i32, film_h: i32) {
+        let (px, py) = (pos.x.floor() as i32, pos.y.floor() as i32);
+        if px < 0 || py < 0 || px >= film_w || py >= film_h {
+            return;
+        }
+        if let Filter::Box { radius } = filter {
+            if *radius <= 0.5 {
+                self.splat(px, py, l, 1.0);
+                return;
+            }
+        }
+        let k = filter.reach();
+        for y in py - k..=py + k {
+            for x in px - k..=px + k {
+                if x < 0 || y < 0 || x >= film_w || y >= film_h {
+                    continue;
+                }
+                let w = filter.eval(pos.x - (x as f32 + 0.5), pos.y - (y as f32 + 0.5));
+                if w != 0.0 {
+                    self.splat(x, y, l, w);
+                }
+            }
+        }
+    }
+
+    #[inline]
+    fn splat(&mut self, x: i32, y: i32, l: Vec3, w: f32) {
+        let (lx, ly) = (x - self.x0, y - self.y0);
+        if lx < 0 || ly < 0 || lx >= self.w || ly >= self.h {
+            return; // only possible for samples a caller placed outside its tile
+        }
+        let i = (ly * self.w + lx) as usize;
+        let s = &mut self.sum[i];
+        if w == 1.0 {
+            s[0] += l.x;
+            s[1] += l.y;
+            s[2] += l.z;
+        } else {
+            s[0] += l.x * w;
+            s[1] += l.y * w;
+            s[2] += l.z * w;
+        }
+        self.weight[i] += w as f64;
+    }
+}
+
+/// The whole film: f64 sums of tiles, merged in a deterministic order.
+#[derive(Clone, Debug)]
+pub struct Film {
+    pub width: u32,
+    pub height: u32,
+    pub filter: Filter,
+    sum: Vec<[f64; 3]>,
+    weight: Vec<f64>,
+}
+
+impl Film {
+    pub fn new(width: u32, height: u32, filter: Filter) -> Film {
+        let n = (width * height) as usize;
+        Film { width, height, filter, sum: vec![[0.0; 3]; n], weight: vec![0.0; n] }
+    }
+
+    pub fn merge(&mut self, t: &FilmTile) {
+        for ly in 0..t.h {
+            for lx in 0..t.w {
+                let i = (ly * t.w + lx) as usize;
+                let j = ((t.y0 + ly) * self.width as i32 + t.x0 + lx) as usize;
+                for c in 0..3 {
+                    self.sum[j][c] += t.sum[i][c] as f64;
+                }
+                self.weight[j] += t.weight[i];
+            }
+        }
+    }
+
+    /// Pixel values, row 0 = top of the picture. A pixel without weight is black.
+    /// The division is `f32(sum) / f32(weight)` as in the original (spec §5.2).
+    pub fn to_rgb_rows(&self) -> Vec<Vec3> {
+        let (w, h) = (self.width as usize, self.height as usize);
+        let mut out = vec![Vec3::ZERO; w * h];
+        for r in 0..h {
+            let y = h - 1 - r;
+            for x in 0..w {
+                let j = y * w + x;
+                let wt = self.weight[j];
+                if wt != 0.0 {
+                    let s = self.sum[j];
+                    let wf = wt as f32;
+                    out[r * w + x] = Vec3::new(s[0] as f32 / wf, s[1] as f32 / wf, s[2] as f32 / wf);
+                }
+            }
+        }
+        out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn box_filter_puts_each_sample_in_its_own_pixel() {
+        let f = Filter::Box { radius: 0.5 };
+        let mut t = FilmTile::new(0, 0, 4, 4, f.reach(), 4, 4);
+        t.add(Vec2::new(1.99, 2.01), Vec3::ONE, &f, 4, 4);
+        t.add(Vec2::new(4.0, 0.0), Vec3::ONE, &f, 4, 4); // outside: dropped
+        let mut film = Film::new(4, 4, f);
+        film.merge(&t);
+        let img = film.to_rgb_rows();
+        // film row 2 is output row 1
+        assert_eq!(img[4 + 1], Vec3::ONE);
+        assert_eq!(img.iter().filter(|v| **v != Vec3::ZERO).count(), 1);
+    }
+
+    #[test]
+    fn filters_vanish_at_their_radius_and_peak_at_the_centre() {
+        for d in [FilterDesc::Gaussian { radius: 1.5, alpha: 2.0 }, FilterDesc::Mitchell { radius: 2.0, b: 1.0 / 3.0, c: 1.0 / 3.0 }] {
+            let f = Filter::new(&d);
+            let r = f.radius();
+            assert!(f.eval(r, 0.0).abs() < 1e-6 && f.eval(r + 0.01, 0.0) == 0.0);
+            assert!(f.eval(0.0, 0.0) > f.eval(0.5, 0.2));
+        }
+        assert_eq!(Filter::new(&FilterDesc::Gaussian { radius: 1.5, alpha: 2.0 }).reach(), 1);
+    }
+
+    #[test]
+    fn wide_filter_spreads_a_sample_over_neighbours() {
+        let f = Filter::new(&FilterDesc::Gaussian { radius: 1.5, alpha: 2.0 });
+        let mut t = FilmTile::new(1, 1, 2, 2, f.reach(), 3, 3);
+        t.add(Vec2::new(1.5, 1.5), Vec3::ONE, &f, 3, 3);
+        assert_eq!(t.weight.iter().filter(|w| **w > 0.0).count(), 9);
+    }
+}

@@ -1,0 +1,82 @@
+//! Sphere shape (spec §10.2): f64 stable quadratic, hit point re-projected.
+
+use crate::math::{Vec2, Vec3, PI};
+
+#[derive(Clone, Copy, Debug)]
+pub struct Sphere {
+    pub center: Vec3,
+    pub radius: f32,
+}
+
+impl Sphere {
+    /// Distance to the nearest hit in `[t_min, t_max]`; tangent rays miss.
+    pub fn intersect(&self, o: Vec3, d: Vec3, t_min: f32, t_max: f32) -> Option<f32> {
+        let dd = d.as_dvec3();
+        let dd = dd / dd.length();
+        let oc = (o - self.center).as_dvec3();
+        let r = self.radius as f64;
+        let b = 2.0 * dd.dot(oc);
+        let c = oc.dot(oc) - r * r;
+        let disc = b * b - 4.0 * c;
+        if disc <= 0.0 {
+            return None;
+        }
+        let sq = disc.sqrt();
+        let q = if b >= 0.0 { -b - sq } else { sq - b };
+        let (mut t1, mut t2) = (q / 2.0, 2.0 * c / q);
+        if t1 > t2 {
+            std::mem::swap(&mut t1, &mut t2);
+        }
+        // distances are along the normalised direction; rescale to the ray's own
+        let scale = 1.0 / d.as_dvec3().length();
+        let (t1, t2) = (t1 * scale, t2 * scale);
+        let (lo, hi) = (t_min as f64, t_max as f64);
+        if t1 >= lo && t1 <= hi {
+            Some(t1 as f32)
+        } else if t2 >= lo && t2 <= hi {
+            Some(t2 as f32)
+        } else {
+            None
+        }
+    }
+
+    /// Point on the surface nearest to `p`, and the outward normal there.
+    pub fn project(&self, p: Vec3) -> (Vec3, Vec3) {
+        let mut v = p - self.center;
+        if v.x == 0.0 && v.z == 0.0 {
+            v.x = 1e-8 * self.radius; // at the poles keep the parameterisation defined
+        }
+        let n = v / v.length();
+        (self.center + n * self.radius, n)
+    }
+
+    /// Texture coordinates: `u = φ/2π`, `v = θ/π` with the local z as the polar axis.
+    pub fn uv(&self, n: Vec3) -> Vec2 {
+        let mut phi = n.y.atan2(n.x);
+        if phi < 0.0 {
+            phi += 2.0 * PI;
+        }
+        let theta = n.z.clamp(-1.0, 1.0).acos();
+        Vec2::new(phi / (2.0 * PI), theta / PI)
+    }
+
+    pub fn area(&self) -> f32 {
+        4.0 * PI * self.radius * self.radius
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn hits_from_outside_and_inside() {
+        let s = Sphere { center: Vec3::new(0.0, 0.0, -5.0), radius: 1.0 };
+        assert!((s.intersect(Vec3::ZERO, -Vec3::Z, 1e-4, 1e7).unwrap() - 4.0).abs() < 1e-5);
+        assert!((s.intersect(Vec3::new(0.0, 0.0, -5.0), Vec3::X, 1e-4, 1e7).unwrap() - 1.0).abs() < 1e-6);
+        assert!(s.intersect(Vec3::ZERO, Vec3::Z, 1e-4, 1e7).is_none());
+        assert!(s.intersect(Vec3::new(1.0, 0.0, 0.0), -Vec3::Z, 1e-4, 1e7).is_none(), "tangent");
+        // unnormalised direction: t is in the ray's own units
+        assert!((s.intersect(Vec3::ZERO, -Vec3::Z * 2.0, 1e-4, 1e7).unwrap() - 2.0).abs() < 1e-5);
+    }
+}

@@ -1,0 +1,234 @@
+//! Image files: EXR (written by hand: uncompressed scanlines, float or half;
+//! read with the `exr` crate) and 8-bit sRGB PNG.
+
+use crate::math::Vec3;
+use anyhow::{bail, Context, Result};
+use std::io::Write;
+use std::path::Path;
+
+/// How EXR pixels are stored.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ExrPixels {
+    Float,
+    /// Half floats rounded as tinyexr does (RDR171's writer).
+    HalfTinyexr,
+}
+
+/// f32 → half with tinyexr's rounding: round half away from zero (spec §5.2).
+pub fn f32_to_half_tinyexr(x: f32) -> u16 {
+    let u = x.to_bits();
+    let sign = ((u >> 16) & 0x8000) as u16;
+    let e = ((u >> 23) & 0xff) as i32;
+    let m = u & 0x7f_ffff;
+    if e == 0 {
+        return sign; // zero or f32 subnormal
+    }
+    if e == 255 {
+        return sign | 0x7c00 | if m != 0 { 0x200 } else { 0 };
+    }
+    let ne = e - 127 + 15;
+    if ne >= 31 {
+        return sign | 0x7c00;
+    }
+    if ne <= 0 {
+        if 14 - ne > 24 {
+            return sign;
+        }
+        let mm = m | 0x80_0000;
+        let mut v = mm >> (14 - ne);
+        if (mm >> (13 - ne)) & 1 != 0 {
+            v += 1;
+        }
+        return sign | v as u16;
+    }
+    let mut o = ((ne as u32) << 10) | (m >> 13);
+    if m & 0x1000 != 0 {
+        o += 1; // may carry into the exponent, up to infinity
+    }
+    sign | o as u16
+}
+
+/// Writes an OpenEXR 2.0 single-part scanline file, uncompressed, channels B, G, R
+/// (the sorted order the format requires), rows top-down.
+pub fn write_exr(path: &Path, width: u32, height: u32, rgb: &[Vec3], pixels: ExrPixels) -> Result<()> {
+    let (w, h) = (width as usize, height as usize);
+    assert_eq!(rgb.len(), w * h, "image size");
+    let (ptype, bytes_per) = match pixels {
+        ExrPixels::Float => (2i32, 4usize),
+        ExrPixels::HalfTinyexr => (1i32, 2usize),
+    };
+    let mut hd: Vec<u8> = Vec::new();
+    hd.extend_from_slice(&[0x76, 0x2f, 0x31, 0x01, 2, 0, 0, 0]);
+    let mut attr = |name: &str, ty: &str, value: &[u8]| {
+        hd.extend_from_slice(name.as_bytes());
+        hd.push(0);
+        hd.extend_from_slice(ty.as_bytes());
+        hd.push(0);
+        hd.extend_from_slice(&(value.len() as i32).to_le_bytes());
+        hd.extend_from_slice(value);
+    };
+    let mut ch = Vec::new();
+    for name in ["B", "G", "R"] {
+        ch.extend_from_slice(name.as_bytes());
+        ch.push(0);
+        ch.extend_from_slice(&ptype.to_le_bytes());
+        ch.extend_from_slice(&[0, 0, 0, 0]);
+        ch.extend_from_slice(&1i32.to_le_bytes());
+        ch.extend_from_slice(&1i32.to_le_bytes());
+    }
+    ch.push(0);
+    let window: Vec<u8> = [0i32, 0, w as i32 - 1, h as i32 - 1].iter().flat_map(|v| v.to_le_bytes()).collect();
+    attr("channels", "chlist", &ch);
+    attr("compression", "compression", &[0]);
+    attr("dataWindow", "box2i", &window);
+    attr("displayWindow", "box2i", &window);
+    attr("lineOrder", "lineOrder", &[0]);
+    attr("pixelAspectRatio", "float", &1.0f32.to_le_bytes());
+    attr("screenWindowCenter", "v2f", &[0u8; 8]);
+    attr("screenWindowWidth", "float", &1.0f32.to_le_bytes());
+    hd.push(0);
+
+    let line_bytes = 3 * w * bytes_per;
+    let mut out = Vec::with_capacity(hd.len() + 8 * h + h * (8 + line_bytes));
+    out.extend_from_slice(&hd);
+    let first = (hd.len() + 8 * h) as u64;
+    for y in 0..h as u64 {
+        out.extend_from_slice(&(first + y * (8 + line_bytes) as u64).to_le_bytes());
+    }
+    for y in 0..h {
+        out.extend_from_slice(&(y as i32).to_le_bytes());
+        out.extend_from_slice(&(line_bytes as i32).to_le_bytes());
+        for c in [2usize, 1, 0] {
+            for px in &rgb[y * w..(y + 1) * w] {
+                match pixels {
+                    ExrPixels::Float => out.extend_from_slice(&px[c].to_le_bytes()),
+                    ExrPixels::HalfTinyexr => out.extend_from_slice(&f32_to_half_tinyexr(px[c]).to_le_bytes()),
+                }
+            }
+        }
+    }
+    write_atomically(path, &out)
+}
+
+/// Writes through a temporary file and a rename, so a failed write never leaves
+/// a truncated image behind.
+fn write_atomically(path: &Path, bytes: &[u8]) -> Result<()> {
+    let tmp = path.with_extension(format!("{}.partial", path.extension().and_then(|e| e.to_str()).unwrap_or("tmp")));
+    let mut f = std::fs::File::create(&tmp).with_context(|| format!("cannot write {}", tmp.display()))?;
+    f.write_all(bytes).with_context(|| format!("cannot write {}", tmp.display()))?;
+    drop(f);
+    std::fs::rename(&tmp, path).with_context(|| format!("cannot write {}", path.display()))
+}
+
+/// Linear → sRGB-encoded 8 bit, clamped.
+pub fn linear_to_srgb8(v: f32) -> u8 {
+    let v = if v.is_nan() { 0.0 } else { v.clamp(0.0, 1.0) };
+    let s = if v <= 0.003_130_8 { 12.92 * v } else { 1.055 * v.powf(1.0 / 2.4) - 0.055 };
+    (s * 255.0 + 0.5) as u8
+}
+
+pub fn write_png(path: &Path, width: u32, height: u32, rgb: &[Vec3]) -> Result<()> {
+    let bytes: Vec<u8> = rgb.iter().flat_map(|p| [linear_to_srgb8(p.x), linear_to_srgb8(p.y), linear_to_srgb8(p.z)]).collect();
+    let mut buf = std::io::Cursor::new(Vec::new());
+    image::write_buffer_with_format(&mut buf, &bytes, width, height, image::ExtendedColorType::Rgb8, image::ImageFormat::Png)
+        .with_context(|| format!("cannot encode {}", path.display()))?;
+    write_atomically(path, buf.get_ref())
+}
+
+/// Output format from the file extension: `.exr` or `.png`.
+pub fn write_image(path: &Path, width: u32, height: u32, rgb: &[Vec3], exr: ExrPixels) -> Result<()> {
+    match path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref() {
+        Some("exr") => write_exr(path, width, height, rgb, exr),
+        Some("png") => write_png(path, width, height, rgb),
+        _ => bail!("{}: unsupported output format (use .exr or .png)", path.display()),
+    }
+}
+
+/// An RGB image read from an EXR file (any compression the `exr` crate reads).
+#[derive(Clone, Debug)]
+pub struct RgbImage {
+    pub width: usize,
+    pub height: usize,
+    /// Row 0 = top.
+    pub pixels: Vec<Vec3>,
+}
+
+impl RgbImage {
+    pub fn at(&self, x: usize, y: usize) -> Vec3 {
+        self.pixels[y * self.width + x]
+    }
+}
+
+pub fn read_exr(path: &Path) -> Result<RgbImage> {
+    use exr::prelude::*;
+    let img = read_first_rgba_layer_from_file(
+        path,
+        |res, _| RgbImage { width: res.width(), height: res.height(), pixels: vec![Vec3::ZERO; res.width() * res.height()] },
+        |img: &mut RgbImage, pos, (r, g, b, _a): (f32, f32, f32, f32)| {
+            let w = img.width;
+            img.pixels[pos.y() * w + pos.x()] = Vec3::new(r, g, b);
+        },
+    )
+    .with_context(|| format!("cannot read {}", path.display()))?;
+    Ok(img.layer_data.channel_data.pixels)
+}
+
+/// The raw half bit patterns of an EXR's R, G, B channels, for bit-exact tests.
+pub fn read_exr_half_bits(path: &Path) -> Result<(usize, usize, Vec<[u16; 3]>)> {
+    let img = read_exr(path)?;
+    let bits = img.pixels.iter().map(|p| [0, 1, 2].map(|c| exr::prelude::f16::from_f32(p[c]).to_bits())).collect();
+    Ok((img.width, img.height, bits))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn tinyexr_rounding_is_half_away_from_zero() {
+        // exactly halfway between two halves: 1 + 2^-11 → rounds up (RTNE would keep 1.0)
+        assert_eq!(f32_to_half_tinyexr(1.0 + 2f32.powi(-11)), 0x3c01);
+        assert_eq!(f32_to_half_tinyexr(1.0), 0x3c00);
+        assert_eq!(f32_to_half_tinyexr(-2.0), 0xc000);
+        assert_eq!(f32_to_half_tinyexr(65504.0), 0x7bff);
+        assert_eq!(f32_to_half_tinyexr(1e6), 0x7c00);
+        assert_eq!(f32_to_half_tinyexr(f32::NAN) & 0x7e00, 0x7e00);
+        assert_eq!(f32_to_half_tinyexr(0.0), 0);
+        // smallest half subnormal 2^-24
+        assert_eq!(f32_to_half_tinyexr(2f32.powi(-24)), 1);
+        // values away from ties agree with IEEE rounding
+        for i in 0..10000 {
+            let x = (i as f32 * 0.731).sin() * 100.0;
+            let h = exr::prelude::f16::from_f32(x);
+            let mid = (h.to_f32() - x).abs() * 2.0 == (h.to_f32() - exr::prelude::f16::from_bits(h.to_bits() ^ 1).to_f32()).abs();
+            if !mid {
+                assert_eq!(f32_to_half_tinyexr(x), h.to_bits(), "{x}");
+            }
+        }
+    }
+
+    #[test]
+    fn exr_round_trip_float_and_half() {
+        let dir = std::env::temp_dir().join(format!("rdr-exr-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let px: Vec<Vec3> = (0..6).map(|i| Vec3::new(i as f32, 0.5 * i as f32, 0.25)).collect();
+        for (kind, name) in [(ExrPixels::Float, "f.exr"), (ExrPixels::HalfTinyexr, "h.exr")] {
+            let p = dir.join(name);
+            write_exr(&p, 3, 2, &px, kind).unwrap();
+            let img = read_exr(&p).unwrap();
+            assert_eq!((img.width, img.height), (3, 2));
+            assert_eq!(img.pixels, px);
+        }
+        let size = std::fs::metadata(dir.join("h.exr")).unwrap().len();
+        assert_eq!(size, 313 + 2 * 8 + 2 * (8 + 6 * 3));
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
+    #[test]
+    fn srgb_encoding() {
+        assert_eq!(linear_to_srgb8(0.0), 0);
+        assert_eq!(linear_to_srgb8(1.0), 255);
+        assert_eq!(linear_to_srgb8(0.2140), 128);
+        assert_eq!(linear_to_srgb8(7.0), 255);
+    }
+}

@@ -1,0 +1,22 @@
+//! rdr — a physically based CPU ray tracer that reads the RDR171 JSON scene format.
+
+pub mod accel;
+pub mod camera;
+pub mod compat;
+pub mod error;
+pub mod film;
+pub mod geometry;
+pub mod imageio;
+pub mod integrator;
+pub mod light;
+pub mod material;
+pub mod math;
+pub mod render;
+pub mod sampler;
+pub mod scene;
+pub mod texture;
+
+pub use compat::Profile;
+pub use error::SceneError;
+pub use render::{render, RenderOutput, RenderSettings};
+pub use scene::Scene;

@@ -1,0 +1,189 @@
+//! The `rdr` command line.
+
+use anyhow::{Context, Result};
+use clap::{Parser, Subcommand, ValueEnum};
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use rdr::imageio::{write_image, ExrPixels};
+use rdr::{Profile, RenderSettings};
+use std::io::IsTerminal;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::time::Instant;
+
+#[derive(Parser)]
+#[command(name = "rdr", version, about = "A physically based CPU ray tracer for RDR171 JSON scenes")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum Compat {
+    /// Reproduce the RDR171 course renderer's reference images bit for bit.
+    Rdr171,
+}
+
+#[derive(clap::Args)]
+struct SceneArgs {
+    /// Scene file (RDR171 JSON).
+    scene: PathBuf,
+    /// JSON object merged into the scene before it is read; may be repeated.
+    #[arg(long = "override", value_name = "JSON")]
+    overrides: Vec<String>,
+    /// Emulate another renderer's conventions.
+    #[arg(long, value_enum)]
+    compat: Option<Compat>,
+    /// Samples per pixel (overrides the scene's `spp`).
+    #[arg(long)]
+    spp: Option<u32>,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    threads: Option<usize>,
+    /// Seed of the sampler; different seeds give independent images.
+    #[arg(long, default_value_t = 0)]
+    seed: u32,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Render a scene to an image.
+    Render {
+        #[command(flatten)]
+        args: SceneArgs,
+        /// Output image, .exr (float32 RGB) or .png (8-bit sRGB); default `<scene>.exr`
+        /// beside the scene file.
+        #[arg(short, long)]
+        output: Option<PathBuf>,
+        /// Print only errors: no warnings, progress bar or summary.
+        #[arg(short, long, alias = "quite")]
+        quiet: bool,
+    },
+    /// Load, build and render a scene without writing it; print timings.
+    Bench {
+        #[command(flatten)]
+        args: SceneArgs,
+    },
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    match run(cli) {
+        Ok(code) => code,
+        Err(e) => {
+            let msg: Vec<String> = e.chain().map(|c| c.to_string()).collect();
+            eprintln!("error: {}", msg.join(": "));
+            ExitCode::from(1)
+        }
+    }
+}
+
+fn profile(args: &SceneArgs) -> Profile {
+    match args.compat {
+        Some(Compat::Rdr171) => Profile::Rdr171,
+        None => Profile::Physical,
+    }
+}
+
+fn setup_threads(threads: Option<usize>) -> Result<()> {
+    if let Some(n) = threads {
+        anyhow::ensure!(n > 0, "--threads must be at least 1");
+        rayon::ThreadPoolBuilder::new().num_threads(n).build_global().context("cannot start the thread pool")?;
+    }
+    Ok(())
+}
+
+fn load(args: &SceneArgs, quiet: bool) -> Result<rdr::Scene> {
+    let scene = rdr::scene::build::load(&args.scene, &args.overrides, profile(args).build_options()).map_err(anyhow::Error::msg)?;
+    if !quiet {
+        for w in &scene.warnings {
+            eprintln!("warning: {w}");
+        }
+    }
+    Ok(scene)
+}
+
+fn default_output(scene: &Path) -> PathBuf {
+    let stem = scene.file_stem().map(|s| s.to_os_string()).unwrap_or_else(|| "out".into());
+    scene.with_file_name(Path::new(&stem).with_extension("exr"))
+}
+
+fn run(cli: Cli) -> Result<ExitCode> {
+    match cli.command {
+        Command::Render { args, output, quiet } => {
+            setup_threads(args.threads)?;
+            let scene = load(&args, quiet)?;
+            let output = output.unwrap_or_else(|| default_output(&args.scene));
+            let spp = args.spp.unwrap_or(scene.spp);
+            anyhow::ensure!(spp > 0, "--spp must be at least 1");
+
+            let stop = Arc::new(AtomicBool::new(false));
+            {
+                let stop = stop.clone();
+                ctrlc::set_handler(move || {
+                    if stop.swap(true, Ordering::SeqCst) {
+                        std::process::exit(130);
+                    }
+                    eprintln!("\ninterrupted: saving the finished passes (press Ctrl-C again to quit at once)");
+                })
+                .context("cannot install the Ctrl-C handler")?;
+            }
+            let total = scene.width as u64 * scene.height as u64 * spp as u64;
+            let bar = if !quiet && std::io::stderr().is_terminal() {
+                let b = ProgressBar::with_draw_target(Some(total), ProgressDrawTarget::stderr());
+                b.set_style(ProgressStyle::with_template("{bar:40} {percent:>3}%  {elapsed_precise} elapsed, ETA {eta}").expect("valid template"));
+                Some(b)
+            } else {
+                None
+            };
+            let settings = RenderSettings {
+                spp,
+                seed: args.seed,
+                profile: profile(&args),
+                progress: bar.clone().map(|b| Arc::new(move |n: u64| b.inc(n)) as Arc<dyn Fn(u64) + Send + Sync>),
+            };
+            let out = rdr::render(&scene, &settings, &stop);
+            if let Some(b) = bar {
+                b.finish_and_clear();
+            }
+            let exr = match settings.profile {
+                Profile::Physical => ExrPixels::Float,
+                Profile::Rdr171 => ExrPixels::HalfTinyexr,
+            };
+            write_image(&output, out.width, out.height, &out.pixels, exr)?;
+            println!("{}", output.display());
+            if !quiet {
+                eprintln!(
+                    "rendered {}x{} at {} spp in {:.2} s ({:.3e} samples/s){}",
+                    out.width,
+                    out.height,
+                    out.spp_done,
+                    out.seconds,
+                    out.samples as f64 / out.seconds.max(1e-9),
+                    if out.interrupted { ", interrupted" } else { "" }
+                );
+            }
+            Ok(if out.interrupted { ExitCode::from(130) } else { ExitCode::SUCCESS })
+        }
+        Command::Bench { args } => {
+            setup_threads(args.threads)?;
+            let t0 = Instant::now();
+            let scene = load(&args, true)?;
+            let load_s = t0.elapsed().as_secs_f64();
+            let spp = args.spp.unwrap_or(scene.spp);
+            let settings = RenderSettings { spp, seed: args.seed, profile: profile(&args), progress: None };
+            let out = rdr::render(&scene, &settings, &AtomicBool::new(false));
+            println!("scene            {}", args.scene.display());
+            println!("threads          {}", rayon::current_num_threads());
+            println!("primitives       {} ({} triangles)", scene.prims.len(), scene.triangle_count());
+            println!("load + build     {:.1} ms (BVH {:.2} ms, {} nodes)", load_s * 1e3, scene.bvh_seconds * 1e3, scene.bvh.nodes.len());
+            println!("render           {}x{} at {} spp in {:.3} s", out.width, out.height, out.spp_done, out.seconds);
+            println!("samples/s        {:.3e}", out.samples as f64 / out.seconds);
+            if out.rays > 0 {
+                println!("rays/s           {:.3e} ({:.2} rays per sample)", out.rays as f64 / out.seconds, out.rays as f64 / out.samples as f64);
+            }
+            Ok(ExitCode::SUCCESS)
+        }
+    }
+}

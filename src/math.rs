@@ -1,0 +1,174 @@
+//! Small numeric helpers shared by the whole renderer.
+//!
+//! Vectors are glam's `Vec3` (f32). Where the RDR171 profile needs a particular
+//! f32 evaluation order the helper here spells it out (glam's `normalize`
+//! multiplies by a reciprocal, the original divides).
+
+pub use glam::{DVec3, Mat4, Vec2, Vec3, Vec4};
+
+pub const PI: f32 = std::f32::consts::PI;
+pub const INV_PI: f32 = std::f32::consts::FRAC_1_PI;
+pub const INV_4PI: f32 = 1.0 / (4.0 * std::f32::consts::PI);
+
+/// `v / |v|` as three divisions (the original's order; bit-exact for `--compat`).
+#[inline]
+pub fn normalize_div(v: Vec3) -> Vec3 {
+    let len = v.dot(v).sqrt();
+    Vec3::new(v.x / len, v.y / len, v.z / len)
+}
+
+/// pbrt's γ(n): a bound on the relative rounding error of n f32 operations.
+#[inline]
+pub const fn gamma(n: i32) -> f32 {
+    let e = f32::EPSILON * 0.5;
+    (n as f32 * e) / (1.0 - n as f32 * e)
+}
+
+/// Row-major 16 numbers (JSON order) to a glam column-major matrix.
+pub fn mat4_from_row_major(m: &[f32; 16]) -> Mat4 {
+    Mat4::from_cols_array(m).transpose()
+}
+
+/// `M · (v, 1)` accumulated column by column, then divided by w (spec §0, §10.1).
+#[inline]
+pub fn transform_point(m: &Mat4, v: Vec3) -> Vec3 {
+    let h = ((m.x_axis * v.x + m.y_axis * v.y) + m.z_axis * v.z) + m.w_axis;
+    Vec3::new(h.x / h.w, h.y / h.w, h.z / h.w)
+}
+
+/// `M · (v, 0)`, xyz.
+#[inline]
+pub fn transform_vector(m: &Mat4, v: Vec3) -> Vec3 {
+    let h = (m.x_axis * v.x + m.y_axis * v.y) + m.z_axis * v.z;
+    h.truncate()
+}
+
+/// An orthonormal basis around `n` (Duff et al. 2017, branchless).
+#[inline]
+pub fn coordinate_system(n: Vec3) -> (Vec3, Vec3) {
+    let sign = 1.0f32.copysign(n.z);
+    let a = -1.0 / (sign + n.z);
+    let b = n.x * n.y * a;
+    (
+        Vec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x),
+        Vec3::new(b, sign + n.y * n.y * a, -n.y),
+    )
+}
+
+/// Local shading frame with `z` as the normal axis.
+#[derive(Clone, Copy, Debug)]
+pub struct Frame {
+    pub s: Vec3,
+    pub t: Vec3,
+    pub n: Vec3,
+}
+
+impl Frame {
+    pub fn from_normal(n: Vec3) -> Self {
+        let (s, t) = coordinate_system(n);
+        Frame { s, t, n }
+    }
+    #[inline]
+    pub fn to_local(&self, v: Vec3) -> Vec3 {
+        Vec3::new(v.dot(self.s), v.dot(self.t), v.dot(self.n))
+    }
+    #[inline]
+    pub fn to_world(&self, v: Vec3) -> Vec3 {
+        self.s * v.x + self.t * v.y + self.n * v.z
+    }
+}
+
+/// Reflect `wo` about `n` (both pointing away from the surface).
+#[inline]
+pub fn reflect(wo: Vec3, n: Vec3) -> Vec3 {
+    -wo + 2.0 * wo.dot(n) * n
+}
+
+/// Refract `wi` (pointing away from the surface, on `n`'s side) with the ratio
+/// `eta = sinθt / sinθi`. `None` on total internal reflection. Spec §14.6.
+#[inline]
+pub fn refract(wi: Vec3, n: Vec3, eta: f32) -> Option<Vec3> {
+    let c = n.dot(wi);
+    let s2 = (1.0 - c * c).max(0.0);
+    let s2t = eta * eta * s2;
+    if s2t >= 1.0 {
+        return None;
+    }
+    let ct = (1.0 - s2t).sqrt();
+    Some(normalize_div(eta * -wi + (eta * c - ct) * n))
+}
+
+/// Move a point off a surface along `n` (Wächter & Binder, Ray Tracing Gems ch. 6):
+/// integer ULP steps away from the origin, a fixed float step near it.
+#[inline]
+pub fn offset_ray_origin(p: Vec3, n: Vec3) -> Vec3 {
+    const ORIGIN: f32 = 1.0 / 32.0;
+    const FLOAT_SCALE: f32 = 1.0 / 65536.0;
+    const INT_SCALE: f32 = 256.0;
+    let one = |p: f32, n: f32| -> f32 {
+        let of = (INT_SCALE * n) as i32;
+        let stepped = f32::from_bits((p.to_bits() as i32 + if p < 0.0 { -of } else { of }) as u32);
+        if p.abs() < ORIGIN {
+            p + FLOAT_SCALE * n
+        } else {
+            stepped
+        }
+    };
+    Vec3::new(one(p.x, n.x), one(p.y, n.y), one(p.z, n.z))
+}
+
+/// Luminance of linear sRGB/Rec.709 primaries.
+#[inline]
+pub fn luminance(c: Vec3) -> f32 {
+    0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn coordinate_system_is_orthonormal() {
+        for n in [Vec3::X, Vec3::Y, Vec3::Z, -Vec3::Z, Vec3::new(0.3, -0.5, 0.8).normalize()] {
+            let (s, t) = coordinate_system(n);
+            assert!(s.dot(t).abs() < 1e-6 && s.dot(n).abs() < 1e-6 && t.dot(n).abs() < 1e-6);
+            assert!((s.length() - 1.0).abs() < 1e-6 && (t.length() - 1.0).abs() < 1e-6);
+            assert!((s.cross(t) - n).length() < 1e-5, "right-handed");
+        }
+    }
+
+    #[test]
+    fn refraction_bends_toward_normal_when_entering_denser_medium() {
+        let n = Vec3::Z;
+        let wi = Vec3::new(0.6, 0.0, 0.8); // sinθi = 0.6
+        let wt = refract(wi, n, 1.0 / 1.5).unwrap();
+        assert!(wt.z < 0.0);
+        assert!((wt.x.abs() - 0.4).abs() < 1e-6, "sinθt = sinθi/1.5");
+        // leaving a dense medium at a steep angle: total internal reflection
+        assert!(refract(Vec3::new(0.8, 0.0, 0.6), n, 1.5).is_none());
+    }
+
+    #[test]
+    fn offset_moves_point_to_the_normal_side() {
+        for p in [Vec3::new(1.0, -2.0, 3.0), Vec3::new(0.001, 0.0, -0.01), Vec3::splat(-1e5)] {
+            for n in [Vec3::X, -Vec3::Y, Vec3::new(0.6, 0.0, -0.8)] {
+                let q = offset_ray_origin(p, n);
+                assert!((q - p).dot(n) > 0.0, "{p} {n} -> {q}");
+            }
+        }
+    }
+
+    #[test]
+    fn row_major_matrix_has_translation_in_elements_3_7_11() {
+        let mut m = [0.0f32; 16];
+        m[0] = 1.0;
+        m[5] = 1.0;
+        m[10] = 1.0;
+        m[15] = 1.0;
+        m[3] = 2.0;
+        m[7] = 3.0;
+        m[11] = 4.0;
+        let p = transform_point(&mat4_from_row_major(&m), Vec3::ZERO);
+        assert_eq!(p, Vec3::new(2.0, 3.0, 4.0));
+    }
+}

@@ -1,0 +1,127 @@
+//! The render loop: passes over tiles on all cores, merged in a fixed order, so
+//! the image depends only on the scene, the sample count and the seed.
+
+use crate::compat::{self, Profile};
+use crate::film::{Film, FilmTile};
+use crate::integrator::intersection_test::{self, RayCounts};
+use crate::math::{Vec2, Vec3};
+use crate::sampler::PixelSampler;
+use crate::scene::Scene;
+use rayon::prelude::*;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::time::Instant;
+
+#[derive(Clone)]
+pub struct RenderSettings {
+    pub spp: u32,
+    pub seed: u32,
+    pub profile: Profile,
+    /// Called with the number of samples finished since the last call.
+    pub progress: Option<std::sync::Arc<dyn Fn(u64) + Send + Sync>>,
+}
+
+#[derive(Clone, Debug)]
+pub struct RenderOutput {
+    pub width: u32,
+    pub height: u32,
+    /// Linear RGB, row 0 = top.
+    pub pixels: Vec<Vec3>,
+    /// Samples per pixel actually taken (fewer than asked when interrupted).
+    pub spp_done: u32,
+    pub samples: u64,
+    pub rays: u64,
+    pub seconds: f64,
+    pub interrupted: bool,
+}
+
+/// Renders `scene`. When `stop` becomes true the render ends at the next pass
+/// boundary (a column in `--compat rdr171`) and returns what is finished.
+pub fn render(scene: &Scene, settings: &RenderSettings, stop: &AtomicBool) -> RenderOutput {
+    let start = Instant::now();
+    let report = |n: u64| {
+        if let Some(p) = &settings.progress {
+            p(n)
+        }
+    };
+    let mut film = Film::new(scene.width, scene.height, scene.filter);
+    let (mut spp_done, mut rays) = (0u32, 0u64);
+    let mut interrupted = false;
+    match settings.profile {
+        Profile::Rdr171 => {
+            let column_samples = scene.height as u64 * settings.spp as u64;
+            let tiles = compat::rdr171::render_columns(scene, settings.spp, &|| stop.load(Ordering::Relaxed), &|| report(column_samples));
+            interrupted = tiles.iter().any(Option::is_none);
+            for t in tiles.iter().flatten() {
+                film.merge(t);
+            }
+            spp_done = if interrupted { 0 } else { settings.spp };
+        }
+        Profile::Physical => {
+            let passes = settings.spp.min(16);
+            let ray_count = AtomicU64::new(0);
+            let tiles = tile_grid(scene);
+            for pass in 0..passes {
+                if stop.load(Ordering::Relaxed) {
+                    interrupted = true;
+                    break;
+                }
+                let s0 = settings.spp * pass / passes;
+                let s1 = settings.spp * (pass + 1) / passes;
+                let done: Vec<FilmTile> = tiles
+                    .par_iter()
+                    .map(|&(x0, y0, x1, y1)| {
+                        let t = render_tile(scene, (x0, y0, x1, y1), s0..s1, settings.seed, &ray_count);
+                        report(((x1 - x0) * (y1 - y0)) as u64 * (s1 - s0) as u64);
+                        t
+                    })
+                    .collect();
+                for t in &done {
+                    film.merge(t);
+                }
+                spp_done = s1;
+            }
+            rays = ray_count.load(Ordering::Relaxed);
+        }
+    }
+    RenderOutput {
+        width: scene.width,
+        height: scene.height,
+        pixels: film.to_rgb_rows(),
+        spp_done,
+        samples: scene.width as u64 * scene.height as u64 * spp_done as u64,
+        rays,
+        seconds: start.elapsed().as_secs_f64(),
+        interrupted,
+    }
+}
+
+fn tile_grid(scene: &Scene) -> Vec<(i32, i32, i32, i32)> {
+    let b = scene.block_size.max(1) as i32;
+    let (w, h) = (scene.width as i32, scene.height as i32);
+    let mut tiles = Vec::new();
+    for y0 in (0..h).step_by(b as usize) {
+        for x0 in (0..w).step_by(b as usize) {
+            tiles.push((x0, y0, (x0 + b).min(w), (y0 + b).min(h)));
+        }
+    }
+    tiles
+}
+
+fn render_tile(scene: &Scene, (x0, y0, x1, y1): (i32, i32, i32, i32), samples: std::ops::Range<u32>, seed: u32, ray_count: &AtomicU64) -> FilmTile {
+    let (w, h) = (scene.width as i32, scene.height as i32);
+    let mut tile = FilmTile::new(x0, y0, x1, y1, scene.filter.reach(), w, h);
+    let mut counts = RayCounts::default();
+    for y in y0..y1 {
+        for x in x0..x1 {
+            for s in samples.clone() {
+                let mut sampler = PixelSampler::new(x as u32, y as u32, s, seed);
+                let (u, v) = sampler.next_2d();
+                let pos = Vec2::new(x as f32 + u, y as f32 + v);
+                let l = intersection_test::li(scene, scene.camera.ray(pos.x, pos.y), &mut counts);
+                tile.add(pos, l, &scene.filter, w, h);
+            }
+        }
+    }
+    ray_count.fetch_add(counts.rays, Ordering::Relaxed);
+    tile
+}

@@ -1,0 +1,423 @@
+//! Reading JSON values with the RDR171 typing rules (spec §2), remembering the
+//! JSON path of every value so errors and warnings can name it.
+
+use crate::error::{Result, SceneError};
+use crate::math::{mat4_from_row_major, Mat4, Vec2, Vec3};
+use serde_json::{Map, Value};
+use std::cell::RefCell;
+use std::path::{Path, PathBuf};
+
+/// Shared by every [`Props`] of one scene: the file name and collected warnings.
+#[derive(Debug, Default)]
+pub struct Context {
+    pub file: PathBuf,
+    pub warnings: RefCell<Vec<String>>,
+}
+
+impl Context {
+    pub fn new(file: &Path) -> Self {
+        Context { file: file.to_path_buf(), warnings: RefCell::new(Vec::new()) }
+    }
+    pub fn warn(&self, key: &str, msg: impl AsRef<str>) {
+        let at = if key.is_empty() { String::new() } else { format!("{key}: ") };
+        self.warnings.borrow_mut().push(format!("{}: {at}{}", self.file.display(), msg.as_ref()));
+    }
+    pub fn error(&self, key: &str, msg: impl Into<String>) -> SceneError {
+        SceneError::new(&self.file, (!key.is_empty()).then_some(key), msg)
+    }
+}
+
+/// A JSON object being read. Keys that were never asked for are reported by
+/// [`Props::finish`] as warnings.
+pub struct Props<'a> {
+    map: &'a Map<String, Value>,
+    pub path: String,
+    ctx: &'a Context,
+    used: RefCell<Vec<&'a str>>,
+}
+
+fn type_name(v: &Value) -> &'static str {
+    match v {
+        Value::Null => "null",
+        Value::Bool(_) => "a boolean",
+        Value::Number(n) if n.is_f64() => "a number",
+        Value::Number(_) => "an integer",
+        Value::String(_) => "a string",
+        Value::Array(_) => "an array",
+        Value::Object(_) => "an object",
+    }
+}
+
+impl<'a> Props<'a> {
+    pub fn root(value: &'a Value, ctx: &'a Context) -> Result<Self> {
+        match value {
+            Value::Object(map) => Ok(Props { map, path: String::new(), ctx, used: RefCell::new(Vec::new()) }),
+            other => Err(ctx.error("", format!("the scene must be a JSON object, found {}", type_name(other)))),
+        }
+    }
+
+    pub fn ctx(&self) -> &'a Context {
+        self.ctx
+    }
+
+    /// JSON path of `key` inside this object.
+    pub fn key_path(&self, key: &str) -> String {
+        if self.path.is_empty() {
+            key.to_string()
+        } else {
+            format!("{}.{key}", self.path)
+        }
+    }
+
+    pub fn error(&self, key: &str, msg: impl Into<String>) -> SceneError {
+        self.ctx.error(&self.key_path(key), msg)
+    }
+
+    pub fn contains(&self, key: &str) -> bool {
+        self.map.contains_key(key)
+    }
+
+    fn get(&self, key: &str) -> Option<&'a Value> {
+        let (k, v) = self.map.get_key_value(key)?;
+        self.used.borrow_mut().push(k.as_str());
+        Some(v)
+    }
+
+    /// Marks a key as known without reading it.
+    pub fn ignore(&self, key: &str) {
+        self.get(key);
+    }
+
+    fn required(&self, key: &str) -> Result<&'a Value> {
+        self.get(key).ok_or_else(|| self.error(key, "required key is missing"))
+    }
+
+    fn number(&self, key: &str, v: &Value) -> Result<f32> {
+        let x = v.as_f64().ok_or_else(|| self.error(key, format!("expected a number, found {}", type_name(v))))?;
+        let x = x as f32;
+        if !x.is_finite() {
+            return Err(self.error(key, format!("{} is not a finite 32-bit float", v)));
+        }
+        Ok(x)
+    }
+
+    fn integer(&self, key: &str, v: &Value) -> Result<i32> {
+        let bad = || self.error(key, format!("expected an integer, found {}", if v.is_number() { v.to_string() } else { type_name(v).to_string() }));
+        let x = v.as_f64().ok_or_else(bad)?;
+        if x.fract() != 0.0 || x < i32::MIN as f64 || x > i32::MAX as f64 {
+            return Err(bad());
+        }
+        Ok(x as i32)
+    }
+
+    fn numbers<const N: usize>(&self, key: &str, v: &Value) -> Result<[f32; N]> {
+        let arr = match v {
+            Value::Array(a) if a.len() == N => a,
+            _ => return Err(self.error(key, format!("expected an array of {N} numbers, found {}", describe(v)))),
+        };
+        let mut out = [0.0; N];
+        for (i, (o, x)) in out.iter_mut().zip(arr).enumerate() {
+            *o = self.number(&format!("{key}[{i}]"), x)?;
+        }
+        Ok(out)
+    }
+
+    pub fn f32_or(&self, key: &str, default: f32) -> Result<f32> {
+        self.get(key).map_or(Ok(default), |v| self.number(key, v))
+    }
+
+    pub fn i32_or(&self, key: &str, default: i32) -> Result<i32> {
+        self.get(key).map_or(Ok(default), |v| self.integer(key, v))
+    }
+
+    /// An integer that must be ≥ `min`.
+    pub fn int_at_least(&self, key: &str, default: i32, min: i32) -> Result<u32> {
+        let x = self.i32_or(key, default)?;
+        if x < min {
+            return Err(self.error(key, format!("must be at least {min}, found {x}")));
+        }
+        Ok(x as u32)
+    }
+
+    pub fn bool_or(&self, key: &str, default: bool) -> Result<bool> {
+        match self.get(key) {
+            None => Ok(default),
+            Some(Value::Bool(b)) => Ok(*b),
+            Some(v) => Err(self.error(key, format!("expected true or false, found {}", type_name(v)))),
+        }
+    }
+
+    pub fn string(&self, key: &str) -> Result<String> {
+        self.string_opt(key)?.ok_or_else(|| self.error(key, "required key is missing"))
+    }
+
+    pub fn string_or(&self, key: &str, default: &str) -> Result<String> {
+        Ok(self.string_opt(key)?.unwrap_or_else(|| default.to_string()))
+    }
+
+    pub fn string_opt(&self, key: &str) -> Result<Option<String>> {
+        match self.get(key) {
+            None => Ok(None),
+            Some(Value::String(s)) => Ok(Some(s.clone())),
+            Some(v) => Err(self.error(key, format!("expected a string, found {}", type_name(v)))),
+        }
+    }
+
+    pub fn vec3_or(&self, key: &str, default: Vec3) -> Result<Vec3> {
+        self.get(key).map_or(Ok(default), |v| self.numbers::<3>(key, v).map(Vec3::from_array))
+    }
+
+    pub fn vec3(&self, key: &str) -> Result<Vec3> {
+        self.numbers::<3>(key, self.required(key)?).map(Vec3::from_array)
+    }
+
+    pub fn vec2_or(&self, key: &str, default: Vec2) -> Result<Vec2> {
+        self.get(key).map_or(Ok(default), |v| self.numbers::<2>(key, v).map(Vec2::from_array))
+    }
+
+    pub fn vec2i_or(&self, key: &str, default: [i32; 2]) -> Result<[i32; 2]> {
+        let Some(v) = self.get(key) else { return Ok(default) };
+        let arr = match v {
+            Value::Array(a) if a.len() == 2 => a,
+            _ => return Err(self.error(key, format!("expected an array of 2 integers, found {}", describe(v)))),
+        };
+        Ok([self.integer(&format!("{key}[0]"), &arr[0])?, self.integer(&format!("{key}[1]"), &arr[1])?])
+    }
+
+    /// 16 numbers in row-major order (translation in elements 3, 7, 11). Unlike the
+    /// original, an all-integer matrix is accepted.
+    pub fn mat4_or(&self, key: &str, default: Mat4) -> Result<Mat4> {
+        let Some(v) = self.get(key) else { return Ok(default) };
+        let m = self.numbers::<16>(key, v)?;
+        let m = mat4_from_row_major(&m);
+        if m.determinant() == 0.0 || !m.determinant().is_finite() {
+            return Err(self.error(key, "matrix is singular (determinant 0)"));
+        }
+        Ok(m)
+    }
+
+    pub fn object(&self, key: &str) -> Result<Props<'a>> {
+        self.object_opt(key)?.ok_or_else(|| self.error(key, "required section is missing"))
+    }
+
+    pub fn object_opt(&self, key: &str) -> Result<Option<Props<'a>>> {
+        match self.get(key) {
+            None => Ok(None),
+            Some(Value::Object(map)) => Ok(Some(Props { map, path: self.key_path(key), ctx: self.ctx, used: RefCell::new(Vec::new()) })),
+            Some(v) => Err(self.error(key, format!("expected an object, found {}", type_name(v)))),
+        }
+    }
+
+    /// An array of objects (an empty array is fine).
+    pub fn objects(&self, key: &str) -> Result<Vec<Props<'a>>> {
+        let arr = match self.get(key) {
+            None => return Ok(Vec::new()),
+            Some(Value::Array(a)) => a,
+            Some(v) => return Err(self.error(key, format!("expected an array of objects, found {}", type_name(v)))),
+        };
+        arr.iter()
+            .enumerate()
+            .map(|(i, v)| {
+                let path = format!("{}[{i}]", self.key_path(key));
+                match v {
+                    Value::Object(map) => Ok(Props { map, path, ctx: self.ctx, used: RefCell::new(Vec::new()) }),
+                    other => Err(self.ctx.error(&path, format!("expected an object, found {}", type_name(other)))),
+                }
+            })
+            .collect()
+    }
+
+    /// An object used as a name → object map, in sorted key order.
+    pub fn named_objects(&self, key: &str) -> Result<Vec<(String, Props<'a>)>> {
+        let Some(section) = self.object_opt(key)? else { return Ok(Vec::new()) };
+        let mut names: Vec<&'a String> = section.map.keys().collect();
+        names.sort();
+        names
+            .into_iter()
+            .map(|name| {
+                let p = section.object(name)?;
+                Ok((name.clone(), p))
+            })
+            .collect::<Result<Vec<_>>>()
+            .inspect(|_| section.finish())
+    }
+
+    /// Warns about every key of this object that nobody read.
+    pub fn finish(&self) {
+        let used = self.used.borrow();
+        let mut unknown: Vec<&str> = self.map.keys().map(String::as_str).filter(|k| !used.contains(k)).collect();
+        unknown.sort();
+        for k in unknown {
+            self.ctx.warn(&self.path, format!("unknown key '{k}' ignored"));
+        }
+    }
+}
+
+fn describe(v: &Value) -> String {
+    match v {
+        Value::Array(a) => format!("an array of {} element(s)", a.len()),
+        other => type_name(other).to_string(),
+    }
+}
+
+/// RFC 7396-like merge used by `--override` (spec §1): objects merge key by key,
+/// anything else replaces.
+pub fn merge(base: &mut Value, patch: &Value) {
+    match (base, patch) {
+        (Value::Object(b), Value::Object(p)) => {
+            for (k, v) in p {
+                match b.get_mut(k) {
+                    Some(existing) if existing.is_object() && v.is_object() => merge(existing, v),
+                    _ => {
+                        b.insert(k.clone(), v.clone());
+                    }
+                }
+            }
+        }
+        (b, p) => *b = p.clone(),
+    }
+}
+
+/// The JSON path (`camera.position[1]`) at a 1-based line/column of `text`, for
+/// syntax errors. Best effort: it tracks objects, arrays, keys and strings.
+pub fn path_at(text: &str, line: usize, column: usize) -> String {
+    enum Frame {
+        Obj(Option<String>),
+        Arr(usize),
+    }
+    let mut stack: Vec<Frame> = Vec::new();
+    let (mut l, mut c) = (1usize, 0usize);
+    let mut chars = text.chars().peekable();
+    let mut expecting_key = false;
+    while let Some(ch) = chars.next() {
+        if ch == '\n' {
+            l += 1;
+            c = 0;
+        } else {
+            c += 1;
+        }
+        if l > line || (l == line && c >= column) {
+            break;
+        }
+        match ch {
+            '{' => {
+                stack.push(Frame::Obj(None));
+                expecting_key = true;
+            }
+            '[' => stack.push(Frame::Arr(0)),
+            '}' | ']' => {
+                stack.pop();
+            }
+            ',' => match stack.last_mut() {
+                Some(Frame::Arr(i)) => *i += 1,
+                Some(Frame::Obj(k)) => {
+                    *k = None;
+                    expecting_key = true;
+                }
+                None => {}
+            },
+            ':' => expecting_key = false,
+            '"' => {
+                let mut s = String::new();
+                while let Some(x) = chars.next() {
+                    c += 1;
+                    match x {
+                        '"' => break,
+                        '\\' => {
+                            chars.next();
+                            c += 1;
+                        }
+                        '\n' => {
+                            l += 1;
+                            c = 0;
+                        }
+                        _ => s.push(x),
+                    }
+                }
+                if expecting_key {
+                    if let Some(Frame::Obj(k)) = stack.last_mut() {
+                        *k = Some(s);
+                    }
+                }
+            }
+            _ => {}
+        }
+    }
+    let mut out = String::new();
+    for f in &stack {
+        match f {
+            Frame::Obj(Some(k)) => {
+                if !out.is_empty() {
+                    out.push('.');
+                }
+                out.push_str(k);
+            }
+            Frame::Obj(None) => {}
+            Frame::Arr(i) => out.push_str(&format!("[{i}]")),
+        }
+    }
+    out
+}
+
+/// Parses scene text; syntax errors name the line, column and the key there.
+pub fn parse_text(text: &str, file: &Path) -> Result<Value> {
+    serde_json::from_str(text).map_err(|e| {
+        let key = path_at(text, e.line(), e.column());
+        let msg = format!("invalid JSON at line {}, column {}: {}", e.line(), e.column(), strip_position(&e.to_string()));
+        SceneError::new(file, (!key.is_empty()).then_some(key.as_str()), msg)
+    })
+}
+
+fn strip_position(s: &str) -> String {
+    match s.find(" at line ") {
+        Some(i) => s[..i].to_string(),
+        None => s.to_string(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn path_at_finds_the_key_of_a_syntax_error() {
+        let text = "{\n \"camera\": {\n  \"position\": [0, NaN, 1]\n }\n}";
+        let e = serde_json::from_str::<Value>(text).unwrap_err();
+        assert_eq!(path_at(text, e.line(), e.column()), "camera.position[1]");
+        let text = "{\"objects\": [{\"type\": \"mesh\"}, {\"type\": mesh}]}";
+        let e = serde_json::from_str::<Value>(text).unwrap_err();
+        assert_eq!(path_at(text, e.line(), e.column()), "objects[1].type");
+    }
+
+    #[test]
+    fn merge_recurses_into_objects_and_replaces_arrays() {
+        let mut a: Value = serde_json::json!({"integrator": {"type": "x", "spp": 4}, "film": {"resolution": [1, 2]}});
+        merge(&mut a, &serde_json::json!({"integrator": {"spp": 8}, "film": {"resolution": [3, 4]}}));
+        assert_eq!(a, serde_json::json!({"integrator": {"type": "x", "spp": 8}, "film": {"resolution": [3, 4]}}));
+    }
+
+    #[test]
+    fn typing_rules() {
+        let ctx = Context::new(Path::new("s.json"));
+        let v: Value = serde_json::json!({"a": 32, "b": 32.0, "c": 32.5, "d": [1, 2, 3], "e": [1, 2], "f": "x", "g": 1e39,
+            "m": [1,0,0,2, 0,1,0,3, 0,0,1,4, 0,0,0,1]});
+        let p = Props::root(&v, &ctx).unwrap();
+        assert_eq!(p.i32_or("a", 0).unwrap(), 32);
+        assert_eq!(p.i32_or("b", 0).unwrap(), 32, "an integral float is accepted for an int key");
+        assert!(p.i32_or("c", 0).unwrap_err().to_string().contains("c: expected an integer"));
+        assert_eq!(p.f32_or("a", 0.0).unwrap(), 32.0);
+        assert_eq!(p.vec3_or("d", Vec3::ZERO).unwrap(), Vec3::new(1.0, 2.0, 3.0));
+        assert!(p.vec3_or("e", Vec3::ZERO).is_err());
+        assert!(p.f32_or("f", 0.0).is_err());
+        assert!(p.f32_or("g", 0.0).unwrap_err().to_string().contains("finite"));
+        let m = p.mat4_or("m", Mat4::IDENTITY).unwrap();
+        assert_eq!(m.w_axis.truncate(), Vec3::new(2.0, 3.0, 4.0));
+        p.finish();
+        assert!(ctx.warnings.borrow().is_empty());
+        let q = Props::root(&v, &ctx).unwrap();
+        q.ignore("a");
+        q.finish();
+        assert_eq!(ctx.warnings.borrow().len(), 8);
+        assert!(ctx.warnings.borrow()[0].contains("unknown key 'b'"));
+    }
+}

@@ -228,7 +228,7 @@ mod tests {
     fn srgb_encoding() {
         assert_eq!(linear_to_srgb8(0.0), 0);
         assert_eq!(linear_to_srgb8(1.0), 255);
-        assert_eq!(linear_to_srgb8(0.2140), 128);
+        assert_eq!(linear_to_srgb8(0.2159), 128);
         assert_eq!(linear_to_srgb8(7.0), 255);
     }
 }

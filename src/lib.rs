@@ -11,6 +11,7 @@ pub mod integrator;
 pub mod light;
 pub mod material;
 pub mod math;
+pub mod metrics;
 pub mod render;
 pub mod sampler;
 pub mod scene;

@@ -417,7 +417,7 @@ mod tests {
         let q = Props::root(&v, &ctx).unwrap();
         q.ignore("a");
         q.finish();
-        assert_eq!(ctx.warnings.borrow().len(), 8);
+        assert_eq!(ctx.warnings.borrow().len(), 7);
         assert!(ctx.warnings.borrow()[0].contains("unknown key 'b'"));
     }
 }

@@ -1,0 +1,40 @@
+//! Helpers shared by the integration tests.
+#![allow(dead_code)]
+
+use rdr::metrics::Image;
+use rdr::{Profile, RenderSettings};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::AtomicBool;
+
+/// `../shared` beside the project, or `None` (with a printed reason) when absent.
+/// With `CI` set, a missing `../shared` is a failure, not a skip.
+pub fn shared() -> Option<PathBuf> {
+    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared");
+    if p.join("refs").is_dir() && p.join("scenes").is_dir() {
+        return Some(p);
+    }
+    if std::env::var_os("CI").is_some() {
+        panic!("{} is missing but CI is set: tests that need the shared data cannot be skipped in CI", p.display());
+    }
+    eprintln!("skipping: {} not found (reference images and course scenes live there)", p.display());
+    None
+}
+
+pub fn load_scene(path: &Path, overrides: &[&str], profile: Profile) -> rdr::Scene {
+    let o: Vec<String> = overrides.iter().map(|s| s.to_string()).collect();
+    rdr::scene::build::load(path, &o, profile.build_options()).unwrap_or_else(|e| panic!("{e}"))
+}
+
+pub fn render(scene: &rdr::Scene, spp: u32, seed: u32, profile: Profile) -> Image {
+    let out = rdr::render(scene, &RenderSettings { spp, seed, profile, progress: None }, &AtomicBool::new(false));
+    Image::new(out.width as usize, out.height as usize, out.pixels)
+}
+
+pub fn read(path: &Path) -> Image {
+    let img = rdr::imageio::read_exr(path).unwrap_or_else(|e| panic!("{e:#}"));
+    Image::new(img.width, img.height, img.pixels)
+}
+
+pub fn scaled(img: &Image, s: f32) -> Image {
+    Image::new(img.width, img.height, img.pixels.iter().map(|p| *p * s).collect())
+}

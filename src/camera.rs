@@ -23,7 +23,14 @@ impl Camera {
         let u = r.cross(f);
         let hy = (((d.fov / 2.0) * PI) / 180.0).tan() * d.focal_length;
         let hx = hy * (width as f32 / height as f32);
-        Camera { position: d.position, forward: f * d.focal_length, right: r * hx, up: u * hy, width: width as f32, height: height as f32 }
+        Camera {
+            position: d.position,
+            forward: f * d.focal_length,
+            right: r * hx,
+            up: u * hy,
+            width: width as f32,
+            height: height as f32,
+        }
     }
 
     /// Direction through the continuous film position `(x, y)`; film `y` grows
@@ -47,7 +54,13 @@ mod tests {
 
     #[test]
     fn image_left_is_world_minus_x_and_fov_is_vertical() {
-        let d = CameraDesc { position: Vec3::new(0.0, 1.0, 6.8), look_at: Vec3::new(0.0, 1.0, 0.0), ref_up: Vec3::Y, fov: 90.0, focal_length: 1.0 };
+        let d = CameraDesc {
+            position: Vec3::new(0.0, 1.0, 6.8),
+            look_at: Vec3::new(0.0, 1.0, 0.0),
+            ref_up: Vec3::Y,
+            fov: 90.0,
+            focal_length: 1.0,
+        };
         let c = Camera::new(&d, 200, 100);
         assert!(c.direction(0.0, 50.0).x < 0.0, "left edge looks towards -x");
         assert!(c.direction(100.0, 100.0).y > 0.0, "film y = H is the top");

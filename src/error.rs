@@ -14,7 +14,11 @@ pub struct SceneError {
 
 impl SceneError {
     pub fn new(file: &Path, key: Option<&str>, message: impl Into<String>) -> Self {
-        SceneError { file: file.to_path_buf(), key: key.map(str::to_string), message: message.into() }
+        SceneError {
+            file: file.to_path_buf(),
+            key: key.map(str::to_string),
+            message: message.into(),
+        }
     }
 }
 

@@ -19,7 +19,11 @@ impl Filter {
     pub fn new(d: &FilterDesc) -> Filter {
         match *d {
             FilterDesc::Box { radius } => Filter::Box { radius },
-            FilterDesc::Gaussian { radius, alpha } => Filter::Gaussian { radius, alpha, tail: (-alpha * radius * radius).exp() },
+            FilterDesc::Gaussian { radius, alpha } => Filter::Gaussian {
+                radius,
+                alpha,
+                tail: (-alpha * radius * radius).exp(),
+            },
             FilterDesc::Mitchell { radius, b, c } => Filter::Mitchell { radius, b, c },
         }
     }
@@ -51,7 +55,8 @@ impl Filter {
                 let m = |x: f32| {
                     let x = (2.0 * x).abs();
                     if x > 1.0 {
-                        ((-b - 6.0 * c) * x * x * x + (6.0 * b + 30.0 * c) * x * x + (-12.0 * b - 48.0 * c) * x + (8.0 * b + 24.0 * c)) / 6.0
+                        ((-b - 6.0 * c) * x * x * x + (6.0 * b + 30.0 * c) * x * x + (-12.0 * b - 48.0 * c) * x + (8.0 * b + 24.0 * c))
+                            / 6.0
                     } else {
                         ((12.0 - 9.0 * b - 6.0 * c) * x * x * x + (-18.0 + 12.0 * b + 6.0 * c) * x * x + (6.0 - 2.0 * b)) / 6.0
                     }
@@ -80,7 +85,14 @@ impl FilmTile {
         let (ax, ay) = ((x0 - reach).max(0), (y0 - reach).max(0));
         let (bx, by) = ((x1 + reach).min(film_w), (y1 + reach).min(film_h));
         let (w, h) = (bx - ax, by - ay);
-        FilmTile { x0: ax, y0: ay, w, h, sum: vec![[0.0; 3]; (w * h) as usize], weight: vec![0.0; (w * h) as usize] }
+        FilmTile {
+            x0: ax,
+            y0: ay,
+            w,
+            h,
+            sum: vec![[0.0; 3]; (w * h) as usize],
+            weight: vec![0.0; (w * h) as usize],
+        }
     }
 
     /// Adds radiance `l` seen through continuous film position `pos`. Samples
@@ -145,7 +157,13 @@ pub struct Film {
 impl Film {
     pub fn new(width: u32, height: u32, filter: Filter) -> Film {
         let n = (width * height) as usize;
-        Film { width, height, filter, sum: vec![[0.0; 3]; n], weight: vec![0.0; n] }
+        Film {
+            width,
+            height,
+            filter,
+            sum: vec![[0.0; 3]; n],
+            weight: vec![0.0; n],
+        }
     }
 
     pub fn merge(&mut self, t: &FilmTile) {
@@ -202,7 +220,14 @@ mod tests {
 
     #[test]
     fn filters_vanish_at_their_radius_and_peak_at_the_centre() {
-        for d in [FilterDesc::Gaussian { radius: 1.5, alpha: 2.0 }, FilterDesc::Mitchell { radius: 2.0, b: 1.0 / 3.0, c: 1.0 / 3.0 }] {
+        for d in [
+            FilterDesc::Gaussian { radius: 1.5, alpha: 2.0 },
+            FilterDesc::Mitchell {
+                radius: 2.0,
+                b: 1.0 / 3.0,
+                c: 1.0 / 3.0,
+            },
+        ] {
             let f = Filter::new(&d);
             let r = f.radius();
             assert!(f.eval(r, 0.0).abs() < 1e-6 && f.eval(r + 0.01, 0.0) == 0.0);

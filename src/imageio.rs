@@ -123,15 +123,29 @@ fn write_atomically(path: &Path, bytes: &[u8]) -> Result<()> {
 /// Linear → sRGB-encoded 8 bit, clamped.
 pub fn linear_to_srgb8(v: f32) -> u8 {
     let v = if v.is_nan() { 0.0 } else { v.clamp(0.0, 1.0) };
-    let s = if v <= 0.003_130_8 { 12.92 * v } else { 1.055 * v.powf(1.0 / 2.4) - 0.055 };
+    let s = if v <= 0.003_130_8 {
+        12.92 * v
+    } else {
+        1.055 * v.powf(1.0 / 2.4) - 0.055
+    };
     (s * 255.0 + 0.5) as u8
 }
 
 pub fn write_png(path: &Path, width: u32, height: u32, rgb: &[Vec3]) -> Result<()> {
-    let bytes: Vec<u8> = rgb.iter().flat_map(|p| [linear_to_srgb8(p.x), linear_to_srgb8(p.y), linear_to_srgb8(p.z)]).collect();
+    let bytes: Vec<u8> = rgb
+        .iter()
+        .flat_map(|p| [linear_to_srgb8(p.x), linear_to_srgb8(p.y), linear_to_srgb8(p.z)])
+        .collect();
     let mut buf = std::io::Cursor::new(Vec::new());
-    image::write_buffer_with_format(&mut buf, &bytes, width, height, image::ExtendedColorType::Rgb8, image::ImageFormat::Png)
-        .with_context(|| format!("cannot encode {}", path.display()))?;
+    image::write_buffer_with_format(
+        &mut buf,
+        &bytes,
+        width,
+        height,
+        image::ExtendedColorType::Rgb8,
+        image::ImageFormat::Png,
+    )
+    .with_context(|| format!("cannot encode {}", path.display()))?;
     write_atomically(path, buf.get_ref())
 }
 
@@ -163,7 +177,11 @@ pub fn read_exr(path: &Path) -> Result<RgbImage> {
     use exr::prelude::*;
     let img = read_first_rgba_layer_from_file(
         path,
-        |res, _| RgbImage { width: res.width(), height: res.height(), pixels: vec![Vec3::ZERO; res.width() * res.height()] },
+        |res, _| RgbImage {
+            width: res.width(),
+            height: res.height(),
+            pixels: vec![Vec3::ZERO; res.width() * res.height()],
+        },
         |img: &mut RgbImage, pos, (r, g, b, _a): (f32, f32, f32, f32)| {
             let w = img.width;
             img.pixels[pos.y() * w + pos.x()] = Vec3::new(r, g, b);
@@ -176,7 +194,11 @@ pub fn read_exr(path: &Path) -> Result<RgbImage> {
 /// The raw half bit patterns of an EXR's R, G, B channels, for bit-exact tests.
 pub fn read_exr_half_bits(path: &Path) -> Result<(usize, usize, Vec<[u16; 3]>)> {
     let img = read_exr(path)?;
-    let bits = img.pixels.iter().map(|p| [0, 1, 2].map(|c| exr::prelude::f16::from_f32(p[c]).to_bits())).collect();
+    let bits = img
+        .pixels
+        .iter()
+        .map(|p| [0, 1, 2].map(|c| exr::prelude::f16::from_f32(p[c]).to_bits()))
+        .collect();
     Ok((img.width, img.height, bits))
 }
 

@@ -89,7 +89,10 @@ fn profile(args: &SceneArgs) -> Profile {
 fn setup_threads(threads: Option<usize>) -> Result<()> {
     if let Some(n) = threads {
         anyhow::ensure!(n > 0, "--threads must be at least 1");
-        rayon::ThreadPoolBuilder::new().num_threads(n).build_global().context("cannot start the thread pool")?;
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(n)
+            .build_global()
+            .context("cannot start the thread pool")?;
     }
     Ok(())
 }
@@ -132,7 +135,9 @@ fn run(cli: Cli) -> Result<ExitCode> {
             let total = scene.width as u64 * scene.height as u64 * spp as u64;
             let bar = if !quiet && std::io::stderr().is_terminal() {
                 let b = ProgressBar::with_draw_target(Some(total), ProgressDrawTarget::stderr());
-                b.set_style(ProgressStyle::with_template("{bar:40} {percent:>3}%  {elapsed_precise} elapsed, ETA {eta}").expect("valid template"));
+                b.set_style(
+                    ProgressStyle::with_template("{bar:40} {percent:>3}%  {elapsed_precise} elapsed, ETA {eta}").expect("valid template"),
+                );
                 Some(b)
             } else {
                 None
@@ -141,7 +146,9 @@ fn run(cli: Cli) -> Result<ExitCode> {
                 spp,
                 seed: args.seed,
                 profile: profile(&args),
-                progress: bar.clone().map(|b| Arc::new(move |n: u64| b.inc(n)) as Arc<dyn Fn(u64) + Send + Sync>),
+                progress: bar
+                    .clone()
+                    .map(|b| Arc::new(move |n: u64| b.inc(n)) as Arc<dyn Fn(u64) + Send + Sync>),
             };
             let out = rdr::render(&scene, &settings, &stop);
             if let Some(b) = bar {
@@ -172,16 +179,33 @@ fn run(cli: Cli) -> Result<ExitCode> {
             let scene = load(&args, true)?;
             let load_s = t0.elapsed().as_secs_f64();
             let spp = args.spp.unwrap_or(scene.spp);
-            let settings = RenderSettings { spp, seed: args.seed, profile: profile(&args), progress: None };
+            let settings = RenderSettings {
+                spp,
+                seed: args.seed,
+                profile: profile(&args),
+                progress: None,
+            };
             let out = rdr::render(&scene, &settings, &AtomicBool::new(false));
             println!("scene            {}", args.scene.display());
             println!("threads          {}", rayon::current_num_threads());
             println!("primitives       {} ({} triangles)", scene.prims.len(), scene.triangle_count());
-            println!("load + build     {:.1} ms (BVH {:.2} ms, {} nodes)", load_s * 1e3, scene.bvh_seconds * 1e3, scene.bvh.nodes.len());
-            println!("render           {}x{} at {} spp in {:.3} s", out.width, out.height, out.spp_done, out.seconds);
+            println!(
+                "load + build     {:.1} ms (BVH {:.2} ms, {} nodes)",
+                load_s * 1e3,
+                scene.bvh_seconds * 1e3,
+                scene.bvh.nodes.len()
+            );
+            println!(
+                "render           {}x{} at {} spp in {:.3} s",
+                out.width, out.height, out.spp_done, out.seconds
+            );
             println!("samples/s        {:.3e}", out.samples as f64 / out.seconds);
             if out.rays > 0 {
-                println!("rays/s           {:.3e} ({:.2} rays per sample)", out.rays as f64 / out.seconds, out.rays as f64 / out.samples as f64);
+                println!(
+                    "rays/s           {:.3e} ({:.2} rays per sample)",
+                    out.rays as f64 / out.seconds,
+                    out.rays as f64 / out.samples as f64
+                );
             }
             Ok(ExitCode::SUCCESS)
         }

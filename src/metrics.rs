@@ -79,11 +79,19 @@ pub struct Comparison {
 /// variance `vr` (all the same size).
 pub fn compare(x1: &Image, x2: &Image, r: &Image, vr: &Image) -> Comparison {
     let n = r.pixels.len();
-    assert!(x1.pixels.len() == n && x2.pixels.len() == n && vr.pixels.len() == n, "image sizes differ");
+    assert!(
+        x1.pixels.len() == n && x2.pixels.len() == n && vr.pixels.len() == n,
+        "image sizes differ"
+    );
     let (mut corr, mut raw, mut noise, mut var_acc, mut z2, mut zn) = (0.0f64, 0.0f64, 0.0f64, 0.0f64, 0.0f64, 0usize);
     for i in 0..n {
         for c in 0..3 {
-            let (a, b, rv, v) = (x1.pixels[i][c] as f64, x2.pixels[i][c] as f64, r.pixels[i][c] as f64, vr.pixels[i][c] as f64);
+            let (a, b, rv, v) = (
+                x1.pixels[i][c] as f64,
+                x2.pixels[i][c] as f64,
+                r.pixels[i][c] as f64,
+                vr.pixels[i][c] as f64,
+            );
             let x = 0.5 * (a + b);
             let vx = 0.25 * (a - b) * (a - b);
             let d = 1.0 / (rv * rv + 0.01);
@@ -121,7 +129,12 @@ mod tests {
             .iter()
             .enumerate()
             .map(|(i, &b)| {
-                let g = |c: u32| (0..12).map(|k| hash_u32(seed ^ hash_u32(i as u32 * 3 + c) ^ k * 0x9e37_79b9) as f32 / 4_294_967_296.0).sum::<f32>() - 6.0;
+                let g = |c: u32| {
+                    (0..12)
+                        .map(|k| hash_u32(seed ^ hash_u32(i as u32 * 3 + c) ^ (k * 0x9e37_79b9)) as f32 / 4_294_967_296.0)
+                        .sum::<f32>()
+                        - 6.0
+                };
                 Vec3::new(b + sigma * g(0), b + sigma * g(1), b + sigma * g(2))
             })
             .collect();

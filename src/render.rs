@@ -107,7 +107,13 @@ fn tile_grid(scene: &Scene) -> Vec<(i32, i32, i32, i32)> {
     tiles
 }
 
-fn render_tile(scene: &Scene, (x0, y0, x1, y1): (i32, i32, i32, i32), samples: std::ops::Range<u32>, seed: u32, ray_count: &AtomicU64) -> FilmTile {
+fn render_tile(
+    scene: &Scene,
+    (x0, y0, x1, y1): (i32, i32, i32, i32),
+    samples: std::ops::Range<u32>,
+    seed: u32,
+    ray_count: &AtomicU64,
+) -> FilmTile {
     let (w, h) = (scene.width as i32, scene.height as i32);
     let mut tile = FilmTile::new(x0, y0, x1, y1, scene.filter.reach(), w, h);
     let mut counts = RayCounts::default();

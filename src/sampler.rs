@@ -70,7 +70,11 @@ pub struct PixelSampler {
 
 impl PixelSampler {
     pub fn new(x: u32, y: u32, sample_index: u32, seed: u32) -> Self {
-        PixelSampler { pixel_seed: hash_combine(hash_combine(x, y), seed), index: sample_index, dim: 0 }
+        PixelSampler {
+            pixel_seed: hash_combine(hash_combine(x, y), seed),
+            index: sample_index,
+            dim: 0,
+        }
     }
 
     /// The next 2D point; each call uses a new, independently scrambled dimension pair.
@@ -98,7 +102,9 @@ pub struct Mt19937Sampler {
 
 impl Default for Mt19937Sampler {
     fn default() -> Self {
-        Mt19937Sampler { mt: rand_mt::Mt::new(5489) }
+        Mt19937Sampler {
+            mt: rand_mt::Mt::new(5489),
+        }
     }
 }
 

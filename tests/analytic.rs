@@ -30,7 +30,7 @@ fn expected(x: usize, y: usize, h: f32, flux: Vec3) -> Vec3 {
     let half = (30.0f32.to_radians()).tan();
     let sx = ((x as f32 + 0.5) / 33.0 * 2.0 - 1.0) * half;
     let sy = -((y as f32 + 0.5) / 33.0 * 2.0 - 1.0) * half; // output row 0 is the top (−z)
-    // camera at height 1 looking down, right = +x, up = −z: the ray hits y = 0 at (sx, 0, −sy)
+                                                            // camera at height 1 looking down, right = +x, up = −z: the ray hits y = 0 at (sx, 0, −sy)
     let p = Vec3::new(sx, 0.0, -sy);
     let to_light = Vec3::new(0.0, h, 0.0) - p;
     let d2 = to_light.length_squared();
@@ -56,14 +56,24 @@ fn point_light_on_a_diffuse_floor_matches_the_formula() {
 fn lights_add_up_and_shadows_are_black() {
     let flux = [5.0, 5.0, 5.0];
     let one = scene_from(floor_scene(0.7, flux, json!([])));
-    let two = scene_from(floor_scene(0.7, flux, json!([{"type": "point", "position": [0.0, 0.7, 0.0], "flux": flux}])));
-    let (a, b) = (common::render(&one, 4, 0, Profile::Physical), common::render(&two, 4, 0, Profile::Physical));
+    let two = scene_from(floor_scene(
+        0.7,
+        flux,
+        json!([{"type": "point", "position": [0.0, 0.7, 0.0], "flux": flux}]),
+    ));
+    let (a, b) = (
+        common::render(&one, 4, 0, Profile::Physical),
+        common::render(&two, 4, 0, Profile::Physical),
+    );
     for (p, q) in a.pixels.iter().zip(&b.pixels) {
         assert!((*q - *p * 2.0).abs().max_element() <= 1e-6 * q.max_element().max(1.0), "{p} {q}");
     }
     // a light under the floor lights nothing the camera sees
     let below = scene_from(floor_scene(-0.5, flux, json!([])));
-    assert!(common::render(&below, 4, 0, Profile::Physical).pixels.iter().all(|p| *p == Vec3::ZERO));
+    assert!(common::render(&below, 4, 0, Profile::Physical)
+        .pixels
+        .iter()
+        .all(|p| *p == Vec3::ZERO));
 }
 
 #[test]
@@ -100,17 +110,31 @@ fn refraction_follows_snell_into_a_denser_medium() {
     };
     let (physical, original) = (pixel(Profile::Physical), pixel(Profile::Rdr171));
     std::fs::remove_dir_all(&dir).ok();
-    assert!(physical.x > 0.0 && physical.y == 0.0, "refracted ray should reach the red band: {physical}");
-    assert!(original.x == 0.0 && original.y > 0.0, "the original's ratio bends away and misses it: {original}");
+    assert!(
+        physical.x > 0.0 && physical.y == 0.0,
+        "refracted ray should reach the red band: {physical}"
+    );
+    assert!(
+        original.x == 0.0 && original.y > 0.0,
+        "the original's ratio bends away and misses it: {original}"
+    );
 }
 
 fn render_with_threads(scene: &rdr::Scene, threads: usize) -> Image {
-    rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap().install(|| common::render(scene, 8, 7, Profile::Physical))
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .unwrap()
+        .install(|| common::render(scene, 8, 7, Profile::Physical))
 }
 
 #[test]
 fn example_scene_renders_the_same_on_any_number_of_threads() {
-    let scene = common::load_scene(&Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell.json"), &[r#"{"film": {"resolution": [64, 48], "filter": {"type": "gaussian", "radius": 1.5}}}"#], Profile::Physical);
+    let scene = common::load_scene(
+        &Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell.json"),
+        &[r#"{"film": {"resolution": [64, 48], "filter": {"type": "gaussian", "radius": 1.5}}}"#],
+        Profile::Physical,
+    );
     let (a, b) = (render_with_threads(&scene, 1), render_with_threads(&scene, 3));
     assert!(a.pixels == b.pixels, "thread count changed the image");
     let c = common::render(&scene, 8, 8, Profile::Physical);
@@ -119,7 +143,11 @@ fn example_scene_renders_the_same_on_any_number_of_threads() {
 
 #[test]
 fn example_scene_looks_like_a_cornell_box() {
-    let scene = common::load_scene(&Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell.json"), &[r#"{"film": {"resolution": [64, 64]}}"#], Profile::Physical);
+    let scene = common::load_scene(
+        &Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell.json"),
+        &[r#"{"film": {"resolution": [64, 64]}}"#],
+        Profile::Physical,
+    );
     assert!(scene.warnings.is_empty(), "{:?}", scene.warnings);
     let img = common::render(&scene, 4, 0, Profile::Physical);
     let px = |x: usize, y: usize| img.pixels[y * 64 + x];

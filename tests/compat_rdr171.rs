@@ -24,7 +24,12 @@ fn render_and_compare(name: &str) {
         .filter(|&(i, c)| ours[i][c] != reference[i][c])
         .map(|(i, c)| (i / w, i % w, c))
         .collect();
-    assert!(differing.is_empty(), "{} half values differ (row, column, channel), first: {:?}", differing.len(), &differing[..differing.len().min(10)]);
+    assert!(
+        differing.is_empty(),
+        "{} half values differ (row, column, channel), first: {:?}",
+        differing.len(),
+        &differing[..differing.len().min(10)]
+    );
     let same_bytes = std::fs::read(&out).unwrap() == std::fs::read(data.join(format!("{name}.exr"))).unwrap();
     std::fs::remove_file(&out).ok();
     assert!(same_bytes, "pixels agree but the file layout differs from the original's");

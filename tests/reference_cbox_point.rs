@@ -11,8 +11,16 @@ const SPP: u32 = 8;
 const BLOCK: usize = 2;
 
 fn check(name: &str, x1: &rdr::metrics::Image, x2: &rdr::metrics::Image, r: &rdr::metrics::Image, vr: &rdr::metrics::Image) -> Comparison {
-    let c = compare(&x1.block_average(BLOCK, false), &x2.block_average(BLOCK, false), &r.block_average(BLOCK, false), &vr.block_average(BLOCK, true));
-    eprintln!("{name:>22}: relMSE corrected {:+.3e} ± {:.1e} (raw {:.3e}, noise {:.3e}, mean z² {:.2})", c.rel_mse_corrected, c.std_error, c.rel_mse_raw, c.rel_mse_noise, c.mean_z2);
+    let c = compare(
+        &x1.block_average(BLOCK, false),
+        &x2.block_average(BLOCK, false),
+        &r.block_average(BLOCK, false),
+        &vr.block_average(BLOCK, true),
+    );
+    eprintln!(
+        "{name:>22}: relMSE corrected {:+.3e} ± {:.1e} (raw {:.3e}, noise {:.3e}, mean z² {:.2})",
+        c.rel_mse_corrected, c.std_error, c.rel_mse_raw, c.rel_mse_noise, c.mean_z2
+    );
     c
 }
 
@@ -36,17 +44,41 @@ fn cbox_point_converges_to_mitsuba_and_wrong_shading_does_not() {
     assert!(((m - mr) / mr).abs().max_element() < 2e-3, "mean {m} vs reference {mr}");
 
     // A renderer that forgets the 1/π of the Lambertian BRDF.
-    let no_inv_pi = check("without 1/π", &scaled(&x1, std::f32::consts::PI), &scaled(&x2, std::f32::consts::PI), &r, &vr);
-    assert!(no_inv_pi.rel_mse_corrected > 100.0 * good.rel_mse_corrected.abs().max(1e-4), "{no_inv_pi:?}");
+    let no_inv_pi = check(
+        "without 1/π",
+        &scaled(&x1, std::f32::consts::PI),
+        &scaled(&x2, std::f32::consts::PI),
+        &r,
+        &vr,
+    );
+    assert!(
+        no_inv_pi.rel_mse_corrected > 100.0 * good.rel_mse_corrected.abs().max(1e-4),
+        "{no_inv_pi:?}"
+    );
     // A renderer that divides by 4π twice / forgets the flux→intensity conversion.
-    let no_4pi = check("intensity = flux", &scaled(&x1, 4.0 * std::f32::consts::PI), &scaled(&x2, 4.0 * std::f32::consts::PI), &r, &vr);
-    assert!(no_4pi.rel_mse_corrected > 100.0 * good.rel_mse_corrected.abs().max(1e-4), "{no_4pi:?}");
+    let no_4pi = check(
+        "intensity = flux",
+        &scaled(&x1, 4.0 * std::f32::consts::PI),
+        &scaled(&x2, 4.0 * std::f32::consts::PI),
+        &r,
+        &vr,
+    );
+    assert!(
+        no_4pi.rel_mse_corrected > 100.0 * good.rel_mse_corrected.abs().max(1e-4),
+        "{no_4pi:?}"
+    );
     // RDR171's own shading multiplies by d² instead of dividing (the --compat profile does exactly that).
     let compat_scene = load_scene(&refs.join("scenes/cbox_point.json"), &[], Profile::Rdr171);
     let d2 = render(&compat_scene, SPP, 0, Profile::Rdr171);
     let wrong = check("d² instead of 1/d²", &d2, &d2, &r, &vr);
-    assert!(wrong.rel_mse_corrected > 100.0 * good.rel_mse_corrected.abs().max(1e-4), "{wrong:?}");
+    assert!(
+        wrong.rel_mse_corrected > 100.0 * good.rel_mse_corrected.abs().max(1e-4),
+        "{wrong:?}"
+    );
     // Even a 2 % brightness error is caught.
     let off = check("2 % too bright", &scaled(&x1, 1.02), &scaled(&x2, 1.02), &r, &vr);
-    assert!(off.rel_mse_corrected > 5.0 * off.std_error && off.rel_mse_corrected > 2.0 * good.rel_mse_corrected.abs(), "{off:?}");
+    assert!(
+        off.rel_mse_corrected > 5.0 * off.std_error && off.rel_mse_corrected > 2.0 * good.rel_mse_corrected.abs(),
+        "{off:?}"
+    );
 }

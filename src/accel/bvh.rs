@@ -47,9 +47,16 @@ impl Bvh {
             .iter()
             .enumerate()
             .filter(|(_, b)| !b.is_empty() && b.min.is_finite() && b.max.is_finite())
-            .map(|(i, b)| Item { bounds: *b, centroid: b.centroid(), index: i as u32 })
+            .map(|(i, b)| Item {
+                bounds: *b,
+                centroid: b.centroid(),
+                index: i as u32,
+            })
             .collect();
-        let mut bvh = Bvh { nodes: Vec::with_capacity(2 * items.len() / MAX_LEAF.max(1) + 1), order: Vec::new() };
+        let mut bvh = Bvh {
+            nodes: Vec::with_capacity(2 * items.len() / MAX_LEAF.max(1) + 1),
+            order: Vec::new(),
+        };
         if !items.is_empty() {
             let n = items.len();
             bvh.build_node(&mut items[..], 0, 0, n);
@@ -81,7 +88,11 @@ impl Bvh {
     fn build_node(&mut self, items: &mut [Item], first: usize, depth: usize, total: usize) -> usize {
         let node_index = self.nodes.len();
         let bounds = items.iter().fold(Aabb::EMPTY, |b, it| b.union(it.bounds));
-        self.nodes.push(Node { bounds, offset: first as u32, count: items.len() as u32 });
+        self.nodes.push(Node {
+            bounds,
+            offset: first as u32,
+            count: items.len() as u32,
+        });
         let n = items.len();
         if n == 1 {
             return node_index;
@@ -264,7 +275,12 @@ mod tests {
     #[test]
     fn course_bvh_tests() {
         let cube = |c: Vec3| Aabb::new(c - 0.5, c + 0.5);
-        let boxes = [cube(Vec3::ZERO), cube(Vec3::new(2.0, 0.0, 0.0)), cube(Vec3::new(0.0, 2.0, 0.0)), cube(Vec3::new(0.0, 0.0, 2.0))];
+        let boxes = [
+            cube(Vec3::ZERO),
+            cube(Vec3::new(2.0, 0.0, 0.0)),
+            cube(Vec3::new(0.0, 2.0, 0.0)),
+            cube(Vec3::new(0.0, 0.0, 2.0)),
+        ];
         let bvh = Bvh::build(&boxes);
         assert_eq!(bvh.order.len(), 4);
         let ray = Ray::new(Vec3::new(-1.0, 0.0, 0.0), Vec3::X);

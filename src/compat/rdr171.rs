@@ -27,11 +27,18 @@ pub fn intersect(scene: &Scene, ray: &Ray) -> Option<Hit> {
     scene.bvh.traverse(ray, |i, t_max| {
         let prim = &scene.prims[i as usize];
         let found = match prim {
-            Prim::Triangle { p, .. } => intersect_moller_trumbore_f64(ray.o, ray.d, ray.t_min as f64, best as f64, p).map(|h| (h.t, h.bary())),
+            Prim::Triangle { p, .. } => {
+                intersect_moller_trumbore_f64(ray.o, ray.d, ray.t_min as f64, best as f64, p).map(|h| (h.t, h.bary()))
+            }
             Prim::Sphere { sphere, .. } => sphere.intersect(ray.o, ray.d, ray.t_min, best).map(|t| (t as f64, [0.0; 3])),
         };
         if let Some((t, b)) = found {
-            cands.push(Candidate { key: prim.order_key(), prim: i, t, b });
+            cands.push(Candidate {
+                key: prim.order_key(),
+                prim: i,
+                t,
+                b,
+            });
             best = best.min(t as f32);
             // a little slack so boxes holding exact ties are not culled
             *t_max = best.next_up().next_up();
@@ -44,7 +51,11 @@ pub fn intersect(scene: &Scene, ray: &Ray) -> Option<Hit> {
     for c in cands {
         if c.t <= t_max as f64 {
             t_max = c.t as f32;
-            hit = Some(Hit { t: t_max, prim: c.prim, b: c.b });
+            hit = Some(Hit {
+                t: t_max,
+                prim: c.prim,
+                b: c.b,
+            });
         }
     }
     hit
@@ -95,7 +106,11 @@ fn direct(scene: &Scene, it: &Interaction, albedo: Vec3, twosided: bool) -> Vec3
             }
         }
         let cos = l.dot(it.ng).max(0.0);
-        let f = if l.dot(n_bsdf) < 0.0 || it.wo.dot(n_bsdf) < 0.0 { Vec3::ZERO } else { albedo * INV_PI };
+        let f = if l.dot(n_bsdf) < 0.0 || it.wo.dot(n_bsdf) < 0.0 {
+            Vec3::ZERO
+        } else {
+            albedo * INV_PI
+        };
         total += (((*flux * f) * cos) / (4.0 * PI)) * (d * d);
     }
     total

@@ -14,7 +14,10 @@ impl Default for Aabb {
 }
 
 impl Aabb {
-    pub const EMPTY: Aabb = Aabb { min: Vec3::splat(f32::INFINITY), max: Vec3::splat(f32::NEG_INFINITY) };
+    pub const EMPTY: Aabb = Aabb {
+        min: Vec3::splat(f32::INFINITY),
+        max: Vec3::splat(f32::NEG_INFINITY),
+    };
 
     pub fn new(min: Vec3, max: Vec3) -> Self {
         Aabb { min, max }
@@ -24,11 +27,17 @@ impl Aabb {
     }
     #[inline]
     pub fn grow(self, p: Vec3) -> Self {
-        Aabb { min: self.min.min(p), max: self.max.max(p) }
+        Aabb {
+            min: self.min.min(p),
+            max: self.max.max(p),
+        }
     }
     #[inline]
     pub fn union(self, o: Aabb) -> Self {
-        Aabb { min: self.min.min(o.min), max: self.max.max(o.max) }
+        Aabb {
+            min: self.min.min(o.min),
+            max: self.max.max(o.max),
+        }
     }
     pub fn is_empty(&self) -> bool {
         self.min.x > self.max.x || self.min.y > self.max.y || self.min.z > self.max.z
@@ -71,7 +80,11 @@ impl Aabb {
         let mut t0 = t_min;
         let mut t1 = t_max;
         for a in 0..3 {
-            let (lo, hi) = if inv_d[a] >= 0.0 { (self.min[a], self.max[a]) } else { (self.max[a], self.min[a]) };
+            let (lo, hi) = if inv_d[a] >= 0.0 {
+                (self.min[a], self.max[a])
+            } else {
+                (self.max[a], self.min[a])
+            };
             let near = (lo - o[a]) * inv_d[a];
             let far = (hi - o[a]) * inv_d[a] * (1.0 + 2.0 * gamma(3));
             t0 = t0.max(near);

@@ -29,10 +29,20 @@ impl Mesh {
         let positions: Vec<Vec3> = obj
             .positions
             .iter()
-            .map(|&v| if identity { v + translate } else { transform_point(transform, v) + translate })
+            .map(|&v| {
+                if identity {
+                    v + translate
+                } else {
+                    transform_point(transform, v) + translate
+                }
+            })
             .collect();
         let normal_matrix = transform.as_dmat4().inverse().transpose().as_mat4();
-        let normals: Vec<Vec3> = obj.normals.iter().map(|&n| if identity { n } else { transform_vector(&normal_matrix, n) }).collect();
+        let normals: Vec<Vec3> = obj
+            .normals
+            .iter()
+            .map(|&n| if identity { n } else { transform_vector(&normal_matrix, n) })
+            .collect();
         let mut report = MeshReport::default();
         let mut triangles = Vec::with_capacity(obj.triangles.len());
         for mut t in obj.triangles {
@@ -58,7 +68,15 @@ impl Mesh {
             }
             triangles.push(t);
         }
-        (Mesh { positions, normals, uvs: obj.uvs, triangles }, report)
+        (
+            Mesh {
+                positions,
+                normals,
+                uvs: obj.uvs,
+                triangles,
+            },
+            report,
+        )
     }
 
     #[inline]

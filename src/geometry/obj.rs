@@ -34,13 +34,18 @@ pub struct ObjError {
 }
 
 fn err(line: usize, message: impl Into<String>) -> ObjError {
-    ObjError { line, message: message.into() }
+    ObjError {
+        line,
+        message: message.into(),
+    }
 }
 
 fn parse_floats<const N: usize>(words: &mut std::str::SplitWhitespace, line: usize, what: &str) -> Result<[f32; N], ObjError> {
     let mut out = [0.0f32; N];
     for (i, o) in out.iter_mut().enumerate() {
-        let w = words.next().ok_or_else(|| err(line, format!("'{what}' needs {N} numbers, found {i}")))?;
+        let w = words
+            .next()
+            .ok_or_else(|| err(line, format!("'{what}' needs {N} numbers, found {i}")))?;
         let v: f64 = w.parse().map_err(|_| err(line, format!("'{what}': '{w}' is not a number")))?;
         let v = v as f32;
         if !v.is_finite() {
@@ -54,12 +59,21 @@ fn parse_floats<const N: usize>(words: &mut std::str::SplitWhitespace, line: usi
 /// Resolves a 1-based (or negative, relative) OBJ index against `len` elements.
 fn resolve(word: &str, len: usize, line: usize, what: &str) -> Result<u32, ObjError> {
     let i: i64 = word.parse().map_err(|_| err(line, format!("bad {what} index '{word}'")))?;
-    let idx = if i > 0 { i - 1 } else if i < 0 { len as i64 + i } else { -1 };
+    let idx = if i > 0 {
+        i - 1
+    } else if i < 0 {
+        len as i64 + i
+    } else {
+        -1
+    };
     if idx < 0 || idx >= len as i64 {
         return Err(err(line, format!("{what} index {i} out of range (the file has {len} so far)")));
     }
     Ok(idx as u32)
 }
+
+/// A face corner: position, texture coordinate and normal indices.
+type Corner = (u32, Option<u32>, Option<u32>);
 
 pub fn parse(text: &str) -> Result<ObjData, ObjError> {
     let mut d = ObjData::default();
@@ -84,7 +98,7 @@ pub fn parse(text: &str) -> Result<ObjData, ObjError> {
                 d.uvs.push(Vec2::new(u, v));
             }
             "f" => {
-                let mut corners: Vec<(u32, Option<u32>, Option<u32>)> = Vec::with_capacity(4);
+                let mut corners: Vec<Corner> = Vec::with_capacity(4);
                 for w in words {
                     let mut parts = w.split('/');
                     let p = resolve(parts.next().unwrap_or(""), d.positions.len(), line, "vertex")?;
@@ -105,7 +119,7 @@ pub fn parse(text: &str) -> Result<ObjData, ObjError> {
                 let has_n = corners.iter().all(|c| c.2.is_some());
                 let has_t = corners.iter().all(|c| c.1.is_some());
                 for [a, b, c] in triangulate(&corners.iter().map(|c| d.positions[c.0 as usize]).collect::<Vec<_>>()) {
-                    let pick = |f: &dyn Fn(&(u32, Option<u32>, Option<u32>)) -> u32| [f(&corners[a]), f(&corners[b]), f(&corners[c])];
+                    let pick = |f: &dyn Fn(&Corner) -> u32| [f(&corners[a]), f(&corners[b]), f(&corners[c])];
                     d.triangles.push(ObjTriangle {
                         p: pick(&|c| c.0),
                         n: has_n.then(|| pick(&|c| c.2.unwrap())),
@@ -180,7 +194,12 @@ fn ear_clip(p: &[Vec3]) -> Vec<[usize; 3]> {
                 continue; // reflex or degenerate corner
             }
             let inside = idx.iter().any(|&j| {
-                j != a && j != b && j != c && cross(q[a], q[b], q[j]) >= 0.0 && cross(q[b], q[c], q[j]) >= 0.0 && cross(q[c], q[a], q[j]) >= 0.0
+                j != a
+                    && j != b
+                    && j != c
+                    && cross(q[a], q[b], q[j]) >= 0.0
+                    && cross(q[b], q[c], q[j]) >= 0.0
+                    && cross(q[c], q[a], q[j]) >= 0.0
             });
             if !inside {
                 out.push([a, b, c]);
@@ -219,7 +238,12 @@ mod tests {
     #[test]
     fn quads_split_along_the_shorter_diagonal() {
         // long diagonal 0-2, short 1-3
-        let p = [Vec3::new(0.0, 0.0, 0.0), Vec3::new(2.0, -0.2, 0.0), Vec3::new(3.0, 0.0, 0.0), Vec3::new(2.0, 0.2, 0.0)];
+        let p = [
+            Vec3::new(0.0, 0.0, 0.0),
+            Vec3::new(2.0, -0.2, 0.0),
+            Vec3::new(3.0, 0.0, 0.0),
+            Vec3::new(2.0, 0.2, 0.0),
+        ];
         assert_eq!(triangulate(&p), vec![[0, 1, 3], [1, 2, 3]]);
         let sq = [Vec3::ZERO, Vec3::X, Vec3::new(1.0, 2.0, 0.0), Vec3::new(0.0, 1.0, 0.0)];
         // diagonal 0-2 has length² 5, 1-3 has 2

@@ -16,7 +16,12 @@ pub struct Ray {
 
 impl Ray {
     pub fn new(o: Vec3, d: Vec3) -> Self {
-        Ray { o, d, t_min: RAY_T_MIN, t_max: RAY_T_MAX }
+        Ray {
+            o,
+            d,
+            t_min: RAY_T_MIN,
+            t_max: RAY_T_MAX,
+        }
     }
     pub fn with_range(o: Vec3, d: Vec3, t_min: f32, t_max: f32) -> Self {
         Ray { o, d, t_min, t_max }

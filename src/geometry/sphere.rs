@@ -71,7 +71,10 @@ mod tests {
 
     #[test]
     fn hits_from_outside_and_inside() {
-        let s = Sphere { center: Vec3::new(0.0, 0.0, -5.0), radius: 1.0 };
+        let s = Sphere {
+            center: Vec3::new(0.0, 0.0, -5.0),
+            radius: 1.0,
+        };
         assert!((s.intersect(Vec3::ZERO, -Vec3::Z, 1e-4, 1e7).unwrap() - 4.0).abs() < 1e-5);
         assert!((s.intersect(Vec3::new(0.0, 0.0, -5.0), Vec3::X, 1e-4, 1e7).unwrap() - 1.0).abs() < 1e-6);
         assert!(s.intersect(Vec3::ZERO, Vec3::Z, 1e-4, 1e7).is_none());

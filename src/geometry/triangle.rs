@@ -95,7 +95,10 @@ pub fn intersect_watertight(o: Vec3, d: Vec3, t_min: f32, t_max: f32, p: &[Vec3;
     if t <= delta_t {
         return None;
     }
-    Some(TriHit { t, b: [e0 * inv_det, e1 * inv_det, e2 * inv_det] })
+    Some(TriHit {
+        t,
+        b: [e0 * inv_det, e1 * inv_det, e2 * inv_det],
+    })
 }
 
 /// f64 Möller–Trumbore hit with the unrounded distance (spec §14.2).
@@ -165,7 +168,10 @@ mod tests {
     const TRI: [Vec3; 3] = [Vec3::ZERO, Vec3::X, Vec3::Y];
 
     fn both(o: Vec3, d: Vec3, t0: f32, t1: f32, p: &[Vec3; 3]) -> (Option<TriHit>, Option<TriHit64>) {
-        (intersect_watertight(o, d, t0, t1, p), intersect_moller_trumbore_f64(o, d, t0 as f64, t1 as f64, p))
+        (
+            intersect_watertight(o, d, t0, t1, p),
+            intersect_moller_trumbore_f64(o, d, t0 as f64, t1 as f64, p),
+        )
     }
 
     #[test]

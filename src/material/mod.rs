@@ -7,11 +7,27 @@ use crate::math::Vec3;
 #[derive(Clone, Debug)]
 pub enum Material {
     /// Lambertian, albedo from a texture; one-sided unless `twosided`.
-    Diffuse { texture: u32, twosided: bool },
+    Diffuse {
+        texture: u32,
+        twosided: bool,
+    },
     /// Perfect refraction with index `eta` inside, vacuum outside; weight 1.
-    Refraction { eta: f32 },
-    Glass { reflect: Vec3, transmit: Vec3, eta: f32 },
-    RoughConductor { texture: u32, eta_i: Vec3, eta_t: Vec3, k: Vec3, alpha_x: f32, alpha_y: f32 },
+    Refraction {
+        eta: f32,
+    },
+    Glass {
+        reflect: Vec3,
+        transmit: Vec3,
+        eta: f32,
+    },
+    RoughConductor {
+        texture: u32,
+        eta_i: Vec3,
+        eta_t: Vec3,
+        k: Vec3,
+        alpha_x: f32,
+        alpha_y: f32,
+    },
 }
 
 impl Material {

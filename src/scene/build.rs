@@ -33,12 +33,22 @@ fn lookup(names: &HashMap<&str, u32>, name: &str, what: &str, desc: &SceneDesc, 
     names.get(name).copied().ok_or_else(|| {
         let mut known: Vec<&str> = names.keys().copied().collect();
         known.sort();
-        let known = if known.is_empty() { "none are defined".to_string() } else { format!("defined: {}", known.join(", ")) };
+        let known = if known.is_empty() {
+            "none are defined".to_string()
+        } else {
+            format!("defined: {}", known.join(", "))
+        };
         SceneError::new(&desc.file, Some(key), format!("no {what} named '{name}' ({known})"))
     })
 }
 
-fn load_mesh(desc: &SceneDesc, path: &super::desc::At<String>, opts: BuildOptions, transform: &crate::math::Mat4, translate: crate::math::Vec3) -> Result<(Mesh, Vec<String>)> {
+fn load_mesh(
+    desc: &SceneDesc,
+    path: &super::desc::At<String>,
+    opts: BuildOptions,
+    transform: &crate::math::Mat4,
+    translate: crate::math::Vec3,
+) -> Result<(Mesh, Vec<String>)> {
     let full = desc.base_dir.join(&path.value);
     let err = |msg: String| SceneError::new(&desc.file, Some(&path.key), msg);
     let text = std::fs::read(&full).map_err(|e| err(format!("cannot read mesh '{}': {e}", full.display())))?;
@@ -71,23 +81,44 @@ pub fn build(desc: &SceneDesc, opts: BuildOptions) -> Result<Scene> {
     for t in &desc.textures {
         textures.push(match &t.kind {
             TextureKind::Constant { color } => Texture::Constant(*color),
-            TextureKind::Checkerboard { color0, color1, mapping } => Texture::Checkerboard { color0: *color0, color1: *color1, mapping: UvMapping::new(mapping) },
+            TextureKind::Checkerboard { color0, color1, mapping } => Texture::Checkerboard {
+                color0: *color0,
+                color1: *color1,
+                mapping: UvMapping::new(mapping),
+            },
             TextureKind::Image { path, .. } => {
                 return Err(SceneError::new(&desc.file, Some(&path.key), "image textures are not supported yet"));
             }
         });
     }
 
-    let material_names: HashMap<&str, u32> = desc.materials.iter().enumerate().map(|(i, m)| (m.name.as_str(), i as u32)).collect();
+    let material_names: HashMap<&str, u32> = desc
+        .materials
+        .iter()
+        .enumerate()
+        .map(|(i, m)| (m.name.as_str(), i as u32))
+        .collect();
     let mut materials = Vec::with_capacity(desc.materials.len());
     for m in &desc.materials {
         materials.push(match &m.kind {
-            MaterialKind::Diffuse { texture, twosided } => {
-                Material::Diffuse { texture: lookup(&texture_names, &texture.value, "texture", desc, &texture.key)?, twosided: *twosided }
-            }
+            MaterialKind::Diffuse { texture, twosided } => Material::Diffuse {
+                texture: lookup(&texture_names, &texture.value, "texture", desc, &texture.key)?,
+                twosided: *twosided,
+            },
             MaterialKind::Refraction { eta } => Material::Refraction { eta: *eta },
-            MaterialKind::Glass { reflect, transmit, eta } => Material::Glass { reflect: *reflect, transmit: *transmit, eta: *eta },
-            MaterialKind::RoughConductor { texture, eta_i, eta_t, k, alpha_x, alpha_y } => Material::RoughConductor {
+            MaterialKind::Glass { reflect, transmit, eta } => Material::Glass {
+                reflect: *reflect,
+                transmit: *transmit,
+                eta: *eta,
+            },
+            MaterialKind::RoughConductor {
+                texture,
+                eta_i,
+                eta_t,
+                k,
+                alpha_x,
+                alpha_y,
+            } => Material::RoughConductor {
                 texture: lookup(&texture_names, &texture.value, "texture", desc, &texture.key)?,
                 eta_i: *eta_i,
                 eta_t: *eta_t,
@@ -103,40 +134,78 @@ pub fn build(desc: &SceneDesc, opts: BuildOptions) -> Result<Scene> {
         .objects
         .par_iter()
         .map(|o| match &o.shape {
-            ShapeDesc::Mesh { path, transform, translate } => load_mesh(desc, path, opts, transform, *translate).map(|(m, w)| (Shape::Mesh(m), w)),
-            ShapeDesc::Sphere { center, radius } => Ok((Shape::Sphere(Sphere { center: *center, radius: *radius }), Vec::new())),
+            ShapeDesc::Mesh {
+                path,
+                transform,
+                translate,
+            } => load_mesh(desc, path, opts, transform, *translate).map(|(m, w)| (Shape::Mesh(m), w)),
+            ShapeDesc::Sphere { center, radius } => Ok((
+                Shape::Sphere(Sphere {
+                    center: *center,
+                    radius: *radius,
+                }),
+                Vec::new(),
+            )),
         })
         .collect();
     let mut objects = Vec::with_capacity(desc.objects.len());
     for (o, shape) in desc.objects.iter().zip(shapes) {
         let (shape, w) = shape?;
         warnings.extend(w);
-        let material = o.material.as_ref().map(|m| lookup(&material_names, &m.value, "material", desc, &m.key)).transpose()?;
-        objects.push(Object { shape, material, emission: o.light.as_ref().map(|l| l.radiance) });
+        let material = o
+            .material
+            .as_ref()
+            .map(|m| lookup(&material_names, &m.value, "material", desc, &m.key))
+            .transpose()?;
+        objects.push(Object {
+            shape,
+            material,
+            emission: o.light.as_ref().map(|l| l.radiance),
+        });
     }
 
     if let Some(env) = &desc.environment_map {
         lookup(&texture_names, &env.texture.value, "texture", desc, &env.texture.key)?;
-        warnings.push(format!("{}: {}: environment maps are not rendered yet; ignored", desc.file.display(), env.key));
+        warnings.push(format!(
+            "{}: {}: environment maps are not rendered yet; ignored",
+            desc.file.display(),
+            env.key
+        ));
     }
     if objects.iter().any(|o| o.emission.is_some()) {
-        warnings.push(format!("{}: area lights are not rendered by this version yet; they stay dark", desc.file.display()));
+        warnings.push(format!(
+            "{}: area lights are not rendered by this version yet; they stay dark",
+            desc.file.display()
+        ));
     }
 
     let mut prims = Vec::new();
     for (oi, o) in objects.iter().enumerate() {
         match &o.shape {
-            Shape::Mesh(m) => {
-                prims.extend((0..m.triangles.len()).map(|i| Prim::Triangle { p: m.vertices(i), object: oi as u32, index: i as u32 }))
-            }
-            Shape::Sphere(s) => prims.push(Prim::Sphere { sphere: *s, object: oi as u32 }),
+            Shape::Mesh(m) => prims.extend((0..m.triangles.len()).map(|i| Prim::Triangle {
+                p: m.vertices(i),
+                object: oi as u32,
+                index: i as u32,
+            })),
+            Shape::Sphere(s) => prims.push(Prim::Sphere {
+                sphere: *s,
+                object: oi as u32,
+            }),
         }
     }
     let bvh_start = std::time::Instant::now();
     let (prims, bvh) = build_bvh(prims);
     let bvh_seconds = bvh_start.elapsed().as_secs_f64();
 
-    let lights = desc.integrator.point_lights.iter().map(|l| Light::Point { position: l.position, flux: l.flux }).collect();
+    let lights = desc
+        .integrator
+        .point_lights
+        .iter()
+        .map(|l| Light::Point {
+            position: l.position,
+            flux: l.flux,
+        })
+        .collect();
     Ok(Scene {
         camera: Camera::new(&desc.camera, desc.film.width, desc.film.height),
         width: desc.film.width,

@@ -109,9 +109,18 @@ pub struct TextureDesc {
 
 #[derive(Clone, Debug)]
 pub enum TextureKind {
-    Constant { color: Vec3 },
-    Checkerboard { color0: Vec3, color1: Vec3, mapping: UvMappingDesc },
-    Image { path: At<String>, mapping: UvMappingDesc },
+    Constant {
+        color: Vec3,
+    },
+    Checkerboard {
+        color0: Vec3,
+        color1: Vec3,
+        mapping: UvMappingDesc,
+    },
+    Image {
+        path: At<String>,
+        mapping: UvMappingDesc,
+    },
 }
 
 /// `tex_coordinate_generator`: `type` = `"uvmapping2d"`, `scale` ((1,1)), `delta`
@@ -137,10 +146,26 @@ pub struct MaterialDesc {
 
 #[derive(Clone, Debug)]
 pub enum MaterialKind {
-    Diffuse { texture: At<String>, twosided: bool },
-    Refraction { eta: f32 },
-    Glass { reflect: Vec3, transmit: Vec3, eta: f32 },
-    RoughConductor { texture: At<String>, eta_i: Vec3, eta_t: Vec3, k: Vec3, alpha_x: f32, alpha_y: f32 },
+    Diffuse {
+        texture: At<String>,
+        twosided: bool,
+    },
+    Refraction {
+        eta: f32,
+    },
+    Glass {
+        reflect: Vec3,
+        transmit: Vec3,
+        eta: f32,
+    },
+    RoughConductor {
+        texture: At<String>,
+        eta_i: Vec3,
+        eta_t: Vec3,
+        k: Vec3,
+        alpha_x: f32,
+        alpha_y: f32,
+    },
 }
 
 /// `objects[i]`: `type` (`"mesh"` | `"sphere"`), `material_name`, `light`; at least
@@ -158,8 +183,15 @@ pub struct ObjectDesc {
 /// * `sphere`: `center` ((0,0,0)), `radius` (1).
 #[derive(Clone, Debug)]
 pub enum ShapeDesc {
-    Mesh { path: At<String>, transform: Mat4, translate: Vec3 },
-    Sphere { center: Vec3, radius: f32 },
+    Mesh {
+        path: At<String>,
+        transform: Mat4,
+        translate: Vec3,
+    },
+    Sphere {
+        center: Vec3,
+        radius: f32,
+    },
 }
 
 /// `objects[i].light`: `type` (`"area"`), `radiance` ((1,1,1)); one-sided emission.
@@ -202,8 +234,16 @@ impl SceneDesc {
         let integrator = parse_integrator(&root.object("integrator")?)?;
         let film = parse_film(&root.object("film")?)?;
         let camera = parse_camera(&root.object("camera")?)?;
-        let textures = root.named_objects("textures")?.iter().map(|(n, p)| parse_texture(n, p)).collect::<Result<Vec<_>>>()?;
-        let materials = root.named_objects("materials")?.iter().map(|(n, p)| parse_material(n, p)).collect::<Result<Vec<_>>>()?;
+        let textures = root
+            .named_objects("textures")?
+            .iter()
+            .map(|(n, p)| parse_texture(n, p))
+            .collect::<Result<Vec<_>>>()?;
+        let materials = root
+            .named_objects("materials")?
+            .iter()
+            .map(|(n, p)| parse_material(n, p))
+            .collect::<Result<Vec<_>>>()?;
         let objects = root.objects("objects")?.iter().map(parse_object).collect::<Result<Vec<_>>>()?;
         let environment_map = root.object_opt("environment_map")?.map(|p| parse_env(&p)).transpose()?;
         root.finish();
@@ -228,7 +268,10 @@ fn parse_integrator(p: &Props) -> Result<IntegratorDesc> {
     let kind = match ty.as_str() {
         "intersection_test" => IntegratorKind::IntersectionTest,
         "path" | "bdpt" | "photon" => {
-            return Err(p.error("type", format!("integrator '{ty}' is not implemented yet (available: intersection_test)")))
+            return Err(p.error(
+                "type",
+                format!("integrator '{ty}' is not implemented yet (available: intersection_test)"),
+            ))
         }
         _ => return Err(p.error("type", format!("unknown integrator '{ty}' (available: intersection_test)"))),
     };
@@ -246,9 +289,16 @@ fn parse_integrator(p: &Props) -> Result<IntegratorDesc> {
     for l in p.objects("lights")? {
         let ty = l.string("type")?;
         if ty != "point" {
-            return Err(l.error("type", format!("unknown light type '{ty}' in the integrator's list (available: point)")));
+            return Err(l.error(
+                "type",
+                format!("unknown light type '{ty}' in the integrator's list (available: point)"),
+            ));
         }
-        point_lights.push(PointLightDesc { position: l.vec3("position")?, flux: l.vec3("flux")?, key: l.path.clone() });
+        point_lights.push(PointLightDesc {
+            position: l.vec3("position")?,
+            flux: l.vec3("flux")?,
+            key: l.path.clone(),
+        });
         l.finish();
     }
     for l in &point_lights {
@@ -257,7 +307,12 @@ fn parse_integrator(p: &Props) -> Result<IntegratorDesc> {
         }
     }
     p.finish();
-    Ok(IntegratorDesc { kind, spp, max_depth, point_lights })
+    Ok(IntegratorDesc {
+        kind,
+        spp,
+        max_depth,
+        point_lights,
+    })
 }
 
 fn parse_film(p: &Props) -> Result<FilmDesc> {
@@ -279,8 +334,15 @@ fn parse_film(p: &Props) -> Result<FilmDesc> {
             }
             let d = match ty.as_str() {
                 "box" => FilterDesc::Box { radius },
-                "gaussian" => FilterDesc::Gaussian { radius, alpha: f.f32_or("alpha", 2.0)? },
-                "mitchell" => FilterDesc::Mitchell { radius, b: f.f32_or("B", 1.0 / 3.0)?, c: f.f32_or("C", 1.0 / 3.0)? },
+                "gaussian" => FilterDesc::Gaussian {
+                    radius,
+                    alpha: f.f32_or("alpha", 2.0)?,
+                },
+                "mitchell" => FilterDesc::Mitchell {
+                    radius,
+                    b: f.f32_or("B", 1.0 / 3.0)?,
+                    c: f.f32_or("C", 1.0 / 3.0)?,
+                },
                 _ => return Err(f.error("type", format!("unknown filter '{ty}' (available: box, gaussian, mitchell)"))),
             };
             f.finish();
@@ -288,7 +350,12 @@ fn parse_film(p: &Props) -> Result<FilmDesc> {
         }
     };
     p.finish();
-    Ok(FilmDesc { width: w as u32, height: h as u32, block_size, filter })
+    Ok(FilmDesc {
+        width: w as u32,
+        height: h as u32,
+        block_size,
+        filter,
+    })
 }
 
 fn parse_camera(p: &Props) -> Result<CameraDesc> {
@@ -320,15 +387,24 @@ fn parse_mapping(p: &Props) -> Result<UvMappingDesc> {
     let g = p.object("tex_coordinate_generator")?;
     let ty = g.string("type")?;
     if ty != "uvmapping2d" {
-        return Err(g.error("type", format!("unknown texture coordinate generator '{ty}' (available: uvmapping2d)")));
+        return Err(g.error(
+            "type",
+            format!("unknown texture coordinate generator '{ty}' (available: uvmapping2d)"),
+        ));
     }
-    let m = UvMappingDesc { scale: g.vec2_or("scale", Vec2::ONE)?, delta: g.vec2_or("delta", Vec2::ZERO)? };
+    let m = UvMappingDesc {
+        scale: g.vec2_or("scale", Vec2::ONE)?,
+        delta: g.vec2_or("delta", Vec2::ZERO)?,
+    };
     g.finish();
     Ok(m)
 }
 
 fn at(p: &Props, key: &str, value: String) -> At<String> {
-    At { value, key: p.key_path(key) }
+    At {
+        value,
+        key: p.key_path(key),
+    }
 }
 
 fn parse_texture(name: &str, p: &Props) -> Result<TextureDesc> {
@@ -340,11 +416,23 @@ fn parse_texture(name: &str, p: &Props) -> Result<TextureDesc> {
             color1: p.vec3_or("color1", Vec3::splat(0.2))?,
             mapping: parse_mapping(p)?,
         },
-        "image" => TextureKind::Image { path: at(p, "path", p.string("path")?), mapping: parse_mapping(p)? },
-        _ => return Err(p.error("type", format!("unknown texture type '{ty}' (available: constant, checkerboard, image)"))),
+        "image" => TextureKind::Image {
+            path: at(p, "path", p.string("path")?),
+            mapping: parse_mapping(p)?,
+        },
+        _ => {
+            return Err(p.error(
+                "type",
+                format!("unknown texture type '{ty}' (available: constant, checkerboard, image)"),
+            ))
+        }
     };
     p.finish();
-    Ok(TextureDesc { name: name.to_string(), key: p.path.clone(), kind })
+    Ok(TextureDesc {
+        name: name.to_string(),
+        key: p.path.clone(),
+        kind,
+    })
 }
 
 fn non_negative(p: &Props, key: &str, v: f32) -> Result<f32> {
@@ -364,9 +452,16 @@ fn parse_material(name: &str, p: &Props) -> Result<MaterialDesc> {
         Ok(eta)
     };
     let kind = match ty.as_str() {
-        "diffuse" => MaterialKind::Diffuse { texture: at(p, "texture_name", p.string("texture_name")?), twosided: p.bool_or("twosided", false)? },
+        "diffuse" => MaterialKind::Diffuse {
+            texture: at(p, "texture_name", p.string("texture_name")?),
+            twosided: p.bool_or("twosided", false)?,
+        },
         "refraction" => MaterialKind::Refraction { eta: positive_eta("eta")? },
-        "glass" => MaterialKind::Glass { reflect: p.vec3_or("R", Vec3::ONE)?, transmit: p.vec3_or("T", Vec3::ONE)?, eta: positive_eta("eta")? },
+        "glass" => MaterialKind::Glass {
+            reflect: p.vec3_or("R", Vec3::ONE)?,
+            transmit: p.vec3_or("T", Vec3::ONE)?,
+            eta: positive_eta("eta")?,
+        },
         "roughconductor" => MaterialKind::RoughConductor {
             texture: at(p, "texture_name", p.string("texture_name")?),
             eta_i: p.vec3_or("etaI", Vec3::ONE)?,
@@ -375,10 +470,19 @@ fn parse_material(name: &str, p: &Props) -> Result<MaterialDesc> {
             alpha_x: non_negative(p, "alpha_x", p.f32_or("alpha_x", 0.1)?)?,
             alpha_y: non_negative(p, "alpha_y", p.f32_or("alpha_y", 0.1)?)?,
         },
-        _ => return Err(p.error("type", format!("unknown material type '{ty}' (available: diffuse, refraction, glass, roughconductor)"))),
+        _ => {
+            return Err(p.error(
+                "type",
+                format!("unknown material type '{ty}' (available: diffuse, refraction, glass, roughconductor)"),
+            ))
+        }
     };
     p.finish();
-    Ok(MaterialDesc { name: name.to_string(), key: p.path.clone(), kind })
+    Ok(MaterialDesc {
+        name: name.to_string(),
+        key: p.path.clone(),
+        kind,
+    })
 }
 
 fn parse_object(p: &Props) -> Result<ObjectDesc> {
@@ -394,7 +498,10 @@ fn parse_object(p: &Props) -> Result<ObjectDesc> {
             if radius <= 0.0 {
                 return Err(p.error("radius", format!("must be positive, found {radius}")));
             }
-            ShapeDesc::Sphere { center: p.vec3_or("center", Vec3::ZERO)?, radius }
+            ShapeDesc::Sphere {
+                center: p.vec3_or("center", Vec3::ZERO)?,
+                radius,
+            }
         }
         _ => return Err(p.error("type", format!("unknown object type '{ty}' (available: mesh, sphere)"))),
     };
@@ -411,14 +518,22 @@ fn parse_object(p: &Props) -> Result<ObjectDesc> {
                 return Err(l.error("radiance", "must not be negative"));
             }
             l.finish();
-            Some(AreaLightDesc { key: l.path.clone(), radiance })
+            Some(AreaLightDesc {
+                key: l.path.clone(),
+                radiance,
+            })
         }
     };
     if material.is_none() && light.is_none() {
         return Err(p.ctx().error(&p.path, "an object needs a 'material_name', a 'light', or both"));
     }
     p.finish();
-    Ok(ObjectDesc { key: p.path.clone(), shape, material, light })
+    Ok(ObjectDesc {
+        key: p.path.clone(),
+        shape,
+        material,
+        light,
+    })
 }
 
 fn parse_env(p: &Props) -> Result<EnvMapDesc> {

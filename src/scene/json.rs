@@ -16,11 +16,16 @@ pub struct Context {
 
 impl Context {
     pub fn new(file: &Path) -> Self {
-        Context { file: file.to_path_buf(), warnings: RefCell::new(Vec::new()) }
+        Context {
+            file: file.to_path_buf(),
+            warnings: RefCell::new(Vec::new()),
+        }
     }
     pub fn warn(&self, key: &str, msg: impl AsRef<str>) {
         let at = if key.is_empty() { String::new() } else { format!("{key}: ") };
-        self.warnings.borrow_mut().push(format!("{}: {at}{}", self.file.display(), msg.as_ref()));
+        self.warnings
+            .borrow_mut()
+            .push(format!("{}: {at}{}", self.file.display(), msg.as_ref()));
     }
     pub fn error(&self, key: &str, msg: impl Into<String>) -> SceneError {
         SceneError::new(&self.file, (!key.is_empty()).then_some(key), msg)
@@ -51,7 +56,12 @@ fn type_name(v: &Value) -> &'static str {
 impl<'a> Props<'a> {
     pub fn root(value: &'a Value, ctx: &'a Context) -> Result<Self> {
         match value {
-            Value::Object(map) => Ok(Props { map, path: String::new(), ctx, used: RefCell::new(Vec::new()) }),
+            Value::Object(map) => Ok(Props {
+                map,
+                path: String::new(),
+                ctx,
+                used: RefCell::new(Vec::new()),
+            }),
             other => Err(ctx.error("", format!("the scene must be a JSON object, found {}", type_name(other)))),
         }
     }
@@ -93,7 +103,9 @@ impl<'a> Props<'a> {
     }
 
     fn number(&self, key: &str, v: &Value) -> Result<f32> {
-        let x = v.as_f64().ok_or_else(|| self.error(key, format!("expected a number, found {}", type_name(v))))?;
+        let x = v
+            .as_f64()
+            .ok_or_else(|| self.error(key, format!("expected a number, found {}", type_name(v))))?;
         let x = x as f32;
         if !x.is_finite() {
             return Err(self.error(key, format!("{} is not a finite 32-bit float", v)));
@@ -102,7 +114,15 @@ impl<'a> Props<'a> {
     }
 
     fn integer(&self, key: &str, v: &Value) -> Result<i32> {
-        let bad = || self.error(key, format!("expected an integer, found {}", if v.is_number() { v.to_string() } else { type_name(v).to_string() }));
+        let bad = || {
+            self.error(
+                key,
+                format!(
+                    "expected an integer, found {}",
+                    if v.is_number() { v.to_string() } else { type_name(v).to_string() }
+                ),
+            )
+        };
         let x = v.as_f64().ok_or_else(bad)?;
         if x.fract() != 0.0 || x < i32::MIN as f64 || x > i32::MAX as f64 {
             return Err(bad());
@@ -164,7 +184,8 @@ impl<'a> Props<'a> {
     }
 
     pub fn vec3_or(&self, key: &str, default: Vec3) -> Result<Vec3> {
-        self.get(key).map_or(Ok(default), |v| self.numbers::<3>(key, v).map(Vec3::from_array))
+        self.get(key)
+            .map_or(Ok(default), |v| self.numbers::<3>(key, v).map(Vec3::from_array))
     }
 
     pub fn vec3(&self, key: &str) -> Result<Vec3> {
@@ -172,7 +193,8 @@ impl<'a> Props<'a> {
     }
 
     pub fn vec2_or(&self, key: &str, default: Vec2) -> Result<Vec2> {
-        self.get(key).map_or(Ok(default), |v| self.numbers::<2>(key, v).map(Vec2::from_array))
+        self.get(key)
+            .map_or(Ok(default), |v| self.numbers::<2>(key, v).map(Vec2::from_array))
     }
 
     pub fn vec2i_or(&self, key: &str, default: [i32; 2]) -> Result<[i32; 2]> {
@@ -181,7 +203,10 @@ impl<'a> Props<'a> {
             Value::Array(a) if a.len() == 2 => a,
             _ => return Err(self.error(key, format!("expected an array of 2 integers, found {}", describe(v)))),
         };
-        Ok([self.integer(&format!("{key}[0]"), &arr[0])?, self.integer(&format!("{key}[1]"), &arr[1])?])
+        Ok([
+            self.integer(&format!("{key}[0]"), &arr[0])?,
+            self.integer(&format!("{key}[1]"), &arr[1])?,
+        ])
     }
 
     /// 16 numbers in row-major order (translation in elements 3, 7, 11). Unlike the
@@ -203,7 +228,12 @@ impl<'a> Props<'a> {
     pub fn object_opt(&self, key: &str) -> Result<Option<Props<'a>>> {
         match self.get(key) {
             None => Ok(None),
-            Some(Value::Object(map)) => Ok(Some(Props { map, path: self.key_path(key), ctx: self.ctx, used: RefCell::new(Vec::new()) })),
+            Some(Value::Object(map)) => Ok(Some(Props {
+                map,
+                path: self.key_path(key),
+                ctx: self.ctx,
+                used: RefCell::new(Vec::new()),
+            })),
             Some(v) => Err(self.error(key, format!("expected an object, found {}", type_name(v)))),
         }
     }
@@ -220,7 +250,12 @@ impl<'a> Props<'a> {
             .map(|(i, v)| {
                 let path = format!("{}[{i}]", self.key_path(key));
                 match v {
-                    Value::Object(map) => Ok(Props { map, path, ctx: self.ctx, used: RefCell::new(Vec::new()) }),
+                    Value::Object(map) => Ok(Props {
+                        map,
+                        path,
+                        ctx: self.ctx,
+                        used: RefCell::new(Vec::new()),
+                    }),
                     other => Err(self.ctx.error(&path, format!("expected an object, found {}", type_name(other)))),
                 }
             })
@@ -229,7 +264,9 @@ impl<'a> Props<'a> {
 
     /// An object used as a name → object map, in sorted key order.
     pub fn named_objects(&self, key: &str) -> Result<Vec<(String, Props<'a>)>> {
-        let Some(section) = self.object_opt(key)? else { return Ok(Vec::new()) };
+        let Some(section) = self.object_opt(key)? else {
+            return Ok(Vec::new());
+        };
         let mut names: Vec<&'a String> = section.map.keys().collect();
         names.sort();
         names
@@ -363,7 +400,12 @@ pub fn path_at(text: &str, line: usize, column: usize) -> String {
 pub fn parse_text(text: &str, file: &Path) -> Result<Value> {
     serde_json::from_str(text).map_err(|e| {
         let key = path_at(text, e.line(), e.column());
-        let msg = format!("invalid JSON at line {}, column {}: {}", e.line(), e.column(), strip_position(&e.to_string()));
+        let msg = format!(
+            "invalid JSON at line {}, column {}: {}",
+            e.line(),
+            e.column(),
+            strip_position(&e.to_string())
+        );
         SceneError::new(file, (!key.is_empty()).then_some(key.as_str()), msg)
     })
 }
@@ -392,8 +434,14 @@ mod tests {
     #[test]
     fn merge_recurses_into_objects_and_replaces_arrays() {
         let mut a: Value = serde_json::json!({"integrator": {"type": "x", "spp": 4}, "film": {"resolution": [1, 2]}});
-        merge(&mut a, &serde_json::json!({"integrator": {"spp": 8}, "film": {"resolution": [3, 4]}}));
-        assert_eq!(a, serde_json::json!({"integrator": {"type": "x", "spp": 8}, "film": {"resolution": [3, 4]}}));
+        merge(
+            &mut a,
+            &serde_json::json!({"integrator": {"spp": 8}, "film": {"resolution": [3, 4]}}),
+        );
+        assert_eq!(
+            a,
+            serde_json::json!({"integrator": {"type": "x", "spp": 8}, "film": {"resolution": [3, 4]}})
+        );
     }
 
     #[test]

@@ -141,11 +141,14 @@ impl Scene {
                 let b = hit.b;
                 let pos = (p[0] * b[0] + p[1] * b[1]) + p[2] * b[2];
                 let ng = normalize_div((p[1] - p[0]).cross(p[2] - p[0]));
-                let Shape::Mesh(mesh) = &self.objects[*object as usize].shape else { unreachable!("triangle of a non-mesh") };
+                let Shape::Mesh(mesh) = &self.objects[*object as usize].shape else {
+                    unreachable!("triangle of a non-mesh")
+                };
                 let tri = &mesh.triangles[*index as usize];
                 let ns = match tri.n {
                     Some(n) => {
-                        let v = mesh.normals[n[0] as usize] * b[0] + mesh.normals[n[1] as usize] * b[1] + mesh.normals[n[2] as usize] * b[2];
+                        let v =
+                            mesh.normals[n[0] as usize] * b[0] + mesh.normals[n[1] as usize] * b[1] + mesh.normals[n[2] as usize] * b[2];
                         let l = v.length();
                         if l > 0.0 && l.is_finite() {
                             v / l
@@ -159,11 +162,25 @@ impl Scene {
                     Some(t) => mesh.uvs[t[0] as usize] * b[0] + mesh.uvs[t[1] as usize] * b[1] + mesh.uvs[t[2] as usize] * b[2],
                     None => Vec2::new(0.0, 0.0) * b[0] + Vec2::new(1.0, 0.0) * b[1] + Vec2::new(1.0, 1.0) * b[2],
                 };
-                Interaction { p: pos, ng, ns, uv, wo, object: *object }
+                Interaction {
+                    p: pos,
+                    ng,
+                    ns,
+                    uv,
+                    wo,
+                    object: *object,
+                }
             }
             Prim::Sphere { sphere, object } => {
                 let (pos, n) = sphere.project(ray.at(hit.t));
-                Interaction { p: pos, ng: n, ns: n, uv: sphere.uv(n), wo, object: *object }
+                Interaction {
+                    p: pos,
+                    ng: n,
+                    ns: n,
+                    uv: sphere.uv(n),
+                    wo,
+                    object: *object,
+                }
             }
         }
     }

@@ -12,7 +12,10 @@ pub struct UvMapping {
 
 impl UvMapping {
     pub fn new(d: &UvMappingDesc) -> Self {
-        UvMapping { scale: d.scale, delta: d.delta }
+        UvMapping {
+            scale: d.scale,
+            delta: d.delta,
+        }
     }
     #[inline]
     pub fn map(&self, uv: Vec2) -> Vec2 {
@@ -24,7 +27,11 @@ impl UvMapping {
 pub enum Texture {
     Constant(Vec3),
     /// Checks 0.5 wide in `st`; the cells on both sides of 0 merge (spec §8).
-    Checkerboard { color0: Vec3, color1: Vec3, mapping: UvMapping },
+    Checkerboard {
+        color0: Vec3,
+        color1: Vec3,
+        mapping: UvMapping,
+    },
 }
 
 impl Texture {
@@ -51,7 +58,14 @@ mod tests {
 
     #[test]
     fn checkerboard_cells_are_half_wide() {
-        let t = Texture::Checkerboard { color0: Vec3::ONE, color1: Vec3::ZERO, mapping: UvMapping { scale: Vec2::ONE, delta: Vec2::ZERO } };
+        let t = Texture::Checkerboard {
+            color0: Vec3::ONE,
+            color1: Vec3::ZERO,
+            mapping: UvMapping {
+                scale: Vec2::ONE,
+                delta: Vec2::ZERO,
+            },
+        };
         assert_eq!(t.eval(Vec2::new(0.1, 0.1)), Vec3::ONE);
         assert_eq!(t.eval(Vec2::new(0.6, 0.1)), Vec3::ZERO);
         assert_eq!(t.eval(Vec2::new(0.6, 0.6)), Vec3::ONE);

@@ -14,9 +14,15 @@ pub fn shared() -> Option<PathBuf> {
         return Some(p);
     }
     if std::env::var_os("CI").is_some() {
-        panic!("{} is missing but CI is set: tests that need the shared data cannot be skipped in CI", p.display());
+        panic!(
+            "{} is missing but CI is set: tests that need the shared data cannot be skipped in CI",
+            p.display()
+        );
     }
-    eprintln!("skipping: {} not found (reference images and course scenes live there)", p.display());
+    eprintln!(
+        "skipping: {} not found (reference images and course scenes live there)",
+        p.display()
+    );
     None
 }
 
@@ -26,7 +32,16 @@ pub fn load_scene(path: &Path, overrides: &[&str], profile: Profile) -> rdr::Sce
 }
 
 pub fn render(scene: &rdr::Scene, spp: u32, seed: u32, profile: Profile) -> Image {
-    let out = rdr::render(scene, &RenderSettings { spp, seed, profile, progress: None }, &AtomicBool::new(false));
+    let out = rdr::render(
+        scene,
+        &RenderSettings {
+            spp,
+            seed,
+            profile,
+            progress: None,
+        },
+        &AtomicBool::new(false),
+    );
     Image::new(out.width as usize, out.height as usize, out.pixels)
 }
 

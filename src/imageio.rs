@@ -149,6 +149,22 @@ pub fn write_png(path: &Path, width: u32, height: u32, rgb: &[Vec3]) -> Result<(
     write_atomically(path, buf.get_ref())
 }
 
+/// Checks, before rendering, that `path` can be written by [`write_image`]: a
+/// supported extension and an existing folder.
+pub fn check_output_path(path: &Path) -> Result<()> {
+    if !matches!(
+        path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref(),
+        Some("exr" | "png")
+    ) {
+        bail!("{}: unsupported output format (use .exr or .png)", path.display());
+    }
+    let dir = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+    if !dir.is_dir() {
+        bail!("{}: cannot write: folder {} does not exist", path.display(), dir.display());
+    }
+    Ok(())
+}
+
 /// Output format from the file extension: `.exr` or `.png`.
 pub fn write_image(path: &Path, width: u32, height: u32, rgb: &[Vec3], exr: ExrPixels) -> Result<()> {
     match path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref() {

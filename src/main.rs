@@ -3,7 +3,7 @@
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand, ValueEnum};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
-use rdr::imageio::{write_image, ExrPixels};
+use rdr::imageio::{check_output_path, write_image, ExrPixels};
 use rdr::{Profile, RenderSettings};
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
@@ -118,6 +118,8 @@ fn run(cli: Cli) -> Result<ExitCode> {
             setup_threads(args.threads)?;
             let scene = load(&args, quiet)?;
             let output = output.unwrap_or_else(|| default_output(&args.scene));
+            // Fail before the render, not after it.
+            check_output_path(&output)?;
             let spp = args.spp.unwrap_or(scene.spp);
             anyhow::ensure!(spp > 0, "--spp must be at least 1");
 

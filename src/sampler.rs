@@ -39,9 +39,9 @@ pub fn nested_uniform_scramble(x: u32, seed: u32) -> u32 {
     laine_karras_permutation(x.reverse_bits(), seed).reverse_bits()
 }
 
-/// Second Sobol dimension: generator matrix columns v_k = v_{k−1} ⊕ (v_{k−1} ≫ 1).
-#[inline]
-fn sobol_dim1(mut i: u32) -> u32 {
+/// Second Sobol dimension, bit by bit: generator matrix columns
+/// v_k = v_{k−1} ⊕ (v_{k−1} ≫ 1), v_0 = 2³¹.
+const fn sobol_dim1_slow(mut i: u32) -> u32 {
     let mut v = 1u32 << 31;
     let mut x = 0;
     while i != 0 {
@@ -52,6 +52,27 @@ fn sobol_dim1(mut i: u32) -> u32 {
         v ^= v >> 1;
     }
     x
+}
+
+/// The same, one table lookup per index byte (the map is linear over XOR).
+static SOBOL_DIM1_BYTES: [[u32; 256]; 4] = {
+    let mut t = [[0u32; 256]; 4];
+    let mut b = 0;
+    while b < 4 {
+        let mut v = 0;
+        while v < 256 {
+            t[b][v] = sobol_dim1_slow((v as u32) << (8 * b));
+            v += 1;
+        }
+        b += 1;
+    }
+    t
+};
+
+#[inline]
+fn sobol_dim1(i: u32) -> u32 {
+    let t = &SOBOL_DIM1_BYTES;
+    t[0][(i & 0xff) as usize] ^ t[1][((i >> 8) & 0xff) as usize] ^ t[2][((i >> 16) & 0xff) as usize] ^ t[3][(i >> 24) as usize]
 }
 
 #[inline]
@@ -140,6 +161,14 @@ mod tests {
         let first = s.get_1d();
         // 3499211612 / 2^32 = 0.8147236..., times (1 - 2^-23)
         assert_eq!(first, (3_499_211_612u32 as f32 / 4_294_967_296.0) * (1.0 - f32::EPSILON));
+    }
+
+    #[test]
+    fn sobol_tables_match_the_bitwise_definition() {
+        for k in 0..100_000u32 {
+            let i = hash_u32(k);
+            assert_eq!(sobol_dim1(i), sobol_dim1_slow(i));
+        }
     }
 
     #[test]

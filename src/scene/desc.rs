@@ -282,7 +282,7 @@ fn parse_integrator(p: &Props) -> Result<IntegratorDesc> {
     if !has_list || p.contains("point_light_position") || p.contains("point_light_flux") {
         point_lights.push(PointLightDesc {
             position: p.vec3_or("point_light_position", Vec3::new(0.0, 5.0, 0.0))?,
-            flux: p.vec3_or("point_light_flux", Vec3::ONE)?,
+            flux: non_negative_flux(p, "point_light_flux", p.vec3_or("point_light_flux", Vec3::ONE)?)?,
             key: p.key_path("point_light_position"),
         });
     }
@@ -296,15 +296,10 @@ fn parse_integrator(p: &Props) -> Result<IntegratorDesc> {
         }
         point_lights.push(PointLightDesc {
             position: l.vec3("position")?,
-            flux: l.vec3("flux")?,
+            flux: non_negative_flux(&l, "flux", l.vec3("flux")?)?,
             key: l.path.clone(),
         });
         l.finish();
-    }
-    for l in &point_lights {
-        if l.flux.min_element() < 0.0 {
-            return Err(p.ctx().error(&l.key, "light flux must not be negative"));
-        }
     }
     p.finish();
     Ok(IntegratorDesc {
@@ -313,6 +308,14 @@ fn parse_integrator(p: &Props) -> Result<IntegratorDesc> {
         max_depth,
         point_lights,
     })
+}
+
+/// A point light's flux; the error names the flux key itself.
+fn non_negative_flux(p: &Props, key: &str, flux: Vec3) -> Result<Vec3> {
+    if flux.min_element() < 0.0 {
+        return Err(p.error(key, "light flux must not be negative"));
+    }
+    Ok(flux)
 }
 
 fn parse_film(p: &Props) -> Result<FilmDesc> {

@@ -1,0 +1,428 @@
+//! Broken scenes through the real binary: every one must end with exit status 1 and
+//! a single `error:` line that names the scene file and the offending JSON key,
+//! never a panic. A few near-misses must be accepted (exit 0), some with a warning.
+//!
+//! Adding a case is one line in `cases()`.
+
+use serde_json::{json, Value};
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+/// A small valid scene: a sphere and a one-triangle mesh (`tri.obj`, beside it).
+const BASE: &str = r#"{
+  "integrator": {"type": "intersection_test", "spp": 1},
+  "film": {"resolution": [8, 8], "filter": {"type": "box"}},
+  "camera": {"position": [0, 0, 5], "look_at": [0, 0, 0], "ref_up": [0, 1, 0], "fov": 45},
+  "textures": {"white": {"type": "constant", "color": [0.8, 0.8, 0.8]}},
+  "materials": {"matte": {"type": "diffuse", "texture_name": "white"}},
+  "objects": [
+    {"type": "sphere", "center": [0, 0, 0], "radius": 1, "material_name": "matte"},
+    {"type": "mesh", "path": "tri.obj", "material_name": "matte"}
+  ]
+}
+"#;
+
+const TRI_OBJ: &str = "v -1 -1 0\nv 1 -1 0\nv 0 1 0\nf 1 2 3\n";
+
+type Edit = Box<dyn Fn(&mut Value)>;
+
+/// What the scene file of a case contains.
+enum Scene {
+    /// `BASE` parsed, edited, written back.
+    Json(Edit),
+    /// `BASE` with one text replacement (which must match).
+    Replace(&'static str, &'static str),
+    /// These exact bytes.
+    Raw(Vec<u8>),
+    /// No scene file at all.
+    Missing,
+}
+
+enum Expect {
+    /// Exit 1, one `error:` line containing these (and the scene file name).
+    Error(Vec<&'static str>),
+    /// Exit 0; each string must appear in some `warning:` line.
+    Ok(Vec<&'static str>),
+}
+
+struct Case {
+    name: &'static str,
+    scene: Scene,
+    /// Contents of `<case>.obj`, which `objects[1].path` then points at.
+    obj: Option<&'static str>,
+    args: Vec<String>,
+    /// `-o` value, relative to the temporary folder; default `<case>.exr`.
+    output: Option<&'static str>,
+    expect: Expect,
+}
+
+fn case(name: &'static str, scene: Scene) -> Case {
+    Case {
+        name,
+        scene,
+        obj: None,
+        args: Vec::new(),
+        output: None,
+        expect: Expect::Ok(Vec::new()),
+    }
+}
+fn edit(name: &'static str, f: impl Fn(&mut Value) + 'static) -> Case {
+    case(name, Scene::Json(Box::new(f)))
+}
+fn replace(name: &'static str, from: &'static str, to: &'static str) -> Case {
+    case(name, Scene::Replace(from, to))
+}
+fn raw(name: &'static str, bytes: impl Into<Vec<u8>>) -> Case {
+    case(name, Scene::Raw(bytes.into()))
+}
+/// The base scene as it is (for command-line cases).
+fn unchanged(name: &'static str) -> Case {
+    edit(name, |_| {})
+}
+fn obj(name: &'static str, text: &'static str) -> Case {
+    Case {
+        obj: Some(text),
+        ..unchanged(name)
+    }
+}
+
+impl Case {
+    fn err(self, expect: &[&'static str]) -> Case {
+        Case {
+            expect: Expect::Error(expect.to_vec()),
+            ..self
+        }
+    }
+    fn ok(self, warnings: &[&'static str]) -> Case {
+        Case {
+            expect: Expect::Ok(warnings.to_vec()),
+            ..self
+        }
+    }
+    /// Adds `--override <json>` to the command line.
+    fn with_override(mut self, json: &str) -> Case {
+        self.args.extend(["--override".to_string(), json.to_string()]);
+        self
+    }
+    fn out(self, output: &'static str) -> Case {
+        Case {
+            output: Some(output),
+            ..self
+        }
+    }
+}
+
+fn remove(v: &mut Value, key: &str) {
+    v.as_object_mut().expect("an object").remove(key);
+}
+
+fn cases() -> Vec<Case> {
+    vec![
+        // --- JSON syntax -------------------------------------------------------------
+        replace("missing opening brace", r#""film": {"resolution""#, r#""film": "resolution""#).err(&["invalid JSON", "film"]),
+        replace("missing final brace", "]\n}\n", "]\n").err(&["invalid JSON", "EOF", "objects"]),
+        replace("trailing comma in object", r#""spp": 1}"#, r#""spp": 1,}"#).err(&["trailing comma", "integrator"]),
+        replace("trailing comma in array", "[8, 8]", "[8, 8,]").err(&["trailing comma", "film.resolution"]),
+        replace("NaN literal in vector", "[0, 0, 5]", "[0, NaN, 5]").err(&["invalid JSON", "camera.position[1]"]),
+        replace("Infinity literal", r#""fov": 45"#, r#""fov": Infinity"#).err(&["invalid JSON", "camera.fov"]),
+        raw("empty file", "").err(&["invalid JSON", "EOF"]),
+        raw("not UTF-8", b"{\"film\": \"\xff\xfe\"}".to_vec()).err(&["cannot read scene", "UTF-8"]),
+        raw("nesting too deep", format!("{{\"film\": {}{}}}", "[".repeat(200), "]".repeat(200))).err(&["recursion limit", "film[0][0]"]),
+        raw("root is an array", "[1, 2, 3]").err(&["must be a JSON object", "array"]),
+        case("scene file missing", Scene::Missing).err(&["cannot read scene"]),
+        // --- numbers and types ---------------------------------------------------------
+        replace("number too large for f32", "[0, 0, 5]", "[0, 1e39, 5]").err(&["camera.position[1]", "finite 32-bit"]),
+        edit("f32 overflow in a matrix", |s| {
+            s["objects"][1]["transform"] = json!([1, 0, 0, 0, 0, 1e39, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1])
+        })
+        .err(&["objects[1].transform[5]"]),
+        edit("vector too short", |s| s["camera"]["position"] = json!([0, 5])).err(&["camera.position", "array of 3"]),
+        edit("vector of strings", |s| s["camera"]["look_at"] = json!(["0", "0", "0"])).err(&["camera.look_at[0]", "string"]),
+        edit("spp is a string", |s| s["integrator"]["spp"] = json!("many")).err(&["integrator.spp", "integer"]),
+        edit("spp is fractional", |s| s["integrator"]["spp"] = json!(1.5)).err(&["integrator.spp", "integer"]),
+        edit("spp is zero", |s| s["integrator"]["spp"] = json!(0)).err(&["integrator.spp", "at least 1"]),
+        edit("spp beyond i32", |s| s["integrator"]["spp"] = json!(4294967296u64)).err(&["integrator.spp"]),
+        edit("fov is a string", |s| s["camera"]["fov"] = json!("wide")).err(&["camera.fov", "number"]),
+        edit("fov of 180", |s| s["camera"]["fov"] = json!(180)).err(&["camera.fov"]),
+        edit("fractional resolution", |s| s["film"]["resolution"] = json!([512.5, 512])).err(&["film.resolution[0]", "integer"]),
+        edit("resolution zero", |s| s["film"]["resolution"] = json!([0, 8])).err(&["film.resolution", "positive"]),
+        edit("resolution negative", |s| s["film"]["resolution"] = json!([8, -8])).err(&["film.resolution", "positive"]),
+        edit("resolution too large", |s| s["film"]["resolution"] = json!([100000, 100000])).err(&["film.resolution", "too large"]),
+        edit("resolution one number", |s| s["film"]["resolution"] = json!(8)).err(&["film.resolution", "array of 2"]),
+        edit("twosided is a string", |s| s["materials"]["matte"]["twosided"] = json!("yes")).err(&["materials.matte.twosided"]),
+        edit("block size zero", |s| s["film"]["block_side_length"] = json!(0)).err(&["film.block_side_length"]),
+        edit("filter radius negative", |s| s["film"]["filter"]["radius"] = json!(-1)).err(&["film.filter.radius"]),
+        // --- structure ------------------------------------------------------------------
+        edit("camera section missing", |s| remove(s, "camera")).err(&["camera", "missing"]),
+        edit("camera is a list", |s| s["camera"] = json!([0, 0, 5])).err(&["camera", "expected an object"]),
+        edit("texture color missing", |s| remove(&mut s["textures"]["white"], "color")).err(&["textures.white.color", "missing"]),
+        edit("texture not an object", |s| s["textures"]["white"] = json!(0.5)).err(&["textures.white", "expected an object"]),
+        edit("objects not a list", |s| s["objects"] = json!({})).err(&["objects", "array"]),
+        edit("object not an object", |s| s["objects"][1] = json!("tri.obj")).err(&["objects[1]", "expected an object"]),
+        edit("object type missing", |s| remove(&mut s["objects"][0], "type")).err(&["objects[0].type", "missing"]),
+        edit("no material and no light", |s| remove(&mut s["objects"][0], "material_name")).err(&["objects[0]", "material_name"]),
+        // --- unknown names and types -------------------------------------------------------
+        edit("unknown integrator", |s| s["integrator"]["type"] = json!("magic")).err(&["integrator.type", "magic"]),
+        edit("unknown object type", |s| s["objects"][0]["type"] = json!("cube")).err(&["objects[0].type", "cube"]),
+        edit("unknown filter", |s| s["film"]["filter"]["type"] = json!("lanczos")).err(&["film.filter.type", "lanczos"]),
+        edit("unknown texture type", |s| s["textures"]["white"]["type"] = json!("noise")).err(&["textures.white.type", "noise"]),
+        edit("unknown material type", |s| s["materials"]["matte"]["type"] = json!("velvet")).err(&["materials.matte.type", "velvet"]),
+        edit("unknown material name", |s| s["objects"][1]["material_name"] = json!("nope")).err(&["objects[1].material_name", "nope"]),
+        edit("unknown texture name", |s| s["materials"]["matte"]["texture_name"] = json!("nope"))
+            .err(&["materials.matte.texture_name", "nope"]),
+        edit("unknown environment texture", |s| {
+            s["environment_map"] = json!({"texture_name": "sky"})
+        })
+        .err(&["environment_map.texture_name", "sky"]),
+        edit("unknown light type", |s| {
+            s["integrator"]["lights"] = json!([{"type": "spot", "position": [0, 1, 0], "flux": [1, 1, 1]}])
+        })
+        .err(&["integrator.lights[0].type", "spot"]),
+        edit(
+            "image texture",
+            |s| s["textures"]["white"] = json!({"type": "image", "path": "a.png", "tex_coordinate_generator": {"type": "uvmapping2d"}}),
+        )
+        .err(&["textures.white.path"]),
+        // --- geometry and camera values ----------------------------------------------------
+        edit("look_at equals position", |s| s["camera"]["look_at"] = json!([0, 0, 5])).err(&["camera.look_at", "position"]),
+        edit("ref_up along the view", |s| s["camera"]["ref_up"] = json!([0, 0, 1])).err(&["camera.ref_up"]),
+        edit("singular transform", |s| s["objects"][1]["transform"] = json!(vec![0; 16])).err(&["objects[1].transform", "singular"]),
+        edit("transform of 15 numbers", |s| s["objects"][1]["transform"] = json!(vec![1; 15])).err(&["objects[1].transform", "16"]),
+        edit("negative sphere radius", |s| s["objects"][0]["radius"] = json!(-1)).err(&["objects[0].radius", "positive"]),
+        edit("negative legacy flux", |s| s["integrator"]["point_light_flux"] = json!([1, -1, 1])).err(&["integrator.point_light_flux"]),
+        edit("negative list flux", |s| {
+            s["integrator"]["lights"] = json!([{"type": "point", "position": [0, 1, 0], "flux": [1, -1, 1]}])
+        })
+        .err(&["integrator.lights[0].flux"]),
+        edit("negative area radiance", |s| {
+            s["objects"][0]["light"] = json!({"radiance": [-1, 0, 0]})
+        })
+        .err(&["objects[0].light.radiance"]),
+        // --- meshes ------------------------------------------------------------------------
+        edit("mesh file missing", |s| s["objects"][1]["path"] = json!("missing.obj")).err(&["objects[1].path", "missing.obj"]),
+        edit("mesh path is a folder", |s| s["objects"][1]["path"] = json!(".")).err(&["objects[1].path", "cannot read mesh"]),
+        obj("OBJ face index out of range", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 7\n").err(&["objects[1].path", "line 4", "out of range"]),
+        obj("OBJ face index zero", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 0 1 2\n").err(&["objects[1].path", "line 4", "out of range"]),
+        obj("OBJ bad face index", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 x\n").err(&["objects[1].path", "line 4", "'x'"]),
+        obj("OBJ normal index out of range", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1//1 2//1 3//1\n").err(&["line 4", "normal"]),
+        obj("OBJ non-number", "v 0 0 0\nv 1 zero 0\nv 0 1 0\nf 1 2 3\n").err(&["objects[1].path", "line 2", "'zero'"]),
+        obj("OBJ NaN", "v 0 0 0\nv 1 nan 0\nv 0 1 0\nf 1 2 3\n").err(&["objects[1].path", "line 2", "finite"]),
+        obj("OBJ too few numbers", "v 0 0 0\nv 1 0\nv 0 1 0\nf 1 2 3\n").err(&["objects[1].path", "line 2"]),
+        obj("OBJ no faces", "v 0 0 0\nv 1 0 0\nv 0 1 0\n").err(&["objects[1].path", "no faces"]),
+        obj("OBJ empty", "").err(&["objects[1].path", "no faces"]),
+        obj("OBJ only degenerate", "v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n").err(&["objects[1].path", "degenerate"]),
+        // --- command line ----------------------------------------------------------------
+        unchanged("override not JSON")
+            .with_override("{film:")
+            .err(&["--override", "not valid JSON"]),
+        unchanged("override not an object")
+            .with_override("[1]")
+            .err(&["--override", "object"]),
+        unchanged("override breaks a key")
+            .with_override(r#"{"film": {"resolution": [0, 8]}}"#)
+            .err(&["film.resolution"]),
+        // --- accepted ----------------------------------------------------------------------
+        edit("unknown key warns", |s| s["camera"]["fvo"] = json!(60)).ok(&["camera", "fvo"]),
+        edit("integer matrix", |s| {
+            s["objects"][1]["transform"] = json!([1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1])
+        })
+        .ok(&[]),
+        edit("integral float for an int key", |s| s["integrator"]["spp"] = json!(1.0)).ok(&[]),
+        edit("empty objects list", |s| s["objects"] = json!([])).ok(&[]),
+        obj(
+            "OBJ degenerate and good triangle",
+            "v 0 0 0\nv 1 0 0\nv 2 0 0\nv 0 1 0\nf 1 2 3\nf 1 2 4\n",
+        )
+        .ok(&["degenerate", "line 5"]),
+        obj("OBJ unknown statement warns", "v 0 0 0\nv 1 0 0\nv 0 1 0\nbevel 1\nf 1 2 3\n").ok(&["bevel"]),
+        unchanged("png output").out("png-output.png").ok(&[]),
+        unchanged("upper-case extension").out("upper.EXR").ok(&[]),
+    ]
+}
+
+/// Output-path failures: exit 1, one error line naming the output path.
+const BAD_OUTPUTS: &[&str] = &["out.jpg", "no/such/folder/out.exr", "out"];
+
+struct Run {
+    code: Option<i32>,
+    stderr: String,
+}
+
+fn rdr(args: &[&std::ffi::OsStr]) -> Run {
+    let out = Command::new(env!("CARGO_BIN_EXE_rdr")).args(args).output().expect("cannot run rdr");
+    Run {
+        code: out.status.code(),
+        stderr: String::from_utf8_lossy(&out.stderr).into_owned(),
+    }
+}
+
+/// A fresh, empty folder for this test run.
+fn temp_folder() -> PathBuf {
+    let nanos = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map(|d| d.as_nanos())
+        .unwrap_or(0);
+    let dir = std::env::temp_dir().join(format!("rdr-bad-input-{}-{nanos}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn slug(name: &str) -> String {
+    name.chars()
+        .map(|c| if c.is_ascii_alphanumeric() { c.to_ascii_lowercase() } else { '-' })
+        .collect()
+}
+
+/// The problems with one error run, if any.
+fn check_error(run: &Run, names: &[String], expect: &[&str]) -> Vec<String> {
+    let mut problems = Vec::new();
+    if run.code != Some(1) {
+        problems.push(format!("exit status {:?}, expected 1", run.code));
+    }
+    if run.stderr.contains("panicked") {
+        problems.push("panicked".to_string());
+    }
+    let lines: Vec<&str> = run.stderr.lines().collect();
+    if lines.len() != 1 {
+        problems.push(format!("{} lines on stderr, expected 1", lines.len()));
+    }
+    let Some(line) = lines.first() else { return problems };
+    if !line.starts_with("error:") {
+        problems.push("the line does not start with 'error:'".to_string());
+    }
+    for s in names.iter().map(String::as_str).chain(expect.iter().copied()) {
+        if !line.contains(s) {
+            problems.push(format!("the line does not contain '{s}'"));
+        }
+    }
+    problems
+}
+
+#[test]
+fn broken_scenes_fail_with_one_line_naming_file_and_key() {
+    let dir = temp_folder();
+    std::fs::write(dir.join("tri.obj"), TRI_OBJ).unwrap();
+    let base: Value = serde_json::from_str(BASE).unwrap();
+
+    // The base scene itself must render.
+    let scene = dir.join("base.json");
+    std::fs::write(&scene, BASE).unwrap();
+    let run = rdr(&[
+        "render".as_ref(),
+        scene.as_os_str(),
+        "-o".as_ref(),
+        dir.join("base.exr").as_os_str(),
+    ]);
+    assert!(
+        run.code == Some(0) && !run.stderr.contains("warning") && dir.join("base.exr").is_file(),
+        "the base scene must render cleanly; exit {:?}, stderr:\n{}",
+        run.code,
+        run.stderr
+    );
+
+    let mut failures = Vec::new();
+    let mut names = std::collections::HashSet::new();
+    let cases = cases();
+    for c in &cases {
+        let slug = slug(c.name);
+        assert!(names.insert(slug.clone()), "duplicate case name {}", c.name);
+        let scene = dir.join(format!("{slug}.json"));
+        let mut value = base.clone();
+        if let Some(text) = c.obj {
+            std::fs::write(dir.join(format!("{slug}.obj")), text).unwrap();
+            value["objects"][1]["path"] = json!(format!("{slug}.obj"));
+        }
+        match &c.scene {
+            Scene::Json(f) => {
+                f(&mut value);
+                std::fs::write(&scene, serde_json::to_string_pretty(&value).unwrap()).unwrap();
+            }
+            Scene::Replace(from, to) => {
+                assert!(BASE.contains(from), "case '{}': '{from}' is not in the base scene", c.name);
+                std::fs::write(&scene, BASE.replacen(from, to, 1)).unwrap();
+            }
+            Scene::Raw(bytes) => std::fs::write(&scene, bytes).unwrap(),
+            Scene::Missing => {}
+        }
+        let output = dir.join(c.output.map(str::to_string).unwrap_or(format!("{slug}.exr")));
+        let mut args: Vec<&std::ffi::OsStr> = vec!["render".as_ref(), scene.as_os_str(), "-o".as_ref(), output.as_os_str()];
+        args.extend(c.args.iter().map(std::ffi::OsStr::new));
+        let run = rdr(&args);
+
+        let problems = match &c.expect {
+            Expect::Error(expect) => {
+                // OBJ errors name both the scene and the OBJ file.
+                let files: Vec<String> = std::iter::once(format!("{slug}.json"))
+                    .chain(c.obj.map(|_| format!("{slug}.obj")))
+                    .collect();
+                let mut p = check_error(&run, &files, expect);
+                if output.exists() {
+                    p.push("an image was written".to_string());
+                }
+                p
+            }
+            Expect::Ok(warnings) => {
+                let mut p = Vec::new();
+                if run.code != Some(0) || run.stderr.contains("panicked") || run.stderr.contains("error") {
+                    p.push(format!("exit status {:?} (expected 0), or an error or panic on stderr", run.code));
+                }
+                if !output.is_file() {
+                    p.push("no image written".to_string());
+                }
+                let warning_lines: Vec<&str> = run.stderr.lines().filter(|l| l.starts_with("warning:")).collect();
+                if warnings.is_empty() && !warning_lines.is_empty() {
+                    p.push("unexpected warnings".to_string());
+                }
+                for w in warnings {
+                    // Scene warnings name the scene file, mesh warnings the OBJ file: both carry the slug.
+                    if !warning_lines.iter().any(|l| l.contains(w) && l.contains(&slug)) {
+                        p.push(format!("no warning line names the case's file and contains '{w}'"));
+                    }
+                }
+                p
+            }
+        };
+        if !problems.is_empty() {
+            failures.push(format!(
+                "case '{}': {}\n  stderr: {}",
+                c.name,
+                problems.join("; "),
+                run.stderr.trim_end().replace('\n', "\n          ")
+            ));
+        }
+    }
+
+    // An output path that cannot be written fails before rendering, naming it.
+    let scene = dir.join("base.json");
+    for bad in BAD_OUTPUTS {
+        let output = dir.join(bad);
+        let run = rdr(&["render".as_ref(), scene.as_os_str(), "-o".as_ref(), output.as_os_str()]);
+        let problems = check_error(&run, &[output.display().to_string()], &[]);
+        if !problems.is_empty() {
+            failures.push(format!(
+                "output '{bad}': {}\n  stderr: {}",
+                problems.join("; "),
+                run.stderr.trim_end()
+            ));
+        }
+    }
+
+    assert!(
+        failures.is_empty(),
+        "{} of {} cases failed (their files are kept in {}):\n{}",
+        failures.len(),
+        cases.len() + BAD_OUTPUTS.len(),
+        dir.display(),
+        failures.join("\n")
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn valid_scene_fixture_parses() {
+    // Guards the fixture: if BASE stops being valid, every error case passes for the wrong reason.
+    let v: Value = serde_json::from_str(BASE).unwrap();
+    let desc = rdr::scene::SceneDesc::from_value(&v, Path::new("base.json"), Path::new(".")).unwrap();
+    assert!(desc.warnings.is_empty(), "{:?}", desc.warnings);
+    assert_eq!(desc.objects.len(), 2);
+}

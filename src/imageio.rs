@@ -273,3 +273,61 @@ mod tests {
         assert_eq!(linear_to_srgb8(7.0), 255);
     }
 }
+
+/// sRGB-encoded value in [0, 1] → linear.
+pub fn srgb_to_linear(v: f32) -> f32 {
+    if v <= 0.040_45 {
+        v / 12.92
+    } else {
+        ((v + 0.055) / 1.055).powf(2.4)
+    }
+}
+
+/// Reads a texture or environment image as linear RGB, row 0 = top of the file.
+/// EXR (any compression the `exr` crate reads, DWAA included) and Radiance HDR are
+/// linear already; PNG and JPEG are decoded from sRGB. Alpha is dropped.
+pub fn read_texture_image(path: &Path) -> Result<RgbImage> {
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase)
+        .unwrap_or_default();
+    if ext == "exr" {
+        return read_exr(path);
+    }
+    let reader = image::ImageReader::open(path)
+        .with_context(|| format!("cannot read {}", path.display()))?
+        .with_guessed_format()
+        .with_context(|| format!("cannot read {}", path.display()))?;
+    let format = reader.format();
+    let img = reader.decode().with_context(|| format!("cannot decode {}", path.display()))?;
+    let (width, height) = (img.width() as usize, img.height() as usize);
+    let pixels: Vec<Vec3> = match format {
+        Some(image::ImageFormat::Hdr) => img.into_rgb32f().pixels().map(|p| Vec3::new(p[0], p[1], p[2])).collect(),
+        Some(image::ImageFormat::Png) | Some(image::ImageFormat::Jpeg) => {
+            let lut: Vec<f32> = (0..=255).map(|i| srgb_to_linear(i as f32 / 255.0)).collect();
+            match img {
+                image::DynamicImage::ImageRgb16(_)
+                | image::DynamicImage::ImageRgba16(_)
+                | image::DynamicImage::ImageLuma16(_)
+                | image::DynamicImage::ImageLumaA16(_) => img
+                    .into_rgb32f()
+                    .pixels()
+                    .map(|p| Vec3::new(srgb_to_linear(p[0]), srgb_to_linear(p[1]), srgb_to_linear(p[2])))
+                    .collect(),
+                _ => img
+                    .into_rgb8()
+                    .pixels()
+                    .map(|p| Vec3::new(lut[p[0] as usize], lut[p[1] as usize], lut[p[2] as usize]))
+                    .collect(),
+            }
+        }
+        other => anyhow::bail!(
+            "{}: unsupported image format {:?} (use .exr, .hdr, .png or .jpg)",
+            path.display(),
+            other
+        ),
+    };
+    anyhow::ensure!(width > 0 && height > 0, "{}: image is empty", path.display());
+    Ok(RgbImage { width, height, pixels })
+}

@@ -221,59 +221,6 @@ pub fn read_exr_half_bits(path: &Path) -> Result<(usize, usize, Vec<[u16; 3]>)> 
     Ok((img.width, img.height, bits))
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn tinyexr_rounding_is_half_away_from_zero() {
-        // exactly halfway between two halves: 1 + 2^-11 → rounds up (RTNE would keep 1.0)
-        assert_eq!(f32_to_half_tinyexr(1.0 + 2f32.powi(-11)), 0x3c01);
-        assert_eq!(f32_to_half_tinyexr(1.0), 0x3c00);
-        assert_eq!(f32_to_half_tinyexr(-2.0), 0xc000);
-        assert_eq!(f32_to_half_tinyexr(65504.0), 0x7bff);
-        assert_eq!(f32_to_half_tinyexr(1e6), 0x7c00);
-        assert_eq!(f32_to_half_tinyexr(f32::NAN) & 0x7e00, 0x7e00);
-        assert_eq!(f32_to_half_tinyexr(0.0), 0);
-        // smallest half subnormal 2^-24
-        assert_eq!(f32_to_half_tinyexr(2f32.powi(-24)), 1);
-        // values away from ties agree with IEEE rounding
-        for i in 0..10000 {
-            let x = (i as f32 * 0.731).sin() * 100.0;
-            let h = exr::prelude::f16::from_f32(x);
-            let mid = (h.to_f32() - x).abs() * 2.0 == (h.to_f32() - exr::prelude::f16::from_bits(h.to_bits() ^ 1).to_f32()).abs();
-            if !mid {
-                assert_eq!(f32_to_half_tinyexr(x), h.to_bits(), "{x}");
-            }
-        }
-    }
-
-    #[test]
-    fn exr_round_trip_float_and_half() {
-        let dir = std::env::temp_dir().join(format!("rdr-exr-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        let px: Vec<Vec3> = (0..6).map(|i| Vec3::new(i as f32, 0.5 * i as f32, 0.25)).collect();
-        for (kind, name) in [(ExrPixels::Float, "f.exr"), (ExrPixels::HalfTinyexr, "h.exr")] {
-            let p = dir.join(name);
-            write_exr(&p, 3, 2, &px, kind).unwrap();
-            let img = read_exr(&p).unwrap();
-            assert_eq!((img.width, img.height), (3, 2));
-            assert_eq!(img.pixels, px);
-        }
-        let size = std::fs::metadata(dir.join("h.exr")).unwrap().len();
-        assert_eq!(size, 313 + 2 * 8 + 2 * (8 + 6 * 3));
-        std::fs::remove_dir_all(&dir).ok();
-    }
-
-    #[test]
-    fn srgb_encoding() {
-        assert_eq!(linear_to_srgb8(0.0), 0);
-        assert_eq!(linear_to_srgb8(1.0), 255);
-        assert_eq!(linear_to_srgb8(0.2159), 128);
-        assert_eq!(linear_to_srgb8(7.0), 255);
-    }
-}
-
 /// sRGB-encoded value in [0, 1] → linear.
 pub fn srgb_to_linear(v: f32) -> f32 {
     if v <= 0.040_45 {
@@ -330,4 +277,57 @@ pub fn read_texture_image(path: &Path) -> Result<RgbImage> {
     };
     anyhow::ensure!(width > 0 && height > 0, "{}: image is empty", path.display());
     Ok(RgbImage { width, height, pixels })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn tinyexr_rounding_is_half_away_from_zero() {
+        // exactly halfway between two halves: 1 + 2^-11 → rounds up (RTNE would keep 1.0)
+        assert_eq!(f32_to_half_tinyexr(1.0 + 2f32.powi(-11)), 0x3c01);
+        assert_eq!(f32_to_half_tinyexr(1.0), 0x3c00);
+        assert_eq!(f32_to_half_tinyexr(-2.0), 0xc000);
+        assert_eq!(f32_to_half_tinyexr(65504.0), 0x7bff);
+        assert_eq!(f32_to_half_tinyexr(1e6), 0x7c00);
+        assert_eq!(f32_to_half_tinyexr(f32::NAN) & 0x7e00, 0x7e00);
+        assert_eq!(f32_to_half_tinyexr(0.0), 0);
+        // smallest half subnormal 2^-24
+        assert_eq!(f32_to_half_tinyexr(2f32.powi(-24)), 1);
+        // values away from ties agree with IEEE rounding
+        for i in 0..10000 {
+            let x = (i as f32 * 0.731).sin() * 100.0;
+            let h = exr::prelude::f16::from_f32(x);
+            let mid = (h.to_f32() - x).abs() * 2.0 == (h.to_f32() - exr::prelude::f16::from_bits(h.to_bits() ^ 1).to_f32()).abs();
+            if !mid {
+                assert_eq!(f32_to_half_tinyexr(x), h.to_bits(), "{x}");
+            }
+        }
+    }
+
+    #[test]
+    fn exr_round_trip_float_and_half() {
+        let dir = std::env::temp_dir().join(format!("rdr-exr-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let px: Vec<Vec3> = (0..6).map(|i| Vec3::new(i as f32, 0.5 * i as f32, 0.25)).collect();
+        for (kind, name) in [(ExrPixels::Float, "f.exr"), (ExrPixels::HalfTinyexr, "h.exr")] {
+            let p = dir.join(name);
+            write_exr(&p, 3, 2, &px, kind).unwrap();
+            let img = read_exr(&p).unwrap();
+            assert_eq!((img.width, img.height), (3, 2));
+            assert_eq!(img.pixels, px);
+        }
+        let size = std::fs::metadata(dir.join("h.exr")).unwrap().len();
+        assert_eq!(size, 313 + 2 * 8 + 2 * (8 + 6 * 3));
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
+    #[test]
+    fn srgb_encoding() {
+        assert_eq!(linear_to_srgb8(0.0), 0);
+        assert_eq!(linear_to_srgb8(1.0), 255);
+        assert_eq!(linear_to_srgb8(0.2159), 128);
+        assert_eq!(linear_to_srgb8(7.0), 255);
+    }
 }

@@ -14,6 +14,7 @@ pub mod math;
 pub mod metrics;
 pub mod render;
 pub mod sampler;
+pub mod sampling;
 pub mod scene;
 pub mod texture;
 

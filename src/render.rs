@@ -123,7 +123,7 @@ fn render_tile(
                 let mut sampler = PixelSampler::new(x as u32, y as u32, s, seed);
                 let (u, v) = sampler.next_2d();
                 let pos = Vec2::new(x as f32 + u, y as f32 + v);
-                let l = intersection_test::li(scene, scene.camera.ray(pos.x, pos.y), &mut counts);
+                let l = intersection_test::li(scene, scene.camera.ray(pos.x, pos.y), &mut sampler, &mut counts);
                 tile.add(pos, l, &scene.filter, w, h);
             }
         }

@@ -96,7 +96,8 @@ fn direct(scene: &Scene, it: &Interaction, albedo: Vec3, twosided: bool) -> Vec3
     let n_bsdf = if twosided && it.ns.dot(it.wo) < 0.0 { -it.ns } else { it.ns };
     let mut total = Vec3::ZERO;
     for light in &scene.lights {
-        let Light::Point { position, flux } = light;
+        // the original lights only with its point light; area lights and the environment stay dark
+        let Light::Point { position, flux } = light else { continue };
         let v = *position - it.p;
         let d = v.dot(v).sqrt();
         let l = v / d;

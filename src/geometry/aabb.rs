@@ -66,7 +66,10 @@ impl Aabb {
         }
         let down = |v: Vec3| Vec3::new(v.x.next_down() - 1e-20, v.y.next_down() - 1e-20, v.z.next_down() - 1e-20);
         let up = |v: Vec3| Vec3::new(v.x.next_up() + 1e-20, v.y.next_up() + 1e-20, v.z.next_up() + 1e-20);
-        Aabb { min: down(self.min), max: up(self.max) }
+        Aabb {
+            min: down(self.min),
+            max: up(self.max),
+        }
     }
 
     /// Surface area; 0 for the empty box.
@@ -93,7 +96,8 @@ impl Aabb {
     ///
     /// Inclusive at both ends, so boxes of zero thickness (a wall, a floor) are
     /// hit. `inv_d` should come from [`safe_inverse`]: finite, so no `0·∞` NaN
-    /// arises and a ray lying in a slab's boundary plane counts as inside it. The
+    /// arises. A ray lying exactly in a boundary plane may miss an unpadded box;
+    /// [`Aabb::padded`] boxes (what the BVH stores) contain such rays. The
     /// exit is widened by 2γ(3) against rounding (pbrt-v4). Not meant for the
     /// empty box (a BVH never stores one).
     #[inline]

@@ -87,8 +87,11 @@ pub fn intersect_watertight(o: Vec3, d: Vec3, t_min: f32, t_max: f32, p: &[Vec3;
     let delta_z = gamma(3) * max_zt;
     let max_xt = p0.x.abs().max(p1.x.abs()).max(p2.x.abs());
     let max_yt = p0.y.abs().max(p1.y.abs()).max(p2.y.abs());
-    let delta_x = gamma(5) * (max_xt + max_zt);
-    let delta_y = gamma(5) * (max_yt + max_zt);
+    // The shear errors δx, δy are in world units: use |z| before the 1/d_z scaling
+    // (pbrt-v4 uses the scaled z here, which makes the bound grow with 1/|d|).
+    let max_z = max_zt * dp.z.abs();
+    let delta_x = gamma(5) * (max_xt + max_z);
+    let delta_y = gamma(5) * (max_yt + max_z);
     let delta_e = 2.0 * (gamma(2) * max_xt * max_yt + delta_y * max_xt + delta_x * max_yt);
     let max_e = e0.abs().max(e1.abs()).max(e2.abs());
     let delta_t = 3.0 * (gamma(3) * max_e * max_zt + delta_e * max_zt + delta_z * max_e) * inv_det.abs();

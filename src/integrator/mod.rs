@@ -4,6 +4,7 @@ pub mod intersection_test;
 
 use crate::geometry::ray::RAY_T_MAX;
 use crate::geometry::Ray;
+use crate::light::{LightSample, ShadowTarget};
 use crate::math::{offset_ray_origin, Vec3};
 use crate::scene::Interaction;
 
@@ -15,13 +16,22 @@ pub fn spawn_ray(it: &Interaction, d: Vec3) -> Ray {
     Ray::with_range(offset_ray_origin(it.p, n), d, 0.0, RAY_T_MAX)
 }
 
-/// A shadow ray from a surface towards point `target`, stopping just short of it.
-/// Returns the ray and the distance from the surface point to the target.
+/// A shadow ray from a surface towards a light sample, stopping just short of
+/// the light: both ends are pushed off their surfaces.
 #[inline]
-pub fn spawn_ray_to(it: &Interaction, target: Vec3) -> Ray {
-    let side = if (target - it.p).dot(it.ng) >= 0.0 { it.ng } else { -it.ng };
-    let o = offset_ray_origin(it.p, side);
-    let v = target - o;
-    let dist = v.length();
-    Ray::with_range(o, v / dist, 0.0, dist * (1.0 - 1e-5))
+pub fn shadow_ray(it: &Interaction, ls: &LightSample) -> Ray {
+    match ls.target {
+        ShadowTarget::Infinity => spawn_ray(it, ls.wi),
+        ShadowTarget::Point { p, n } => {
+            let side = if (p - it.p).dot(it.ng) >= 0.0 { it.ng } else { -it.ng };
+            let o = offset_ray_origin(it.p, side);
+            let target = match n {
+                Some(n) => offset_ray_origin(p, if (it.p - p).dot(n) >= 0.0 { n } else { -n }),
+                None => p,
+            };
+            let v = target - o;
+            let dist = v.length();
+            Ray::with_range(o, v / dist, 0.0, dist * (1.0 - 1e-5))
+        }
+    }
 }

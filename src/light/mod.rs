@@ -1,18 +1,130 @@
-//! Lights: a closed family. Point lights for now (area lights and the
-//! environment map are parsed and kept on their objects).
+//! Lights: a closed family. Each can be sampled from a shading point (radiance,
+//! direction, solid-angle pdf) and asked for the pdf of a direction, so
+//! integrators can combine light and BSDF sampling with MIS.
 
-use crate::math::{Vec3, INV_4PI};
+pub mod area;
+pub mod environment;
+
+pub use area::AreaLight;
+pub use environment::EnvironmentLight;
+
+use crate::math::{luminance, Vec2, Vec3, INV_4PI, PI};
+use crate::sampling::Distribution1D;
 
 #[derive(Clone, Debug)]
 pub enum Light {
     /// Isotropic point light of total power `flux` Φ; intensity Φ/4π.
-    Point { position: Vec3, flux: Vec3 },
+    Point {
+        position: Vec3,
+        flux: Vec3,
+    },
+    Area(AreaLight),
+    Environment(EnvironmentLight),
+}
+
+/// Where a shadow ray for a light sample has to go.
+#[derive(Clone, Copy, Debug)]
+pub enum ShadowTarget {
+    /// A point (on a surface with normal `n`, if any).
+    Point { p: Vec3, n: Option<Vec3> },
+    /// Infinitely far in direction `wi`.
+    Infinity,
+}
+
+#[derive(Clone, Copy, Debug)]
+pub struct LightSample {
+    /// Radiance arriving at the shading point (intensity/d² for point lights).
+    pub radiance: Vec3,
+    /// Unit direction from the shading point towards the light.
+    pub wi: Vec3,
+    /// Solid-angle density; 1 for delta lights.
+    pub pdf: f32,
+    pub delta: bool,
+    pub target: ShadowTarget,
+}
+
+/// How lights draw their samples: the light's own importance (area ∝, the
+/// cone of a sphere, the environment's luminance) or uniformly (uniform area
+/// over all triangles alike, over the whole sphere, uniform directions).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum LightSampling {
+    #[default]
+    Importance,
+    Uniform,
 }
 
 impl Light {
-    pub fn intensity(&self) -> Vec3 {
+    pub fn is_delta(&self) -> bool {
+        matches!(self, Light::Point { .. })
+    }
+
+    /// A sample of the light as seen from `p`. `None` when the light cannot
+    /// reach `p` this time (back of a one-sided emitter, zero pdf).
+    pub fn sample(&self, p: Vec3, u: Vec2, mode: LightSampling) -> Option<LightSample> {
         match self {
-            Light::Point { flux, .. } => *flux * INV_4PI,
+            Light::Point { position, flux } => {
+                let v = *position - p;
+                let d2 = v.length_squared();
+                if d2 == 0.0 {
+                    return None;
+                }
+                Some(LightSample {
+                    radiance: *flux * INV_4PI / d2,
+                    wi: v / d2.sqrt(),
+                    pdf: 1.0,
+                    delta: true,
+                    target: ShadowTarget::Point { p: *position, n: None },
+                })
+            }
+            Light::Area(a) => a.sample(p, u, mode),
+            Light::Environment(e) => e.sample(u, mode),
         }
+    }
+
+    /// Solid-angle density with which `sample(p, ..)` would produce direction `wi`
+    /// that reaches the light at `hit` (point and geometric normal on the light;
+    /// `None` for the environment).
+    pub fn pdf(&self, p: Vec3, wi: Vec3, hit: Option<(Vec3, Vec3)>, mode: LightSampling) -> f32 {
+        match self {
+            Light::Point { .. } => 0.0,
+            Light::Area(a) => hit.map_or(0.0, |(q, n)| a.pdf(p, wi, q, n, mode)),
+            Light::Environment(e) => e.pdf(wi, mode),
+        }
+    }
+
+    /// Total emitted power (luminance), for choosing lights in proportion to it.
+    pub fn power(&self, scene_radius: f32) -> f32 {
+        match self {
+            Light::Point { flux, .. } => luminance(*flux),
+            Light::Area(a) => PI * a.area() * luminance(a.radiance),
+            Light::Environment(e) => PI * scene_radius * scene_radius * 4.0 * PI * e.mean_luminance(),
+        }
+    }
+}
+
+/// Picks one light for next-event estimation: in proportion to power, or uniformly.
+#[derive(Clone, Debug)]
+pub struct LightSampler {
+    distribution: Distribution1D,
+}
+
+impl LightSampler {
+    pub fn new(lights: &[Light], scene_radius: f32, mode: LightSampling) -> Self {
+        let weights: Vec<f32> = match mode {
+            LightSampling::Importance => lights.iter().map(|l| l.power(scene_radius).max(0.0)).collect(),
+            LightSampling::Uniform => vec![1.0; lights.len()],
+        };
+        LightSampler {
+            distribution: Distribution1D::new(&weights),
+        }
+    }
+
+    /// A light index, its probability, and `u` re-used.
+    pub fn sample(&self, u: f32) -> (usize, f32, f32) {
+        self.distribution.sample_discrete(u)
+    }
+
+    pub fn pmf(&self, i: usize) -> f32 {
+        self.distribution.pmf(i)
     }
 }

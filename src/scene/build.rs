@@ -9,8 +9,10 @@ use crate::film::Filter;
 use crate::geometry::mesh::Mesh;
 use crate::geometry::sphere::Sphere;
 use crate::geometry::{obj, Aabb};
-use crate::light::Light;
+use crate::light::environment::EnvImage;
+use crate::light::{AreaLight, EnvironmentLight, Light, LightSampler};
 use crate::material::Material;
+use crate::math::Vec3;
 use crate::texture::{Texture, UvMapping};
 use rayon::prelude::*;
 use std::collections::HashMap;
@@ -149,7 +151,16 @@ pub fn build(desc: &SceneDesc, opts: BuildOptions) -> Result<Scene> {
         })
         .collect();
     let mut objects = Vec::with_capacity(desc.objects.len());
-    for (o, shape) in desc.objects.iter().zip(shapes) {
+    let mut lights: Vec<Light> = desc
+        .integrator
+        .point_lights
+        .iter()
+        .map(|l| Light::Point {
+            position: l.position,
+            flux: l.flux,
+        })
+        .collect();
+    for (oi, (o, shape)) in desc.objects.iter().zip(shapes).enumerate() {
         let (shape, w) = shape?;
         warnings.extend(w);
         let material = o
@@ -157,27 +168,45 @@ pub fn build(desc: &SceneDesc, opts: BuildOptions) -> Result<Scene> {
             .as_ref()
             .map(|m| lookup(&material_names, &m.value, "material", desc, &m.key))
             .transpose()?;
-        objects.push(Object {
-            shape,
-            material,
-            emission: o.light.as_ref().map(|l| l.radiance),
+        let light = o.light.as_ref().map(|l| {
+            lights.push(Light::Area(match &shape {
+                Shape::Mesh(m) => AreaLight::mesh(oi as u32, l.radiance, (0..m.triangles.len()).map(|i| m.vertices(i)).collect()),
+                Shape::Sphere(s) => AreaLight::sphere(oi as u32, l.radiance, s.center, s.radius),
+            }));
+            lights.len() as u32 - 1
         });
+        objects.push(Object { shape, material, light });
     }
 
-    if let Some(env) = &desc.environment_map {
-        lookup(&texture_names, &env.texture.value, "texture", desc, &env.texture.key)?;
-        warnings.push(format!(
-            "{}: {}: environment maps are not rendered yet; ignored",
-            desc.file.display(),
-            env.key
-        ));
-    }
-    if objects.iter().any(|o| o.emission.is_some()) {
-        warnings.push(format!(
-            "{}: area lights are not rendered by this version yet; they stay dark",
-            desc.file.display()
-        ));
-    }
+    let environment = match &desc.environment_map {
+        None => None,
+        Some(env) => {
+            let t = lookup(&texture_names, &env.texture.value, "texture", desc, &env.texture.key)?;
+            let image = match &desc.textures[t as usize].kind {
+                TextureKind::Constant { color } => EnvImage::Constant(*color),
+                TextureKind::Image { path, mapping } => {
+                    let full = desc.base_dir.join(&path.value);
+                    let img = crate::imageio::read_texture_image(&full)
+                        .map_err(|e| SceneError::new(&desc.file, Some(&path.key), format!("environment map: {e:#}")))?;
+                    EnvImage::Image {
+                        width: img.width,
+                        height: img.height,
+                        texels: img.pixels,
+                        mapping: UvMapping::new(mapping),
+                    }
+                }
+                TextureKind::Checkerboard { .. } => {
+                    return Err(SceneError::new(
+                        &desc.file,
+                        Some(&env.texture.key),
+                        "an environment map needs an image or constant texture",
+                    ))
+                }
+            };
+            lights.push(Light::Environment(EnvironmentLight::new(image, env.scale, &env.transform)));
+            Some(lights.len() as u32 - 1)
+        }
+    };
 
     let mut prims = Vec::new();
     for (oi, o) in objects.iter().enumerate() {
@@ -197,15 +226,13 @@ pub fn build(desc: &SceneDesc, opts: BuildOptions) -> Result<Scene> {
     let (prims, bvh) = build_bvh(prims);
     let bvh_seconds = bvh_start.elapsed().as_secs_f64();
 
-    let lights = desc
-        .integrator
-        .point_lights
-        .iter()
-        .map(|l| Light::Point {
-            position: l.position,
-            flux: l.flux,
-        })
-        .collect();
+    let bounds = bvh.bounds();
+    let (center, radius) = if bounds.is_empty() {
+        (Vec3::ZERO, 1.0)
+    } else {
+        (bounds.centroid(), (bounds.extent().length() * 0.5).max(1e-3))
+    };
+    let light_sampler = LightSampler::new(&lights, radius, desc.integrator.light_sampling);
     Ok(Scene {
         camera: Camera::new(&desc.camera, desc.film.width, desc.film.height),
         width: desc.film.width,
@@ -218,6 +245,12 @@ pub fn build(desc: &SceneDesc, opts: BuildOptions) -> Result<Scene> {
         materials,
         objects,
         lights,
+        environment,
+        light_sampler,
+        light_sampling: desc.integrator.light_sampling,
+        light_samples: desc.integrator.light_samples,
+        center,
+        radius,
         prims,
         bvh,
         warnings,

@@ -46,6 +46,10 @@ pub enum IntegratorKind {
 ///   the legacy single point light; present when either key is given or when
 ///   there is no `lights` list.
 /// * `lights` — list of `{"type": "point", "position": [..], "flux": [..]}`.
+/// * `light_samples` (int, 1) — samples per area light and environment at each
+///   shading point, per pixel sample; point lights need one shadow ray each.
+/// * `light_sampling` (`"importance"` | `"uniform"`, `"importance"`) — lights drawn
+///   by their own importance and chosen by power, or uniformly (for comparisons).
 ///
 /// ```json
 /// {"type": "intersection_test", "spp": 32, "max_depth": 16,
@@ -57,6 +61,8 @@ pub struct IntegratorDesc {
     pub spp: u32,
     pub max_depth: u32,
     pub point_lights: Vec<PointLightDesc>,
+    pub light_samples: u32,
+    pub light_sampling: crate::light::LightSampling,
 }
 
 /// A point light of total power `flux` Φ (radiant intensity Φ/4π).
@@ -301,8 +307,21 @@ fn parse_integrator(p: &Props) -> Result<IntegratorDesc> {
         });
         l.finish();
     }
+    let light_samples = p.int_at_least("light_samples", 1, 1)?;
+    let light_sampling = match p.string_or("light_sampling", "importance")?.as_str() {
+        "importance" => crate::light::LightSampling::Importance,
+        "uniform" => crate::light::LightSampling::Uniform,
+        other => {
+            return Err(p.error(
+                "light_sampling",
+                format!("unknown light sampling '{other}' (available: importance, uniform)"),
+            ))
+        }
+    };
     p.finish();
     Ok(IntegratorDesc {
+        light_samples,
+        light_sampling,
         kind,
         spp,
         max_depth,

@@ -31,8 +31,8 @@ pub enum Shape {
 pub struct Object {
     pub shape: Shape,
     pub material: Option<u32>,
-    /// Radiance of an area light on this object (one-sided).
-    pub emission: Option<Vec3>,
+    /// Index into `Scene::lights` of the area light on this object.
+    pub light: Option<u32>,
 }
 
 /// A primitive as the BVH's leaves hold it.
@@ -86,6 +86,14 @@ pub struct Scene {
     pub materials: Vec<Material>,
     pub objects: Vec<Object>,
     pub lights: Vec<Light>,
+    /// Index of the environment light in `lights`.
+    pub environment: Option<u32>,
+    pub light_sampler: crate::light::LightSampler,
+    pub light_sampling: crate::light::LightSampling,
+    pub light_samples: u32,
+    /// Bounding sphere of the geometry.
+    pub center: Vec3,
+    pub radius: f32,
     /// Primitives in BVH leaf order (`bvh.order` is the identity).
     pub prims: Vec<Prim>,
     pub bvh: Bvh,
@@ -182,6 +190,23 @@ impl Scene {
                     object: *object,
                 }
             }
+        }
+    }
+
+    /// The area light on the surface of `it`, if any.
+    pub fn area_light_of(&self, it: &Interaction) -> Option<(u32, &crate::light::AreaLight)> {
+        let i = self.objects[it.object as usize].light?;
+        match &self.lights[i as usize] {
+            Light::Area(a) => Some((i, a)),
+            _ => None,
+        }
+    }
+
+    /// Radiance arriving from the environment along direction `w` (0 without one).
+    pub fn environment_radiance(&self, w: Vec3) -> Vec3 {
+        match self.environment.map(|i| &self.lights[i as usize]) {
+            Some(Light::Environment(e)) => e.radiance(w),
+            _ => Vec3::ZERO,
         }
     }
 

@@ -1,0 +1,230 @@
+//! Environment map (infinite area light, spec §12) with importance sampling.
+//!
+//! Direction ω (from the scene towards the sky) → `ℓ = normalize(T⁻¹ω)` with
+//! `T = transform · C`, `C(x, y, z) = (y, z, −x)`; `u = atan2(ℓy, ℓx)/2π`,
+//! `v = acos(ℓz)/π`. With the identity transform +y is v = 0 (the top row) and
+//! −z is u = 0, as in Mitsuba. Texels are looked up as Mitsuba does (refs README,
+//! convention 10): `x = u·W − ½` wrapping, `y = v·(H − 1)`, bilinear.
+
+use super::{LightSample, LightSampling, ShadowTarget};
+use crate::math::{luminance, Mat4, Vec2, Vec3, PI};
+use crate::sampling::{uniform_sphere, Distribution2D};
+use crate::texture::UvMapping;
+use glam::Mat3;
+
+/// The picture of the sky: an image with its `uvmapping2d`, or one colour.
+#[derive(Clone, Debug)]
+pub enum EnvImage {
+    Constant(Vec3),
+    Image {
+        width: usize,
+        height: usize,
+        texels: Vec<Vec3>,
+        mapping: UvMapping,
+    },
+}
+
+#[derive(Clone, Debug)]
+pub struct EnvironmentLight {
+    image: EnvImage,
+    scale: f32,
+    to_world: Mat3,
+    to_local: Mat3,
+    distribution: Distribution2D,
+    mean_luminance: f32,
+}
+
+/// Resolution of the sampling grid for a constant environment (only sinθ varies).
+const CONSTANT_GRID: (usize, usize) = (8, 64);
+
+impl EnvironmentLight {
+    /// Negative texels are clamped to zero (lossy EXR compression leaves some).
+    pub fn new(mut image: EnvImage, scale: f32, transform: &Mat4) -> Self {
+        if let EnvImage::Image { texels, .. } = &mut image {
+            for t in texels.iter_mut() {
+                *t = t.max(Vec3::ZERO);
+                if !t.is_finite() {
+                    *t = Vec3::ZERO;
+                }
+            }
+        }
+        let c = Mat3::from_cols(Vec3::new(0.0, 0.0, -1.0), Vec3::new(1.0, 0.0, 0.0), Vec3::new(0.0, 1.0, 0.0));
+        let to_world = Mat3::from_mat4(*transform) * c;
+        let to_local = to_world.inverse();
+        let mut light = EnvironmentLight {
+            image,
+            scale,
+            to_world,
+            to_local,
+            distribution: Distribution2D::new(&[1.0], 1, 1),
+            mean_luminance: 0.0,
+        };
+        let (nu, nv) = match &light.image {
+            EnvImage::Constant(_) => CONSTANT_GRID,
+            EnvImage::Image { width, height, .. } => (*width, *height),
+        };
+        // Each cell's weight bounds the bilinear radiance over it (max of corners and
+        // centre), times sinθ, so the pdf is positive wherever the radiance is.
+        let mut weights = vec![0.0f32; nu * nv];
+        let mut lum_sum = 0.0f64;
+        let mut solid_angle = 0.0f64;
+        for j in 0..nv {
+            let (v0, v1) = (j as f32 / nv as f32, (j + 1) as f32 / nv as f32);
+            let sin_theta = (PI * (j as f32 + 0.5) / nv as f32).sin();
+            for i in 0..nu {
+                let (u0, u1) = (i as f32 / nu as f32, (i + 1) as f32 / nu as f32);
+                let pts = [(u0, v0), (u1, v0), (u0, v1), (u1, v1), ((u0 + u1) / 2.0, (v0 + v1) / 2.0)];
+                let lum = pts
+                    .iter()
+                    .map(|&(u, v)| luminance(light.lookup(Vec2::new(u, v))))
+                    .fold(0.0f32, f32::max);
+                weights[j * nu + i] = lum * sin_theta;
+                lum_sum += (luminance(light.lookup(Vec2::new((u0 + u1) / 2.0, (v0 + v1) / 2.0))) * sin_theta) as f64;
+                solid_angle += sin_theta as f64;
+            }
+        }
+        light.mean_luminance = (lum_sum / solid_angle.max(1e-30)) as f32;
+        light.distribution = Distribution2D::new(&weights, nu, nv);
+        light
+    }
+
+    pub fn mean_luminance(&self) -> f32 {
+        self.mean_luminance
+    }
+
+    /// Texture coordinates of world direction `w` (towards the sky).
+    pub fn direction_to_uv(&self, w: Vec3) -> Vec2 {
+        let l = (self.to_local * w).normalize();
+        let mut phi = l.y.atan2(l.x);
+        if phi < 0.0 {
+            phi += 2.0 * PI;
+        }
+        Vec2::new(phi / (2.0 * PI), l.z.clamp(-1.0, 1.0).acos() / PI)
+    }
+
+    /// World direction of `uv`, and sinθ there.
+    pub fn uv_to_direction(&self, uv: Vec2) -> (Vec3, f32) {
+        let (theta, phi) = (uv.y * PI, uv.x * 2.0 * PI);
+        let (st, ct) = theta.sin_cos();
+        let l = Vec3::new(st * phi.cos(), st * phi.sin(), ct);
+        ((self.to_world * l).normalize(), st)
+    }
+
+    /// Unscaled radiance at texture coordinates `uv`.
+    fn lookup(&self, uv: Vec2) -> Vec3 {
+        match &self.image {
+            EnvImage::Constant(c) => *c,
+            EnvImage::Image {
+                width,
+                height,
+                texels,
+                mapping,
+            } => {
+                let st = mapping.map(uv);
+                let (w, h) = (*width as i64, *height as i64);
+                let x = st.x * w as f32 - 0.5;
+                let y = (st.y * (h - 1) as f32).clamp(0.0, (h - 1) as f32);
+                let (x0, y0) = (x.floor(), y.floor());
+                let (fx, fy) = (x - x0, y - y0);
+                let xi = |k: i64| k.rem_euclid(w) as usize;
+                let yi = |k: i64| k.clamp(0, h - 1) as usize;
+                let (x0, y0) = (x0 as i64, y0 as i64);
+                let t = |xx: usize, yy: usize| texels[yy * *width + xx];
+                let top = t(xi(x0), yi(y0)) * (1.0 - fx) + t(xi(x0 + 1), yi(y0)) * fx;
+                let bottom = t(xi(x0), yi(y0 + 1)) * (1.0 - fx) + t(xi(x0 + 1), yi(y0 + 1)) * fx;
+                top * (1.0 - fy) + bottom * fy
+            }
+        }
+    }
+
+    /// Radiance arriving from direction `w` (towards the sky).
+    pub fn radiance(&self, w: Vec3) -> Vec3 {
+        self.lookup(self.direction_to_uv(w)) * self.scale
+    }
+
+    pub fn sample(&self, u: Vec2, mode: LightSampling) -> Option<LightSample> {
+        let (wi, pdf) = match mode {
+            LightSampling::Uniform => (uniform_sphere(u), 1.0 / (4.0 * PI)),
+            LightSampling::Importance => {
+                let (uv, pdf_uv) = self.distribution.sample(u);
+                let (wi, sin_theta) = self.uv_to_direction(uv);
+                if sin_theta <= 0.0 || pdf_uv <= 0.0 {
+                    return None;
+                }
+                (wi, pdf_uv / (2.0 * PI * PI * sin_theta))
+            }
+        };
+        Some(LightSample {
+            radiance: self.radiance(wi),
+            wi,
+            pdf,
+            delta: false,
+            target: ShadowTarget::Infinity,
+        })
+    }
+
+    pub fn pdf(&self, wi: Vec3, mode: LightSampling) -> f32 {
+        match mode {
+            LightSampling::Uniform => 1.0 / (4.0 * PI),
+            LightSampling::Importance => {
+                let uv = self.direction_to_uv(wi);
+                let sin_theta = (uv.y * PI).sin();
+                if sin_theta <= 0.0 {
+                    return 0.0;
+                }
+                self.distribution.pdf(uv) / (2.0 * PI * PI * sin_theta)
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn identity_mapping_matches_the_spec_examples() {
+        let e = EnvironmentLight::new(EnvImage::Constant(Vec3::ONE), 1.0, &Mat4::IDENTITY);
+        let uv = |w: Vec3| e.direction_to_uv(w);
+        assert!(uv(Vec3::Y).y.abs() < 1e-6, "+y is the top row");
+        assert!((uv(-Vec3::Y).y - 1.0).abs() < 1e-6);
+        for (w, u) in [(-Vec3::Z, 0.0), (Vec3::X, 0.25), (Vec3::Z, 0.5), (-Vec3::X, 0.75)] {
+            let got = uv(w).x;
+            assert!(
+                (got - u).abs() < 1e-6 || (u == 0.0 && (got - 1.0).abs() < 1e-6),
+                "{w}: u = {got}, want {u}"
+            );
+        }
+        for k in 0..50 {
+            let w = uniform_sphere(Vec2::new((k as f32 + 0.3) / 50.0, (k as f32 * 0.618).fract()));
+            let (back, _) = e.uv_to_direction(e.direction_to_uv(w));
+            assert!((back - w).length() < 1e-4, "{w} -> {back}");
+        }
+    }
+
+    #[test]
+    fn texel_rows_sit_at_v_equals_j_over_h_minus_1() {
+        // a 4×3 ramp: G = row index; at v = j/(H−1) the lookup returns exactly row j
+        let texels = (0..12).map(|k| Vec3::new((k % 4) as f32, (k / 4) as f32, 0.0)).collect();
+        let e = EnvironmentLight::new(
+            EnvImage::Image {
+                width: 4,
+                height: 3,
+                texels,
+                mapping: UvMapping {
+                    scale: Vec2::ONE,
+                    delta: Vec2::ZERO,
+                },
+            },
+            1.0,
+            &Mat4::IDENTITY,
+        );
+        for j in 0..3 {
+            assert!((e.lookup(Vec2::new(0.375, j as f32 / 2.0)).y - j as f32).abs() < 1e-6);
+        }
+        // texel i is centred at u = (i + ½)/W
+        assert!((e.lookup(Vec2::new(0.375, 0.0)).x - 1.0).abs() < 1e-6);
+        // wrapping across u = 0 blends the last and first columns
+        assert!((e.lookup(Vec2::new(0.0, 0.0)).x - 1.5).abs() < 1e-6);
+    }
+}

@@ -1,0 +1,419 @@
+//! Chi-square goodness-of-fit tests: each sampling routine's directions against
+//! the pdf it reports (the Mitsuba approach: bins of equal solid angle in
+//! (cos θ, φ), expected counts by integrating the pdf over each bin).
+
+mod common;
+use rdr::light::area::AreaLight;
+use rdr::light::environment::{EnvImage, EnvironmentLight};
+use rdr::light::LightSampling;
+use rdr::math::{Frame, Mat4, Vec2, Vec3, PI};
+use rdr::sampling::{cosine_hemisphere, uniform_sphere};
+use rdr::texture::UvMapping;
+
+/// splitmix64-based uniform numbers (independent of the renderer's samplers).
+struct Rng(u64);
+impl Rng {
+    fn next(&mut self) -> f32 {
+        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+        z ^= z >> 31;
+        (z >> 40) as f32 / (1u64 << 24) as f32
+    }
+    fn next2(&mut self) -> Vec2 {
+        Vec2::new(self.next(), self.next())
+    }
+}
+
+const N_COS: usize = 40;
+const N_PHI: usize = 80;
+
+fn bin_of(frame: &Frame, w: Vec3) -> usize {
+    bin_in_cap(frame, w, -1.0).unwrap_or(0)
+}
+
+/// Bin of `w` when the (cos θ) bins cover only `[cos_min, 1]`.
+fn bin_in_cap(frame: &Frame, w: Vec3, cos_min: f32) -> Option<usize> {
+    let l = frame.to_local(w);
+    let t = (l.z.clamp(-1.0, 1.0) - cos_min) / (1.0 - cos_min);
+    if t < 0.0 {
+        return None;
+    }
+    let c = (t * N_COS as f32).min(N_COS as f32 - 1.0) as usize;
+    let mut phi = l.y.atan2(l.x);
+    if phi < 0.0 {
+        phi += 2.0 * PI;
+    }
+    let p = (phi / (2.0 * PI) * N_PHI as f32).min(N_PHI as f32 - 1.0) as usize;
+    Some(c * N_PHI + p)
+}
+
+/// χ² test of `n` samples against bin probabilities `mass[b]` (which may sum to
+/// less than 1 when sampling can fail).
+fn chi2_bins(name: &str, n: usize, observed: &[f64], mass: &[f64]) {
+    let expected: Vec<f64> = mass.iter().map(|m| m * n as f64).collect();
+    // pool bins with small expectations
+    let (mut stat, mut dof, mut pool_o, mut pool_e) = (0.0f64, 0usize, 0.0f64, 0.0f64);
+    for (o, e) in observed.iter().zip(&expected) {
+        if *e < 5.0 {
+            pool_o += o;
+            pool_e += e;
+        } else {
+            stat += (o - e) * (o - e) / e;
+            dof += 1;
+        }
+    }
+    if pool_e > 0.0 {
+        stat += (pool_o - pool_e) * (pool_o - pool_e) / pool_e;
+        dof += 1;
+    } else {
+        // bins the quadrature saw no support in; only a sliver along an edge may fall there
+        assert!(pool_o <= 1e-4 * n as f64, "{name}: {pool_o} samples where the pdf is zero");
+    }
+    let total_e: f64 = expected.iter().sum();
+    let total_o: f64 = observed.iter().sum();
+    assert!(
+        (total_e - total_o).abs() < 5.0 * total_e.sqrt() + 0.002 * n as f64,
+        "{name}: the pdf integrates to {total_e:.0} of the {total_o} samples drawn"
+    );
+    let k = (dof - 1) as f64;
+    let z = ((stat / k).cbrt() - (1.0 - 2.0 / (9.0 * k))) / (2.0 / (9.0 * k)).sqrt();
+    eprintln!("{name}: χ² = {stat:.1} with {} dof, z = {z:.2}", dof - 1);
+    // p ≈ 1e-4 one-sided: a correct sampler fails this about once in 10,000 runs
+    assert!(
+        z < 3.72,
+        "{name}: samples do not follow the pdf (χ² = {stat:.1}, dof {}, z = {z:.2})",
+        dof - 1
+    );
+}
+
+/// Directions binned by (cos θ, φ) about `frame.n`; bin masses by a 16×16
+/// midpoint rule of the pdf.
+fn chi2(name: &str, n: usize, frame: Frame, sample: impl FnMut(Vec2) -> Option<Vec3>, pdf: impl Fn(Vec3) -> f32) {
+    chi2_cap(name, n, frame, -1.0, sample, pdf)
+}
+
+/// As [`chi2`] with the bins covering only the cap `cos θ ≥ cos_min` (a sample
+/// outside it counts in an extra bin of zero expectation).
+fn chi2_cap(name: &str, n: usize, frame: Frame, cos_min: f32, mut sample: impl FnMut(Vec2) -> Option<Vec3>, pdf: impl Fn(Vec3) -> f32) {
+    let mut rng = Rng(0x1234_5678 ^ name.len() as u64);
+    let mut observed = vec![0.0f64; N_COS * N_PHI + 1];
+    for _ in 0..n {
+        if let Some(w) = sample(rng.next2()) {
+            observed[bin_in_cap(&frame, w, cos_min).unwrap_or(N_COS * N_PHI)] += 1.0;
+        }
+    }
+    let k = 16;
+    let span = 1.0 - cos_min as f64;
+    let d_area = (span / N_COS as f64) * (2.0 * std::f64::consts::PI / N_PHI as f64) / (k * k) as f64;
+    let mut mass = vec![0.0f64; N_COS * N_PHI + 1];
+    for c in 0..N_COS {
+        for p in 0..N_PHI {
+            let mut acc = 0.0f64;
+            for i in 0..k {
+                for j in 0..k {
+                    let cos = cos_min as f64 + span * (c as f64 + (i as f64 + 0.5) / k as f64) / N_COS as f64;
+                    let phi = 2.0 * std::f64::consts::PI * (p as f64 + (j as f64 + 0.5) / k as f64) / N_PHI as f64;
+                    let s = (1.0 - cos * cos).max(0.0).sqrt();
+                    let local = Vec3::new((s * phi.cos()) as f32, (s * phi.sin()) as f32, cos as f32);
+                    acc += pdf(frame.to_world(local)) as f64 * d_area;
+                }
+            }
+            mass[c * N_PHI + p] = acc;
+        }
+    }
+    chi2_bins(name, n, &observed, &mass);
+}
+
+/// Environment directions binned on the map's own (u, v) grid (`nu × nv` bins
+/// aligned with its cells), where pdf(ω)·2π² sin θ is piecewise constant, so the
+/// bin masses from a midpoint rule are exact.
+fn chi2_env(name: &str, n: usize, env: &EnvironmentLight, nu: usize, nv: usize, mode: LightSampling) {
+    let mut rng = Rng(0x9876_5432 ^ name.len() as u64);
+    let mut observed = vec![0.0f64; nu * nv];
+    for _ in 0..n {
+        if let Some(s) = env.sample(rng.next2(), mode) {
+            let uv = env.direction_to_uv(s.wi);
+            let (i, j) = (((uv.x * nu as f32) as usize).min(nu - 1), ((uv.y * nv as f32) as usize).min(nv - 1));
+            observed[j * nu + i] += 1.0;
+        }
+    }
+    let k = 4;
+    let mut mass = vec![0.0f64; nu * nv];
+    for j in 0..nv {
+        for i in 0..nu {
+            let mut acc = 0.0f64;
+            for a in 0..k {
+                for b in 0..k {
+                    let uv = Vec2::new(
+                        (i as f32 + (a as f32 + 0.5) / k as f32) / nu as f32,
+                        (j as f32 + (b as f32 + 0.5) / k as f32) / nv as f32,
+                    );
+                    let (w, sin_theta) = env.uv_to_direction(uv);
+                    acc += (env.pdf(w, mode) * 2.0 * PI * PI * sin_theta) as f64 / (nu * nv * k * k) as f64;
+                }
+            }
+            mass[j * nu + i] = acc;
+        }
+    }
+    chi2_bins(name, n, &observed, &mass);
+}
+
+#[test]
+fn warps_match_their_densities() {
+    chi2(
+        "cosine hemisphere",
+        400_000,
+        Frame::from_normal(Vec3::Z),
+        |u| Some(cosine_hemisphere(u)),
+        |w| w.z.max(0.0) / PI,
+    );
+    chi2(
+        "uniform sphere",
+        400_000,
+        Frame::from_normal(Vec3::Z),
+        |u| Some(uniform_sphere(u)),
+        |_| 1.0 / (4.0 * PI),
+    );
+}
+
+/// A synthetic sky: a bright sun, a gradient, a dark band and a black corner.
+fn synthetic_env(transform: Mat4) -> EnvironmentLight {
+    let (w, h) = (64, 32);
+    let texels = (0..w * h)
+        .map(|k| {
+            let (x, y) = ((k % w) as f32, (k / w) as f32);
+            let sun = if (x - 40.0).abs() < 2.0 && (y - 9.0).abs() < 2.0 {
+                200.0
+            } else {
+                0.0
+            };
+            let dark = if (12..16).contains(&(k / w)) || (x < 8.0 && y > 24.0) {
+                0.0
+            } else {
+                1.0
+            };
+            Vec3::new(sun + dark * (0.2 + x / 64.0), sun + dark * 0.5, dark * (1.0 - y / 32.0) + sun)
+        })
+        .collect();
+    EnvironmentLight::new(
+        EnvImage::Image {
+            width: w,
+            height: h,
+            texels,
+            mapping: UvMapping {
+                scale: Vec2::ONE,
+                delta: Vec2::ZERO,
+            },
+        },
+        1.0,
+        &transform,
+    )
+}
+
+#[test]
+fn environment_importance_sampling_matches_its_pdf() {
+    let frame = Frame::from_normal(Vec3::Y);
+    for (name, env) in [
+        ("env identity", synthetic_env(Mat4::IDENTITY)),
+        (
+            "env rotated",
+            synthetic_env(Mat4::from_rotation_z(0.7) * Mat4::from_rotation_y(1.1)),
+        ),
+    ] {
+        chi2_env(name, 1_000_000, &env, 64, 32, LightSampling::Importance);
+        chi2(
+            &format!("{name} uniform"),
+            200_000,
+            frame,
+            |u| env.sample(u, LightSampling::Uniform).map(|s| s.wi),
+            |w| env.pdf(w, LightSampling::Uniform),
+        );
+        // the same samples seen through (cos θ, φ) bins: the pdf is right as a density over directions
+        chi2(
+            &format!("{name} directions"),
+            1_000_000,
+            frame,
+            |u| env.sample(u, LightSampling::Importance).map(|s| s.wi),
+            |w| env.pdf(w, LightSampling::Importance),
+        );
+    }
+}
+
+#[test]
+fn real_sky_importance_sampling_matches_its_pdf() {
+    let Some(shared) = common::shared() else { return };
+    let img = rdr::imageio::read_texture_image(&shared.join("envmaps/industrial_sunset_puresky_1k.hdr")).unwrap();
+    let env = EnvironmentLight::new(
+        EnvImage::Image {
+            width: img.width,
+            height: img.height,
+            texels: img.pixels,
+            mapping: UvMapping {
+                scale: Vec2::ONE,
+                delta: Vec2::ZERO,
+            },
+        },
+        1.0,
+        &Mat4::IDENTITY,
+    );
+    // bins of 4×4 texels
+    chi2_env("industrial sunset", 2_000_000, &env, 256, 128, LightSampling::Importance);
+}
+
+/// Bin masses of an area-sampled light computed in the area domain: the pdf of
+/// a direction is p_A·d²/cos, which blows up at the silhouette where a midpoint
+/// rule over directions cannot follow it; over the area it is just p_A.
+fn area_domain_mass(frame: &Frame, p: Vec3, points: impl Iterator<Item = (Vec3, Vec3, f32)>) -> Vec<f64> {
+    let mut mass = vec![0.0f64; N_COS * N_PHI];
+    for (q, n, weight) in points {
+        let w = (q - p).normalize();
+        if n.dot(-w) > 0.0 {
+            mass[bin_of(frame, w)] += weight as f64;
+        }
+    }
+    mass
+}
+
+#[test]
+fn sphere_light_uniform_area_sampling_matches_its_pdf() {
+    // uniform area sampling: the visible cap's bins get (area in bin)/(sphere area);
+    // areas from a fine (cos θ, φ) grid over the sphere, each cell weighted by its area
+    let (p, center, radius) = (Vec3::new(0.3, -0.2, 0.1), Vec3::new(0.5, 1.0, 0.2), 0.8f32);
+    let light = AreaLight::sphere(0, Vec3::ONE, center, radius);
+    let frame = Frame::from_normal((center - p).normalize());
+    let m = 1200;
+    let cells = (0..m * 2 * m).map(|k| {
+        let (i, j) = (k / (2 * m), k % (2 * m));
+        let z = -1.0 + 2.0 * (i as f32 + 0.5) / m as f32;
+        let phi = PI * (j as f32 + 0.5) / m as f32;
+        let s = (1.0 - z * z).sqrt();
+        let n = Vec3::new(s * phi.cos(), s * phi.sin(), z);
+        (center + n * radius, n, 1.0 / (2 * m * m) as f32)
+    });
+    let mass = area_domain_mass(&frame, p, cells);
+    let mut rng = Rng(77);
+    let n = 400_000;
+    let mut observed = vec![0.0f64; N_COS * N_PHI];
+    for _ in 0..n {
+        if let Some(s) = light.sample(p, rng.next2(), LightSampling::Uniform) {
+            observed[bin_of(&frame, s.wi)] += 1.0;
+        }
+    }
+    chi2_bins("sphere uniform area", n, &observed, &mass);
+}
+
+#[test]
+fn sphere_light_sampling_matches_its_pdf() {
+    let p = Vec3::new(0.3, -0.2, 0.1);
+    for (name, center, radius) in [
+        ("sphere near", Vec3::new(0.5, 1.0, 0.2), 0.8),
+        ("sphere far", Vec3::new(-3.0, 2.0, 6.0), 0.5),
+        ("sphere tiny", Vec3::new(0.0, 0.0, 30.0), 0.3),
+    ] {
+        let light = AreaLight::sphere(0, Vec3::ONE, center, radius);
+        let frame = Frame::from_normal((center - p).normalize());
+        // (uniform area sampling of spheres: see sphere_light_uniform_area_sampling_matches_its_pdf)
+        for mode in [LightSampling::Importance] {
+            let hit = |w: Vec3| -> Option<(Vec3, Vec3)> {
+                let s = rdr::geometry::sphere::Sphere { center, radius };
+                let t = s.intersect(p, w, 0.0, f32::INFINITY)?;
+                let (q, n) = s.project(p + w * t);
+                Some((q, n))
+            };
+            // bins over the cone the sphere subtends (widened a little)
+            let sin2_max = radius * radius / (center - p).length_squared();
+            let cos_min = (1.0 - 1.05 * sin2_max).max(-1.0).sqrt();
+            chi2_cap(
+                &format!("{name} {mode:?}"),
+                400_000,
+                frame,
+                cos_min,
+                |u| light.sample(p, u, mode).map(|s| s.wi),
+                |w| hit(w).map_or(0.0, |(q, n)| light.pdf(p, w, q, n, mode)),
+            );
+        }
+    }
+}
+
+#[test]
+fn triangle_mesh_light_sampling_matches_its_pdf() {
+    // four triangles of different sizes around the point; two face away from it
+    let tris = vec![
+        [Vec3::new(-1.0, 1.0, -1.0), Vec3::new(1.0, 1.0, -1.0), Vec3::new(0.0, 1.0, 1.5)],
+        [Vec3::new(2.0, -0.5, 0.0), Vec3::new(2.0, 0.5, 0.0), Vec3::new(2.0, 0.0, 0.3)],
+        [Vec3::new(-2.0, -1.0, -1.0), Vec3::new(-2.0, -1.0, 1.0), Vec3::new(-2.0, 0.5, 0.0)],
+        [Vec3::new(0.0, -3.0, 0.0), Vec3::new(0.5, -3.0, 1.0), Vec3::new(1.0, -3.0, 0.0)],
+    ];
+    let p = Vec3::ZERO;
+    let light = AreaLight::mesh(0, Vec3::ONE, tris.clone());
+    let area = |t: &[Vec3; 3]| 0.5 * (t[1] - t[0]).cross(t[2] - t[0]).length();
+    let total: f32 = tris.iter().map(area).sum();
+    let frame = Frame::from_normal(Vec3::Y);
+    for mode in [LightSampling::Importance, LightSampling::Uniform] {
+        // expected bin masses over the area: each triangle cut into m² small ones
+        let m = 300;
+        let mut cells = Vec::new();
+        for t in &tris {
+            let p_area = match mode {
+                LightSampling::Importance => 1.0 / total,
+                LightSampling::Uniform => 1.0 / (tris.len() as f32 * area(t)),
+            };
+            let n = (t[1] - t[0]).cross(t[2] - t[0]).normalize();
+            let cell = area(t) / (m * m) as f32;
+            let (e1, e2) = ((t[1] - t[0]) / m as f32, (t[2] - t[0]) / m as f32);
+            for i in 0..m {
+                for j in 0..m - i {
+                    let base = t[0] + e1 * i as f32 + e2 * j as f32;
+                    cells.push((base + (e1 + e2) / 3.0, n, p_area * cell));
+                    if i + j + 1 < m {
+                        cells.push((base + (e1 + e2) * (2.0 / 3.0), n, p_area * cell));
+                    }
+                }
+            }
+        }
+        let mass = area_domain_mass(&frame, p, cells.into_iter());
+        let mut rng = Rng(5 + mode as u64);
+        let n = 600_000;
+        let mut observed = vec![0.0f64; N_COS * N_PHI];
+        for _ in 0..n {
+            if let Some(s) = light.sample(p, rng.next2(), mode) {
+                observed[bin_of(&frame, s.wi)] += 1.0;
+                // the pdf MIS asks for agrees with the sample's own
+                let rdr::light::ShadowTarget::Point { p: q, n: Some(nq) } = s.target else {
+                    panic!("area lights sample points")
+                };
+                let again = light.pdf(p, s.wi, q, nq, mode);
+                assert!(
+                    (again - s.pdf).abs() <= 1e-3 * s.pdf,
+                    "{mode:?}: pdf {} vs sample pdf {}",
+                    again,
+                    s.pdf
+                );
+            }
+        }
+        chi2_bins(&format!("triangles {mode:?}"), n, &observed, &mass);
+    }
+}
+
+#[test]
+fn chi2_rejects_a_sampler_whose_pdf_is_wrong() {
+    // cosine-distributed samples claimed to be uniform over the hemisphere
+    let wrong = std::panic::catch_unwind(|| {
+        chi2(
+            "cosine claimed uniform",
+            100_000,
+            Frame::from_normal(Vec3::Z),
+            |u| Some(cosine_hemisphere(u)),
+            |w| {
+                if w.z > 0.0 {
+                    0.5 / PI
+                } else {
+                    0.0
+                }
+            },
+        )
+    });
+    assert!(wrong.is_err(), "the χ² test must catch a wrong pdf");
+}

@@ -1,6 +1,6 @@
 //! Pinhole camera with a vertical field of view (spec §6).
 
-use crate::geometry::Ray;
+use crate::geometry::{Ray, RayDifferential};
 use crate::math::{normalize_div, Vec3, PI};
 use crate::scene::desc::CameraDesc;
 
@@ -46,6 +46,19 @@ impl Camera {
     pub fn ray(&self, x: f32, y: f32) -> Ray {
         Ray::new(self.position, self.direction(x, y))
     }
+
+    /// The ray through `(x, y)` (identical to [`Camera::ray`]) and its differentials:
+    /// the rays through `(x + 1, y)` and `(x, y + 1)`, from the same eye point (spec §6).
+    #[inline]
+    pub fn ray_differential(&self, x: f32, y: f32) -> (Ray, RayDifferential) {
+        let diff = RayDifferential {
+            rx_o: self.position,
+            rx_d: self.direction(x + 1.0, y),
+            ry_o: self.position,
+            ry_d: self.direction(x, y + 1.0),
+        };
+        (self.ray(x, y), diff)
+    }
 }
 
 #[cfg(test)]
@@ -69,5 +82,24 @@ mod tests {
         assert!((top.y / -top.z - 1.0).abs() < 1e-6);
         let right = c.direction(200.0, 50.0);
         assert!((right.x / -right.z - 2.0).abs() < 1e-6);
+    }
+
+    #[test]
+    fn differentials_are_the_rays_one_pixel_right_and_up() {
+        let d = CameraDesc {
+            position: Vec3::new(1.0, 2.0, 3.0),
+            look_at: Vec3::ZERO,
+            ref_up: Vec3::Y,
+            fov: 40.0,
+            focal_length: 1.0,
+        };
+        let c = Camera::new(&d, 64, 48);
+        let (r, diff) = c.ray_differential(10.25, 7.5);
+        assert_eq!(r.d, c.ray(10.25, 7.5).d);
+        assert_eq!((diff.rx_o, diff.ry_o), (r.o, r.o));
+        assert_eq!(diff.rx_d, c.direction(11.25, 7.5));
+        assert_eq!(diff.ry_d, c.direction(10.25, 8.5));
+        let half = diff.scaled(&r, 0.5);
+        assert!((half.rx_d - (r.d + diff.rx_d) * 0.5).length() < 1e-7);
     }
 }

@@ -1,6 +1,7 @@
 //! rdr — a physically based CPU ray tracer that reads the RDR171 JSON scene format.
 
 pub mod accel;
+pub mod bench;
 pub mod camera;
 pub mod compat;
 pub mod error;

@@ -59,11 +59,24 @@ enum Command {
         /// Print only errors: no warnings, progress bar or summary.
         #[arg(short, long, alias = "quite")]
         quiet: bool,
+        /// Stop after the last pass that completes within this many seconds and
+        /// write the image with the samples so far.
+        #[arg(long, value_name = "SECONDS")]
+        time_limit: Option<f64>,
     },
-    /// Load, build and render a scene without writing it; print timings.
+    /// Benchmark: with a scene (.json), load, build and render it without writing it and
+    /// print timings; with a mesh (.obj or .ply), benchmark the BVH (build time and size,
+    /// Mrays/s of primary, incoherent and bounce rays, closest and any hit, 1 and all
+    /// threads) after checking every traversal variant against a reference.
     Bench {
         #[command(flatten)]
         args: SceneArgs,
+        /// Mesh benchmark: best of this many runs of each measurement.
+        #[arg(long, default_value_t = 3)]
+        repeat: usize,
+        /// Mesh benchmark: kernels to time (portable, avx2, avx512; default the best available).
+        #[arg(long)]
+        isa: Option<String>,
     },
 }
 
@@ -99,6 +112,12 @@ fn setup_threads(threads: Option<usize>) -> Result<()> {
 
 fn load(args: &SceneArgs, quiet: bool) -> Result<rdr::Scene> {
     let scene = rdr::scene::build::load(&args.scene, &args.overrides, profile(args).build_options()).map_err(anyhow::Error::msg)?;
+    if profile(args) == Profile::Rdr171 && scene.integrator != rdr::integrator::Integrator::IntersectionTest {
+        anyhow::bail!(
+            "{}: integrator.type: --compat rdr171 reproduces the course renderer's intersection_test only (it had no other integrator)",
+            args.scene.display()
+        );
+    }
     if !quiet {
         for w in &scene.warnings {
             eprintln!("warning: {w}");
@@ -114,7 +133,15 @@ fn default_output(scene: &Path) -> PathBuf {
 
 fn run(cli: Cli) -> Result<ExitCode> {
     match cli.command {
-        Command::Render { args, output, quiet } => {
+        Command::Render {
+            args,
+            output,
+            quiet,
+            time_limit,
+        } => {
+            if let Some(t) = time_limit {
+                anyhow::ensure!(t.is_finite() && t > 0.0, "--time-limit must be a positive number of seconds");
+            }
             setup_threads(args.threads)?;
             let scene = load(&args, quiet)?;
             let output = output.unwrap_or_else(|| default_output(&args.scene));
@@ -148,6 +175,7 @@ fn run(cli: Cli) -> Result<ExitCode> {
                 spp,
                 seed: args.seed,
                 profile: profile(&args),
+                time_limit,
                 progress: bar
                     .clone()
                     .map(|b| Arc::new(move |n: u64| b.inc(n)) as Arc<dyn Fn(u64) + Send + Sync>),
@@ -160,6 +188,9 @@ fn run(cli: Cli) -> Result<ExitCode> {
                 Profile::Physical => ExrPixels::Float,
                 Profile::Rdr171 => ExrPixels::HalfTinyexr,
             };
+            if out.invalid_samples > 0 {
+                eprintln!("warning: {} sample(s) were NaN or infinite and were left out", out.invalid_samples);
+            }
             write_image(&output, out.width, out.height, &out.pixels, exr)?;
             println!("{}", output.display());
             if !quiet {
@@ -170,12 +201,38 @@ fn run(cli: Cli) -> Result<ExitCode> {
                     out.spp_done,
                     out.seconds,
                     out.samples as f64 / out.seconds.max(1e-9),
-                    if out.interrupted { ", interrupted" } else { "" }
+                    if out.interrupted {
+                        ", interrupted"
+                    } else if out.time_limited {
+                        ", time limit reached"
+                    } else {
+                        ""
+                    }
                 );
             }
             Ok(if out.interrupted { ExitCode::from(130) } else { ExitCode::SUCCESS })
         }
-        Command::Bench { args } => {
+        Command::Bench { args, repeat, isa } => {
+            let ext = args.scene.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
+            if ext == "obj" || ext == "ply" {
+                let all = args
+                    .threads
+                    .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+                anyhow::ensure!(all > 0, "--threads must be at least 1");
+                let mut threads = vec![1];
+                if all > 1 {
+                    threads.push(all);
+                }
+                let isa = match isa.as_deref() {
+                    None => None,
+                    Some("portable") => Some(rdr::accel::Isa::Portable),
+                    Some("avx2") => Some(rdr::accel::Isa::Avx2),
+                    Some("avx512") => Some(rdr::accel::Isa::Avx512),
+                    Some(other) => anyhow::bail!("--isa: unknown instruction set '{other}' (portable, avx2, avx512)"),
+                };
+                print!("{}", rdr::bench::run(&args.scene, &rdr::bench::Options { repeat, threads, isa })?);
+                return Ok(ExitCode::SUCCESS);
+            }
             setup_threads(args.threads)?;
             let t0 = Instant::now();
             let scene = load(&args, true)?;
@@ -185,6 +242,7 @@ fn run(cli: Cli) -> Result<ExitCode> {
                 spp,
                 seed: args.seed,
                 profile: profile(&args),
+                time_limit: None,
                 progress: None,
             };
             let out = rdr::render(&scene, &settings, &AtomicBool::new(false));

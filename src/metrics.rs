@@ -73,6 +73,8 @@ pub struct Comparison {
     pub std_error: f64,
     /// Mean of z² = (X − R)²/(V_X + V_R) over pixel-channels with variance > 0.
     pub mean_z2: f64,
+    /// The renders' own variance: mean of V_X/(R² + 0.01). Compares estimators.
+    pub rel_var_x: f64,
 }
 
 /// Compares two independent renders `x1`, `x2` against reference `r` with
@@ -83,7 +85,7 @@ pub fn compare(x1: &Image, x2: &Image, r: &Image, vr: &Image) -> Comparison {
         x1.pixels.len() == n && x2.pixels.len() == n && vr.pixels.len() == n,
         "image sizes differ"
     );
-    let (mut corr, mut raw, mut noise, mut var_acc, mut z2, mut zn) = (0.0f64, 0.0f64, 0.0f64, 0.0f64, 0.0f64, 0usize);
+    let (mut corr, mut raw, mut noise, mut var_acc, mut z2, mut zn, mut var_x) = (0.0f64, 0.0f64, 0.0f64, 0.0f64, 0.0f64, 0usize, 0.0f64);
     for i in 0..n {
         for c in 0..3 {
             let (a, b, rv, v) = (
@@ -99,6 +101,7 @@ pub fn compare(x1: &Image, x2: &Image, r: &Image, vr: &Image) -> Comparison {
             corr += (e2 - vx - v.max(0.0)) * d;
             raw += e2 * d;
             noise += (vx + v.max(0.0)) * d;
+            var_x += vx * d;
             // Var of (e² − V̂_X − V_R) ≈ 2(V_X + V_R)² + 2V_X² (χ² terms), scaled by d²
             let vt = vx + v.max(0.0);
             var_acc += (2.0 * vt * vt + 2.0 * vx * vx) * d * d;
@@ -115,6 +118,7 @@ pub fn compare(x1: &Image, x2: &Image, r: &Image, vr: &Image) -> Comparison {
         rel_mse_noise: noise / m,
         std_error: var_acc.sqrt() / m,
         mean_z2: if zn > 0 { z2 / zn as f64 } else { 0.0 },
+        rel_var_x: var_x / m,
     }
 }
 

@@ -112,6 +112,11 @@ impl Case {
     }
 }
 
+/// An `image` texture reading `path` (`tex.png`, a 2×2 PNG, exists beside the scenes).
+fn image_texture(path: &str) -> Value {
+    json!({"type": "image", "path": path, "tex_coordinate_generator": {"type": "uvmapping2d"}})
+}
+
 fn remove(v: &mut Value, key: &str) {
     v.as_object_mut().expect("an object").remove(key);
 }
@@ -178,11 +183,9 @@ fn cases() -> Vec<Case> {
             s["integrator"]["lights"] = json!([{"type": "spot", "position": [0, 1, 0], "flux": [1, 1, 1]}])
         })
         .err(&["integrator.lights[0].type", "spot"]),
-        edit(
-            "image texture",
-            |s| s["textures"]["white"] = json!({"type": "image", "path": "a.png", "tex_coordinate_generator": {"type": "uvmapping2d"}}),
-        )
-        .err(&["textures.white.path"]),
+        edit("image texture file missing", |s| s["textures"]["white"] = image_texture("a.png")).err(&["textures.white.path", "a.png"]),
+        edit("image texture not an image", |s| s["textures"]["white"] = image_texture("tri.obj")).err(&["textures.white.path", "tri.obj"]),
+        edit("image texture is a folder", |s| s["textures"]["white"] = image_texture(".")).err(&["textures.white.path"]),
         // --- geometry and camera values ----------------------------------------------------
         edit("look_at equals position", |s| s["camera"]["look_at"] = json!([0, 0, 5])).err(&["camera.look_at", "position"]),
         edit("ref_up along the view", |s| s["camera"]["ref_up"] = json!([0, 0, 1])).err(&["camera.ref_up"]),
@@ -235,6 +238,7 @@ fn cases() -> Vec<Case> {
         )
         .ok(&["degenerate", "line 5"]),
         obj("OBJ unknown statement warns", "v 0 0 0\nv 1 0 0\nv 0 1 0\nbevel 1\nf 1 2 3\n").ok(&["bevel"]),
+        edit("image texture", |s| s["textures"]["white"] = image_texture("tex.png")).ok(&[]),
         unchanged("png output").out("png-output.png").ok(&[]),
         unchanged("upper-case extension").out("upper.EXR").ok(&[]),
     ]
@@ -302,6 +306,7 @@ fn check_error(run: &Run, names: &[String], expect: &[&str]) -> Vec<String> {
 fn broken_scenes_fail_with_one_line_naming_file_and_key() {
     let dir = temp_folder();
     std::fs::write(dir.join("tri.obj"), TRI_OBJ).unwrap();
+    rdr::imageio::write_png(&dir.join("tex.png"), 2, 2, &[rdr::math::Vec3::splat(0.5); 4]).unwrap();
     let base: Value = serde_json::from_str(BASE).unwrap();
 
     // The base scene itself must render.

@@ -10,6 +10,7 @@
 //! predicates are decided exactly in i128.
 
 use rdr::accel::bvh::{Bvh, MAX_LEAF};
+use rdr::accel::wide::{ChildRef, Isa, WideBvh};
 use rdr::geometry::aabb::{safe_inverse, Aabb};
 use rdr::geometry::triangle::{intersect_moller_trumbore_f64, intersect_watertight};
 use rdr::geometry::Ray;
@@ -917,15 +918,74 @@ fn scene_rays(rng: &mut Rng, prims: &[Prim], count: usize) -> Vec<Ray> {
     rays
 }
 
+/// A traversal under test: closest hit, any hit and a visit of every primitive
+/// the boxes admit.
+type Visit<'a> = &'a dyn Fn(&Ray, &mut dyn FnMut(u32));
+
+struct Queries<'a> {
+    closest: &'a dyn Fn(&Ray) -> Option<(u32, f32)>,
+    any: &'a dyn Fn(&Ray) -> bool,
+    visit: Visit<'a>,
+}
+
 /// Closest hit, any hit and "visits everything it must" against brute force.
 /// `prims` must be in the order `bvh.order` indexes.
 fn check_queries(label: &str, bvh: &Bvh, prims: &[Prim], rays: &[Ray]) -> usize {
+    let q = Queries {
+        closest: &|r| bvh_closest(bvh, prims, r),
+        any: &|r| bvh_any(bvh, prims, r),
+        visit: &|r, f| {
+            bvh.traverse(r, |i, _| {
+                f(i);
+                false
+            })
+        },
+    };
+    check_with(label, &q, prims, rays)
+}
+
+/// The wide BVH with every instruction set this CPU has (the portable one
+/// always), and its closure traversal.
+fn check_wide_queries(label: &str, bvh: &WideBvh, prims: &[Prim], rays: &[Ray]) -> usize {
+    let mut hits = 0;
+    // the traversals with the large stack (deep trees) on every other check
+    let large = rays.len() % 2 == 1;
+    for isa in Isa::all_available() {
+        let mut b = bvh.clone();
+        assert!(b.set_isa(isa));
+        b.set_large_stack(large);
+        let label = format!("{label} [wide, {}{}]", isa.name(), if large { ", large stack" } else { "" });
+        let q = Queries {
+            closest: &|r| b.intersect(prims, r).map(|h| (h.prim, h.t)),
+            any: &|r| b.occluded(prims, r),
+            visit: &|r, f| {
+                b.traverse(r, |i, _| {
+                    f(i);
+                    false
+                })
+            },
+        };
+        hits = check_with(&label, &q, prims, rays);
+        // the renderer's hits carry the scalar kernel's exact barycentrics
+        for ray in rays.iter().step_by(3) {
+            if let Some(h) = b.intersect(prims, ray) {
+                if let Prim::Triangle { p, .. } = prims[h.prim as usize] {
+                    let w = intersect_watertight(ray.o, ray.d, ray.t_min, ray.t_max, &p);
+                    assert_eq!(w.map(|w| (w.t, w.b)), Some((h.t, h.b)), "{label}: ray {ray:?}: hit {h:?}");
+                }
+            }
+        }
+    }
+    hits
+}
+
+fn check_with(label: &str, q: &Queries, prims: &[Prim], rays: &[Ray]) -> usize {
     let mut hits = 0;
     let mut seen = vec![u32::MAX; prims.len()];
     for (k, ray) in rays.iter().enumerate() {
         let ctx = || format!("{label}: ray {k} {ray:?}");
         let brute = brute_closest(prims, ray);
-        let fast = bvh_closest(bvh, prims, ray);
+        let fast = (q.closest)(ray);
         match (brute, fast) {
             (None, None) => {}
             (Some((bi, bt)), Some((fi, ft))) => {
@@ -945,13 +1005,12 @@ fn check_queries(label: &str, bvh: &Bvh, prims: &[Prim], rays: &[Ray]) -> usize 
             }
             _ => panic!("{}: brute force {brute:?}, BVH {fast:?}", ctx()),
         }
-        assert_eq!(bvh_any(bvh, prims, ray), brute.is_some(), "{}: any-hit disagrees", ctx());
+        assert_eq!((q.any)(ray), brute.is_some(), "{}: any-hit disagrees", ctx());
         // every primitive the ray hits is visited, and nothing is visited twice
         if k % 4 == 0 {
-            bvh.traverse(ray, |i, _| {
+            (q.visit)(ray, &mut |i| {
                 assert_ne!(seen[i as usize], k as u32, "{}: primitive {i} visited twice", ctx());
                 seen[i as usize] = k as u32;
-                false
             });
             for (i, p) in prims.iter().enumerate() {
                 if seen[i] != k as u32 && prim_intersect(p, ray, ray.t_max).is_some() {
@@ -963,12 +1022,91 @@ fn check_queries(label: &str, bvh: &Bvh, prims: &[Prim], rays: &[Ray]) -> usize 
     hits
 }
 
-/// Builds with `build_bvh` (prims come back in leaf order) and checks everything.
-fn check_prims(label: &str, rng: &mut Rng, prims: Vec<Prim>, rays: usize) -> (Bvh, usize) {
+/// Checks the wide tree's structure: every usable primitive in exactly one leaf
+/// (padding lanes repeat their block's last triangle), leaves of one kind and
+/// at most `MAX_LEAF` primitives, children inside their parents' slots, every
+/// node reached once; returns the depth.
+fn check_wide_structure(bvh: &WideBvh, bounds: &[Aabb]) -> usize {
+    let valid: Vec<u32> = (0..bounds.len() as u32)
+        .filter(|&i| {
+            let b = &bounds[i as usize];
+            !b.is_empty() && b.min.is_finite() && b.max.is_finite()
+        })
+        .collect();
+    assert_eq!(bvh.prim_count, valid.len());
+    if valid.is_empty() {
+        assert!(bvh.nodes.is_empty(), "empty input should give an empty tree");
+        return 0;
+    }
+    let inside = |inner: &Aabb, outer: &Aabb| inner.min.cmpge(outer.min).all() && inner.max.cmple(outer.max).all();
+    let mut seen = vec![0u32; bounds.len()];
+    let mut reached = vec![false; bvh.nodes.len()];
+    let mut max_depth = 0;
+    let mut stack = vec![(0usize, 1usize)];
+    while let Some((i, depth)) = stack.pop() {
+        assert!(!reached[i], "node {i} reached twice");
+        reached[i] = true;
+        max_depth = max_depth.max(depth);
+        let node = &bvh.nodes[i];
+        for slot in 0..8 {
+            let cb = node.child_bounds(slot);
+            let Some((_, _, c)) = bvh.children().find(|&(n, s, _)| n == i && s == slot) else {
+                assert!(cb.is_empty(), "unused slot {slot} of node {i} has a box");
+                continue;
+            };
+            match c {
+                ChildRef::Node(j) => {
+                    assert!(j > i && j < bvh.nodes.len(), "node {i}: bad child {j}");
+                    let n = &bvh.nodes[j];
+                    for s in 0..8 {
+                        let b = n.child_bounds(s);
+                        if !b.is_empty() {
+                            assert!(inside(&b, &cb), "child {s} of node {j} sticks out of its slot in node {i}");
+                        }
+                    }
+                    stack.push((j, depth + 1));
+                }
+                leaf => {
+                    let items = bvh.leaf_prims(leaf);
+                    assert!(!items.is_empty() && items.len() <= MAX_LEAF, "leaf of {} primitives", items.len());
+                    if let ChildRef::Triangles { first, count } = leaf {
+                        assert_eq!(count, items.len().div_ceil(4), "blocks of a leaf not packed");
+                        for b in &bvh.blocks[first..first + count] {
+                            for lane in 1..4 {
+                                if b.prim[lane] == b.prim[lane - 1] {
+                                    assert_eq!(b.triangle(lane), b.triangle(lane - 1), "padding lane differs");
+                                }
+                            }
+                            for lane in 0..4 {
+                                let tb = Aabb::from_points(&b.triangle(lane));
+                                assert_eq!(tb, bounds[b.prim[lane] as usize], "block lane holds another triangle");
+                            }
+                        }
+                    }
+                    for &p in &items {
+                        seen[p as usize] += 1;
+                        assert!(inside(&bounds[p as usize], &cb), "primitive {p} outside its leaf box in node {i}");
+                    }
+                }
+            }
+        }
+    }
+    for (i, &n) in seen.iter().enumerate() {
+        let usable = valid.binary_search(&(i as u32)).is_ok();
+        assert_eq!(n, usable as u32, "primitive {i} in {n} leaves");
+    }
+    assert!(reached.iter().all(|&r| r), "unreachable nodes");
+    assert!(bvh.stack_need() >= 1 && bvh.stack_need() <= 7 * max_depth + 1);
+    max_depth
+}
+
+/// Builds with `build_bvh` (prims come back in leaf order) and checks everything:
+/// the binary tree and the wide one, with every instruction set.
+fn check_prims(label: &str, rng: &mut Rng, prims: Vec<Prim>, rays: usize) -> (WideBvh, usize) {
     let bounds: Vec<Aabb> = prims.iter().map(prim_bounds).collect();
     // the tree over the boxes directly
     let raw = Bvh::build(&bounds);
-    let depth = check_structure(&raw, &bounds);
+    check_structure(&raw, &bounds);
     // build_bvh: a permutation of the valid input, identity order
     let key = |p: &Prim| match *p {
         Prim::Triangle { p, object, index } => (object, index, p.map(|v| v.to_array().map(f32::to_bits))),
@@ -984,19 +1122,22 @@ fn check_prims(label: &str, rng: &mut Rng, prims: Vec<Prim>, rays: usize) -> (Bv
     };
     let mut expected: Vec<_> = raw.order.iter().map(|&i| key(&prims[i as usize])).collect();
     let ray_list = scene_rays(rng, &prims, rays);
-    let (ordered, bvh) = build_bvh(prims);
+    let (ordered, bvh) = build_bvh(prims.clone());
     let mut got: Vec<_> = ordered.iter().map(key).collect();
     expected.sort_unstable();
     got.sort_unstable();
     assert!(expected == got, "{label}: build_bvh lost or duplicated primitives");
-    assert_eq!(
-        bvh.order,
-        (0..ordered.len() as u32).collect::<Vec<_>>(),
-        "{label}: build_bvh order is not the identity"
-    );
     let bounds2: Vec<Aabb> = ordered.iter().map(prim_bounds).collect();
-    assert_eq!(check_structure(&bvh, &bounds2), depth);
-    let hits = check_queries(label, &bvh, &ordered, &ray_list);
+    check_wide_structure(&bvh, &bounds2);
+    // the binary tree over the reordered primitives, and the wide one
+    let raw2 = Bvh::build(&bounds2);
+    check_queries(label, &raw2, &ordered, &ray_list);
+    let hits = check_wide_queries(label, &bvh, &ordered, &ray_list);
+    // the wide tree over the primitives in their input order (unusable ones included)
+    let direct = WideBvh::build(&prims);
+    check_wide_structure(&direct, &bounds);
+    let some: Vec<Ray> = ray_list.iter().step_by(7).copied().collect();
+    check_wide_queries(&format!("{label} (input order)"), &direct, &prims, &some);
     (bvh, hits)
 }
 
@@ -1034,8 +1175,13 @@ fn bvh_empty_and_single_primitive() {
     }
     let (ordered, bvh) = build_bvh(Vec::new());
     assert!(ordered.is_empty() && bvh.nodes.is_empty());
-    for ray in &rays {
-        bvh.traverse(ray, |i, _| panic!("visited {i} in an empty tree"));
+    for isa in Isa::all_available() {
+        let mut b = bvh.clone();
+        b.set_isa(isa);
+        for ray in &rays {
+            b.traverse(ray, |i, _| panic!("visited {i} in an empty tree"));
+            assert!(b.intersect(&[], ray).is_none() && !b.occluded(&[], ray));
+        }
     }
     // one triangle, one sphere
     for seed in 0..20 {
@@ -1081,8 +1227,10 @@ fn bvh_degenerate_inputs() {
     // many identical triangles: all centroids coincide
     let p = [Vec3::new(0.0, 0.0, 0.0), Vec3::new(1.0, 0.0, 0.0), Vec3::new(0.0, 1.0, 0.5)];
     let (bvh, hits) = check_prims("identical", &mut rng, as_prims(vec![p; 1000]), 1000);
-    assert!(bvh.nodes.iter().all(|n| n.count as usize <= MAX_LEAF));
-    assert!(bvh.depth() < 20);
+    assert!(bvh.stack_need() < 7 * 20);
+    let raw = Bvh::build(&vec![Aabb::from_points(&p); 1000]);
+    assert!(raw.nodes.iter().all(|n| n.count as usize <= MAX_LEAF));
+    assert!(raw.depth() < 20);
     assert!(hits > 300);
 
     // distinct triangles sharing one bounding box (diagonal cuts of one cube)
@@ -1152,7 +1300,7 @@ fn bvh_degenerate_inputs() {
     let usable = usable.count();
     assert!(usable < n);
     let (bvh, hits) = check_prims("with degenerate", &mut rng, as_prims(tris), 2000);
-    assert_eq!(bvh.order.len(), usable);
+    assert_eq!(bvh.prim_count, usable);
     assert!(hits > 500);
 }
 
@@ -1198,8 +1346,11 @@ fn bvh_100k_triangles() {
             .into_iter()
             .map(|t| t.map(|v| Vec3::new(v.x, 0.5, v.z))),
     );
+    let bounds: Vec<Aabb> = tris.iter().map(|t| Aabb::from_points(t)).collect();
+    let depth = Bvh::build(&bounds).depth();
+    assert!(depth < 64, "depth {depth}");
     let (bvh, hits) = check_prims("100k", &mut rng, as_prims(tris), 500);
-    assert!(bvh.depth() < 64, "depth {}", bvh.depth());
+    assert!(bvh.stack_need() <= 7 * depth + 1);
     assert!(hits > 100);
 }
 
@@ -1280,7 +1431,7 @@ fn scene_queries_match_brute_force() {
     assert_eq!(scene.prims.len(), expected_tris + 41);
     assert!(scene.warnings.iter().any(|w| w.contains("degenerate")), "{:?}", scene.warnings);
     let bounds: Vec<Aabb> = scene.prims.iter().map(prim_bounds).collect();
-    check_structure(&scene.bvh, &bounds);
+    check_wide_structure(&scene.bvh, &bounds);
 
     let rays = scene_rays(&mut rng, &scene.prims, 4000);
     let mut hits = 0;
@@ -1309,4 +1460,52 @@ fn scene_queries_match_brute_force() {
         assert_eq!(scene.occluded(ray), brute.is_some(), "ray {k} {ray:?}: occluded disagrees");
     }
     assert!(hits > 2000, "only {hits} hits");
+}
+
+#[test]
+fn wide_bvh_does_not_leak_through_lattice_edges_and_vertices() {
+    // a 16×16 grid of squares split into triangles (alternating diagonals), on a
+    // dyadic lattice: rays aimed exactly at vertices, edge points and diagonals
+    // have edge functions exactly 0 in some SIMD lanes (the scalar fallback)
+    let v = |a: i32, b: i32| Vec3::new(a as f32 * 0.125, b as f32 * 0.125, 0.5);
+    let mut tris = Vec::new();
+    for i in 0..16 {
+        for j in 0..16 {
+            if (i + j) % 2 == 0 {
+                tris.push([v(i, j), v(i + 1, j), v(i + 1, j + 1)]);
+                tris.push([v(i, j), v(i + 1, j + 1), v(i, j + 1)]);
+            } else {
+                tris.push([v(i, j), v(i + 1, j), v(i, j + 1)]);
+                tris.push([v(i + 1, j), v(i + 1, j + 1), v(i, j + 1)]);
+            }
+        }
+    }
+    let (prims, bvh) = build_bvh(as_prims(tris));
+    let mut rng = Rng::new(14);
+    let mut rays = Vec::new();
+    for a in 1..64 {
+        for b in 1..64 {
+            // the point (a/32, b/32) lies on a vertex, an edge or inside a triangle
+            let p = Vec3::new(a as f32 / 32.0, b as f32 / 32.0, 0.5);
+            let d = match rng.below(3) {
+                0 => -Vec3::Z,
+                1 => Vec3::new(pow2(-3) * rng.int(-4, 4) as f32, pow2(-3) * rng.int(-4, 4) as f32, -1.0),
+                _ => Vec3::new(pow2(-5) * rng.int(-8, 8) as f32, pow2(-4) * rng.int(-8, 8) as f32, 1.0),
+            };
+            // p − d is exact on this lattice, so the ray passes exactly through p
+            rays.push(Ray::with_range(p - d, d, 0.0, f32::INFINITY));
+        }
+    }
+    for isa in Isa::all_available() {
+        let mut b = bvh.clone();
+        assert!(b.set_isa(isa));
+        for ray in &rays {
+            let h = b.intersect(&prims, ray);
+            assert!(h.is_some(), "[{}] ray {ray:?} leaks through the grid", isa.name());
+            assert!(b.occluded(&prims, ray), "[{}] ray {ray:?}: occluded misses", isa.name());
+            let h = h.unwrap();
+            assert!((h.t - 1.0).abs() < 1e-6, "[{}] ray {ray:?}: t = {}", isa.name(), h.t);
+        }
+    }
+    check_wide_queries("lattice grid", &bvh, &prims, &rays);
 }

@@ -315,7 +315,8 @@ fn sphere_light_sampling_matches_its_pdf() {
         let light = AreaLight::sphere(0, Vec3::ONE, center, radius);
         let frame = Frame::from_normal((center - p).normalize());
         // (uniform area sampling of spheres: see sphere_light_uniform_area_sampling_matches_its_pdf)
-        for mode in [LightSampling::Importance] {
+        {
+            let mode = LightSampling::Importance;
             let hit = |w: Vec3| -> Option<(Vec3, Vec3)> {
                 let s = rdr::geometry::sphere::Sphere { center, radius };
                 let t = s.intersect(p, w, 0.0, f32::INFINITY)?;

@@ -1,21 +1,14 @@
-//! Binary BVH built with a binned surface-area heuristic, flattened depth-first
+//! Binary BVH built with the binned surface-area heuristic of [`super::build`], flattened depth-first
 //! into one array (left child next to its parent, right child by index).
 //!
 //! The tree knows only boxes; primitive tests are the caller's closure, so the same
 //! tree serves closest-hit, any-hit and the `--compat` tie-breaking query.
 
+use super::build::{TmpKind, TmpNode};
 use crate::geometry::{Aabb, Ray};
-use crate::math::Vec3;
 
-const BINS: usize = 16;
-/// Leaves hold at most this many primitives unless they cannot be split.
-pub const MAX_LEAF: usize = 8;
-/// Below this depth SAH decides; deeper, splits are by median so depth stays bounded.
-const SAH_DEPTH_LIMIT: usize = 48;
+pub use super::build::MAX_LEAF;
 const STACK: usize = 128;
-/// SAH costs relative to one primitive test.
-const COST_TRAVERSE: f32 = 1.0;
-const COST_INTERSECT: f32 = 1.0;
 
 #[derive(Clone, Copy, Debug)]
 #[repr(C)]
@@ -34,35 +27,40 @@ pub struct Bvh {
     pub order: Vec<u32>,
 }
 
-struct Item {
-    bounds: Aabb,
-    centroid: Vec3,
-    index: u32,
-}
-
 impl Bvh {
     /// Builds over the given boxes; empty boxes (and boxes with NaN) are left out.
     pub fn build(bounds: &[Aabb]) -> Bvh {
-        let mut items: Vec<Item> = bounds
-            .iter()
-            .enumerate()
-            .filter(|(_, b)| !b.is_empty() && b.min.is_finite() && b.max.is_finite())
-            .map(|(i, b)| Item {
-                bounds: *b,
-                centroid: b.centroid(),
-                index: i as u32,
-            })
-            .collect();
+        let mut refs = super::build::make_refs(bounds);
+        let tree = super::build::build_tree(&mut refs);
         let mut bvh = Bvh {
-            nodes: Vec::with_capacity(2 * items.len() / MAX_LEAF.max(1) + 1),
-            order: Vec::new(),
+            nodes: Vec::with_capacity(2 * refs.len() / 2 + 1),
+            order: refs.iter().map(|r| r.index()).collect(),
         };
-        if !items.is_empty() {
-            let n = items.len();
-            bvh.build_node(&mut items[..], 0, 0, n);
+        if let Some(t) = tree {
+            bvh.flatten(&t);
         }
-        bvh.order = items.iter().map(|it| it.index).collect();
         bvh
+    }
+
+    fn flatten(&mut self, t: &TmpNode) -> usize {
+        let index = self.nodes.len();
+        self.nodes.push(Node {
+            bounds: t.bounds.padded(),
+            offset: 0,
+            count: 0,
+        });
+        match &t.kind {
+            TmpKind::Leaf { start, count } => {
+                self.nodes[index].offset = *start;
+                self.nodes[index].count = *count;
+            }
+            TmpKind::Inner(c) => {
+                self.flatten(&c[0]);
+                let r = self.flatten(&c[1]);
+                self.nodes[index].offset = r as u32;
+            }
+        }
+        index
     }
 
     pub fn bounds(&self) -> Aabb {
@@ -83,58 +81,6 @@ impl Bvh {
         } else {
             rec(self, 0)
         }
-    }
-
-    fn build_node(&mut self, items: &mut [Item], first: usize, depth: usize, total: usize) -> usize {
-        let node_index = self.nodes.len();
-        let bounds = items.iter().fold(Aabb::EMPTY, |b, it| b.union(it.bounds));
-        self.nodes.push(Node {
-            bounds: bounds.padded(),
-            offset: first as u32,
-            count: items.len() as u32,
-        });
-        let n = items.len();
-        if n == 1 {
-            return node_index;
-        }
-        let cb = items.iter().fold(Aabb::EMPTY, |b, it| b.grow(it.centroid));
-        let axis = cb.largest_axis();
-        let extent = cb.extent()[axis];
-
-        let mid = if extent <= 0.0 || !extent.is_finite() {
-            // all centroids coincide: SAH cannot separate them
-            if n <= MAX_LEAF {
-                return node_index;
-            }
-            n / 2
-        } else if depth >= SAH_DEPTH_LIMIT {
-            items.select_nth_unstable_by(n / 2, |a, b| a.centroid[axis].total_cmp(&b.centroid[axis]));
-            n / 2
-        } else {
-            match sah_split(items, &cb, bounds.area()) {
-                Some((split_axis, bin, cost)) => {
-                    if n <= MAX_LEAF && cost >= n as f32 * COST_INTERSECT {
-                        return node_index;
-                    }
-                    let lo = cb.min[split_axis];
-                    let scale = BINS as f32 / cb.extent()[split_axis];
-                    let m = partition(items, |it| bin_of(it.centroid[split_axis], lo, scale) <= bin);
-                    if m == 0 || m == n {
-                        n / 2
-                    } else {
-                        m
-                    }
-                }
-                None => n / 2,
-            }
-        };
-        let _ = total;
-        let (left, right) = items.split_at_mut(mid);
-        self.build_node(left, first, depth + 1, total);
-        let right_index = self.build_node(right, first + mid, depth + 1, total);
-        self.nodes[node_index].offset = right_index as u32;
-        self.nodes[node_index].count = 0;
-        node_index
     }
 
     /// Visits the leaves the ray's box test admits, near child first. `visit` gets
@@ -194,72 +140,10 @@ impl Bvh {
     }
 }
 
-#[inline]
-fn bin_of(c: f32, lo: f32, scale: f32) -> usize {
-    (((c - lo) * scale) as usize).min(BINS - 1)
-}
-
-/// Best (axis, last bin of the left side, SAH cost) over all three axes.
-fn sah_split(items: &[Item], cb: &Aabb, parent_area: f32) -> Option<(usize, usize, f32)> {
-    let mut best: Option<(usize, usize, f32)> = None;
-    for axis in 0..3 {
-        let ext = cb.extent()[axis];
-        if ext <= 0.0 {
-            continue;
-        }
-        let lo = cb.min[axis];
-        let scale = BINS as f32 / ext;
-        let mut bin_bounds = [Aabb::EMPTY; BINS];
-        let mut bin_count = [0usize; BINS];
-        for it in items {
-            let b = bin_of(it.centroid[axis], lo, scale);
-            bin_bounds[b] = bin_bounds[b].union(it.bounds);
-            bin_count[b] += 1;
-        }
-        // sweep from the right to get right-side areas and counts
-        let mut right_area = [0.0f32; BINS];
-        let mut right_count = [0usize; BINS];
-        let mut acc = Aabb::EMPTY;
-        let mut cnt = 0;
-        for i in (1..BINS).rev() {
-            acc = acc.union(bin_bounds[i]);
-            cnt += bin_count[i];
-            right_area[i] = acc.area();
-            right_count[i] = cnt;
-        }
-        let mut acc = Aabb::EMPTY;
-        let mut cnt = 0;
-        for i in 0..BINS - 1 {
-            acc = acc.union(bin_bounds[i]);
-            cnt += bin_count[i];
-            if cnt == 0 || right_count[i + 1] == 0 {
-                continue;
-            }
-            let cost = COST_TRAVERSE
-                + COST_INTERSECT * (acc.area() * cnt as f32 + right_area[i + 1] * right_count[i + 1] as f32)
-                    / parent_area.max(f32::MIN_POSITIVE);
-            if best.is_none_or(|(_, _, c)| cost < c) {
-                best = Some((axis, i, cost));
-            }
-        }
-    }
-    best
-}
-
-fn partition(items: &mut [Item], pred: impl Fn(&Item) -> bool) -> usize {
-    let mut i = 0;
-    for j in 0..items.len() {
-        if pred(&items[j]) {
-            items.swap(i, j);
-            i += 1;
-        }
-    }
-    i
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::math::Vec3;
 
     #[test]
     fn empty_tree_visits_nothing() {
@@ -284,16 +168,32 @@ mod tests {
         let bvh = Bvh::build(&boxes);
         assert_eq!(bvh.order.len(), 4);
         let ray = Ray::new(Vec3::new(-1.0, 0.0, 0.0), Vec3::X);
+        let mut seen = vec![];
+        bvh.traverse(&ray, |p, _| {
+            seen.push(p);
+            false
+        });
+        // (four boxes make one leaf: all are visited, the two hit among them)
+        assert!(seen.contains(&0) && seen.contains(&1));
+        // a 4×4×4 lattice of cubes: the ray along one row visits that row and
+        // not all 64
+        let boxes: Vec<Aabb> = (0..64)
+            .map(|i| cube(Vec3::new((i % 4) as f32, (i / 4 % 4) as f32, (i / 16) as f32) * 2.0))
+            .collect();
+        let bvh = Bvh::build(&boxes);
+        let ray = Ray::new(Vec3::new(-1.0, 0.0, 0.0), Vec3::X);
         let inv = crate::geometry::aabb::safe_inverse(ray.d);
         let mut seen = vec![];
         bvh.traverse(&ray, |p, _| {
             seen.push(p);
             false
         });
-        assert!(seen.contains(&0) && seen.contains(&1));
-        for p in seen {
-            assert!(boxes[p as usize].intersect(ray.o, inv, 0.0, f32::INFINITY).is_some());
+        for (i, b) in boxes.iter().enumerate() {
+            if b.intersect(ray.o, inv, 0.0, f32::INFINITY).is_some() {
+                assert!(seen.contains(&(i as u32)), "box {i} is hit but not visited");
+            }
         }
+        assert!(seen.len() < 32, "visited {} of 64", seen.len());
     }
 
     #[test]

@@ -1,5 +1,8 @@
 //! Acceleration structures.
 
+pub mod build;
 pub mod bvh;
+pub mod wide;
 
 pub use bvh::Bvh;
+pub use wide::{Isa, WideBvh};

@@ -12,10 +12,19 @@
 //! | `max_depth` | path segments (Mitsuba) | surface hits |
 //! | EXR output | float32 RGB | half B,G,R with tinyexr's rounding (§5.2) |
 //! | OBJ re-winding | also re-winds texture coordinates | leaves them (§10.1) |
+//! | image rows | `v = 0` is the bottom row (pbrt, Mitsuba, Blender) | `v = 0` is the top row (§8) |
+//! | sphere uv | `(φ/2π, θ/π)` | `(θ/π, φ/2π)`, `dpdu`/`dpdv` swapped alike (§10.2) |
+//! | image MIP levels | the image as it is, area-averaged levels down to 1×1 | power-of-two level 0 (bilinear resample), levels stop before 1×1 (§8) |
+//! | image lookup | repeat wrap, footprint-driven trilinear, level `log2(w·max(W,H))` | `max(W·s − ½, 0)`, unsigned-modulo wrap, level `(levels−1) + log2(w)` (§8) |
+//! | ray differentials | camera rays (scaled by `max(1/8, 1/√spp)`), dropped after refraction | none: every lookup on level 0 (§13) |
+//!
+//! The texture rows are one switch, [`BuildOptions::textures`]
+//! ([`crate::texture::TextureConvention`]), set here; see `src/texture/mipmap.rs`.
 
 pub mod rdr171;
 
 use crate::scene::BuildOptions;
+use crate::texture::TextureConvention;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum Profile {
@@ -28,7 +37,11 @@ impl Profile {
     pub fn build_options(self) -> BuildOptions {
         match self {
             Profile::Physical => BuildOptions::default(),
-            Profile::Rdr171 => BuildOptions { swap_uv_on_rewind: false },
+            Profile::Rdr171 => BuildOptions {
+                swap_uv_on_rewind: false,
+                textures: TextureConvention::Rdr171,
+                ..BuildOptions::default()
+            },
         }
     }
 }

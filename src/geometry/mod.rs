@@ -8,4 +8,4 @@ pub mod sphere;
 pub mod triangle;
 
 pub use aabb::Aabb;
-pub use ray::Ray;
+pub use ray::{Ray, RayDifferential};

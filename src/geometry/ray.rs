@@ -31,3 +31,28 @@ impl Ray {
         self.o + self.d * t
     }
 }
+
+/// The two auxiliary rays of a camera ray (pbrt's ray differentials): the rays
+/// through the film positions one pixel to the right (`x + 1`) and one pixel up
+/// (`y + 1`) of the main ray's (spec §6). They give the screen-space footprint of a
+/// hit ([`crate::scene::Interaction::compute_uv_derivatives`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RayDifferential {
+    pub rx_o: Vec3,
+    pub rx_d: Vec3,
+    pub ry_o: Vec3,
+    pub ry_d: Vec3,
+}
+
+impl RayDifferential {
+    /// Moves the auxiliary rays towards `main` by `s` (pbrt's `ScaleDifferentials`):
+    /// `s < 1` describes a footprint smaller than a pixel.
+    pub fn scaled(&self, main: &Ray, s: f32) -> RayDifferential {
+        RayDifferential {
+            rx_o: main.o + (self.rx_o - main.o) * s,
+            rx_d: main.d + (self.rx_d - main.d) * s,
+            ry_o: main.o + (self.ry_o - main.o) * s,
+            ry_d: main.d + (self.ry_d - main.d) * s,
+        }
+    }
+}

@@ -60,6 +60,22 @@ impl Sphere {
         Vec2::new(phi / (2.0 * PI), theta / PI)
     }
 
+    /// `∂p/∂u`, `∂p/∂v` of [`Sphere::uv`] at the point with outward normal `n`:
+    /// `2π·(−y, x, 0)` and `π·(z·x/ρ, z·y/ρ, −ρ)` with `(x, y, z) = r·n`, `ρ = √(x² + y²)`.
+    /// At the poles (`ρ = 0`) `∂p/∂v` is zero and so is `∂p/∂u`; callers fall back to
+    /// an arbitrary frame.
+    pub fn uv_derivatives(&self, n: Vec3) -> (Vec3, Vec3) {
+        let p = n * self.radius;
+        let rho = (p.x * p.x + p.y * p.y).sqrt();
+        let dpdu = Vec3::new(-p.y, p.x, 0.0) * (2.0 * PI);
+        let dpdv = if rho > 0.0 {
+            Vec3::new(p.z * p.x / rho, p.z * p.y / rho, -rho) * PI
+        } else {
+            Vec3::ZERO
+        };
+        (dpdu, dpdv)
+    }
+
     pub fn area(&self) -> f32 {
         4.0 * PI * self.radius * self.radius
     }
@@ -81,5 +97,29 @@ mod tests {
         assert!(s.intersect(Vec3::new(1.0, 0.0, 0.0), -Vec3::Z, 1e-4, 1e7).is_none(), "tangent");
         // unnormalised direction: t is in the ray's own units
         assert!((s.intersect(Vec3::ZERO, -Vec3::Z * 2.0, 1e-4, 1e7).unwrap() - 2.0).abs() < 1e-5);
+    }
+
+    #[test]
+    fn uv_derivatives_match_finite_differences() {
+        let s = Sphere {
+            center: Vec3::new(1.0, -2.0, 0.5),
+            radius: 2.0,
+        };
+        // p(u, v) on the sphere, inverse of `uv`
+        let at = |u: f32, v: f32| {
+            let (phi, theta) = (u * 2.0 * PI, v * PI);
+            Vec3::new(theta.sin() * phi.cos(), theta.sin() * phi.sin(), theta.cos())
+        };
+        for (u, v) in [(0.1, 0.3), (0.6, 0.7), (0.9, 0.45)] {
+            let n = at(u, v);
+            let uv = s.uv(n);
+            assert!((uv - Vec2::new(u, v)).length() < 1e-5);
+            let (dpdu, dpdv) = s.uv_derivatives(n);
+            let h = 1e-3;
+            let fu = (at(u + h, v) - at(u - h, v)) * (s.radius / (2.0 * h));
+            let fv = (at(u, v + h) - at(u, v - h)) * (s.radius / (2.0 * h));
+            assert!((dpdu - fu).length() < 1e-2 * fu.length(), "{dpdu} {fu}");
+            assert!((dpdv - fv).length() < 1e-2 * fv.length(), "{dpdv} {fv}");
+        }
     }
 }

@@ -3,24 +3,31 @@
 //! segments, adding emission seen on the way (area lights, the environment for
 //! rays that escape); at the first diffuse surface add the direct light of every
 //! light: point lights with one shadow ray each (`ρ/π · cosθ · (Φ/4π) / d²`),
-//! area lights and the environment with `light_samples` samples each, drawn by
-//! the light's own importance (or uniformly, for comparisons).
+//! area lights and the environment with `light_samples` light samples (drawn by
+//! the light's own importance, or uniformly for comparisons) and as many BSDF
+//! samples each, combined by MIS.
 
 use super::{shadow_ray, spawn_ray};
-use crate::geometry::Ray;
+use crate::geometry::{Ray, RayDifferential};
 use crate::material::Material;
-use crate::math::{reflect, refract, Vec2, Vec3, INV_PI};
+use crate::math::{reflect, refract, Frame, Vec2, Vec3, INV_PI};
 use crate::sampler::PixelSampler;
+use crate::sampling::{cosine_hemisphere, power_heuristic};
 use crate::scene::{Interaction, Scene};
 
 /// Counters a render thread keeps for the benchmark figures.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct RayCounts {
     pub rays: u64,
+    /// Samples whose value was NaN or infinite (dropped).
+    pub invalid: u64,
 }
 
-/// Radiance arriving along a camera ray.
-pub fn li(scene: &Scene, mut ray: Ray, sampler: &mut PixelSampler, counts: &mut RayCounts) -> Vec3 {
+/// Radiance arriving along a camera ray. `diff` (the camera ray's differentials)
+/// sets the texture footprint of the first hit only: rays after a refraction carry
+/// none (pbrt would refract the differentials too, which needs normal derivatives),
+/// so textures seen through a refractor are looked up on their finest MIP level.
+pub fn li(scene: &Scene, mut ray: Ray, diff: Option<RayDifferential>, sampler: &mut PixelSampler, counts: &mut RayCounts) -> Vec3 {
     let mut total = Vec3::ZERO;
     // `segment` is the number of path segments so far, the camera ray being the first.
     for segment in 1..=scene.max_depth {
@@ -28,7 +35,10 @@ pub fn li(scene: &Scene, mut ray: Ray, sampler: &mut PixelSampler, counts: &mut 
         let Some(hit) = scene.intersect(&ray) else {
             return total + scene.environment_radiance(ray.d);
         };
-        let it = scene.interaction(&ray, &hit);
+        let mut it = scene.interaction(&ray, &hit);
+        if let (1, Some(d)) = (segment, &diff) {
+            it.compute_uv_derivatives(d);
+        }
         if let Some((_, light)) = scene.area_light_of(&it) {
             total += light.emitted(it.ng, it.wo);
         }
@@ -39,7 +49,7 @@ pub fn li(scene: &Scene, mut ray: Ray, sampler: &mut PixelSampler, counts: &mut 
                 if segment >= scene.max_depth {
                     return total;
                 }
-                let albedo = scene.textures[*texture as usize].eval(it.uv);
+                let albedo = scene.textures[*texture as usize].eval(it.tex_coord());
                 return total + direct_diffuse(scene, &it, albedo, *twosided, sampler, counts);
             }
             // no material (a light without a BSDF), glass, rough conductor: not this integrator's
@@ -58,6 +68,11 @@ pub fn perfect_refraction(wo: Vec3, ns: Vec3, eta: f32) -> Vec3 {
     refract(wo, n, ratio).unwrap_or_else(|| reflect(wo, n))
 }
 
+/// Direct light at a diffuse point. Point lights: one shadow ray each. Area
+/// lights and the environment: `light_samples` light samples and as many
+/// cosine-weighted BSDF samples, combined by multiple importance sampling (power
+/// heuristic), so neither a small bright source nor a broad sky that is mostly
+/// behind the surface makes the estimate noisy.
 fn direct_diffuse(
     scene: &Scene,
     it: &Interaction,
@@ -70,31 +85,64 @@ fn direct_diffuse(
     if n.dot(it.wo) <= 0.0 {
         return Vec3::ZERO; // the back of a one-sided surface is black
     }
-    let f = albedo * INV_PI;
+    let frame = Frame::from_normal(n);
     let mut total = Vec3::ZERO;
-    for light in &scene.lights {
-        let samples = if light.is_delta() { 1 } else { scene.light_samples };
-        let mut sum = Vec3::ZERO;
-        for _ in 0..samples {
-            let u = if light.is_delta() {
-                Vec2::ZERO
-            } else {
-                Vec2::from(sampler.next_2d())
-            };
-            let Some(ls) = light.sample(it.p, u, scene.light_sampling) else {
-                continue;
-            };
-            let cos = n.dot(ls.wi);
-            if cos <= 0.0 || ls.pdf <= 0.0 || ls.radiance == Vec3::ZERO {
-                continue;
+    for (index, light) in scene.lights.iter().enumerate() {
+        if light.is_delta() {
+            if let Some(ls) = light.sample(it.p, Vec2::ZERO, scene.light_sampling) {
+                let cos = n.dot(ls.wi);
+                if cos > 0.0 {
+                    counts.rays += 1;
+                    if !scene.occluded(&shadow_ray(it, &ls)) {
+                        total += ls.radiance * cos;
+                    }
+                }
             }
-            counts.rays += 1;
-            if scene.occluded(&shadow_ray(it, &ls)) {
-                continue;
-            }
-            sum += ls.radiance * (cos / ls.pdf);
+            continue;
         }
-        total += sum / samples as f32;
+        let mut sum = Vec3::ZERO;
+        for _ in 0..scene.light_samples {
+            // light sampling
+            if let Some(ls) = light.sample(it.p, Vec2::from(sampler.next_2d()), scene.light_sampling) {
+                let cos = n.dot(ls.wi);
+                if cos > 0.0 && ls.pdf > 0.0 && ls.radiance != Vec3::ZERO {
+                    counts.rays += 1;
+                    if !scene.occluded(&shadow_ray(it, &ls)) {
+                        let w = power_heuristic(ls.pdf, cos * INV_PI);
+                        sum += ls.radiance * (cos * w / ls.pdf);
+                    }
+                }
+            }
+            // BSDF sampling: the estimate f·L·cos/pdf is ρ·L for cosine sampling (ρ applied below, with π)
+            let wi = frame.to_world(cosine_hemisphere(Vec2::from(sampler.next_2d())));
+            let cos = n.dot(wi);
+            if cos <= 0.0 {
+                continue;
+            }
+            let bsdf_pdf = cos * INV_PI;
+            counts.rays += 1;
+            let ray = spawn_ray(it, wi);
+            let (radiance, light_pdf) = match scene.intersect(&ray) {
+                Some(hit) => {
+                    let lit = scene.interaction(&ray, &hit);
+                    match scene.area_light_of(&lit) {
+                        Some((i, area)) if i as usize == index => (
+                            area.emitted(lit.ng, lit.wo),
+                            light.pdf(it.p, wi, Some((lit.p, lit.ng)), scene.light_sampling),
+                        ),
+                        _ => continue,
+                    }
+                }
+                None if scene.environment == Some(index as u32) => {
+                    (scene.environment_radiance(wi), light.pdf(it.p, wi, None, scene.light_sampling))
+                }
+                None => continue,
+            };
+            if radiance != Vec3::ZERO {
+                sum += radiance * (cos * power_heuristic(bsdf_pdf, light_pdf) / bsdf_pdf);
+            }
+        }
+        total += sum / scene.light_samples as f32;
     }
-    f * total
+    albedo * INV_PI * total
 }

@@ -1,6 +1,16 @@
 //! Integrators: a closed family. The render loop lives in [`crate::render`].
 
 pub mod intersection_test;
+pub mod path;
+
+pub use path::PathProfile;
+
+/// The integrator a scene asks for.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Integrator {
+    IntersectionTest,
+    Path { profile: PathProfile, rr_threshold: f32 },
+}
 
 use crate::geometry::ray::RAY_T_MAX;
 use crate::geometry::Ray;

@@ -1,8 +1,8 @@
 //! Description → render-ready scene: loads meshes, resolves names, builds the BVH.
 
-use super::desc::{MaterialKind, SceneDesc, ShapeDesc, TextureKind};
+use super::desc::{MaterialKind, SceneDesc, ShapeDesc, TextureKind, TextureRef};
 use super::{Object, Prim, Scene, Shape};
-use crate::accel::Bvh;
+use crate::accel::WideBvh;
 use crate::camera::Camera;
 use crate::error::{Result, SceneError};
 use crate::film::Filter;
@@ -13,21 +13,33 @@ use crate::light::environment::EnvImage;
 use crate::light::{AreaLight, EnvironmentLight, Light, LightSampler};
 use crate::material::Material;
 use crate::math::Vec3;
-use crate::texture::{Texture, UvMapping};
+use crate::texture::image::{ImageCache, ImageTexture};
+use crate::texture::{Texture, TextureConvention, UvMapping};
 use rayon::prelude::*;
 use std::collections::HashMap;
 use std::path::Path;
 
-/// Choices the `--compat` profile makes differently at build time.
+/// Choices the `--compat` profile makes differently at build time, and build
+/// switches for tests and experiments.
 #[derive(Clone, Copy, Debug)]
 pub struct BuildOptions {
     /// Re-wind texture coordinates together with vertices (the original did not).
     pub swap_uv_on_rewind: bool,
+    /// Image rows vs. `v`, sphere uv order and the image lookup (see [`TextureConvention`]).
+    pub textures: TextureConvention,
+    /// Build MIP pyramids for image textures (default true). With `false` only level 0
+    /// exists and every image lookup is bilinear on it, whatever the ray footprint:
+    /// the aliasing test compares both.
+    pub mipmap: bool,
 }
 
 impl Default for BuildOptions {
     fn default() -> Self {
-        BuildOptions { swap_uv_on_rewind: true }
+        BuildOptions {
+            swap_uv_on_rewind: true,
+            textures: TextureConvention::Physical,
+            mipmap: true,
+        }
     }
 }
 
@@ -79,6 +91,28 @@ pub fn build(desc: &SceneDesc, opts: BuildOptions) -> Result<Scene> {
     let mut warnings = desc.warnings.clone();
 
     let texture_names: HashMap<&str, u32> = desc.textures.iter().enumerate().map(|(i, t)| (t.name.as_str(), i as u32)).collect();
+    // Image files load first (once per distinct file, in parallel).
+    let image_paths: Vec<(std::path::PathBuf, &str)> = desc
+        .textures
+        .iter()
+        .filter_map(|t| match &t.kind {
+            TextureKind::Image { path, .. } => Some((desc.base_dir.join(&path.value), path.key.as_str())),
+            _ => None,
+        })
+        .collect();
+    let mut images = ImageCache::default();
+    let files: Vec<std::path::PathBuf> = image_paths.iter().map(|(p, _)| p.clone()).collect();
+    images.load_all(&files, opts.textures, opts.mipmap).map_err(|(i, e)| {
+        let (full, key) = &image_paths[i];
+        // the loader's messages name the file already; name it here only when not
+        let (e, full) = (format!("{e:#}"), full.display().to_string());
+        let msg = if e.contains(&full) {
+            format!("cannot load image texture: {e}")
+        } else {
+            format!("cannot load image texture '{full}': {e}")
+        };
+        SceneError::new(&desc.file, Some(key), msg)
+    })?;
     let mut textures = Vec::with_capacity(desc.textures.len());
     for t in &desc.textures {
         textures.push(match &t.kind {
@@ -88,9 +122,10 @@ pub fn build(desc: &SceneDesc, opts: BuildOptions) -> Result<Scene> {
                 color1: *color1,
                 mapping: UvMapping::new(mapping),
             },
-            TextureKind::Image { path, .. } => {
-                return Err(SceneError::new(&desc.file, Some(&path.key), "image textures are not supported yet"));
-            }
+            TextureKind::Image { path, mapping } => Texture::Image(ImageTexture {
+                mipmap: images.get(&desc.base_dir.join(&path.value)).expect("loaded above"),
+                mapping: UvMapping::new(mapping),
+            }),
         });
     }
 
@@ -104,7 +139,7 @@ pub fn build(desc: &SceneDesc, opts: BuildOptions) -> Result<Scene> {
     for m in &desc.materials {
         materials.push(match &m.kind {
             MaterialKind::Diffuse { texture, twosided } => Material::Diffuse {
-                texture: lookup(&texture_names, &texture.value, "texture", desc, &texture.key)?,
+                texture: resolve_texture(texture, &texture_names, &mut textures, desc)?,
                 twosided: *twosided,
             },
             MaterialKind::Refraction { eta } => Material::Refraction { eta: *eta },
@@ -120,13 +155,15 @@ pub fn build(desc: &SceneDesc, opts: BuildOptions) -> Result<Scene> {
                 k,
                 alpha_x,
                 alpha_y,
+                distribution,
             } => Material::RoughConductor {
-                texture: lookup(&texture_names, &texture.value, "texture", desc, &texture.key)?,
+                texture: resolve_texture(texture, &texture_names, &mut textures, desc)?,
                 eta_i: *eta_i,
                 eta_t: *eta_t,
                 k: *k,
                 alpha_x: *alpha_x,
                 alpha_y: *alpha_y,
+                distribution: *distribution,
             },
         });
     }
@@ -239,6 +276,7 @@ pub fn build(desc: &SceneDesc, opts: BuildOptions) -> Result<Scene> {
         height: desc.film.height,
         block_size: desc.film.block_size,
         filter: Filter::new(&desc.film.filter),
+        integrator: desc.integrator.kind,
         spp: desc.integrator.spp,
         max_depth: desc.integrator.max_depth,
         textures,
@@ -255,7 +293,19 @@ pub fn build(desc: &SceneDesc, opts: BuildOptions) -> Result<Scene> {
         bvh,
         warnings,
         bvh_seconds,
+        texture_convention: opts.textures,
     })
+}
+
+/// Index of a material's texture; inline colours become constant textures.
+fn resolve_texture(r: &TextureRef, names: &HashMap<&str, u32>, textures: &mut Vec<Texture>, desc: &SceneDesc) -> Result<u32> {
+    match r {
+        TextureRef::Named(t) => lookup(names, &t.value, "texture", desc, &t.key),
+        TextureRef::Color(c) => {
+            textures.push(Texture::Constant(*c));
+            Ok(textures.len() as u32 - 1)
+        }
+    }
 }
 
 pub fn prim_bounds(p: &Prim) -> Aabb {
@@ -268,13 +318,10 @@ pub fn prim_bounds(p: &Prim) -> Aabb {
     }
 }
 
-/// Builds the BVH and reorders primitives into leaf order.
-pub fn build_bvh(prims: Vec<Prim>) -> (Vec<Prim>, Bvh) {
-    let bounds: Vec<Aabb> = prims.iter().map(prim_bounds).collect();
-    let mut bvh = Bvh::build(&bounds);
-    let ordered: Vec<Prim> = bvh.order.iter().map(|&i| prims[i as usize]).collect();
-    bvh.order = (0..ordered.len() as u32).collect();
-    (ordered, bvh)
+/// Builds the BVH and reorders primitives into leaf order (primitives with
+/// unusable bounds are dropped); the BVH's indices refer to the returned order.
+pub fn build_bvh(prims: Vec<Prim>) -> (Vec<Prim>, WideBvh) {
+    WideBvh::build_reordered(prims)
 }
 
 /// Loads and builds a scene file in one step.

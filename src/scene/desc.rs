@@ -34,10 +34,7 @@ pub struct SceneDesc {
     pub warnings: Vec<String>,
 }
 
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum IntegratorKind {
-    IntersectionTest,
-}
+pub use crate::integrator::Integrator as IntegratorKind;
 
 /// `integrator`:
 /// * `type` — `"intersection_test"`.
@@ -105,7 +102,7 @@ pub struct CameraDesc {
 
 /// `textures.<name>`: `type` = `constant` (`color`, required) | `checkerboard`
 /// (`color0` (0.4), `color1` (0.2), `tex_coordinate_generator`) | `image` (`path`,
-/// `tex_coordinate_generator`).
+/// `tex_coordinate_generator`); see [`TextureKind`].
 #[derive(Clone, Debug)]
 pub struct TextureDesc {
     pub name: String,
@@ -115,18 +112,32 @@ pub struct TextureDesc {
 
 #[derive(Clone, Debug)]
 pub enum TextureKind {
-    Constant {
-        color: Vec3,
-    },
+    /// `constant`: `color` (vec3, required).
+    Constant { color: Vec3 },
+    /// `checkerboard`: `color0` (vec3, (0.4, 0.4, 0.4)), `color1` (vec3, (0.2, 0.2, 0.2)),
+    /// `tex_coordinate_generator` (required); checks 0.5 wide in `st`.
     Checkerboard {
         color0: Vec3,
         color1: Vec3,
         mapping: UvMappingDesc,
     },
-    Image {
-        path: At<String>,
-        mapping: UvMappingDesc,
-    },
+    /// `image`:
+    /// * `path` (string, required) — relative to the scene file's folder. EXR and Radiance
+    ///   `.hdr` are read as linear values, PNG and JPEG decoded from sRGB; alpha is dropped.
+    ///   The file is read when the scene is built (once, however many textures name it);
+    ///   a missing or undecodable file is an error naming this key.
+    /// * `tex_coordinate_generator` (required) — `st = scale ⊙ uv + delta`.
+    ///
+    /// `st = (0, 0)` is the bottom-left corner of the picture and `(1, 1)` the top-right
+    /// (`--compat rdr171`: `t = 0` is the top row, as in the original); the picture repeats
+    /// outside [0, 1]². Lookups are MIP-mapped (trilinear) from the ray footprint; see
+    /// `src/texture/mipmap.rs`.
+    ///
+    /// ```json
+    /// "grid": {"type": "image", "path": "textures/uv_grid.png",
+    ///          "tex_coordinate_generator": {"type": "uvmapping2d", "scale": [4, 4]}}
+    /// ```
+    Image { path: At<String>, mapping: UvMappingDesc },
 }
 
 /// `tex_coordinate_generator`: `type` = `"uvmapping2d"`, `scale` ((1,1)), `delta`
@@ -142,7 +153,7 @@ pub struct UvMappingDesc {
 /// * `refraction`: `eta` (1.5);
 /// * `glass`: `R` ((1,1,1)), `T` ((1,1,1)), `eta` (1.5);
 /// * `roughconductor`: `texture_name` (required), `etaI`, `etaT`, `k` ((1,1,1)),
-///   `alpha_x`, `alpha_y` (0.1).
+///   `alpha_x`, `alpha_y` (0.1), `distribution` (`"beckmann"` | `"ggx"`, `"beckmann"`).
 #[derive(Clone, Debug)]
 pub struct MaterialDesc {
     pub name: String,
@@ -153,7 +164,7 @@ pub struct MaterialDesc {
 #[derive(Clone, Debug)]
 pub enum MaterialKind {
     Diffuse {
-        texture: At<String>,
+        texture: TextureRef,
         twosided: bool,
     },
     Refraction {
@@ -165,13 +176,21 @@ pub enum MaterialKind {
         eta: f32,
     },
     RoughConductor {
-        texture: At<String>,
+        texture: TextureRef,
         eta_i: Vec3,
         eta_t: Vec3,
         k: Vec3,
         alpha_x: f32,
         alpha_y: f32,
+        distribution: crate::material::Distribution,
     },
+}
+
+/// A material's texture: by name, or an inline colour (legacy keys).
+#[derive(Clone, Debug)]
+pub enum TextureRef {
+    Named(At<String>),
+    Color(Vec3),
 }
 
 /// `objects[i]`: `type` (`"mesh"` | `"sphere"`), `material_name`, `light`; at least
@@ -274,15 +293,31 @@ fn parse_integrator(p: &Props) -> Result<IntegratorDesc> {
     let kind = match ty.as_str() {
         "intersection_test" => IntegratorKind::IntersectionTest,
         "path" | "bdpt" | "photon" => {
+            if ty != "path" {
+                p.ctx().warn(
+                    &p.key_path("type"),
+                    format!("integrator '{ty}' is not implemented; rendering with the path tracer"),
+                );
+            }
+            let profile = match p.string_or("profile", "MIS")?.as_str() {
+                "RW" | "RandomWalk" => crate::integrator::PathProfile::RandomWalk,
+                "NEE" | "NextEventEstimation" => crate::integrator::PathProfile::NextEvent,
+                "MIS" | "MultipleImportanceSampling" => crate::integrator::PathProfile::Mis,
+                other => return Err(p.error("profile", format!("unknown path profile '{other}' (available: RW, NEE, MIS)"))),
+            };
+            let rr_threshold = p.f32_or("rr_threshold", 0.1)?;
+            IntegratorKind::Path { profile, rr_threshold }
+        }
+        _ => {
             return Err(p.error(
                 "type",
-                format!("integrator '{ty}' is not implemented yet (available: intersection_test)"),
+                format!("unknown integrator '{ty}' (available: intersection_test, path; bdpt and photon render as path)"),
             ))
         }
-        _ => return Err(p.error("type", format!("unknown integrator '{ty}' (available: intersection_test)"))),
     };
-    let spp = p.int_at_least("spp", 8, 1)?;
-    let max_depth = p.int_at_least("max_depth", 16, 1)?;
+    let path = matches!(kind, IntegratorKind::Path { .. });
+    let spp = p.int_at_least("spp", if path { 32 } else { 8 }, 1)?;
+    let max_depth = p.int_at_least("max_depth", if path { 12 } else { 16 }, 1)?;
     let mut point_lights = Vec::new();
     let has_list = p.contains("lights");
     if !has_list || p.contains("point_light_position") || p.contains("point_light_flux") {
@@ -464,6 +499,19 @@ fn non_negative(p: &Props, key: &str, v: f32) -> Result<f32> {
     Ok(v)
 }
 
+/// `texture_name`, or (accepted with a warning) the legacy inline colour key that
+/// older course scenes use instead (`color` on diffuse, `R` on conductors).
+fn texture_ref(p: &Props, legacy: &str) -> Result<TextureRef> {
+    if !p.contains("texture_name") && p.contains(legacy) {
+        p.ctx().warn(
+            &p.key_path(legacy),
+            format!("legacy key '{legacy}' accepted as a constant texture; prefer 'texture_name'"),
+        );
+        return Ok(TextureRef::Color(p.vec3(legacy)?));
+    }
+    Ok(TextureRef::Named(at(p, "texture_name", p.string("texture_name")?)))
+}
+
 fn parse_material(name: &str, p: &Props) -> Result<MaterialDesc> {
     let ty = p.string_or("type", "diffuse")?;
     let positive_eta = |key: &str| -> Result<f32> {
@@ -475,7 +523,7 @@ fn parse_material(name: &str, p: &Props) -> Result<MaterialDesc> {
     };
     let kind = match ty.as_str() {
         "diffuse" => MaterialKind::Diffuse {
-            texture: at(p, "texture_name", p.string("texture_name")?),
+            texture: texture_ref(p, "color")?,
             twosided: p.bool_or("twosided", false)?,
         },
         "refraction" => MaterialKind::Refraction { eta: positive_eta("eta")? },
@@ -485,12 +533,22 @@ fn parse_material(name: &str, p: &Props) -> Result<MaterialDesc> {
             eta: positive_eta("eta")?,
         },
         "roughconductor" => MaterialKind::RoughConductor {
-            texture: at(p, "texture_name", p.string("texture_name")?),
+            texture: texture_ref(p, "R")?,
             eta_i: p.vec3_or("etaI", Vec3::ONE)?,
             eta_t: p.vec3_or("etaT", Vec3::ONE)?,
             k: p.vec3_or("k", Vec3::ONE)?,
             alpha_x: non_negative(p, "alpha_x", p.f32_or("alpha_x", 0.1)?)?,
             alpha_y: non_negative(p, "alpha_y", p.f32_or("alpha_y", 0.1)?)?,
+            distribution: match p.string_or("distribution", "beckmann")?.as_str() {
+                "beckmann" => crate::material::Distribution::Beckmann,
+                "ggx" => crate::material::Distribution::Ggx,
+                other => {
+                    return Err(p.error(
+                        "distribution",
+                        format!("unknown microfacet distribution '{other}' (available: beckmann, ggx)"),
+                    ))
+                }
+            },
         },
         _ => {
             return Err(p.error(

@@ -6,17 +6,16 @@ pub mod build;
 pub mod desc;
 pub mod json;
 
-use crate::accel::Bvh;
+use crate::accel::WideBvh;
 use crate::camera::Camera;
 use crate::film::Filter;
 use crate::geometry::mesh::Mesh;
 use crate::geometry::sphere::Sphere;
-use crate::geometry::triangle::intersect_watertight;
-use crate::geometry::Ray;
+use crate::geometry::{Ray, RayDifferential};
 use crate::light::Light;
 use crate::material::Material;
 use crate::math::{normalize_div, Vec2, Vec3};
-use crate::texture::Texture;
+use crate::texture::{TexCoord, Texture, TextureConvention};
 pub use build::{build, BuildOptions};
 pub use desc::SceneDesc;
 
@@ -69,9 +68,89 @@ pub struct Interaction {
     /// Shading normal (interpolated vertex normals, else `ng`).
     pub ns: Vec3,
     pub uv: Vec2,
+    /// `∂p/∂u`, `∂p/∂v` of the uv parameterisation (spec §14.2; an arbitrary frame
+    /// around `ng` where it is degenerate).
+    pub dpdu: Vec3,
+    pub dpdv: Vec3,
+    /// Screen-space derivatives of `uv` per pixel; zero unless
+    /// [`Interaction::compute_uv_derivatives`] was given the ray's differentials.
+    pub duvdx: Vec2,
+    pub duvdy: Vec2,
     /// Direction back along the incoming ray.
     pub wo: Vec3,
     pub object: u32,
+}
+
+impl Interaction {
+    /// The texture coordinates and their footprint, for [`crate::texture::Texture::eval`].
+    #[inline]
+    pub fn tex_coord(&self) -> TexCoord {
+        TexCoord {
+            uv: self.uv,
+            duvdx: self.duvdx,
+            duvdy: self.duvdy,
+        }
+    }
+
+    /// Sets `duvdx`, `duvdy` from the ray differentials of the ray that hit this point
+    /// (pbrt-v4's `SurfaceInteraction::ComputeDifferentials`): the auxiliary rays are
+    /// intersected with the tangent plane (`ng` through `p`), giving `∂p/∂x`, `∂p/∂y`,
+    /// and `∂p/∂x = ∂p/∂u·∂u/∂x + ∂p/∂v·∂v/∂x` is solved in the least-squares sense.
+    /// Auxiliary rays parallel to the plane, or a singular system, give zero
+    /// derivatives (no filtering); the results are clamped to ±1e8.
+    pub fn compute_uv_derivatives(&mut self, diff: &RayDifferential) {
+        let n = self.ng;
+        let hit_plane = |o: Vec3, d: Vec3| -> Option<Vec3> {
+            let t = n.dot(self.p - o) / n.dot(d);
+            t.is_finite().then(|| o + d * t)
+        };
+        let (Some(px), Some(py)) = (hit_plane(diff.rx_o, diff.rx_d), hit_plane(diff.ry_o, diff.ry_d)) else {
+            self.duvdx = Vec2::ZERO;
+            self.duvdy = Vec2::ZERO;
+            return;
+        };
+        let (dpdx, dpdy) = (px - self.p, py - self.p);
+        let (a00, a01, a11) = (self.dpdu.dot(self.dpdu), self.dpdu.dot(self.dpdv), self.dpdv.dot(self.dpdv));
+        let det = a00 * a11 - a01 * a01;
+        let inv = 1.0 / det;
+        let solve = |b: Vec3| -> Vec2 {
+            let (b0, b1) = (self.dpdu.dot(b), self.dpdv.dot(b));
+            let r = Vec2::new(a11 * b0 - a01 * b1, a00 * b1 - a01 * b0) * inv;
+            if r.is_finite() {
+                r.clamp(Vec2::splat(-1e8), Vec2::splat(1e8))
+            } else {
+                Vec2::ZERO
+            }
+        };
+        if det == 0.0 || !inv.is_finite() {
+            self.duvdx = Vec2::ZERO;
+            self.duvdy = Vec2::ZERO;
+        } else {
+            self.duvdx = solve(dpdx);
+            self.duvdy = solve(dpdy);
+        }
+    }
+}
+
+/// `∂p/∂u`, `∂p/∂v` from three points and their uv (pbrt); `None` when the uv
+/// triangle is degenerate (|det| < 1e-8) or the two vectors are parallel.
+fn triangle_dpduv(p: &[Vec3; 3], uv: &[Vec2; 3]) -> Option<(Vec3, Vec3)> {
+    let (duv02, duv12) = (uv[0] - uv[2], uv[1] - uv[2]);
+    let (dp02, dp12) = (p[0] - p[2], p[1] - p[2]);
+    let det = duv02.x * duv12.y - duv02.y * duv12.x;
+    if det.abs() < 1e-8 {
+        return None;
+    }
+    let inv = 1.0 / det;
+    let dpdu = (dp02 * duv12.y - dp12 * duv02.y) * inv;
+    let dpdv = (dp12 * duv02.x - dp02 * duv12.x) * inv;
+    let c = dpdu.cross(dpdv);
+    (c.length_squared() > 0.0 && c.is_finite()).then_some((dpdu, dpdv))
+}
+
+/// An arbitrary tangent frame around `n` when the uv parameterisation has none.
+fn fallback_dpduv(n: Vec3) -> (Vec3, Vec3) {
+    crate::math::coordinate_system(n)
 }
 
 pub struct Scene {
@@ -80,6 +159,7 @@ pub struct Scene {
     pub height: u32,
     pub block_size: u32,
     pub filter: Filter,
+    pub integrator: crate::integrator::Integrator,
     pub spp: u32,
     pub max_depth: u32,
     pub textures: Vec<Texture>,
@@ -94,49 +174,27 @@ pub struct Scene {
     /// Bounding sphere of the geometry.
     pub center: Vec3,
     pub radius: f32,
-    /// Primitives in BVH leaf order (`bvh.order` is the identity).
+    /// Primitives in BVH leaf order; the BVH's primitive indices index this.
     pub prims: Vec<Prim>,
-    pub bvh: Bvh,
+    pub bvh: WideBvh,
     pub warnings: Vec<String>,
     /// Seconds spent building the BVH.
     pub bvh_seconds: f64,
+    /// Sphere uv order (and image orientation, baked into the textures).
+    pub texture_convention: TextureConvention,
 }
 
 impl Scene {
     /// Closest hit in `[ray.t_min, ray.t_max]`.
+    #[inline]
     pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
-        let mut best: Option<Hit> = None;
-        self.bvh.traverse(ray, |i, t_max| {
-            match &self.prims[i as usize] {
-                Prim::Triangle { p, .. } => {
-                    if let Some(h) = intersect_watertight(ray.o, ray.d, ray.t_min, *t_max, p) {
-                        *t_max = h.t;
-                        best = Some(Hit { t: h.t, prim: i, b: h.b });
-                    }
-                }
-                Prim::Sphere { sphere, .. } => {
-                    if let Some(t) = sphere.intersect(ray.o, ray.d, ray.t_min, *t_max) {
-                        *t_max = t;
-                        best = Some(Hit { t, prim: i, b: [0.0; 3] });
-                    }
-                }
-            }
-            false
-        });
-        best
+        self.bvh.intersect(&self.prims, ray)
     }
 
     /// Whether anything lies on the ray within `[t_min, t_max]`.
+    #[inline]
     pub fn occluded(&self, ray: &Ray) -> bool {
-        let mut hit = false;
-        self.bvh.traverse(ray, |i, t_max| {
-            hit = match &self.prims[i as usize] {
-                Prim::Triangle { p, .. } => intersect_watertight(ray.o, ray.d, ray.t_min, *t_max, p).is_some(),
-                Prim::Sphere { sphere, .. } => sphere.intersect(ray.o, ray.d, ray.t_min, *t_max).is_some(),
-            };
-            hit
-        });
-        hit
+        self.bvh.occluded(&self.prims, ray)
     }
 
     /// The surface point of a hit. Triangle points are the barycentric
@@ -166,26 +224,46 @@ impl Scene {
                     }
                     None => ng,
                 };
-                let uv = match tri.uv {
-                    Some(t) => mesh.uvs[t[0] as usize] * b[0] + mesh.uvs[t[1] as usize] * b[1] + mesh.uvs[t[2] as usize] * b[2],
-                    None => Vec2::new(0.0, 0.0) * b[0] + Vec2::new(1.0, 0.0) * b[1] + Vec2::new(1.0, 1.0) * b[2],
+                let uvs = match tri.uv {
+                    Some(t) => t.map(|i| mesh.uvs[i as usize]),
+                    None => [Vec2::new(0.0, 0.0), Vec2::new(1.0, 0.0), Vec2::new(1.0, 1.0)],
                 };
+                let uv = uvs[0] * b[0] + uvs[1] * b[1] + uvs[2] * b[2];
+                let (dpdu, dpdv) = triangle_dpduv(p, &uvs).unwrap_or_else(|| fallback_dpduv(ng));
                 Interaction {
                     p: pos,
                     ng,
                     ns,
                     uv,
+                    dpdu,
+                    dpdv,
+                    duvdx: Vec2::ZERO,
+                    duvdy: Vec2::ZERO,
                     wo,
                     object: *object,
                 }
             }
             Prim::Sphere { sphere, object } => {
                 let (pos, n) = sphere.project(ray.at(hit.t));
+                let (mut uv, (mut dpdu, mut dpdv)) = (sphere.uv(n), sphere.uv_derivatives(n));
+                if self.texture_convention == TextureConvention::Rdr171 {
+                    // the original stores (θ/π, φ/2π), derivatives in the same order (§10.2)
+                    uv = Vec2::new(uv.y, uv.x);
+                    std::mem::swap(&mut dpdu, &mut dpdv);
+                }
+                let c = dpdu.cross(dpdv);
+                if !(c.length_squared() > 0.0 && c.is_finite()) {
+                    (dpdu, dpdv) = fallback_dpduv(n);
+                }
                 Interaction {
                     p: pos,
                     ng: n,
                     ns: n,
-                    uv: sphere.uv(n),
+                    uv,
+                    dpdu,
+                    dpdv,
+                    duvdx: Vec2::ZERO,
+                    duvdy: Vec2::ZERO,
                     wo,
                     object: *object,
                 }

@@ -39,6 +39,7 @@ pub fn render(scene: &rdr::Scene, spp: u32, seed: u32, profile: Profile) -> Imag
             seed,
             profile,
             progress: None,
+            time_limit: None,
         },
         &AtomicBool::new(false),
     );

@@ -1,0 +1,1203 @@
+//! The renderer's acceleration structure: an 8-wide BVH collapsed from the binned
+//! SAH tree of [`super::build`], with triangles stored four to a SIMD block.
+//!
+//! * **Nodes** ([`WideNode`], 224 bytes) hold the boxes of up to eight children as
+//!   six rows of eight floats (`lo x, hi x, lo y, hi y, lo z, hi z`), so one ray
+//!   tests all eight with a handful of 8-wide operations: per ray the near and far
+//!   planes of each axis are picked once by the sign of the direction. The slab
+//!   test is the scalar [`crate::geometry::Aabb::intersect`] lane by lane
+//!   (`(plane − o)·(1/d)`, far distances widened by 2γ(3)), on padded boxes, so
+//!   it is exactly as conservative.
+//! * **Triangles** ([`TriBlock`]) are stored as structure-of-arrays blocks of four
+//!   (vertex, axis, lane) with their primitive indices; short blocks repeat their
+//!   last triangle. The block test is the watertight kernel
+//!   [`crate::geometry::triangle::intersect_watertight`] evaluated on four lanes
+//!   with the same operations in the same order (no FMA contraction), so its
+//!   hits, distances and barycentrics are bit-identical to the scalar kernel;
+//!   lanes with an edge function exactly zero go through the scalar kernel (which
+//!   decides them in f64).
+//! * **Traversal** is front to back: children hit are visited nearest first and
+//!   stack entries farther than the current closest hit are skipped; any-hit
+//!   queries stop at the first hit and do not sort.
+//! * **Instruction sets** ([`Isa`]): AVX-512 (VL, mask compares and compress for
+//!   the stack), AVX2, or portable Rust, picked at run time with
+//!   `is_x86_feature_detected!`; the portable one runs everywhere and can be forced
+//!   with [`WideBvh::set_isa`] (the tests run all that the machine has).
+//!
+//! Spheres (and any primitive that is not a triangle) sit in separate leaves of
+//! primitive indices tested with their own kernel.
+
+use super::build::{self, PrimRef, TmpKind, TmpNode};
+use crate::geometry::triangle::intersect_watertight;
+use crate::geometry::{Aabb, Ray};
+use crate::math::{gamma, Vec3};
+use crate::scene::{Hit, Prim};
+
+pub const WIDTH: usize = 8;
+/// Child reference: a leaf (else the index of a node).
+const LEAF: u32 = 1 << 31;
+/// Leaf of non-triangle primitives (indices in `generic`), else of triangle blocks.
+const GENERIC: u32 = 1 << 30;
+/// An unused child slot (its box is empty, so no ray reaches it).
+const EMPTY: u32 = u32::MAX;
+const INDEX_BITS: u32 = 26;
+/// Stack sizes: the small one serves every tree whose worst path needs it.
+const STACK_SMALL: usize = 64;
+const STACK_LARGE: usize = 1024;
+
+/// Far distances are widened by this, as in the scalar slab test.
+const FAR_SCALE: f32 = 1.0 + 2.0 * gamma(3);
+
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(32))]
+pub struct WideNode {
+    /// `lo x, hi x, lo y, hi y, lo z, hi z` of each child (padded boxes).
+    pub planes: [[f32; WIDTH]; 6],
+    pub child: [u32; WIDTH],
+}
+
+impl WideNode {
+    const EMPTY: WideNode = WideNode {
+        planes: [
+            [f32::INFINITY; WIDTH],
+            [f32::NEG_INFINITY; WIDTH],
+            [f32::INFINITY; WIDTH],
+            [f32::NEG_INFINITY; WIDTH],
+            [f32::INFINITY; WIDTH],
+            [f32::NEG_INFINITY; WIDTH],
+        ],
+        child: [EMPTY; WIDTH],
+    };
+
+    /// Box of child `i` (empty for an unused slot).
+    pub fn child_bounds(&self, i: usize) -> Aabb {
+        let p = &self.planes;
+        Aabb::new(Vec3::new(p[0][i], p[2][i], p[4][i]), Vec3::new(p[1][i], p[3][i], p[5][i]))
+    }
+}
+
+/// Four triangles, structure of arrays: `v[vertex][axis][lane]`.
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(16))]
+pub struct TriBlock {
+    pub v: [[[f32; 4]; 3]; 3],
+    /// Primitive index of each lane (a short block repeats its last triangle).
+    pub prim: [u32; 4],
+}
+
+impl TriBlock {
+    pub fn triangle(&self, lane: usize) -> [Vec3; 3] {
+        [0, 1, 2].map(|k| Vec3::new(self.v[k][0][lane], self.v[k][1][lane], self.v[k][2][lane]))
+    }
+}
+
+/// Instruction set of the traversal kernels.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Isa {
+    Portable,
+    Avx2,
+    Avx512,
+}
+
+impl Isa {
+    /// The best the CPU has.
+    pub fn detect() -> Isa {
+        [Isa::Avx512, Isa::Avx2]
+            .into_iter()
+            .find(|i| i.available())
+            .unwrap_or(Isa::Portable)
+    }
+
+    pub fn available(self) -> bool {
+        match self {
+            Isa::Portable => true,
+            #[cfg(target_arch = "x86_64")]
+            Isa::Avx2 => is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma"),
+            #[cfg(target_arch = "x86_64")]
+            Isa::Avx512 => Isa::Avx2.available() && is_x86_feature_detected!("avx512f") && is_x86_feature_detected!("avx512vl"),
+            #[cfg(not(target_arch = "x86_64"))]
+            _ => false,
+        }
+    }
+
+    /// Every variant this CPU can run.
+    pub fn all_available() -> Vec<Isa> {
+        [Isa::Portable, Isa::Avx2, Isa::Avx512]
+            .into_iter()
+            .filter(|i| i.available())
+            .collect()
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Isa::Portable => "portable",
+            Isa::Avx2 => "avx2",
+            Isa::Avx512 => "avx512",
+        }
+    }
+}
+
+#[derive(Clone, Debug)]
+pub struct WideBvh {
+    /// Node 0 is the root (no nodes: nothing to hit).
+    pub nodes: Vec<WideNode>,
+    pub blocks: Vec<TriBlock>,
+    /// Primitive indices of the generic leaves.
+    pub generic: Vec<u32>,
+    /// Bounds of everything (unpadded).
+    root_bounds: Aabb,
+    /// Primitives in the tree.
+    pub prim_count: usize,
+    isa: Isa,
+    /// Deepest traversal stack any ray can need.
+    stack_need: usize,
+    /// Use the large stack even where the small one would do (tests).
+    large_stack: bool,
+}
+
+impl Default for WideBvh {
+    fn default() -> Self {
+        WideBvh {
+            nodes: Vec::new(),
+            blocks: Vec::new(),
+            generic: Vec::new(),
+            root_bounds: Aabb::EMPTY,
+            prim_count: 0,
+            isa: Isa::detect(),
+            stack_need: 1,
+            large_stack: false,
+        }
+    }
+}
+
+/// One candidate child while a wide node is formed.
+enum Cand<'a> {
+    Node(&'a TmpNode),
+    /// Primitive indices (all triangles, or all not).
+    Leaf(Aabb, std::borrow::Cow<'a, [u32]>),
+    /// A leaf mixing triangles and other primitives: becomes a node of two leaves.
+    Mixed(Aabb, Vec<u32>, Vec<u32>),
+}
+
+impl Cand<'_> {
+    fn bounds(&self) -> Aabb {
+        match self {
+            Cand::Node(n) => n.bounds,
+            Cand::Leaf(b, _) | Cand::Mixed(b, _, _) => *b,
+        }
+    }
+}
+
+struct Collapser<'a> {
+    prims: &'a [Prim],
+    /// Position in the builder's reference order → primitive index.
+    order: &'a [u32],
+    out: WideBvh,
+}
+
+impl<'a> Collapser<'a> {
+    fn is_tri(&self, i: u32) -> bool {
+        matches!(self.prims[i as usize], Prim::Triangle { .. })
+    }
+
+    fn leaf_cand(&self, n: &'a TmpNode, start: u32, count: u32) -> Cand<'a> {
+        let items = &self.order[start as usize..(start + count) as usize];
+        let first = self.is_tri(items[0]);
+        if items.iter().all(|&i| self.is_tri(i) == first) {
+            return Cand::Leaf(n.bounds, items.into());
+        }
+        let (tris, other): (Vec<u32>, Vec<u32>) = items.iter().partition(|&&i| self.is_tri(i));
+        Cand::Mixed(n.bounds, tris, other)
+    }
+
+    fn cand(&self, n: &'a TmpNode) -> Cand<'a> {
+        match n.kind {
+            TmpKind::Leaf { start, count } => self.leaf_cand(n, start, count),
+            TmpKind::Inner(_) => Cand::Node(n),
+        }
+    }
+
+    fn bounds_of(&self, items: &[u32]) -> Aabb {
+        items
+            .iter()
+            .map(|&i| crate::scene::build::prim_bounds(&self.prims[i as usize]))
+            .fold(Aabb::EMPTY, Aabb::union)
+    }
+
+    /// Emits a leaf; returns its child reference.
+    fn leaf(&mut self, items: &[u32]) -> u32 {
+        debug_assert!(!items.is_empty() && items.len() <= 16);
+        if self.is_tri(items[0]) {
+            let first = self.out.blocks.len() as u32;
+            for chunk in items.chunks(4) {
+                let mut b = TriBlock {
+                    v: [[[0.0; 4]; 3]; 3],
+                    prim: [0; 4],
+                };
+                for lane in 0..4 {
+                    let i = chunk[lane.min(chunk.len() - 1)];
+                    let Prim::Triangle { p, .. } = &self.prims[i as usize] else {
+                        unreachable!("mixed leaf")
+                    };
+                    for (k, v) in p.iter().enumerate() {
+                        for a in 0..3 {
+                            b.v[k][a][lane] = v[a];
+                        }
+                    }
+                    b.prim[lane] = i;
+                }
+                self.out.blocks.push(b);
+            }
+            let n = self.out.blocks.len() as u32 - first;
+            assert!(first < 1 << INDEX_BITS, "too many triangles for the wide BVH");
+            LEAF | (first << 4) | (n - 1)
+        } else {
+            let first = self.out.generic.len() as u32;
+            self.out.generic.extend_from_slice(items);
+            assert!(first < 1 << INDEX_BITS, "too many primitives for the wide BVH");
+            LEAF | GENERIC | (first << 4) | (items.len() as u32 - 1)
+        }
+    }
+
+    /// Emits a node for `cands`; returns its index and the stack depth below it.
+    fn node(&mut self, cands: Vec<Cand<'a>>) -> (u32, usize) {
+        let index = self.out.nodes.len();
+        self.out.nodes.push(WideNode::EMPTY);
+        let mut node = WideNode::EMPTY;
+        let mut deepest = 0;
+        let k = cands.len();
+        for (slot, c) in cands.into_iter().enumerate() {
+            let b = c.bounds().padded();
+            let (lo, hi) = (b.min, b.max);
+            for a in 0..3 {
+                node.planes[2 * a][slot] = lo[a];
+                node.planes[2 * a + 1][slot] = hi[a];
+            }
+            node.child[slot] = match c {
+                Cand::Leaf(_, items) => self.leaf(&items),
+                Cand::Mixed(_, tris, other) => {
+                    let (tb, ob) = (self.bounds_of(&tris), self.bounds_of(&other));
+                    let (i, d) = self.node(vec![Cand::Leaf(tb, tris.into()), Cand::Leaf(ob, other.into())]);
+                    deepest = deepest.max(d);
+                    i
+                }
+                Cand::Node(n) => {
+                    let (i, d) = self.open(n);
+                    deepest = deepest.max(d);
+                    i
+                }
+            };
+        }
+        self.out.nodes[index] = node;
+        (index as u32, deepest + k.saturating_sub(1))
+    }
+
+    /// A wide node from binary node `n`: opens the largest inner children until
+    /// there are eight, mixed leaves split in two while there is room.
+    fn open(&mut self, n: &'a TmpNode) -> (u32, usize) {
+        let mut cands: Vec<Cand<'a>> = match &n.kind {
+            TmpKind::Inner(c) => vec![self.cand(&c[0]), self.cand(&c[1])],
+            TmpKind::Leaf { start, count } => vec![self.leaf_cand(n, *start, *count)],
+        };
+        while cands.len() < WIDTH {
+            let largest = cands
+                .iter()
+                .enumerate()
+                .filter(|(_, c)| matches!(c, Cand::Node(_)))
+                .max_by(|a, b| build::area(&a.1.bounds()).total_cmp(&build::area(&b.1.bounds())))
+                .map(|(i, _)| i);
+            let Some(i) = largest else { break };
+            let Cand::Node(node) = cands.swap_remove(i) else { unreachable!() };
+            let TmpKind::Inner(c) = &node.kind else { unreachable!() };
+            cands.push(self.cand(&c[0]));
+            cands.push(self.cand(&c[1]));
+        }
+        while cands.len() < WIDTH {
+            let Some(i) = cands.iter().position(|c| matches!(c, Cand::Mixed(..))) else {
+                break;
+            };
+            let Cand::Mixed(_, tris, other) = cands.swap_remove(i) else {
+                unreachable!()
+            };
+            let (tb, ob) = (self.bounds_of(&tris), self.bounds_of(&other));
+            cands.push(Cand::Leaf(tb, tris.into()));
+            cands.push(Cand::Leaf(ob, other.into()));
+        }
+        self.node(cands)
+    }
+}
+
+impl<'a> Collapser<'a> {
+    /// [`Collapser::open`] for the root, its inner children collapsed in parallel
+    /// and appended with their references moved.
+    fn open_parallel(&mut self, t: &'a TmpNode) -> (u32, usize) {
+        use rayon::prelude::*;
+        let TmpKind::Inner(c) = &t.kind else { return self.open(t) };
+        let mut cands = vec![self.cand(&c[0]), self.cand(&c[1])];
+        while cands.len() < WIDTH {
+            let largest = cands
+                .iter()
+                .enumerate()
+                .filter(|(_, c)| matches!(c, Cand::Node(_)))
+                .max_by(|a, b| build::area(&a.1.bounds()).total_cmp(&build::area(&b.1.bounds())))
+                .map(|(i, _)| i);
+            let Some(i) = largest else { break };
+            let Cand::Node(node) = cands.swap_remove(i) else { unreachable!() };
+            let TmpKind::Inner(c) = &node.kind else { unreachable!() };
+            cands.push(self.cand(&c[0]));
+            cands.push(self.cand(&c[1]));
+        }
+        let (prims, order) = (self.prims, self.order);
+        let parts: Vec<Option<(WideBvh, usize)>> = cands
+            .par_iter()
+            .map(|c| match c {
+                Cand::Node(n) => {
+                    let mut sub = Collapser {
+                        prims,
+                        order,
+                        out: WideBvh::default(),
+                    };
+                    let (_, need) = sub.open(n);
+                    Some((sub.out, need))
+                }
+                _ => None,
+            })
+            .collect();
+        let root = self.out.nodes.len();
+        self.out.nodes.push(WideNode::EMPTY);
+        let mut node = WideNode::EMPTY;
+        let mut deepest = 0;
+        let k = cands.len();
+        for (slot, (c, part)) in cands.into_iter().zip(parts).enumerate() {
+            let b = c.bounds().padded();
+            for a in 0..3 {
+                node.planes[2 * a][slot] = b.min[a];
+                node.planes[2 * a + 1][slot] = b.max[a];
+            }
+            node.child[slot] = match (c, part) {
+                (_, Some((sub, need))) => {
+                    deepest = deepest.max(need);
+                    let (n0, b0, g0) = (
+                        self.out.nodes.len() as u32,
+                        self.out.blocks.len() as u32,
+                        self.out.generic.len() as u32,
+                    );
+                    assert!(
+                        (b0 as usize + sub.blocks.len()) < 1 << INDEX_BITS && (g0 as usize + sub.generic.len()) < 1 << INDEX_BITS,
+                        "too many primitives for the wide BVH"
+                    );
+                    let moved = |r: u32| match r {
+                        EMPTY => EMPTY,
+                        r if r & LEAF == 0 => r + n0,
+                        r if r & GENERIC != 0 => r + (g0 << 4),
+                        r => r + (b0 << 4),
+                    };
+                    self.out.nodes.extend(sub.nodes.iter().map(|n| WideNode {
+                        planes: n.planes,
+                        child: n.child.map(moved),
+                    }));
+                    self.out.blocks.extend_from_slice(&sub.blocks);
+                    self.out.generic.extend_from_slice(&sub.generic);
+                    n0
+                }
+                (Cand::Leaf(_, items), None) => self.leaf(&items),
+                (Cand::Mixed(_, tris, other), None) => {
+                    let (tb, ob) = (self.bounds_of(&tris), self.bounds_of(&other));
+                    let (i, d) = self.node(vec![Cand::Leaf(tb, tris.into()), Cand::Leaf(ob, other.into())]);
+                    deepest = deepest.max(d);
+                    i
+                }
+                (Cand::Node(_), None) => unreachable!("inner children are collapsed in parallel"),
+            };
+        }
+        self.out.nodes[root] = node;
+        (root as u32, deepest + k.saturating_sub(1))
+    }
+}
+
+impl WideBvh {
+    /// Builds over `prims` (indices refer to this slice); primitives with
+    /// unusable bounds (empty, NaN, infinite) are left out.
+    pub fn build(prims: &[Prim]) -> WideBvh {
+        let bounds: Vec<Aabb> = prims.iter().map(crate::scene::build::prim_bounds).collect();
+        let mut refs = build::make_refs(&bounds);
+        let tree = build::build_tree(&mut refs);
+        let order: Vec<u32> = refs.iter().map(PrimRef::index).collect();
+        Self::from_tree(tree.as_ref(), &order, prims)
+    }
+
+    /// Builds and returns the usable primitives in leaf order, which the tree's
+    /// indices then refer to.
+    pub fn build_reordered(prims: Vec<Prim>) -> (Vec<Prim>, WideBvh) {
+        use rayon::prelude::*;
+        let t0 = std::time::Instant::now();
+        let bounds: Vec<Aabb> = prims.par_iter().with_min_len(4096).map(crate::scene::build::prim_bounds).collect();
+        let mut refs = build::make_refs(&bounds);
+        let t1 = t0.elapsed();
+        let tree = build::build_tree(&mut refs);
+        let t2 = t0.elapsed();
+        let ordered: Vec<Prim> = refs.par_iter().with_min_len(4096).map(|r| prims[r.index() as usize]).collect();
+        let identity: Vec<u32> = (0..ordered.len() as u32).collect();
+        let t3 = t0.elapsed();
+        let bvh = Self::from_tree(tree.as_ref(), &identity, &ordered);
+        let t4 = t0.elapsed();
+        if std::env::var("RDR_BT").is_ok() {
+            eprintln!("refs {t1:?} tree {t2:?} reorder {t3:?} collapse {t4:?}");
+        }
+        (ordered, bvh)
+    }
+
+    fn from_tree(tree: Option<&TmpNode>, order: &[u32], prims: &[Prim]) -> WideBvh {
+        let mut c = Collapser {
+            prims,
+            order,
+            out: WideBvh::default(),
+        };
+        if let Some(t) = tree {
+            let (_, need) = if order.len() >= 1 << 15 {
+                c.open_parallel(t)
+            } else {
+                c.out.nodes.reserve(order.len() / 8 + 1);
+                c.out.blocks.reserve(order.len() / 3 + 1);
+                c.open(t)
+            };
+            c.out.stack_need = need + 1;
+            c.out.root_bounds = t.bounds;
+        }
+        c.out.prim_count = order.len();
+        c.out
+    }
+
+    /// Bounds of all primitives in the tree (empty for an empty tree).
+    pub fn bounds(&self) -> Aabb {
+        self.root_bounds
+    }
+
+    pub fn isa(&self) -> Isa {
+        self.isa
+    }
+
+    /// Forces an instruction set; `false` (and no change) if the CPU lacks it.
+    pub fn set_isa(&mut self, isa: Isa) -> bool {
+        if isa.available() {
+            self.isa = isa;
+        }
+        self.isa == isa
+    }
+
+    /// Bytes of nodes, triangle blocks and generic leaves.
+    pub fn memory_bytes(&self) -> usize {
+        self.nodes.len() * std::mem::size_of::<WideNode>() + self.blocks.len() * std::mem::size_of::<TriBlock>() + self.generic.len() * 4
+    }
+
+    /// Forces the traversal variants with the large stack (which deep trees
+    /// use) so tests reach them on small trees too.
+    #[doc(hidden)]
+    pub fn set_large_stack(&mut self, on: bool) {
+        self.large_stack = on;
+    }
+
+    /// Deepest stack a traversal can need.
+    pub fn stack_need(&self) -> usize {
+        self.stack_need
+    }
+
+    /// Closest hit in `[ray.t_min, ray.t_max]`; `prims` is the slice the tree was built over.
+    pub fn intersect(&self, prims: &[Prim], ray: &Ray) -> Option<Hit> {
+        if self.nodes.is_empty() {
+            return None;
+        }
+        let small = self.stack_need <= STACK_SMALL && !self.large_stack;
+        match self.isa {
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: `isa` is only ever set to an instruction set the CPU has (`set_isa`, `Isa::detect`).
+            Isa::Avx512 => unsafe {
+                if small {
+                    x86::closest_avx512::<STACK_SMALL>(self, prims, ray)
+                } else {
+                    x86::closest_avx512::<STACK_LARGE>(self, prims, ray)
+                }
+            },
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: as above.
+            Isa::Avx2 => unsafe {
+                if small {
+                    x86::closest_avx2::<STACK_SMALL>(self, prims, ray)
+                } else {
+                    x86::closest_avx2::<STACK_LARGE>(self, prims, ray)
+                }
+            },
+            _ => {
+                if small {
+                    closest::<PORTABLE, STACK_SMALL>(self, prims, ray)
+                } else {
+                    closest::<PORTABLE, STACK_LARGE>(self, prims, ray)
+                }
+            }
+        }
+    }
+
+    /// Whether anything lies on the ray within `[ray.t_min, ray.t_max]`.
+    pub fn occluded(&self, prims: &[Prim], ray: &Ray) -> bool {
+        if self.nodes.is_empty() {
+            return false;
+        }
+        let small = self.stack_need <= STACK_SMALL && !self.large_stack;
+        match self.isa {
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: `isa` is only ever set to an instruction set the CPU has.
+            Isa::Avx512 => unsafe {
+                if small {
+                    x86::any_avx512::<STACK_SMALL>(self, prims, ray)
+                } else {
+                    x86::any_avx512::<STACK_LARGE>(self, prims, ray)
+                }
+            },
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: as above.
+            Isa::Avx2 => unsafe {
+                if small {
+                    x86::any_avx2::<STACK_SMALL>(self, prims, ray)
+                } else {
+                    x86::any_avx2::<STACK_LARGE>(self, prims, ray)
+                }
+            },
+            _ => {
+                if small {
+                    any::<PORTABLE, STACK_SMALL>(self, prims, ray)
+                } else {
+                    any::<PORTABLE, STACK_LARGE>(self, prims, ray)
+                }
+            }
+        }
+    }
+
+    /// Visits the primitives of the leaves the ray's box tests admit, nearest
+    /// child first, each primitive at most once per leaf. `visit` gets a
+    /// primitive index and the current `t_max`, which it may shrink; returning
+    /// `true` stops the traversal. Portable code (used by `--compat`).
+    pub fn traverse(&self, ray: &Ray, mut visit: impl FnMut(u32, &mut f32) -> bool) {
+        if self.nodes.is_empty() {
+            return;
+        }
+        let r = RayData::new(ray);
+        let mut t_max = ray.t_max;
+        let mut stack: Vec<(u32, f32)> = Vec::with_capacity(64);
+        let mut cur = 0u32;
+        loop {
+            if cur & LEAF == 0 {
+                let node = &self.nodes[cur as usize];
+                let (mut mask, d) = node_portable(node, &r, t_max);
+                let base = stack.len();
+                while mask != 0 {
+                    let i = mask.trailing_zeros() as usize;
+                    mask &= mask - 1;
+                    stack.push((node.child[i], d[i]));
+                }
+                stack[base..].sort_by(|a, b| b.1.total_cmp(&a.1));
+            } else if cur != EMPTY {
+                let (first, count) = (((cur & !(LEAF | GENERIC)) >> 4) as usize, (cur & 15) as usize + 1);
+                if cur & GENERIC != 0 {
+                    for &p in &self.generic[first..first + count] {
+                        if visit(p, &mut t_max) {
+                            return;
+                        }
+                    }
+                } else {
+                    for b in &self.blocks[first..first + count] {
+                        for lane in 0..4 {
+                            if lane > 0 && b.prim[lane] == b.prim[lane - 1] {
+                                continue;
+                            }
+                            if visit(b.prim[lane], &mut t_max) {
+                                return;
+                            }
+                        }
+                    }
+                }
+            }
+            loop {
+                let Some((c, d)) = stack.pop() else { return };
+                if d <= t_max {
+                    cur = c;
+                    break;
+                }
+            }
+        }
+    }
+
+    /// Every child reference: `(node, slot, child)` for checks and statistics.
+    pub fn children(&self) -> impl Iterator<Item = (usize, usize, ChildRef)> + '_ {
+        self.nodes.iter().enumerate().flat_map(|(i, n)| {
+            n.child
+                .iter()
+                .enumerate()
+                .filter(|(_, &c)| c != EMPTY)
+                .map(move |(s, &c)| (i, s, decode(c)))
+        })
+    }
+
+    /// Primitive indices of a leaf reference (padding lanes left out).
+    pub fn leaf_prims(&self, c: ChildRef) -> Vec<u32> {
+        match c {
+            ChildRef::Node(_) => Vec::new(),
+            ChildRef::Generic { first, count } => self.generic[first..first + count].to_vec(),
+            ChildRef::Triangles { first, count } => {
+                let mut v = Vec::new();
+                for b in &self.blocks[first..first + count] {
+                    for lane in 0..4 {
+                        if lane == 0 || b.prim[lane] != b.prim[lane - 1] {
+                            v.push(b.prim[lane]);
+                        }
+                    }
+                }
+                v
+            }
+        }
+    }
+}
+
+/// A decoded child reference.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ChildRef {
+    Node(usize),
+    /// `count` triangle blocks from `first`.
+    Triangles {
+        first: usize,
+        count: usize,
+    },
+    /// `count` primitive indices from `first` in `generic`.
+    Generic {
+        first: usize,
+        count: usize,
+    },
+}
+
+fn decode(c: u32) -> ChildRef {
+    let (first, count) = (((c & !(LEAF | GENERIC)) >> 4) as usize, (c & 15) as usize + 1);
+    if c & LEAF == 0 {
+        ChildRef::Node(c as usize)
+    } else if c & GENERIC != 0 {
+        ChildRef::Generic { first, count }
+    } else {
+        ChildRef::Triangles { first, count }
+    }
+}
+
+/// Everything the kernels need about a ray, computed once.
+#[derive(Clone, Copy)]
+struct RayData {
+    o: Vec3,
+    d: Vec3,
+    t_min: f32,
+    inv: [f32; 3],
+    /// Rows of the near and far planes per axis.
+    near: [usize; 3],
+    far: [usize; 3],
+    /// Watertight kernel: axis permutation, permuted origin, shear.
+    k: [usize; 3],
+    op: [f32; 3],
+    s: [f32; 3],
+    dz_abs: f32,
+    /// `false` when the direction is zero: no triangle can be hit.
+    tri_ok: bool,
+}
+
+impl RayData {
+    #[inline(always)]
+    fn new(ray: &Ray) -> RayData {
+        let inv = crate::geometry::aabb::safe_inverse(ray.d);
+        let inv = [inv.x, inv.y, inv.z];
+        let near = [0, 1, 2].map(|a| 2 * a + (inv[a] < 0.0) as usize);
+        let far = [0, 1, 2].map(|a| 2 * a + (inv[a] >= 0.0) as usize);
+        // the watertight kernel's permutation and shear, exactly as it computes them
+        let d = ray.d;
+        let ad = d.abs();
+        let kz = if ad.x > ad.y && ad.x > ad.z {
+            0
+        } else if ad.y > ad.z {
+            1
+        } else {
+            2
+        };
+        let kx = if kz == 2 { 0 } else { kz + 1 };
+        let ky = if kx == 2 { 0 } else { kx + 1 };
+        let dz = d[kz];
+        RayData {
+            o: ray.o,
+            d: ray.d,
+            t_min: ray.t_min,
+            inv,
+            near,
+            far,
+            k: [kx, ky, kz],
+            op: [ray.o[kx], ray.o[ky], ray.o[kz]],
+            s: [-d[kx] / dz, -d[ky] / dz, 1.0 / dz],
+            dz_abs: dz.abs(),
+            tri_ok: dz != 0.0,
+        }
+    }
+}
+
+/// Portable node test: hit mask and entry distances.
+#[inline(always)]
+fn node_portable(n: &WideNode, r: &RayData, t_max: f32) -> (u32, [f32; WIDTH]) {
+    let mut mask = 0;
+    let mut t0 = [0.0f32; WIDTH];
+    for (i, t0) in t0.iter_mut().enumerate() {
+        let near = |a: usize| (n.planes[r.near[a]][i] - r.o[a]) * r.inv[a];
+        let far = |a: usize| (n.planes[r.far[a]][i] - r.o[a]) * r.inv[a];
+        let t_in = near(0).max(near(1)).max(near(2)).max(r.t_min);
+        let t_out = (far(0).min(far(1)).min(far(2)) * FAR_SCALE).min(t_max);
+        *t0 = t_in;
+        mask |= ((t_in <= t_out) as u32) << i;
+    }
+    (mask, t0)
+}
+
+/// Hits of one block: lane mask, distances and barycentrics per lane.
+#[derive(Clone, Copy)]
+struct BlockHits {
+    mask: u32,
+    t: [f32; 4],
+    b: [[f32; 4]; 3],
+}
+
+/// Portable block test: the scalar kernel on each lane.
+#[inline(always)]
+fn block_portable(blk: &TriBlock, r: &RayData, t_max: f32) -> BlockHits {
+    let mut h = BlockHits {
+        mask: 0,
+        t: [0.0; 4],
+        b: [[0.0; 4]; 3],
+    };
+    for lane in 0..4 {
+        if let Some(x) = intersect_watertight(r.o, r.d, r.t_min, t_max, &blk.triangle(lane)) {
+            h.mask |= 1 << lane;
+            h.t[lane] = x.t;
+            for k in 0..3 {
+                h.b[k][lane] = x.b[k];
+            }
+        }
+    }
+    h
+}
+
+const PORTABLE: u8 = 0;
+#[cfg(target_arch = "x86_64")]
+const AVX2: u8 = 1;
+#[cfg(target_arch = "x86_64")]
+const AVX512: u8 = 2;
+
+#[inline(always)]
+fn node_test<const ISA: u8>(n: &WideNode, r: &RayData, t_max: f32) -> (u32, [f32; WIDTH]) {
+    match ISA {
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: ISA ≠ PORTABLE is only instantiated inside the `x86` entry points,
+        // which carry (and are only called with) the matching target features.
+        AVX512 => unsafe { x86::node_avx512(n, r, t_max) },
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: as above.
+        AVX2 => unsafe { x86::node_avx2(n, r, t_max) },
+        _ => node_portable(n, r, t_max),
+    }
+}
+
+#[inline(always)]
+fn block_test<const ISA: u8>(b: &TriBlock, r: &RayData, t_max: f32) -> BlockHits {
+    match ISA {
+        #[cfg(target_arch = "x86_64")]
+        AVX2 | AVX512 => x86::block_sse(b, r, t_max),
+        _ => block_portable(b, r, t_max),
+    }
+}
+
+/// Asks for the memory of child `c` ahead of its visit (x86 only; a hint, no effect
+/// on results).
+#[inline(always)]
+fn prefetch<const ISA: u8>(bvh: &WideBvh, c: u32) {
+    #[cfg(target_arch = "x86_64")]
+    if ISA != PORTABLE {
+        use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
+        let p: *const i8 = if c & LEAF == 0 {
+            bvh.nodes.as_ptr().wrapping_add(c as usize).cast()
+        } else if c & GENERIC == 0 {
+            bvh.blocks.as_ptr().wrapping_add(leaf_range(c).0).cast()
+        } else {
+            return;
+        };
+        for line in 0..4 {
+            // SAFETY: prefetching is a hint that never faults, whatever the address
+            // (SSE, part of x86_64); `wrapping_add` keeps the arithmetic defined.
+            unsafe { _mm_prefetch::<_MM_HINT_T0>(p.wrapping_add(64 * line)) };
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = (bvh, c);
+}
+
+#[inline(always)]
+fn leaf_range(c: u32) -> (usize, usize) {
+    (((c & !(LEAF | GENERIC)) >> 4) as usize, (c & 15) as usize + 1)
+}
+
+#[inline(always)]
+fn key(d: f32, child: u32) -> u64 {
+    ((d.to_bits() as u64) << 32) | child as u64
+}
+
+/// Closest hit; the generic body of every instruction set's entry point.
+#[inline(always)]
+fn closest<const ISA: u8, const S: usize>(bvh: &WideBvh, prims: &[Prim], ray: &Ray) -> Option<Hit> {
+    let r = RayData::new(ray);
+    let mut t_max = ray.t_max;
+    let mut best: Option<Hit> = None;
+    // stack entries: entry distance's bits above, child reference below (for
+    // distances ≥ 0 the integer order is the distance order)
+    let mut st = [0u64; S];
+    let mut sp = 0usize;
+    let mut cur = 0u32;
+    loop {
+        if cur & LEAF == 0 {
+            let node = &bvh.nodes[cur as usize];
+            let (mask, d) = node_test::<ISA>(node, &r, t_max);
+            if mask != 0 {
+                let a = mask.trailing_zeros() as usize;
+                let rest = mask & (mask - 1);
+                if rest == 0 {
+                    cur = node.child[a];
+                    continue;
+                }
+                let b = rest.trailing_zeros() as usize;
+                if rest & (rest - 1) == 0 {
+                    let (near, far) = if d[a] <= d[b] { (a, b) } else { (b, a) };
+                    prefetch::<ISA>(bvh, node.child[far]);
+                    st[sp] = key(d[far], node.child[far]);
+                    sp += 1;
+                    cur = node.child[near];
+                    continue;
+                }
+                // three or more: push all, sort farthest first, continue with the nearest
+                let base = sp;
+                let mut m = mask;
+                while m != 0 {
+                    let i = m.trailing_zeros() as usize;
+                    m &= m - 1;
+                    prefetch::<ISA>(bvh, node.child[i]);
+                    let k = key(d[i], node.child[i]);
+                    let mut j = sp;
+                    while j > base && st[j - 1] < k {
+                        st[j] = st[j - 1];
+                        j -= 1;
+                    }
+                    st[j] = k;
+                    sp += 1;
+                }
+                sp -= 1;
+                cur = st[sp] as u32;
+                continue;
+            }
+        } else {
+            let (first, count) = leaf_range(cur);
+            if cur & GENERIC != 0 {
+                for &p in &bvh.generic[first..first + count] {
+                    if let Prim::Sphere { sphere, .. } = &prims[p as usize] {
+                        if let Some(t) = sphere.intersect(ray.o, ray.d, ray.t_min, t_max) {
+                            t_max = t;
+                            best = Some(Hit { t, prim: p, b: [0.0; 3] });
+                        }
+                    }
+                }
+            } else if r.tri_ok {
+                for blk in &bvh.blocks[first..first + count] {
+                    let h = block_test::<ISA>(blk, &r, t_max);
+                    if h.mask != 0 {
+                        let mut lane = h.mask.trailing_zeros() as usize;
+                        let mut m = h.mask & (h.mask - 1);
+                        while m != 0 {
+                            let l = m.trailing_zeros() as usize;
+                            m &= m - 1;
+                            if h.t[l] < h.t[lane] {
+                                lane = l;
+                            }
+                        }
+                        t_max = h.t[lane];
+                        best = Some(Hit {
+                            t: t_max,
+                            prim: blk.prim[lane],
+                            b: [h.b[0][lane], h.b[1][lane], h.b[2][lane]],
+                        });
+                    }
+                }
+            }
+        }
+        loop {
+            if sp == 0 {
+                return best;
+            }
+            sp -= 1;
+            if f32::from_bits((st[sp] >> 32) as u32) <= t_max {
+                cur = st[sp] as u32;
+                break;
+            }
+        }
+    }
+}
+
+/// Any hit; the generic body of every instruction set's entry point.
+#[inline(always)]
+fn any<const ISA: u8, const S: usize>(bvh: &WideBvh, prims: &[Prim], ray: &Ray) -> bool {
+    let r = RayData::new(ray);
+    let t_max = ray.t_max;
+    let mut st_ref = [0u32; S];
+    let mut sp = 0usize;
+    let mut cur = 0u32;
+    loop {
+        if cur & LEAF == 0 {
+            let node = &bvh.nodes[cur as usize];
+            let (mask, _) = node_test::<ISA>(node, &r, t_max);
+            if mask != 0 {
+                let mut m = mask & (mask - 1);
+                while m != 0 {
+                    let i = m.trailing_zeros() as usize;
+                    m &= m - 1;
+                    st_ref[sp] = node.child[i];
+                    sp += 1;
+                }
+                cur = node.child[mask.trailing_zeros() as usize];
+                continue;
+            }
+        } else {
+            let (first, count) = leaf_range(cur);
+            if cur & GENERIC != 0 {
+                for &p in &bvh.generic[first..first + count] {
+                    if let Prim::Sphere { sphere, .. } = &prims[p as usize] {
+                        if sphere.intersect(ray.o, ray.d, ray.t_min, t_max).is_some() {
+                            return true;
+                        }
+                    }
+                }
+            } else if r.tri_ok {
+                for blk in &bvh.blocks[first..first + count] {
+                    if block_test::<ISA>(blk, &r, t_max).mask != 0 {
+                        return true;
+                    }
+                }
+            }
+        }
+        if sp == 0 {
+            return false;
+        }
+        sp -= 1;
+        cur = st_ref[sp];
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+mod x86 {
+    use super::*;
+    use std::arch::x86_64::*;
+
+    #[target_feature(enable = "avx2,fma")]
+    pub(super) fn closest_avx2<const S: usize>(bvh: &WideBvh, prims: &[Prim], ray: &Ray) -> Option<Hit> {
+        closest::<AVX2, S>(bvh, prims, ray)
+    }
+    #[target_feature(enable = "avx2,fma")]
+    pub(super) fn any_avx2<const S: usize>(bvh: &WideBvh, prims: &[Prim], ray: &Ray) -> bool {
+        any::<AVX2, S>(bvh, prims, ray)
+    }
+    #[target_feature(enable = "avx2,fma,avx512f,avx512vl")]
+    pub(super) fn closest_avx512<const S: usize>(bvh: &WideBvh, prims: &[Prim], ray: &Ray) -> Option<Hit> {
+        closest::<AVX512, S>(bvh, prims, ray)
+    }
+    #[target_feature(enable = "avx2,fma,avx512f,avx512vl")]
+    pub(super) fn any_avx512<const S: usize>(bvh: &WideBvh, prims: &[Prim], ray: &Ray) -> bool {
+        any::<AVX512, S>(bvh, prims, ray)
+    }
+
+    /// Row `row` of the node's planes.
+    #[target_feature(enable = "avx2,fma")]
+    #[inline]
+    fn row(n: &WideNode, row: usize) -> __m256 {
+        // SAFETY: `row` < 6 (RayData's near/far rows are 2·axis + 0 or 1) and
+        // every row is 8 f32s, 32-byte aligned by WideNode's `repr(align(32))`.
+        unsafe { _mm256_load_ps(n.planes.get_unchecked(row).as_ptr()) }
+    }
+
+    /// Entry and exit distances of the eight children.
+    #[target_feature(enable = "avx2,fma")]
+    #[inline]
+    fn slabs(n: &WideNode, r: &RayData, t_max: f32) -> (__m256, __m256) {
+        let o = [_mm256_set1_ps(r.o.x), _mm256_set1_ps(r.o.y), _mm256_set1_ps(r.o.z)];
+        let inv = [_mm256_set1_ps(r.inv[0]), _mm256_set1_ps(r.inv[1]), _mm256_set1_ps(r.inv[2])];
+        let near = |a: usize| _mm256_mul_ps(_mm256_sub_ps(row(n, r.near[a]), o[a]), inv[a]);
+        let far = |a: usize| _mm256_mul_ps(_mm256_sub_ps(row(n, r.far[a]), o[a]), inv[a]);
+        let t0 = _mm256_max_ps(_mm256_max_ps(near(0), near(1)), _mm256_max_ps(near(2), _mm256_set1_ps(r.t_min)));
+        let t1 = _mm256_min_ps(_mm256_min_ps(far(0), far(1)), far(2));
+        let t1 = _mm256_min_ps(_mm256_mul_ps(t1, _mm256_set1_ps(FAR_SCALE)), _mm256_set1_ps(t_max));
+        (t0, t1)
+    }
+
+    #[target_feature(enable = "avx2,fma")]
+    #[inline]
+    pub(super) fn node_avx2(n: &WideNode, r: &RayData, t_max: f32) -> (u32, [f32; WIDTH]) {
+        let (t0, t1) = slabs(n, r, t_max);
+        let mask = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(t0, t1)) as u32;
+        let mut d = [0.0f32; WIDTH];
+        // SAFETY: `d` is 8 writable f32s; the store is unaligned.
+        unsafe { _mm256_storeu_ps(d.as_mut_ptr(), t0) };
+        (mask, d)
+    }
+
+    #[target_feature(enable = "avx2,fma,avx512f,avx512vl")]
+    #[inline]
+    pub(super) fn node_avx512(n: &WideNode, r: &RayData, t_max: f32) -> (u32, [f32; WIDTH]) {
+        let (t0, t1) = slabs(n, r, t_max);
+        let mask = _mm256_cmp_ps_mask::<_CMP_LE_OQ>(t0, t1) as u32;
+        let mut d = [0.0f32; WIDTH];
+        // SAFETY: `d` is 8 writable f32s; the store is unaligned.
+        unsafe { _mm256_storeu_ps(d.as_mut_ptr(), t0) };
+        (mask, d)
+    }
+
+    #[inline(always)]
+    fn ld(a: &[f32; 4]) -> __m128 {
+        // SAFETY: `a` is 4 readable f32s, 16-byte aligned (TriBlock is `repr(align(16))`
+        // and each row is 16 bytes); SSE is part of x86_64.
+        unsafe { _mm_load_ps(a.as_ptr()) }
+    }
+
+    #[inline(always)]
+    fn abs(v: __m128) -> __m128 {
+        // SAFETY: SSE is part of x86_64.
+        unsafe { _mm_andnot_ps(_mm_set1_ps(-0.0), v) }
+    }
+
+    /// The watertight kernel on four triangles, operation for operation as the
+    /// scalar [`intersect_watertight`] (SSE arithmetic rounds alike and nothing
+    /// is fused), so every lane's result is bit-identical to it. Only SSE
+    /// (part of x86_64), so it inlines into every entry point.
+    #[inline(always)]
+    pub(super) fn block_sse(blk: &TriBlock, r: &RayData, t_max: f32) -> BlockHits {
+        // SAFETY: SSE and SSE2 are part of x86_64; the only memory accesses are the
+        // aligned loads of `ld` and the unchecked indices below, which are < 3.
+        unsafe { block_sse_body(blk, r, t_max) }
+    }
+
+    #[inline(always)]
+    unsafe fn block_sse_body(blk: &TriBlock, r: &RayData, t_max: f32) -> BlockHits {
+        let [kx, ky, kz] = r.k;
+        let set = |x: f32| _mm_set1_ps(x);
+        let zero = _mm_setzero_ps();
+        // vertices relative to the origin, permuted, sheared
+        let vert = |k: usize| {
+            // SAFETY: kx, ky, kz < 3 (a permutation of the axes).
+            let v = unsafe { blk.v.get_unchecked(k) };
+            // SAFETY: as above.
+            let (x, y, z) = unsafe { (v.get_unchecked(kx), v.get_unchecked(ky), v.get_unchecked(kz)) };
+            let x = _mm_sub_ps(ld(x), set(r.op[0]));
+            let y = _mm_sub_ps(ld(y), set(r.op[1]));
+            let z = _mm_sub_ps(ld(z), set(r.op[2]));
+            let x = _mm_add_ps(x, _mm_mul_ps(set(r.s[0]), z));
+            let y = _mm_add_ps(y, _mm_mul_ps(set(r.s[1]), z));
+            (x, y, z)
+        };
+        let (p0x, p0y, p0z) = vert(0);
+        let (p1x, p1y, p1z) = vert(1);
+        let (p2x, p2y, p2z) = vert(2);
+        let e0 = _mm_sub_ps(_mm_mul_ps(p1x, p2y), _mm_mul_ps(p1y, p2x));
+        let e1 = _mm_sub_ps(_mm_mul_ps(p2x, p0y), _mm_mul_ps(p2y, p0x));
+        let e2 = _mm_sub_ps(_mm_mul_ps(p0x, p1y), _mm_mul_ps(p0y, p1x));
+        // lanes with an edge function exactly zero: the scalar kernel (f64) decides
+        let on_edge = _mm_movemask_ps(_mm_or_ps(
+            _mm_or_ps(_mm_cmpeq_ps(e0, zero), _mm_cmpeq_ps(e1, zero)),
+            _mm_cmpeq_ps(e2, zero),
+        )) as u32;
+        let neg = _mm_or_ps(_mm_or_ps(_mm_cmplt_ps(e0, zero), _mm_cmplt_ps(e1, zero)), _mm_cmplt_ps(e2, zero));
+        let pos = _mm_or_ps(_mm_or_ps(_mm_cmpgt_ps(e0, zero), _mm_cmpgt_ps(e1, zero)), _mm_cmpgt_ps(e2, zero));
+        let mut reject = _mm_and_ps(neg, pos);
+        let det = _mm_add_ps(_mm_add_ps(e0, e1), e2);
+        // det == 0 or not finite (NaN compares false)
+        reject = _mm_or_ps(reject, _mm_cmpeq_ps(det, zero));
+        reject = _mm_or_ps(reject, _mm_cmpnlt_ps(abs(det), set(f32::INFINITY)));
+        let sz = set(r.s[2]);
+        let (p0z, p1z, p2z) = (_mm_mul_ps(p0z, sz), _mm_mul_ps(p1z, sz), _mm_mul_ps(p2z, sz));
+        let ts = _mm_add_ps(_mm_add_ps(_mm_mul_ps(e0, p0z), _mm_mul_ps(e1, p1z)), _mm_mul_ps(e2, p2z));
+        let tmd = _mm_mul_ps(set(t_max), det);
+        let det_neg = _mm_cmplt_ps(det, zero);
+        let det_pos = _mm_cmpgt_ps(det, zero);
+        reject = _mm_or_ps(
+            reject,
+            _mm_and_ps(det_neg, _mm_or_ps(_mm_cmpge_ps(ts, zero), _mm_cmplt_ps(ts, tmd))),
+        );
+        reject = _mm_or_ps(
+            reject,
+            _mm_and_ps(det_pos, _mm_or_ps(_mm_cmple_ps(ts, zero), _mm_cmpgt_ps(ts, tmd))),
+        );
+        let mut mask = !(_mm_movemask_ps(reject) as u32) & 15 & !on_edge;
+        let mut h = BlockHits {
+            mask: 0,
+            t: [0.0; 4],
+            b: [[0.0; 4]; 3],
+        };
+        if mask != 0 {
+            let inv_det = _mm_div_ps(set(1.0), det);
+            let t = _mm_mul_ps(ts, inv_det);
+            let mut rej = _mm_or_ps(_mm_cmplt_ps(t, set(r.t_min)), _mm_cmpgt_ps(t, set(t_max)));
+            // the conservative bound on t
+            let max_zt = _mm_max_ps(_mm_max_ps(abs(p0z), abs(p1z)), abs(p2z));
+            let delta_z = _mm_mul_ps(set(gamma(3)), max_zt);
+            let max_xt = _mm_max_ps(_mm_max_ps(abs(p0x), abs(p1x)), abs(p2x));
+            let max_yt = _mm_max_ps(_mm_max_ps(abs(p0y), abs(p1y)), abs(p2y));
+            let max_z = _mm_mul_ps(max_zt, set(r.dz_abs));
+            let delta_x = _mm_mul_ps(set(gamma(5)), _mm_add_ps(max_xt, max_z));
+            let delta_y = _mm_mul_ps(set(gamma(5)), _mm_add_ps(max_yt, max_z));
+            let delta_e = _mm_mul_ps(
+                set(2.0),
+                _mm_add_ps(
+                    _mm_add_ps(_mm_mul_ps(_mm_mul_ps(set(gamma(2)), max_xt), max_yt), _mm_mul_ps(delta_y, max_xt)),
+                    _mm_mul_ps(delta_x, max_yt),
+                ),
+            );
+            let max_e = _mm_max_ps(_mm_max_ps(abs(e0), abs(e1)), abs(e2));
+            let sum = _mm_add_ps(
+                _mm_add_ps(_mm_mul_ps(_mm_mul_ps(set(gamma(3)), max_e), max_zt), _mm_mul_ps(delta_e, max_zt)),
+                _mm_mul_ps(delta_z, max_e),
+            );
+            let delta_t = _mm_mul_ps(_mm_mul_ps(set(3.0), sum), abs(inv_det));
+            rej = _mm_or_ps(rej, _mm_cmple_ps(t, delta_t));
+            mask &= !(_mm_movemask_ps(rej) as u32);
+            if mask != 0 {
+                h.mask = mask;
+                h.t = glam::Vec4::from(t).to_array();
+                h.b = [
+                    glam::Vec4::from(_mm_mul_ps(e0, inv_det)).to_array(),
+                    glam::Vec4::from(_mm_mul_ps(e1, inv_det)).to_array(),
+                    glam::Vec4::from(_mm_mul_ps(e2, inv_det)).to_array(),
+                ];
+            }
+        }
+        if on_edge != 0 {
+            edge_lanes(blk, r, t_max, on_edge, &mut h);
+        }
+        h
+    }
+
+    /// Lanes with an exactly-zero edge function, through the scalar kernel.
+    #[cold]
+    #[inline(never)]
+    fn edge_lanes(blk: &TriBlock, r: &RayData, t_max: f32, lanes: u32, h: &mut BlockHits) {
+        for lane in 0..4 {
+            if lanes & (1 << lane) == 0 {
+                continue;
+            }
+            if let Some(x) = intersect_watertight(r.o, r.d, r.t_min, t_max, &blk.triangle(lane)) {
+                h.mask |= 1 << lane;
+                h.t[lane] = x.t;
+                for k in 0..3 {
+                    h.b[k][lane] = x.b[k];
+                }
+            }
+        }
+    }
+}

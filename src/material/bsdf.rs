@@ -1,0 +1,178 @@
+//! BSDFs at a surface point: evaluate, sample and pdf, in a local frame whose z
+//! is the shading normal. `eval` returns f (without the cosine); directions are
+//! world-space unit vectors pointing away from the surface.
+
+use super::fresnel;
+use super::microfacet::Microfacet;
+use crate::math::{Frame, Vec2, Vec3, INV_PI};
+use crate::sampling::cosine_hemisphere;
+
+#[derive(Clone, Copy, Debug)]
+pub enum BsdfKind {
+    /// Lambertian ρ/π on the frame's front side.
+    Diffuse { albedo: Vec3 },
+    /// Perfect refraction, weight 1 (vacuum outside, index `eta` inside).
+    PerfectRefraction { eta: f32 },
+    /// Smooth dielectric: Fresnel-weighted mirror reflection (tint `r`) and
+    /// refraction (tint `t`, radiance scaled by 1/η² when entering).
+    Dielectric { r: Vec3, t: Vec3, eta: f32 },
+    /// Rough conductor: D·G·F·tint / (4 cosθi cosθo), separable Smith G.
+    Conductor { tint: Vec3, eta: Vec3, k: Vec3, mf: Microfacet },
+}
+
+#[derive(Clone, Copy, Debug)]
+pub struct Bsdf {
+    pub frame: Frame,
+    pub kind: BsdfKind,
+}
+
+#[derive(Clone, Copy, Debug)]
+pub struct BsdfSample {
+    pub wi: Vec3,
+    /// f·|cos θi| / pdf (for delta lobes: the lobe's weight).
+    pub weight: Vec3,
+    pub pdf: f32,
+    pub delta: bool,
+    /// Relative index crossed (η_t/η_i for a refraction, 1 otherwise).
+    pub eta: f32,
+}
+
+impl Bsdf {
+    pub fn is_delta(&self) -> bool {
+        matches!(self.kind, BsdfKind::PerfectRefraction { .. } | BsdfKind::Dielectric { .. })
+    }
+
+    pub fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
+        let (o, i) = (self.frame.to_local(wo), self.frame.to_local(wi));
+        match self.kind {
+            BsdfKind::Diffuse { albedo } => {
+                if o.z > 0.0 && i.z > 0.0 {
+                    albedo * INV_PI
+                } else {
+                    Vec3::ZERO
+                }
+            }
+            BsdfKind::Conductor { tint, eta, k, mf } => {
+                if o.z <= 0.0 || i.z <= 0.0 {
+                    return Vec3::ZERO;
+                }
+                let m = (o + i).normalize();
+                let d = mf.d(m);
+                if d == 0.0 {
+                    return Vec3::ZERO;
+                }
+                let g = mf.g(o, i, m);
+                fresnel::conductor(o.dot(m), eta, k) * tint * (d * g / (4.0 * o.z * i.z))
+            }
+            BsdfKind::PerfectRefraction { .. } | BsdfKind::Dielectric { .. } => Vec3::ZERO,
+        }
+    }
+
+    pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        let (o, i) = (self.frame.to_local(wo), self.frame.to_local(wi));
+        match self.kind {
+            BsdfKind::Diffuse { .. } => {
+                if o.z > 0.0 && i.z > 0.0 {
+                    i.z * INV_PI
+                } else {
+                    0.0
+                }
+            }
+            BsdfKind::Conductor { mf, .. } => {
+                if o.z <= 0.0 || i.z <= 0.0 {
+                    return 0.0;
+                }
+                let m = (o + i).normalize();
+                let om = o.dot(m);
+                if om <= 0.0 {
+                    return 0.0;
+                }
+                mf.pdf_visible(o, m) / (4.0 * om)
+            }
+            BsdfKind::PerfectRefraction { .. } | BsdfKind::Dielectric { .. } => 0.0,
+        }
+    }
+
+    /// `u` drives the direction, `uc` the choice between lobes.
+    pub fn sample(&self, wo: Vec3, u: Vec2, uc: f32) -> Option<BsdfSample> {
+        let o = self.frame.to_local(wo);
+        let world = |l: Vec3| self.frame.to_world(l);
+        match self.kind {
+            BsdfKind::Diffuse { albedo } => {
+                if o.z <= 0.0 {
+                    return None;
+                }
+                let i = cosine_hemisphere(u);
+                if i.z <= 0.0 {
+                    return None;
+                }
+                Some(BsdfSample {
+                    wi: world(i),
+                    weight: albedo,
+                    pdf: i.z * INV_PI,
+                    delta: false,
+                    eta: 1.0,
+                })
+            }
+            BsdfKind::PerfectRefraction { eta } => {
+                let (n, ratio) = if o.z > 0.0 { (Vec3::Z, 1.0 / eta) } else { (-Vec3::Z, eta) };
+                let i = crate::math::refract(o, n, ratio).unwrap_or_else(|| crate::math::reflect(o, n));
+                Some(BsdfSample {
+                    wi: world(i),
+                    weight: Vec3::ONE,
+                    pdf: 1.0,
+                    delta: true,
+                    eta: 1.0,
+                })
+            }
+            BsdfKind::Dielectric { r, t, eta } => {
+                let (f, cos_t, eta_ti) = fresnel::dielectric(o.z, eta);
+                if uc < f {
+                    let i = Vec3::new(-o.x, -o.y, o.z);
+                    Some(BsdfSample {
+                        wi: world(i),
+                        weight: r,
+                        pdf: f,
+                        delta: true,
+                        eta: 1.0,
+                    })
+                } else {
+                    let i = Vec3::new(-eta_ti * o.x, -eta_ti * o.y, cos_t).normalize();
+                    Some(BsdfSample {
+                        wi: world(i),
+                        weight: t * (eta_ti * eta_ti),
+                        pdf: 1.0 - f,
+                        delta: true,
+                        eta: 1.0 / eta_ti,
+                    })
+                }
+            }
+            BsdfKind::Conductor { tint, eta, k, mf } => {
+                if o.z <= 0.0 {
+                    return None;
+                }
+                let m = mf.sample_visible(o, u);
+                let om = o.dot(m);
+                if om <= 0.0 {
+                    return None;
+                }
+                let i = 2.0 * om * m - o;
+                if i.z <= 0.0 {
+                    return None;
+                }
+                let pdf = mf.pdf_visible(o, m) / (4.0 * om);
+                if pdf <= 0.0 || !pdf.is_finite() {
+                    return None;
+                }
+                let weight = fresnel::conductor(om, eta, k) * tint * mf.g1(i, m);
+                Some(BsdfSample {
+                    wi: world(i),
+                    weight,
+                    pdf,
+                    delta: false,
+                    eta: 1.0,
+                })
+            }
+        }
+    }
+}

@@ -1,0 +1,88 @@
+//! `image` textures (spec §8): a picture file, its MIP pyramid and a `uvmapping2d`.
+//!
+//! Files are read with [`crate::imageio::read_texture_image`] when the scene is built:
+//! EXR and Radiance HDR as linear values, PNG and JPEG decoded from sRGB; alpha is
+//! dropped. Every file is read and its pyramid built once per scene, however many
+//! textures and materials use it ([`ImageCache`]).
+
+use super::mipmap::{Level, MipMap};
+use super::{TexCoord, TextureConvention, UvMapping};
+use crate::math::Vec3;
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+/// An image texture: a shared pyramid looked up through its own `uvmapping2d`.
+#[derive(Clone, Debug)]
+pub struct ImageTexture {
+    pub mipmap: Arc<MipMap>,
+    pub mapping: UvMapping,
+}
+
+impl ImageTexture {
+    /// Trilinear lookup; the st footprint is `scale ⊙` the uv derivatives (spec §8).
+    #[inline]
+    pub fn eval(&self, tc: &TexCoord) -> Vec3 {
+        let st = self.mapping.map(tc.uv);
+        self.mipmap.lookup(st, self.mapping.scale * tc.duvdx, self.mapping.scale * tc.duvdy)
+    }
+}
+
+/// Reads `path` and builds its pyramid.
+pub fn load_mipmap(path: &Path, convention: TextureConvention, mipmap: bool) -> anyhow::Result<MipMap> {
+    let img = crate::imageio::read_texture_image(path)?;
+    Ok(MipMap::new(Level::new(img.width, img.height, img.pixels), convention, mipmap))
+}
+
+/// The same file under different spellings (`a.png`, `./a.png`, `x/../a.png`, links)
+/// gives the same key.
+fn file_key(path: &Path) -> PathBuf {
+    std::fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf())
+}
+
+/// Pyramids by file, so a file used by several textures is read once.
+#[derive(Default)]
+pub struct ImageCache {
+    loaded: HashMap<PathBuf, Arc<MipMap>>,
+}
+
+impl ImageCache {
+    /// Loads every distinct path (in parallel); the first failure is returned with
+    /// the index of the path that caused it.
+    pub fn load_all(&mut self, paths: &[PathBuf], convention: TextureConvention, mipmap: bool) -> Result<(), (usize, anyhow::Error)> {
+        use rayon::prelude::*;
+        let mut todo: Vec<(usize, &PathBuf, PathBuf)> = Vec::new();
+        for (i, p) in paths.iter().enumerate() {
+            let key = file_key(p);
+            if !self.loaded.contains_key(&key) && !todo.iter().any(|(_, _, k)| *k == key) {
+                todo.push((i, p, key));
+            }
+        }
+        let results: Vec<_> = todo
+            .par_iter()
+            .map(|(i, p, key)| (*i, key.clone(), load_mipmap(p, convention, mipmap)))
+            .collect();
+        for (i, key, r) in results {
+            match r {
+                Ok(m) => {
+                    self.loaded.insert(key, Arc::new(m));
+                }
+                Err(e) => return Err((i, e)),
+            }
+        }
+        Ok(())
+    }
+
+    pub fn get(&self, path: &Path) -> Option<Arc<MipMap>> {
+        self.loaded.get(&file_key(path)).cloned()
+    }
+
+    /// Number of distinct files loaded.
+    pub fn len(&self) -> usize {
+        self.loaded.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.loaded.is_empty()
+    }
+}

@@ -59,6 +59,20 @@ impl EnvironmentLight {
             distribution: Distribution2D::new(&[1.0], 1, 1),
             mean_luminance: 0.0,
         };
+        if let EnvImage::Image {
+            width,
+            height,
+            texels,
+            mapping,
+        } = &light.image
+        {
+            if mapping.scale == Vec2::ONE && mapping.delta == Vec2::ZERO {
+                let (weights, mean) = fast_weights(*width, *height, texels);
+                light.mean_luminance = mean;
+                light.distribution = Distribution2D::new(&weights, *width, *height);
+                return light;
+            }
+        }
         let (nu, nv) = match &light.image {
             EnvImage::Constant(_) => CONSTANT_GRID,
             EnvImage::Image { width, height, .. } => (*width, *height),
@@ -176,6 +190,46 @@ impl EnvironmentLight {
             }
         }
     }
+}
+
+/// Sampling weights for an image under the identity mapping: cell (i, j) covers
+/// `x ∈ [i − ½, i + ½]`, `y ∈ [j(H−1)/H, (j+1)(H−1)/H]` in texel units, so only
+/// texels i−1…i+1, j−1…j+1 shape its bilinear radiance; luminance being linear,
+/// their maximum bounds it. A separable 3×3 max filter, rows in parallel.
+fn fast_weights(w: usize, h: usize, texels: &[Vec3]) -> (Vec<f32>, f32) {
+    use rayon::prelude::*;
+    let lum: Vec<f32> = texels.par_iter().map(|t| luminance(*t)).collect();
+    let row_max: Vec<f32> = (0..h)
+        .into_par_iter()
+        .flat_map_iter(|j| {
+            let row = &lum[j * w..(j + 1) * w];
+            (0..w).map(move |i| row[(i + w - 1) % w].max(row[i]).max(row[(i + 1) % w]))
+        })
+        .collect();
+    let weights: Vec<f32> = (0..h)
+        .into_par_iter()
+        .flat_map_iter(|j| {
+            let (a, b) = (j.saturating_sub(1), (j + 1).min(h - 1));
+            let sin_theta = (PI * (j as f32 + 0.5) / h as f32).sin();
+            let rm = &row_max;
+            (0..w).map(move |i| rm[a * w + i].max(rm[j * w + i]).max(rm[b * w + i]) * sin_theta)
+        })
+        .collect();
+    // mean over the sphere: Σ L sinθ / Σ sinθ at texel rows v = j/(H−1)
+    let (mut num, mut den) = (0.0f64, 0.0f64);
+    for j in 0..h {
+        let s = (PI * j as f32 / (h - 1).max(1) as f32).sin() as f64;
+        num += s * lum[j * w..(j + 1) * w].iter().map(|&l| l as f64).sum::<f64>();
+        den += s * w as f64;
+    }
+    (
+        weights,
+        if den > 0.0 {
+            (num / den) as f32
+        } else {
+            lum.iter().sum::<f32>() / lum.len() as f32
+        },
+    )
 }
 
 #[cfg(test)]

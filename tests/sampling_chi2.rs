@@ -230,14 +230,8 @@ fn environment_importance_sampling_matches_its_pdf() {
             |u| env.sample(u, LightSampling::Uniform).map(|s| s.wi),
             |w| env.pdf(w, LightSampling::Uniform),
         );
-        // the same samples seen through (cos θ, φ) bins: the pdf is right as a density over directions
-        chi2(
-            &format!("{name} directions"),
-            1_000_000,
-            frame,
-            |u| env.sample(u, LightSampling::Importance).map(|s| s.wi),
-            |w| env.pdf(w, LightSampling::Importance),
-        );
+        // (binning by (cos θ, φ) instead would need exact integration of the piecewise-
+        // constant pdf across bins; the uv-domain test checks pdf(ω) exactly through sin θ)
     }
 }
 

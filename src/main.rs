@@ -64,6 +64,16 @@ enum Command {
         #[arg(long, value_name = "SECONDS")]
         time_limit: Option<f64>,
     },
+    /// Compare an image with a reference: mean RGB and relative MSE,
+    /// mean((x − r)² / (r² + 0.01)), the metric of shared/refs/README.md.
+    Compare {
+        image: PathBuf,
+        reference: PathBuf,
+        /// The reference's variance image (`<name>.var.exr`): also print the
+        /// part of the error that is the reference's own noise.
+        #[arg(long)]
+        variance: Option<PathBuf>,
+    },
     /// Benchmark: with a scene (.json), load, build and render it without writing it and
     /// print timings; with a mesh (.obj or .ply), benchmark the BVH (build time and size,
     /// Mrays/s of primary, incoherent and bounce rays, closest and any hit, 1 and all
@@ -212,6 +222,7 @@ fn run(cli: Cli) -> Result<ExitCode> {
             }
             Ok(if out.interrupted { ExitCode::from(130) } else { ExitCode::SUCCESS })
         }
+        Command::Compare { image, reference, variance } => compare(&image, &reference, variance.as_deref()),
         Command::Bench { args, repeat, isa } => {
             let ext = args.scene.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
             if ext == "obj" || ext == "ply" {
@@ -270,4 +281,40 @@ fn run(cli: Cli) -> Result<ExitCode> {
             Ok(ExitCode::SUCCESS)
         }
     }
+}
+
+fn compare(image: &Path, reference: &Path, variance: Option<&Path>) -> Result<ExitCode> {
+    let x = rdr::imageio::read_exr(image)?;
+    let r = rdr::imageio::read_exr(reference)?;
+    anyhow::ensure!(
+        (x.width, x.height) == (r.width, r.height),
+        "{} is {}x{} but {} is {}x{}",
+        image.display(),
+        x.width,
+        x.height,
+        reference.display(),
+        r.width,
+        r.height
+    );
+    let v = variance.map(rdr::imageio::read_exr).transpose()?;
+    let mean = |p: &[rdr::math::Vec3]| p.iter().fold(glam::DVec3::ZERO, |a, v| a + v.as_dvec3()) / p.len() as f64;
+    let (mut rel, mut noise) = (0.0f64, 0.0f64);
+    for i in 0..x.pixels.len() {
+        for c in 0..3 {
+            let (a, b) = (x.pixels[i][c] as f64, r.pixels[i][c] as f64);
+            let d = 1.0 / (b * b + 0.01);
+            rel += (a - b) * (a - b) * d;
+            if let Some(v) = &v {
+                noise += v.pixels[i][c].max(0.0) as f64 * d;
+            }
+        }
+    }
+    let n = 3.0 * x.pixels.len() as f64;
+    let (mx, mr) = (mean(&x.pixels), mean(&r.pixels));
+    println!("mean RGB      {:.5} {:.5} {:.5}   (reference {:.5} {:.5} {:.5})", mx.x, mx.y, mx.z, mr.x, mr.y, mr.z);
+    println!("relMSE        {:.4e}", rel / n);
+    if v.is_some() {
+        println!("of which the reference's own noise {:.4e}", noise / n);
+    }
+    Ok(ExitCode::SUCCESS)
 }

@@ -560,3 +560,52 @@ impl Tracer for Wide<'_> {
         self.bvh.occluded(self.prims, ray)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ply_ascii_and_binary() {
+        let ascii = b"ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\nproperty uchar red\n\
+element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0 9\n1 0 0 9\n1 1 0 9\n0 1 0 9\n4 0 1 2 3\n";
+        let d = parse_ply(ascii).unwrap();
+        assert_eq!(d.positions.len(), 4);
+        assert_eq!(d.triangles.iter().map(|t| t.p).collect::<Vec<_>>(), vec![[0, 1, 2], [0, 2, 3]]);
+        let mut bin = b"ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n\
+element face 1\nproperty list uchar uint vertex_indices\nend_header\n"
+            .to_vec();
+        for v in [[0.0f32, 0.0, 0.0], [2.0, 0.0, 0.0], [0.0, 2.0, 0.5]] {
+            for c in v {
+                bin.extend_from_slice(&c.to_le_bytes());
+            }
+        }
+        bin.push(3);
+        for i in [0u32, 1, 2] {
+            bin.extend_from_slice(&i.to_le_bytes());
+        }
+        let d = parse_ply(&bin).unwrap();
+        assert_eq!(d.positions[2], Vec3::new(0.0, 2.0, 0.5));
+        assert_eq!(d.triangles[0].p, [0, 1, 2]);
+        assert!(parse_ply(b"ply\nformat binary_big_endian 1.0\nend_header\n").is_err());
+        let mut short = bin.clone();
+        short.truncate(bin.len() - 2);
+        assert!(parse_ply(&short).is_err());
+    }
+
+    #[test]
+    fn ray_sets_are_as_described() {
+        let b = Aabb::new(Vec3::new(-1.0, 0.0, 2.0), Vec3::new(1.0, 3.0, 2.5));
+        let primary = primary_rays(&b, 16);
+        assert_eq!(primary.len(), 256);
+        // the camera sits outside the box, front-right-above its centre
+        let eye = primary[0].o;
+        assert!(eye.cmpgt(b.max).all());
+        let inc = incoherent_rays(&b, 1000, 1);
+        let r = b.extent().length() * 0.5;
+        for ray in &inc {
+            assert!(((ray.o - b.centroid()).length() - r).abs() < 1e-4 * r);
+            assert!((ray.d.length() - 1.0).abs() < 1e-5);
+        }
+    }
+}

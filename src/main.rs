@@ -222,7 +222,11 @@ fn run(cli: Cli) -> Result<ExitCode> {
             }
             Ok(if out.interrupted { ExitCode::from(130) } else { ExitCode::SUCCESS })
         }
-        Command::Compare { image, reference, variance } => compare(&image, &reference, variance.as_deref()),
+        Command::Compare {
+            image,
+            reference,
+            variance,
+        } => compare(&image, &reference, variance.as_deref()),
         Command::Bench { args, repeat, isa } => {
             let ext = args.scene.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
             if ext == "obj" || ext == "ply" {
@@ -311,7 +315,10 @@ fn compare(image: &Path, reference: &Path, variance: Option<&Path>) -> Result<Ex
     }
     let n = 3.0 * x.pixels.len() as f64;
     let (mx, mr) = (mean(&x.pixels), mean(&r.pixels));
-    println!("mean RGB      {:.5} {:.5} {:.5}   (reference {:.5} {:.5} {:.5})", mx.x, mx.y, mx.z, mr.x, mr.y, mr.z);
+    println!(
+        "mean RGB      {:.5} {:.5} {:.5}   (reference {:.5} {:.5} {:.5})",
+        mx.x, mx.y, mx.z, mr.x, mr.y, mr.z
+    );
     println!("relMSE        {:.4e}", rel / n);
     if v.is_some() {
         println!("of which the reference's own noise {:.4e}", noise / n);

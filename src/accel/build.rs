@@ -2,7 +2,8 @@
 //! [`super::wide::WideBvh`].
 //!
 //! * Primitive references are 32 bytes (`lo`, `hi` as SIMD `Vec4`s, the index in
-//!   the spare lane), binned on all three axes in one pass over 32 bins.
+//!   the spare lane), binned on all three axes in one pass over 32 bins (16 or 8 for small
+//!   nodes, where the sweeps would dominate).
 //! * The cost model counts *blocks* of [`BLOCK`] primitives, as the wide BVH's
 //!   leaves store triangles four to a SIMD block: a leaf of 1–4 triangles costs
 //!   one block test. Leaves stop at [`MAX_LEAF`] primitives; a node becomes a
@@ -224,11 +225,6 @@ impl Binner {
             [i.x as usize, i.y as usize, i.z as usize]
         }
     }
-    #[inline]
-    fn bin(&self, r: &PrimRef, axis: usize) -> usize {
-        // `as` saturates (negative and NaN give 0)
-        (((r.c2()[axis] - self.lo[axis]) * self.scale[axis]) as usize).min(self.nb - 1)
-    }
     /// Bins `refs`; two sets of bins take alternate references, so neighbours
     /// (often in the same bin) do not wait on each other's updates.
     fn fill<const N: usize>(&self, refs: &[PrimRef]) -> Bins<N> {
@@ -350,7 +346,11 @@ fn build_rec(refs: &mut [PrimRef], first: usize, geom: B4, cent: B4, depth: usiz
                 if n <= MAX_LEAF && leaf_cost <= cost {
                     return leaf(refs, first, &geom);
                 }
-                let (m, lb, rb) = partition(refs, |r| binner.bin(r, axis) <= split);
+                // left of the plane between bins `split` and `split + 1` (doubled
+                // centroids); a comparison instead of a bin index per reference
+                let pos = Vec4::splat(binner.lo[axis] + (split + 1) as f32 / binner.scale[axis]);
+                let bit = 1u32 << axis;
+                let (m, lb, rb) = partition(refs, |r| r.c2().cmplt(pos).bitmask() & bit != 0);
                 if m > 0 && m < n {
                     return split_at(refs, first, m, geom, depth, Some((lb, rb)));
                 }

@@ -19,10 +19,11 @@
 //! * **Traversal** is front to back: children hit are visited nearest first and
 //!   stack entries farther than the current closest hit are skipped; any-hit
 //!   queries stop at the first hit and do not sort.
-//! * **Instruction sets** ([`Isa`]): AVX-512 (VL, mask compares and compress for
-//!   the stack), AVX2, or portable Rust, picked at run time with
-//!   `is_x86_feature_detected!`; the portable one runs everywhere and can be forced
-//!   with [`WideBvh::set_isa`] (the tests run all that the machine has).
+//! * **Instruction sets** ([`Isa`]): AVX-512 (F+VL: the node test's hit mask
+//!   straight from a mask compare), AVX2+FMA, or portable Rust (scalar kernel per
+//!   lane), picked at run time with `is_x86_feature_detected!`; the portable one
+//!   runs everywhere and can be forced with [`WideBvh::set_isa`] (the tests run
+//!   every variant the machine has).
 //!
 //! Spheres (and any primitive that is not a triangle) sit in separate leaves of
 //! primitive indices tested with their own kernel.
@@ -430,20 +431,12 @@ impl WideBvh {
     /// indices then refer to.
     pub fn build_reordered(prims: Vec<Prim>) -> (Vec<Prim>, WideBvh) {
         use rayon::prelude::*;
-        let t0 = std::time::Instant::now();
         let bounds: Vec<Aabb> = prims.par_iter().with_min_len(4096).map(crate::scene::build::prim_bounds).collect();
         let mut refs = build::make_refs(&bounds);
-        let t1 = t0.elapsed();
         let tree = build::build_tree(&mut refs);
-        let t2 = t0.elapsed();
         let ordered: Vec<Prim> = refs.par_iter().with_min_len(4096).map(|r| prims[r.index() as usize]).collect();
         let identity: Vec<u32> = (0..ordered.len() as u32).collect();
-        let t3 = t0.elapsed();
         let bvh = Self::from_tree(tree.as_ref(), &identity, &ordered);
-        let t4 = t0.elapsed();
-        if std::env::var("RDR_BT").is_ok() {
-            eprintln!("refs {t1:?} tree {t2:?} reorder {t3:?} collapse {t4:?}");
-        }
         (ordered, bvh)
     }
 
@@ -812,30 +805,6 @@ fn block_test<const ISA: u8>(b: &TriBlock, r: &RayData, t_max: f32) -> BlockHits
     }
 }
 
-/// Asks for the memory of child `c` ahead of its visit (x86 only; a hint, no effect
-/// on results).
-#[inline(always)]
-fn prefetch<const ISA: u8>(bvh: &WideBvh, c: u32) {
-    #[cfg(target_arch = "x86_64")]
-    if ISA != PORTABLE {
-        use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
-        let p: *const i8 = if c & LEAF == 0 {
-            bvh.nodes.as_ptr().wrapping_add(c as usize).cast()
-        } else if c & GENERIC == 0 {
-            bvh.blocks.as_ptr().wrapping_add(leaf_range(c).0).cast()
-        } else {
-            return;
-        };
-        for line in 0..4 {
-            // SAFETY: prefetching is a hint that never faults, whatever the address
-            // (SSE, part of x86_64); `wrapping_add` keeps the arithmetic defined.
-            unsafe { _mm_prefetch::<_MM_HINT_T0>(p.wrapping_add(64 * line)) };
-        }
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = (bvh, c);
-}
-
 #[inline(always)]
 fn leaf_range(c: u32) -> (usize, usize) {
     (((c & !(LEAF | GENERIC)) >> 4) as usize, (c & 15) as usize + 1)
@@ -871,7 +840,6 @@ fn closest<const ISA: u8, const S: usize>(bvh: &WideBvh, prims: &[Prim], ray: &R
                 let b = rest.trailing_zeros() as usize;
                 if rest & (rest - 1) == 0 {
                     let (near, far) = if d[a] <= d[b] { (a, b) } else { (b, a) };
-                    prefetch::<ISA>(bvh, node.child[far]);
                     st[sp] = key(d[far], node.child[far]);
                     sp += 1;
                     cur = node.child[near];
@@ -883,7 +851,6 @@ fn closest<const ISA: u8, const S: usize>(bvh: &WideBvh, prims: &[Prim], ray: &R
                 while m != 0 {
                     let i = m.trailing_zeros() as usize;
                     m &= m - 1;
-                    prefetch::<ISA>(bvh, node.child[i]);
                     let k = key(d[i], node.child[i]);
                     let mut j = sp;
                     while j > base && st[j - 1] < k {
@@ -1084,6 +1051,7 @@ mod x86 {
         unsafe { block_sse_body(blk, r, t_max) }
     }
 
+    /// SAFETY (for callers): needs SSE/SSE2 only, which x86_64 always has.
     #[inline(always)]
     unsafe fn block_sse_body(blk: &TriBlock, r: &RayData, t_max: f32) -> BlockHits {
         let [kx, ky, kz] = r.k;

@@ -168,11 +168,16 @@ fn render_tile(
                 let mut sampler = PixelSampler::new(x as u32, y as u32, s, seed);
                 let (u, v) = sampler.next_2d();
                 let pos = Vec2::new(x as f32 + u, y as f32 + v);
-                let (ray, diff) = scene.camera.ray_differential(pos.x, pos.y);
-                let diff = diff.scaled(&ray, diff_scale);
+                // differentials only matter to image textures: skip them otherwise
+                let (ray, diff) = if scene.uses_footprints {
+                    let (ray, diff) = scene.camera.ray_differential(pos.x, pos.y);
+                    (ray, Some(diff.scaled(&ray, diff_scale)))
+                } else {
+                    (scene.camera.ray(pos.x, pos.y), None)
+                };
                 let l = match scene.integrator {
-                    Integrator::IntersectionTest => intersection_test::li(scene, ray, Some(diff), &mut sampler, &mut counts),
-                    Integrator::Path { profile, .. } => path::li(scene, ray, Some(diff), &mut sampler, &mut counts, profile),
+                    Integrator::IntersectionTest => intersection_test::li(scene, ray, diff, &mut sampler, &mut counts),
+                    Integrator::Path { profile, .. } => path::li(scene, ray, diff, &mut sampler, &mut counts, profile),
                 };
                 if l.is_finite() {
                     tile.add(pos, l, &scene.filter, w, h);

@@ -277,6 +277,7 @@ pub fn build(desc: &SceneDesc, opts: BuildOptions) -> Result<Scene> {
         block_size: desc.film.block_size,
         filter: Filter::new(&desc.film.filter),
         integrator: desc.integrator.kind,
+        uses_footprints: textures.iter().any(|t| matches!(t, Texture::Image(_))),
         spp: desc.integrator.spp,
         max_depth: desc.integrator.max_depth,
         textures,

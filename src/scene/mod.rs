@@ -160,6 +160,8 @@ pub struct Scene {
     pub block_size: u32,
     pub filter: Filter,
     pub integrator: crate::integrator::Integrator,
+    /// Some texture filters by footprint (an image texture): camera rays carry differentials.
+    pub uses_footprints: bool,
     pub spp: u32,
     pub max_depth: u32,
     pub textures: Vec<Texture>,

@@ -206,7 +206,8 @@ pub fn read_exr(path: &Path) -> Result<RgbImage> {
             img.pixels[pos.y() * w + pos.x()] = Vec3::new(r, g, b);
         },
     )
-    .with_context(|| format!("cannot read {}", path.display()))?;
+    // the exr error shows its I/O cause in its own message: keep it flat, not chained
+    .map_err(|e| anyhow::anyhow!("cannot read {}: {e}", path.display()))?;
     Ok(img.layer_data.channel_data.pixels)
 }
 
@@ -247,7 +248,9 @@ pub fn read_texture_image(path: &Path) -> Result<RgbImage> {
         .with_guessed_format()
         .with_context(|| format!("cannot read {}", path.display()))?;
     let format = reader.format();
-    let img = reader.decode().with_context(|| format!("cannot decode {}", path.display()))?;
+    let img = reader
+        .decode()
+        .map_err(|e| anyhow::anyhow!("cannot decode {}: {e}", path.display()))?;
     let (width, height) = (img.width() as usize, img.height() as usize);
     let pixels: Vec<Vec3> = match format {
         Some(image::ImageFormat::Hdr) => img.into_rgb32f().pixels().map(|p| Vec3::new(p[0], p[1], p[2])).collect(),

@@ -32,22 +32,8 @@ use std::fmt::Write as _;
 use std::path::Path;
 use std::time::Instant;
 
-/// splitmix64: small, fixed-seed, good enough for ray sets.
-struct Rng(u64);
-
-impl Rng {
-    fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-    /// Uniform in [0, 1).
-    fn unit(&mut self) -> f32 {
-        (self.next_u64() >> 40) as f32 / (1u64 << 24) as f32
-    }
-}
+/// Fixed-seed generator for the ray sets.
+type Rng = crate::sampling::SplitMix64;
 
 /// Triangles of an OBJ or PLY file as scene primitives (object 0), degenerate
 /// (zero-area) triangles dropped.
@@ -243,20 +229,20 @@ pub fn primary_rays(b: &Aabb, res: usize) -> Vec<Ray> {
 }
 
 fn uniform_sphere(rng: &mut Rng) -> Vec3 {
-    let z = 1.0 - 2.0 * rng.unit();
+    let z = 1.0 - 2.0 * rng.unit_f32();
     let r = (1.0 - z * z).max(0.0).sqrt();
-    let phi = 2.0 * std::f32::consts::PI * rng.unit();
+    let phi = 2.0 * std::f32::consts::PI * rng.unit_f32();
     Vec3::new(r * phi.cos(), r * phi.sin(), z)
 }
 
 pub fn incoherent_rays(b: &Aabb, n: usize, seed: u64) -> Vec<Ray> {
-    let mut rng = Rng(seed);
+    let mut rng = Rng::from(seed);
     let c = b.centroid();
     let r = b.extent().length() * 0.5;
     (0..n)
         .map(|_| {
             let o = c + uniform_sphere(&mut rng) * r;
-            let t = b.min + b.extent() * Vec3::new(rng.unit(), rng.unit(), rng.unit());
+            let t = b.min + b.extent() * Vec3::new(rng.unit_f32(), rng.unit_f32(), rng.unit_f32());
             Ray::with_range(o, (t - o).normalize(), 0.0, f32::INFINITY)
         })
         .collect()
@@ -283,13 +269,13 @@ pub fn bounce_rays(prims: &[Prim], primary: &[Ray], hits: &[Option<Hit>], n: usi
     if points.is_empty() {
         return Vec::new();
     }
-    let mut rng = Rng(seed);
+    let mut rng = Rng::from(seed);
     (0..n)
         .map(|i| {
             let (o, ng) = points[i % points.len()];
             let (t, bt) = crate::math::coordinate_system(ng);
-            let r = rng.unit().sqrt();
-            let phi = 2.0 * std::f32::consts::PI * rng.unit();
+            let r = rng.unit_f32().sqrt();
+            let phi = 2.0 * std::f32::consts::PI * rng.unit_f32();
             let z = (1.0 - r * r).max(0.0).sqrt();
             let d = (t * (r * phi.cos()) + bt * (r * phi.sin()) + ng * z).normalize();
             Ray::with_range(o, d, 0.0, f32::INFINITY)

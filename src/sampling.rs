@@ -212,3 +212,40 @@ mod tests {
         }
     }
 }
+
+/// splitmix64 (Steele, Lea & Flood 2014): a small, fast, seedable generator for
+/// ray sets in benchmarks and randomized tests (not used for rendering, which
+/// uses the per-pixel Sobol sampler).
+#[derive(Clone, Debug)]
+pub struct SplitMix64(pub u64);
+
+impl From<u64> for SplitMix64 {
+    fn from(seed: u64) -> Self {
+        SplitMix64(seed)
+    }
+}
+
+impl SplitMix64 {
+    pub fn next_u64(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+
+    /// Uniform in [0, 1) with 24 bits.
+    pub fn unit_f32(&mut self) -> f32 {
+        (self.next_u64() >> 40) as f32 / (1u64 << 24) as f32
+    }
+
+    /// Uniform in [0, 1) with 53 bits.
+    pub fn unit_f64(&mut self) -> f64 {
+        (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
+    }
+
+    /// Uniform in `0..n` (`n` ≥ 1; slightly biased for huge `n`).
+    pub fn below(&mut self, n: usize) -> usize {
+        (self.next_u64() % n.max(1) as u64) as usize
+    }
+}

@@ -10,16 +10,11 @@ use rdr::math::{Frame, Mat4, Vec2, Vec3, PI};
 use rdr::sampling::{cosine_hemisphere, uniform_sphere};
 use rdr::texture::UvMapping;
 
-/// splitmix64-based uniform numbers (independent of the renderer's samplers).
-struct Rng(u64);
+/// Uniform numbers independent of the renderer's samplers.
+struct Rng(rdr::sampling::SplitMix64);
 impl Rng {
     fn next(&mut self) -> f32 {
-        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-        z ^= z >> 31;
-        (z >> 40) as f32 / (1u64 << 24) as f32
+        self.0.unit_f32()
     }
     fn next2(&mut self) -> Vec2 {
         Vec2::new(self.next(), self.next())
@@ -97,7 +92,7 @@ fn chi2(name: &str, n: usize, frame: Frame, sample: impl FnMut(Vec2) -> Option<V
 /// As [`chi2`] with the bins covering only the cap `cos θ ≥ cos_min` (a sample
 /// outside it counts in an extra bin of zero expectation).
 fn chi2_cap(name: &str, n: usize, frame: Frame, cos_min: f32, mut sample: impl FnMut(Vec2) -> Option<Vec3>, pdf: impl Fn(Vec3) -> f32) {
-    let mut rng = Rng(0x1234_5678 ^ name.len() as u64);
+    let mut rng = Rng(rdr::sampling::SplitMix64(0x1234_5678 ^ name.len() as u64));
     let mut observed = vec![0.0f64; N_COS * N_PHI + 1];
     for _ in 0..n {
         if let Some(w) = sample(rng.next2()) {
@@ -130,7 +125,7 @@ fn chi2_cap(name: &str, n: usize, frame: Frame, cos_min: f32, mut sample: impl F
 /// aligned with its cells), where pdf(ω)·2π² sin θ is piecewise constant, so the
 /// bin masses from a midpoint rule are exact.
 fn chi2_env(name: &str, n: usize, env: &EnvironmentLight, nu: usize, nv: usize, mode: LightSampling) {
-    let mut rng = Rng(0x9876_5432 ^ name.len() as u64);
+    let mut rng = Rng(rdr::sampling::SplitMix64(0x9876_5432 ^ name.len() as u64));
     let mut observed = vec![0.0f64; nu * nv];
     for _ in 0..n {
         if let Some(s) = env.sample(rng.next2(), mode) {
@@ -287,7 +282,7 @@ fn sphere_light_uniform_area_sampling_matches_its_pdf() {
         (center + n * radius, n, 1.0 / (2 * m * m) as f32)
     });
     let mass = area_domain_mass(&frame, p, cells);
-    let mut rng = Rng(77);
+    let mut rng = Rng(rdr::sampling::SplitMix64(77));
     let n = 400_000;
     let mut observed = vec![0.0f64; N_COS * N_PHI];
     for _ in 0..n {
@@ -369,7 +364,7 @@ fn triangle_mesh_light_sampling_matches_its_pdf() {
             }
         }
         let mass = area_domain_mass(&frame, p, cells.into_iter());
-        let mut rng = Rng(5 + mode as u64);
+        let mut rng = Rng(rdr::sampling::SplitMix64(5 + mode as u64));
         let n = 600_000;
         let mut observed = vec![0.0f64; N_COS * N_PHI];
         for _ in 0..n {
@@ -436,7 +431,7 @@ fn rough_conductor_sampling_matches_its_pdf() {
                 let wo = Vec3::new(theta.sin() * 0.8, theta.sin() * 0.6, theta.cos());
                 let bsdf = conductor(kind, ax, ay, wo);
                 let name = format!("{kind:?} α=({ax},{ay}) θo={theta}");
-                let mut rng = Rng(99);
+                let mut rng = Rng(rdr::sampling::SplitMix64(99));
                 // each sample's weight is f·cos/pdf of its own direction
                 for _ in 0..2000 {
                     if let Some(s) = bsdf.sample(wo, rng.next2(), 0.5) {
@@ -474,7 +469,7 @@ fn dielectric_chooses_reflection_with_the_fresnel_probability() {
             };
             let bsdf = glass.bsdf(Vec3::Z, wo, |_| Vec3::ONE);
             let (f, _, eta_ti) = rdr::material::fresnel::dielectric(cos_o, eta);
-            let mut rng = Rng(3);
+            let mut rng = Rng(rdr::sampling::SplitMix64(3));
             let n = 200_000;
             let mut reflected = 0usize;
             for _ in 0..n {

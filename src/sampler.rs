@@ -109,9 +109,13 @@ impl PixelSampler {
         (to_unit(x), to_unit(y))
     }
 
+    /// The first coordinate of [`next_2d`](Self::next_2d), without computing the second.
     #[inline]
     pub fn next_1d(&mut self) -> f32 {
-        self.next_2d().0
+        let s = hash_combine(self.pixel_seed, self.dim);
+        self.dim += 1;
+        let i = nested_uniform_scramble(self.index, s);
+        to_unit(nested_uniform_scramble(i.reverse_bits(), hash_u32(s ^ 0x5851_f42d)))
     }
 }
 
@@ -161,6 +165,16 @@ mod tests {
         let first = s.get_1d();
         // 3499211612 / 2^32 = 0.8147236..., times (1 - 2^-23)
         assert_eq!(first, (3_499_211_612u32 as f32 / 4_294_967_296.0) * (1.0 - f32::EPSILON));
+    }
+
+    #[test]
+    fn next_1d_is_the_first_coordinate_of_next_2d() {
+        for k in 0..1000 {
+            let (mut a, mut b) = (PixelSampler::new(k, 7 * k, k / 3, 11), PixelSampler::new(k, 7 * k, k / 3, 11));
+            for _ in 0..4 {
+                assert_eq!(a.next_1d(), b.next_2d().0);
+            }
+        }
     }
 
     #[test]

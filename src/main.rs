@@ -301,27 +301,15 @@ fn compare(image: &Path, reference: &Path, variance: Option<&Path>) -> Result<Ex
         r.height
     );
     let v = variance.map(rdr::imageio::read_exr).transpose()?;
-    let mean = |p: &[rdr::math::Vec3]| p.iter().fold(glam::DVec3::ZERO, |a, v| a + v.as_dvec3()) / p.len() as f64;
-    let (mut rel, mut noise) = (0.0f64, 0.0f64);
-    for i in 0..x.pixels.len() {
-        for c in 0..3 {
-            let (a, b) = (x.pixels[i][c] as f64, r.pixels[i][c] as f64);
-            let d = 1.0 / (b * b + 0.01);
-            rel += (a - b) * (a - b) * d;
-            if let Some(v) = &v {
-                noise += v.pixels[i][c].max(0.0) as f64 * d;
-            }
-        }
-    }
-    let n = 3.0 * x.pixels.len() as f64;
-    let (mx, mr) = (mean(&x.pixels), mean(&r.pixels));
+    let (rel, noise) = rdr::metrics::rel_mse(&x, &r, v.as_ref());
+    let (mx, mr) = (x.mean(), r.mean());
     println!(
         "mean RGB      {:.5} {:.5} {:.5}   (reference {:.5} {:.5} {:.5})",
         mx.x, mx.y, mx.z, mr.x, mr.y, mr.z
     );
-    println!("relMSE        {:.4e}", rel / n);
+    println!("relMSE        {rel:.4e}");
     if v.is_some() {
-        println!("of which the reference's own noise {:.4e}", noise / n);
+        println!("of which the reference's own noise {noise:.4e}");
     }
     Ok(ExitCode::SUCCESS)
 }

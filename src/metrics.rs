@@ -8,12 +8,8 @@
 
 use crate::math::Vec3;
 
-#[derive(Clone, Debug)]
-pub struct Image {
-    pub width: usize,
-    pub height: usize,
-    pub pixels: Vec<Vec3>,
-}
+/// Linear RGB, row 0 = top: the images `imageio` reads.
+pub use crate::imageio::RgbImage as Image;
 
 impl Image {
     pub fn new(width: usize, height: usize, pixels: Vec<Vec3>) -> Self {
@@ -58,6 +54,26 @@ impl Image {
         }
         Image::new(self.width, h, px)
     }
+}
+
+/// Relative MSE of one image against a reference, mean((x − r)² / (r² + 0.01))
+/// over pixels and channels, and the part of it the reference's own variance
+/// `vr` accounts for, mean(V_R / (r² + 0.01)) (0 without `vr`).
+pub fn rel_mse(x: &Image, r: &Image, vr: Option<&Image>) -> (f64, f64) {
+    assert_eq!(x.pixels.len(), r.pixels.len(), "image sizes differ");
+    let (mut rel, mut noise) = (0.0f64, 0.0f64);
+    for i in 0..x.pixels.len() {
+        for c in 0..3 {
+            let (a, b) = (x.pixels[i][c] as f64, r.pixels[i][c] as f64);
+            let d = 1.0 / (b * b + 0.01);
+            rel += (a - b) * (a - b) * d;
+            if let Some(v) = vr {
+                noise += v.pixels[i][c].max(0.0) as f64 * d;
+            }
+        }
+    }
+    let n = (3 * x.pixels.len()) as f64;
+    (rel / n, noise / n)
 }
 
 /// Result of a noise-aware comparison.

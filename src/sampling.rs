@@ -40,14 +40,6 @@ impl Distribution1D {
         Distribution1D { func, cdf, integral }
     }
 
-    pub fn len(&self) -> usize {
-        self.func.len()
-    }
-
-    pub fn is_empty(&self) -> bool {
-        self.integral == 0.0
-    }
-
     /// Mean of the weights.
     pub fn integral(&self) -> f32 {
         self.integral

@@ -705,16 +705,7 @@ impl RayData {
         let far = [0, 1, 2].map(|a| 2 * a + (inv[a] >= 0.0) as usize);
         // the watertight kernel's permutation and shear, exactly as it computes them
         let d = ray.d;
-        let ad = d.abs();
-        let kz = if ad.x > ad.y && ad.x > ad.z {
-            0
-        } else if ad.y > ad.z {
-            1
-        } else {
-            2
-        };
-        let kx = if kz == 2 { 0 } else { kz + 1 };
-        let ky = if kx == 2 { 0 } else { kx + 1 };
+        let (kx, ky, kz) = crate::geometry::triangle::watertight_axes(d);
         let dz = d[kz];
         RayData {
             o: ray.o,

@@ -20,9 +20,11 @@ fn permute(v: Vec3, x: usize, y: usize, z: usize) -> Vec3 {
     Vec3::new(v[x], v[y], v[z])
 }
 
-/// Watertight ray–triangle test (f32) for `t ∈ [t_min, t_max]`.
-#[inline]
-pub fn intersect_watertight(o: Vec3, d: Vec3, t_min: f32, t_max: f32, p: &[Vec3; 3]) -> Option<TriHit> {
+/// The watertight test's axis permutation `(kx, ky, kz)`: `kz` is the direction's
+/// largest component. The SIMD block test in `accel/wide.rs` uses it too, so both
+/// kernels give bit-identical hits.
+#[inline(always)]
+pub fn watertight_axes(d: Vec3) -> (usize, usize, usize) {
     let ad = d.abs();
     let kz = if ad.x > ad.y && ad.x > ad.z {
         0
@@ -33,6 +35,13 @@ pub fn intersect_watertight(o: Vec3, d: Vec3, t_min: f32, t_max: f32, p: &[Vec3;
     };
     let kx = if kz == 2 { 0 } else { kz + 1 };
     let ky = if kx == 2 { 0 } else { kx + 1 };
+    (kx, ky, kz)
+}
+
+/// Watertight ray–triangle test (f32) for `t ∈ [t_min, t_max]`.
+#[inline]
+pub fn intersect_watertight(o: Vec3, d: Vec3, t_min: f32, t_max: f32, p: &[Vec3; 3]) -> Option<TriHit> {
+    let (kx, ky, kz) = watertight_axes(d);
     let dp = permute(d, kx, ky, kz);
     if dp.z == 0.0 {
         return None; // zero direction

@@ -85,7 +85,6 @@ fn direct_diffuse(
     if n.dot(it.wo) <= 0.0 {
         return Vec3::ZERO; // the back of a one-sided surface is black
     }
-    let frame = Frame::from_normal(n);
     let mut total = Vec3::ZERO;
     for (index, light) in scene.lights.iter().enumerate() {
         if light.is_delta() {
@@ -100,6 +99,8 @@ fn direct_diffuse(
             }
             continue;
         }
+        // only area lights and the environment need the frame (for BSDF sampling)
+        let frame = Frame::from_normal(n);
         let mut sum = Vec3::ZERO;
         for _ in 0..scene.light_samples {
             // light sampling

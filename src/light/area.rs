@@ -89,11 +89,7 @@ impl AreaLight {
 
     pub fn sample(&self, p: Vec3, u: Vec2, mode: LightSampling) -> Option<LightSample> {
         match &self.emitter {
-            Emitter::Mesh {
-                triangles,
-                by_area,
-                total_area,
-            } => {
+            Emitter::Mesh { triangles, by_area, .. } => {
                 let (i, pdf_tri, ux) = match mode {
                     LightSampling::Importance => {
                         let (i, pmf, rest) = by_area.sample_discrete(u.x);
@@ -111,7 +107,6 @@ impl AreaLight {
                         )
                     }
                 };
-                let _ = total_area;
                 let t = &triangles[i];
                 let b = uniform_triangle(Vec2::new(ux, u.y));
                 let q = t[0] * b[0] + t[1] * b[1] + t[2] * b[2];

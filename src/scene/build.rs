@@ -219,20 +219,19 @@ pub fn build(desc: &SceneDesc, opts: BuildOptions) -> Result<Scene> {
         None => None,
         Some(env) => {
             let t = lookup(&texture_names, &env.texture.value, "texture", desc, &env.texture.key)?;
-            let image = match &desc.textures[t as usize].kind {
-                TextureKind::Constant { color } => EnvImage::Constant(*color),
-                TextureKind::Image { path, mapping } => {
-                    let full = desc.base_dir.join(&path.value);
-                    let img = crate::imageio::read_texture_image(&full)
-                        .map_err(|e| SceneError::new(&desc.file, Some(&path.key), format!("environment map: {e:#}")))?;
+            // the texture's file is loaded already: its level 0 is the image as read
+            let image = match &textures[t as usize] {
+                Texture::Constant(color) => EnvImage::Constant(*color),
+                Texture::Image(img) => {
+                    let level = &img.mipmap.levels()[0];
                     EnvImage::Image {
-                        width: img.width,
-                        height: img.height,
-                        texels: img.pixels,
-                        mapping: UvMapping::new(mapping),
+                        width: level.width,
+                        height: level.height,
+                        texels: level.texels.clone(),
+                        mapping: img.mapping,
                     }
                 }
-                TextureKind::Checkerboard { .. } => {
+                Texture::Checkerboard { .. } => {
                     return Err(SceneError::new(
                         &desc.file,
                         Some(&env.texture.key),

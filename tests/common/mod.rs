@@ -47,8 +47,7 @@ pub fn render(scene: &rdr::Scene, spp: u32, seed: u32, profile: Profile) -> Imag
 }
 
 pub fn read(path: &Path) -> Image {
-    let img = rdr::imageio::read_exr(path).unwrap_or_else(|e| panic!("{e:#}"));
-    Image::new(img.width, img.height, img.pixels)
+    rdr::imageio::read_exr(path).unwrap_or_else(|e| panic!("{e:#}"))
 }
 
 pub fn scaled(img: &Image, s: f32) -> Image {

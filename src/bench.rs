@@ -401,6 +401,10 @@ pub struct Options {
     pub threads: Vec<usize>,
     /// Kernels for the timings (default: the best the CPU has).
     pub isa: Option<Isa>,
+    /// Ray sets to time (empty: all).
+    pub rays: Vec<String>,
+    /// Build once and skip the kernel check (for profiling the traversal).
+    pub trace_only: bool,
 }
 
 /// Runs the mesh benchmark and returns the report.
@@ -421,7 +425,8 @@ pub fn run(path: &Path, opts: &Options) -> Result<String> {
     let mut built = None;
     for (threads, pool) in &pools {
         let mut best = f64::INFINITY;
-        for _ in 0..opts.repeat.max(1) {
+        let runs = if opts.trace_only { 1 } else { opts.repeat.max(1) };
+        for _ in 0..runs {
             let input = prims.clone();
             let (t, b) = timed(pool, || crate::scene::build::build_bvh(input));
             best = best.min(t);
@@ -479,7 +484,7 @@ pub fn run(path: &Path, opts: &Options) -> Result<String> {
             (i, v)
         })
         .collect();
-    for (isa, v) in &variants {
+    for (isa, v) in variants.iter().filter(|_| !opts.trace_only) {
         let t = Wide { prims: &ordered, bvh: v };
         let mut bad = Vec::new();
         let mut checked = 0;
@@ -512,7 +517,10 @@ pub fn run(path: &Path, opts: &Options) -> Result<String> {
         write!(out, " | {:>8} {:>8}", format!("{t}T close"), format!("{t}T any"))?;
     }
     writeln!(out, " | hit %")?;
-    for (name, rays) in &sets {
+    for (name, rays) in sets
+        .iter()
+        .filter(|(name, _)| opts.rays.is_empty() || opts.rays.iter().any(|r| r == name))
+    {
         write!(out, "{name:<11}")?;
         let mut hit_frac = 0.0;
         for (_, pool) in &pools {

@@ -87,6 +87,12 @@ enum Command {
         /// Mesh benchmark: kernels to time (portable, avx2, avx512; default the best available).
         #[arg(long)]
         isa: Option<String>,
+        /// Mesh benchmark: ray sets to time, comma-separated (primary, incoherent, bounce; default all).
+        #[arg(long, value_delimiter = ',')]
+        rays: Vec<String>,
+        /// Mesh benchmark: skip the build timings and the kernel check (for profiling).
+        #[arg(long)]
+        trace_only: bool,
     },
 }
 
@@ -227,7 +233,13 @@ fn run(cli: Cli) -> Result<ExitCode> {
             reference,
             variance,
         } => compare(&image, &reference, variance.as_deref()),
-        Command::Bench { args, repeat, isa } => {
+        Command::Bench {
+            args,
+            repeat,
+            isa,
+            rays,
+            trace_only,
+        } => {
             let ext = args.scene.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
             if ext == "obj" || ext == "ply" {
                 let all = args
@@ -245,7 +257,20 @@ fn run(cli: Cli) -> Result<ExitCode> {
                     Some("avx512") => Some(rdr::accel::Isa::Avx512),
                     Some(other) => anyhow::bail!("--isa: unknown instruction set '{other}' (portable, avx2, avx512)"),
                 };
-                print!("{}", rdr::bench::run(&args.scene, &rdr::bench::Options { repeat, threads, isa })?);
+                for r in &rays {
+                    anyhow::ensure!(
+                        ["primary", "incoherent", "bounce"].contains(&r.as_str()),
+                        "--rays: unknown ray set '{r}' (primary, incoherent, bounce)"
+                    );
+                }
+                let opts = rdr::bench::Options {
+                    repeat,
+                    threads,
+                    isa,
+                    rays,
+                    trace_only,
+                };
+                print!("{}", rdr::bench::run(&args.scene, &opts)?);
                 return Ok(ExitCode::SUCCESS);
             }
             setup_threads(args.threads)?;

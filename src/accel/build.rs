@@ -5,8 +5,8 @@
 //!   the spare lane), binned on all three axes in one pass over 32 bins (16 or 8 for small
 //!   nodes, where the sweeps would dominate).
 //! * The cost model counts *blocks* of [`BLOCK`] primitives, as the wide BVH's
-//!   leaves store triangles four to a SIMD block: a leaf of 1–4 triangles costs
-//!   one block test. Leaves stop at [`MAX_LEAF`] primitives; a node becomes a
+//!   leaves store triangles eight to a SIMD block: a leaf of 1–8 triangles costs
+//!   one block test (so nodes of up to eight become leaves at once). Leaves stop at [`MAX_LEAF`] primitives; a node becomes a
 //!   leaf when that is cheaper than its best split.
 //! * Subtrees above [`PAR_MIN`] references are built with `rayon::join`, and the
 //!   binning of nodes above [`PAR_BIN_MIN`] is split across threads too.
@@ -19,7 +19,7 @@ use crate::math::{Vec3, Vec4};
 /// Leaves hold at most this many primitives.
 pub const MAX_LEAF: usize = 8;
 /// Primitives per SIMD block in the leaf-cost model.
-pub const BLOCK: usize = 4;
+pub const BLOCK: usize = 8;
 const BINS: usize = 32;
 /// Below this depth SAH decides; deeper, object-median splits.
 pub const SAH_DEPTH_LIMIT: usize = 48;
@@ -109,13 +109,21 @@ pub(crate) enum TmpKind {
 
 /// Usable references (finite, non-empty boxes) of `bounds`.
 pub(crate) fn make_refs(bounds: &[Aabb]) -> Vec<PrimRef> {
-    bounds
-        .iter()
-        .enumerate()
-        .filter(|(_, b)| !b.is_empty() && b.min.is_finite() && b.max.is_finite())
-        .map(|(i, b)| PrimRef {
-            lo: b.min.extend(f32::from_bits(i as u32)),
-            hi: b.max.extend(0.0),
+    make_refs_with(bounds.len(), |i| bounds[i])
+}
+
+/// Usable references of the boxes `bound(0..n)`, computed in parallel.
+pub(crate) fn make_refs_with(n: usize, bound: impl Fn(usize) -> Aabb + Sync) -> Vec<PrimRef> {
+    use rayon::prelude::*;
+    (0..n)
+        .into_par_iter()
+        .with_min_len(8192)
+        .filter_map(|i| {
+            let b = bound(i);
+            (!b.is_empty() && b.min.is_finite() && b.max.is_finite()).then(|| PrimRef {
+                lo: b.min.extend(f32::from_bits(i as u32)),
+                hi: b.max.extend(0.0),
+            })
         })
         .collect()
 }

@@ -318,10 +318,12 @@ pub fn prim_bounds(p: &Prim) -> Aabb {
     }
 }
 
-/// Builds the BVH and reorders primitives into leaf order (primitives with
-/// unusable bounds are dropped); the BVH's indices refer to the returned order.
+/// Builds the BVH over `prims` and returns both; the BVH's indices refer to
+/// `prims`, which keeps its order (primitives with unusable bounds stay in it
+/// but are left out of the tree).
 pub fn build_bvh(prims: Vec<Prim>) -> (Vec<Prim>, WideBvh) {
-    WideBvh::build_reordered(prims)
+    let bvh = WideBvh::build(&prims);
+    (prims, bvh)
 }
 
 /// Loads and builds a scene file in one step.

@@ -265,13 +265,16 @@ impl<'a> Collapser<'a> {
         }
     }
 
-    /// Emits a node for `cands`; returns its index and the stack depth below it.
-    fn node(&mut self, cands: Vec<Cand<'a>>) -> (u32, usize) {
-        let index = self.out.nodes.len();
-        self.out.nodes.push(WideNode::EMPTY);
+    /// Emits the node at `index` (already pushed) for `cands`; returns the stack
+    /// depth below it. Its inner children get consecutive indices, so siblings
+    /// share cache lines and pages.
+    fn node_at(&mut self, index: usize, cands: Vec<Cand<'a>>) -> usize {
         let mut node = WideNode::EMPTY;
         let mut deepest = 0;
         let k = cands.len();
+        let inner = cands.iter().filter(|c| !matches!(c, Cand::Leaf(..))).count();
+        let mut next = self.out.nodes.len();
+        self.out.nodes.resize(next + inner, WideNode::EMPTY);
         for (slot, c) in cands.into_iter().enumerate() {
             let b = c.bounds().padded();
             let (lo, hi) = (b.min, b.max);
@@ -283,24 +286,34 @@ impl<'a> Collapser<'a> {
                 Cand::Leaf(_, items) => self.leaf(&items),
                 Cand::Mixed(_, tris, other) => {
                     let (tb, ob) = (self.bounds_of(&tris), self.bounds_of(&other));
-                    let (i, d) = self.node(vec![Cand::Leaf(tb, tris.into()), Cand::Leaf(ob, other.into())]);
+                    let d = self.node_at(next, vec![Cand::Leaf(tb, tris.into()), Cand::Leaf(ob, other.into())]);
                     deepest = deepest.max(d);
-                    i
+                    next += 1;
+                    next as u32 - 1
                 }
                 Cand::Node(n) => {
-                    let (i, d) = self.open(n);
+                    let d = self.open_at(next, n);
                     deepest = deepest.max(d);
-                    i
+                    next += 1;
+                    next as u32 - 1
                 }
             };
         }
         self.out.nodes[index] = node;
-        (index as u32, deepest + k.saturating_sub(1))
+        deepest + k.saturating_sub(1)
     }
 
-    /// A wide node from binary node `n`: opens the largest inner children until
-    /// there are eight, mixed leaves split in two while there is room.
+    /// [`Collapser::open_at`] on a new node; returns its index and stack depth.
     fn open(&mut self, n: &'a TmpNode) -> (u32, usize) {
+        let index = self.out.nodes.len();
+        self.out.nodes.push(WideNode::EMPTY);
+        (index as u32, self.open_at(index, n))
+    }
+
+    /// The wide node at `index` from binary node `n`: opens the largest inner
+    /// children until there are eight, mixed leaves split in two while there is
+    /// room. Returns the stack depth below it.
+    fn open_at(&mut self, index: usize, n: &'a TmpNode) -> usize {
         let mut cands: Vec<Cand<'a>> = match &n.kind {
             TmpKind::Inner(c) => vec![self.cand(&c[0]), self.cand(&c[1])],
             TmpKind::Leaf { start, count } => vec![self.leaf_cand(n, *start, *count)],
@@ -329,7 +342,7 @@ impl<'a> Collapser<'a> {
             cands.push(Cand::Leaf(tb, tris.into()));
             cands.push(Cand::Leaf(ob, other.into()));
         }
-        self.node(cands)
+        self.node_at(index, cands)
     }
 }
 
@@ -412,9 +425,10 @@ impl<'a> Collapser<'a> {
                 (Cand::Leaf(_, items), None) => self.leaf(&items),
                 (Cand::Mixed(_, tris, other), None) => {
                     let (tb, ob) = (self.bounds_of(&tris), self.bounds_of(&other));
-                    let (i, d) = self.node(vec![Cand::Leaf(tb, tris.into()), Cand::Leaf(ob, other.into())]);
-                    deepest = deepest.max(d);
-                    i
+                    let i = self.out.nodes.len();
+                    self.out.nodes.push(WideNode::EMPTY);
+                    deepest = deepest.max(self.node_at(i, vec![Cand::Leaf(tb, tris.into()), Cand::Leaf(ob, other.into())]));
+                    i as u32
                 }
                 (Cand::Node(_), None) => unreachable!("inner children are collapsed in parallel"),
             };

@@ -827,6 +827,30 @@ fn leaf_range(c: u32) -> (usize, usize) {
     (((c & !(LEAF | GENERIC)) >> 4) as usize, (c & 15) as usize + 1)
 }
 
+/// Starts loading a child that will be visited later (if no nearer hit culls
+/// it), so its memory latency overlaps the work on the nearer ones.
+#[inline(always)]
+fn prefetch(bvh: &WideBvh, c: u32) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
+        let (p, bytes) = if c & LEAF == 0 {
+            (bvh.nodes.as_ptr().wrapping_add(c as usize).cast::<i8>(), std::mem::size_of::<WideNode>())
+        } else if c & GENERIC == 0 {
+            (bvh.blocks.as_ptr().wrapping_add(leaf_range(c).0).cast::<i8>(), std::mem::size_of::<TriBlock>())
+        } else {
+            return;
+        };
+        for off in (0..bytes).step_by(64) {
+            // SAFETY: a prefetch is a hint that never faults, whatever the address;
+            // SSE is part of x86_64.
+            unsafe { _mm_prefetch::<_MM_HINT_T0>(p.wrapping_add(off)) };
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = (bvh, c);
+}
+
 #[inline(always)]
 fn key(d: f32, child: u32) -> u64 {
     ((d.to_bits() as u64) << 32) | child as u64
@@ -857,6 +881,7 @@ fn closest<const ISA: u8, const S: usize>(bvh: &WideBvh, prims: &[Prim], ray: &R
                 let b = rest.trailing_zeros() as usize;
                 if rest & (rest - 1) == 0 {
                     let (near, far) = if d[a] <= d[b] { (a, b) } else { (b, a) };
+                    prefetch(bvh, node.child[far]);
                     st[sp] = key(d[far], node.child[far]);
                     sp += 1;
                     cur = node.child[near];
@@ -868,6 +893,7 @@ fn closest<const ISA: u8, const S: usize>(bvh: &WideBvh, prims: &[Prim], ray: &R
                 while m != 0 {
                     let i = m.trailing_zeros() as usize;
                     m &= m - 1;
+                    prefetch(bvh, node.child[i]);
                     let k = key(d[i], node.child[i]);
                     let mut j = sp;
                     while j > base && st[j - 1] < k {
@@ -945,6 +971,7 @@ fn any<const ISA: u8, const S: usize>(bvh: &WideBvh, prims: &[Prim], ray: &Ray) 
                 while m != 0 {
                     let i = m.trailing_zeros() as usize;
                     m &= m - 1;
+                    prefetch(bvh, node.child[i]);
                     st_ref[sp] = node.child[i];
                     sp += 1;
                 }

@@ -835,9 +835,15 @@ fn prefetch(bvh: &WideBvh, c: u32) {
     {
         use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
         let (p, bytes) = if c & LEAF == 0 {
-            (bvh.nodes.as_ptr().wrapping_add(c as usize).cast::<i8>(), std::mem::size_of::<WideNode>())
+            (
+                bvh.nodes.as_ptr().wrapping_add(c as usize).cast::<i8>(),
+                std::mem::size_of::<WideNode>(),
+            )
         } else if c & GENERIC == 0 {
-            (bvh.blocks.as_ptr().wrapping_add(leaf_range(c).0).cast::<i8>(), std::mem::size_of::<TriBlock>())
+            (
+                bvh.blocks.as_ptr().wrapping_add(leaf_range(c).0).cast::<i8>(),
+                std::mem::size_of::<TriBlock>(),
+            )
         } else {
             return;
         };

@@ -14,7 +14,7 @@
 //!   bounded; coincident centroids are split in halves.
 
 use crate::geometry::Aabb;
-use crate::math::{Vec3, Vec4};
+use crate::math::Vec4;
 
 /// Leaves hold at most this many primitives.
 pub const MAX_LEAF: usize = 8;
@@ -100,6 +100,26 @@ pub(crate) struct TmpNode {
     /// Exact (unpadded) bounds of the primitives below.
     pub bounds: Aabb,
     pub kind: TmpKind,
+    /// `cost[i]`: least SAH cost of this subtree as at most `i + 1` children of
+    /// an 8-wide node (the wide collapse's dynamic programme, filled bottom-up).
+    pub cost: [f32; WIDE],
+}
+
+/// Children of a wide node.
+pub(crate) const WIDE: usize = 8;
+
+/// Best way to share `j` (≥ 2) child slots between subtrees `l` and `r`: the
+/// slots given to `l` and the cost.
+#[inline]
+pub(crate) fn share_slots(l: &TmpNode, r: &TmpNode, j: usize) -> (usize, f32) {
+    let mut best = (1, f32::INFINITY);
+    for k in 1..j {
+        let c = l.cost[k - 1] + r.cost[j - k - 1];
+        if c < best.1 {
+            best = (k, c);
+        }
+    }
+    best
 }
 
 pub(crate) enum TmpKind {
@@ -314,6 +334,7 @@ fn leaf(refs: &[PrimRef], first: usize, geom: &B4) -> TmpNode {
             start: first as u32,
             count: refs.len() as u32,
         },
+        cost: [geom.half_area() * COST_BLOCK * blocks(refs.len() as u32); WIDE],
     }
 }
 
@@ -390,9 +411,16 @@ fn split_at(refs: &mut [PrimRef], first: usize, mid: usize, geom: B4, depth: usi
             build_rec(right, first + mid, rb.0, rb.1, depth + 1),
         )
     };
+    // as one wide node, or its slots shared among the roots below
+    let mut cost = [0.0; WIDE];
+    cost[0] = geom.half_area() * COST_TRAVERSE + share_slots(&l, &r, WIDE).1;
+    for i in 1..WIDE {
+        cost[i] = cost[i - 1].min(share_slots(&l, &r, i + 1).1);
+    }
     TmpNode {
         bounds: geom.aabb(),
         kind: TmpKind::Inner(Box::new([l, r])),
+        cost,
     }
 }
 
@@ -417,13 +445,4 @@ fn partition(refs: &mut [PrimRef], left: impl Fn(&PrimRef) -> bool) -> (usize, (
         }
         refs.swap(i, j - 1);
     }
-}
-
-/// Surface area of a box (for the collapse's "open the largest child" rule).
-pub(crate) fn area(b: &Aabb) -> f32 {
-    if b.is_empty() {
-        return 0.0;
-    }
-    let e: Vec3 = b.extent();
-    e.x * e.y + e.y * e.z + e.z * e.x
 }

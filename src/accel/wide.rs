@@ -43,6 +43,7 @@ use crate::geometry::triangle::intersect_watertight;
 use crate::geometry::{Aabb, Ray};
 use crate::math::{gamma, Vec3};
 use crate::scene::{Hit, Prim};
+use std::mem::MaybeUninit;
 
 pub const WIDTH: usize = 8;
 /// Triangles per SIMD block.
@@ -879,7 +880,8 @@ fn closest<const ISA: u8, const S: usize>(bvh: &WideBvh, prims: &[Prim], ray: &R
     let mut best: Option<Hit> = None;
     // stack entries: entry distance's bits above, child reference below (for
     // distances ≥ 0 the integer order is the distance order)
-    let mut st = [0u64; S];
+    // not zeroed for every ray; entries `..sp` are initialised
+    let mut st = [MaybeUninit::<u64>::uninit(); S];
     let mut sp = 0usize;
     let mut cur = 0u32;
     loop {
@@ -897,7 +899,7 @@ fn closest<const ISA: u8, const S: usize>(bvh: &WideBvh, prims: &[Prim], ray: &R
                 if rest & (rest - 1) == 0 {
                     let (near, far) = if d[a] <= d[b] { (a, b) } else { (b, a) };
                     prefetch(bvh, node.child[far]);
-                    st[sp] = key(d[far], node.child[far]);
+                    st[sp].write(key(d[far], node.child[far]));
                     sp += 1;
                     cur = node.child[near];
                     continue;
@@ -910,16 +912,19 @@ fn closest<const ISA: u8, const S: usize>(bvh: &WideBvh, prims: &[Prim], ray: &R
                     m &= m - 1;
                     prefetch(bvh, node.child[i]);
                     let k = key(d[i], node.child[i]);
+                    st[sp].write(k); // the bounds check: overflow panics here
                     let mut j = sp;
-                    while j > base && st[j - 1] < k {
+                    // SAFETY: base ≤ j − 1 < sp: written entries
+                    while j > base && unsafe { st[j - 1].assume_init() } < k {
                         st[j] = st[j - 1];
                         j -= 1;
                     }
-                    st[j] = k;
+                    st[j].write(k);
                     sp += 1;
                 }
                 sp -= 1;
-                cur = st[sp] as u32;
+                // SAFETY: at least three entries were just written
+                cur = unsafe { st[sp].assume_init() } as u32;
                 continue;
             }
         } else {
@@ -961,8 +966,10 @@ fn closest<const ISA: u8, const S: usize>(bvh: &WideBvh, prims: &[Prim], ray: &R
                 return best;
             }
             sp -= 1;
-            if f32::from_bits((st[sp] >> 32) as u32) <= t_max {
-                cur = st[sp] as u32;
+            // SAFETY: entries below the old `sp` were written above.
+            let e = unsafe { st[sp].assume_init() };
+            if f32::from_bits((e >> 32) as u32) <= t_max {
+                cur = e as u32;
                 break;
             }
         }
@@ -974,7 +981,8 @@ fn closest<const ISA: u8, const S: usize>(bvh: &WideBvh, prims: &[Prim], ray: &R
 fn any<const ISA: u8, const S: usize>(bvh: &WideBvh, prims: &[Prim], ray: &Ray) -> bool {
     let r = RayData::new(ray);
     let t_max = ray.t_max;
-    let mut st_ref = [0u32; S];
+    // not zeroed for every ray; entries `..sp` are initialised
+    let mut st = [MaybeUninit::<u32>::uninit(); S];
     let mut sp = 0usize;
     let mut cur = 0u32;
     loop {
@@ -987,7 +995,7 @@ fn any<const ISA: u8, const S: usize>(bvh: &WideBvh, prims: &[Prim], ray: &Ray) 
                     let i = m.trailing_zeros() as usize;
                     m &= m - 1;
                     prefetch(bvh, node.child[i]);
-                    st_ref[sp] = node.child[i];
+                    st[sp].write(node.child[i]);
                     sp += 1;
                 }
                 cur = node.child[mask.trailing_zeros() as usize];
@@ -1015,7 +1023,8 @@ fn any<const ISA: u8, const S: usize>(bvh: &WideBvh, prims: &[Prim], ray: &Ray) 
             return false;
         }
         sp -= 1;
-        cur = st_ref[sp];
+        // SAFETY: entries below the old `sp` were written just above.
+        cur = unsafe { st[sp].assume_init() };
     }
 }
 

@@ -1324,6 +1324,34 @@ fn bvh_with_spheres_via_build_bvh() {
     assert!(hits > 1000);
 }
 
+/// Spheres are tested one at a time, so the builder must not pack them eight
+/// to a leaf as it does triangles (a cost model that counts them as triangles
+/// gives leaves of about eight and fails this).
+#[test]
+fn bvh_keeps_sphere_leaves_small() {
+    let mut rng = Rng::new(13);
+    let prims: Vec<Prim> = (0..5000)
+        .map(|k| Prim::Sphere {
+            sphere: rdr::geometry::sphere::Sphere {
+                center: rng.in_cube(1.0),
+                radius: rng.log_range(1e-3, 0.02) as f32,
+            },
+            object: k,
+        })
+        .collect();
+    let (prims, bvh) = build_bvh(prims);
+    let (mut leaves, mut spheres) = (0, 0);
+    for (_, _, c) in bvh.children() {
+        if let ChildRef::Generic { count, .. } = c {
+            leaves += 1;
+            spheres += count;
+        }
+    }
+    assert_eq!(spheres, prims.len());
+    let per_leaf = spheres as f64 / leaves as f64;
+    assert!(per_leaf < 3.0, "{per_leaf:.2} spheres a leaf");
+}
+
 #[test]
 fn bvh_100k_triangles() {
     let mut rng = Rng::new(12);

@@ -4,10 +4,13 @@
 //! * Primitive references are 32 bytes (`lo`, `hi` as SIMD `Vec4`s, the index in
 //!   the spare lane), binned on all three axes in one pass over 32 bins (16 or 8 for small
 //!   nodes, where the sweeps would dominate).
-//! * The cost model counts *blocks* of [`BLOCK`] primitives, as the wide BVH's
+//! * The cost model counts *blocks* of [`BLOCK`] triangles, as the wide BVH's
 //!   leaves store triangles eight to a SIMD block: a leaf of 1–8 triangles costs
-//!   one block test (so nodes of up to eight become leaves at once). Leaves stop at [`MAX_LEAF`] primitives; a node becomes a
-//!   leaf when that is cheaper than its best split.
+//!   one block test (so nodes of up to eight triangles become leaves at once),
+//!   while a sphere (or any other primitive) costs a test of its own, so their
+//!   leaves stay small (each reference carries its kind; bins count the two
+//!   kinds in the halves of a `u64`). Leaves stop at [`MAX_LEAF`] primitives; a
+//!   node becomes a leaf when that is cheaper than its best split.
 //! * Subtrees above [`PAR_MIN`] references are built with `rayon::join`, and the
 //!   binning of nodes above [`PAR_BIN_MIN`] is split across threads too.
 //! * Below depth [`SAH_DEPTH_LIMIT`] splits are object medians, so depth stays
@@ -26,10 +29,14 @@ pub const SAH_DEPTH_LIMIT: usize = 48;
 /// Cost of one node visit relative to one block test.
 const COST_TRAVERSE: f32 = 1.0;
 const COST_BLOCK: f32 = 1.0;
+/// Cost of testing one primitive that is not a triangle (a sphere), in block tests.
+const COST_OTHER: f32 = 1.0;
 const PAR_MIN: usize = 2048;
 const PAR_BIN_MIN: usize = 1 << 16;
 
-/// A primitive reference: its box, the index in `lo.w`'s bits.
+/// A primitive reference: its box, the index in `lo.w`'s bits, and in `hi.w`
+/// 0 for a triangle (tested eight to a block) or 1 for anything else (tested
+/// on its own).
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct PrimRef {
     lo: Vec4,
@@ -40,6 +47,11 @@ impl PrimRef {
     #[inline]
     pub(crate) fn index(&self) -> u32 {
         self.lo.w.to_bits()
+    }
+    /// This reference in a [`Count`]: triangles in the low half, others in the high.
+    #[inline]
+    fn unit(&self) -> u64 {
+        1 + (self.hi.w != 0.0) as u64 * 0xFFFF_FFFF
     }
     #[inline]
     fn c2(&self) -> Vec4 {
@@ -127,22 +139,23 @@ pub(crate) enum TmpKind {
     Inner(Box<[TmpNode; 2]>),
 }
 
-/// Usable references (finite, non-empty boxes) of `bounds`.
+/// Usable references (finite, non-empty boxes) of `bounds`, all counted as triangles.
 pub(crate) fn make_refs(bounds: &[Aabb]) -> Vec<PrimRef> {
-    make_refs_with(bounds.len(), |i| bounds[i])
+    make_refs_with(bounds.len(), |i| (bounds[i], true))
 }
 
-/// Usable references of the boxes `bound(0..n)`, computed in parallel.
-pub(crate) fn make_refs_with(n: usize, bound: impl Fn(usize) -> Aabb + Sync) -> Vec<PrimRef> {
+/// Usable references of the boxes `prim(0..n)` (box, whether a triangle),
+/// computed in parallel.
+pub(crate) fn make_refs_with(n: usize, prim: impl Fn(usize) -> (Aabb, bool) + Sync) -> Vec<PrimRef> {
     use rayon::prelude::*;
     (0..n)
         .into_par_iter()
         .with_min_len(8192)
         .filter_map(|i| {
-            let b = bound(i);
+            let (b, triangle) = prim(i);
             (!b.is_empty() && b.min.is_finite() && b.max.is_finite()).then(|| PrimRef {
                 lo: b.min.extend(f32::from_bits(i as u32)),
-                hi: b.max.extend(0.0),
+                hi: b.max.extend(if triangle { 0.0 } else { 1.0 }),
             })
         })
         .collect()
@@ -177,16 +190,25 @@ fn bounds_of(refs: &[PrimRef]) -> (B4, B4) {
     }
 }
 
+/// Primitives of a node: triangles in the low 32 bits, others in the high.
+type Count = u64;
+
+/// Cost of testing a leaf of `n` primitives, in block tests: triangles eight
+/// to a block, anything else one test each.
 #[inline]
-fn blocks(n: u32) -> f32 {
-    n.div_ceil(BLOCK as u32) as f32
+fn leaf_tests(n: Count) -> f32 {
+    (n as u32).div_ceil(BLOCK as u32) as f32 + (n >> 32) as f32 * COST_OTHER
+}
+
+fn count(refs: &[PrimRef]) -> Count {
+    refs.iter().map(PrimRef::unit).sum()
 }
 
 /// Per-axis bins: bounds and counts.
 #[derive(Clone)]
 struct Bins<const N: usize> {
     b: [[B4; N]; 3],
-    n: [[u32; N]; 3],
+    n: [[Count; N]; 3],
 }
 
 impl<const N: usize> Bins<N> {
@@ -198,9 +220,10 @@ impl<const N: usize> Bins<N> {
     }
     #[inline(always)]
     fn add(&mut self, k: [usize; 3], r: &PrimRef) {
+        let unit = r.unit();
         for (a, &k) in k.iter().enumerate() {
             self.b[a][k].grow_box(r.lo, r.hi);
-            self.n[a][k] += 1;
+            self.n[a][k] += unit;
         }
     }
     fn merge(mut self, o: &Self) -> Self {
@@ -288,15 +311,15 @@ fn best_split<const N: usize>(bins: &Bins<N>, cent: &B4, parent_half_area: f32) 
         }
         let mut right_cost = [0.0f32; N];
         let mut acc = B4::EMPTY;
-        let mut cnt = 0u32;
+        let mut cnt: Count = 0;
         for k in (1..nb).rev() {
             acc = acc.union(bins.b[a][k]);
             cnt += bins.n[a][k];
             // NaN while empty (the area of the empty box times 0 blocks)
-            right_cost[k] = acc.half_area_nonempty() * blocks(cnt);
+            right_cost[k] = acc.half_area_nonempty() * leaf_tests(cnt);
         }
         let mut acc = B4::EMPTY;
-        let mut cnt = 0u32;
+        let mut cnt: Count = 0;
         for k in 0..nb - 1 {
             acc = acc.union(bins.b[a][k]);
             cnt += bins.n[a][k];
@@ -304,7 +327,7 @@ fn best_split<const N: usize>(bins: &Bins<N>, cent: &B4, parent_half_area: f32) 
             if cnt == 0 || rc.is_nan() {
                 continue;
             }
-            let cost = acc.half_area_nonempty() * blocks(cnt) + rc;
+            let cost = acc.half_area_nonempty() * leaf_tests(cnt) + rc;
             if best.is_none_or(|(c, _, _)| cost < c) {
                 best = Some((cost, a, k));
             }
@@ -334,13 +357,14 @@ fn leaf(refs: &[PrimRef], first: usize, geom: &B4) -> TmpNode {
             start: first as u32,
             count: refs.len() as u32,
         },
-        cost: [geom.half_area() * COST_BLOCK * blocks(refs.len() as u32); WIDE],
+        cost: [geom.half_area() * COST_BLOCK * leaf_tests(count(refs)); WIDE],
     }
 }
 
 fn build_rec(refs: &mut [PrimRef], first: usize, geom: B4, cent: B4, depth: usize) -> TmpNode {
     let n = refs.len();
-    if n <= BLOCK.min(MAX_LEAF) {
+    // up to a block of triangles costs one test whatever the split: a leaf
+    if n == 1 || (n <= BLOCK.min(MAX_LEAF) && count(refs) >> 32 == 0) {
         return leaf(refs, first, &geom);
     }
     let ext = cent.hi - cent.lo;
@@ -369,7 +393,11 @@ fn build_rec(refs: &mut [PrimRef], first: usize, geom: B4, cent: B4, depth: usiz
         } else {
             find_split::<BINS>(refs, &cent, &geom)
         };
-        let leaf_cost = COST_BLOCK * blocks(n as u32);
+        let leaf_cost = if n <= MAX_LEAF {
+            COST_BLOCK * leaf_tests(count(refs))
+        } else {
+            f32::INFINITY
+        };
         match best {
             Some((cost, axis, split)) => {
                 if n <= MAX_LEAF && leaf_cost <= cost {

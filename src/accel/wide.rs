@@ -467,7 +467,10 @@ impl WideBvh {
     /// Builds over `prims` (indices refer to this slice); primitives with
     /// unusable bounds (empty, NaN, infinite) are left out.
     pub fn build(prims: &[Prim]) -> WideBvh {
-        let mut refs = build::make_refs_with(prims.len(), |i| crate::scene::build::prim_bounds(&prims[i]));
+        let mut refs = build::make_refs_with(prims.len(), |i| {
+            let p = &prims[i];
+            (crate::scene::build::prim_bounds(p), matches!(p, Prim::Triangle { .. }))
+        });
         let tree = build::build_tree(&mut refs);
         let order: Vec<u32> = refs.iter().map(PrimRef::index).collect();
         drop(refs);

@@ -1376,6 +1376,54 @@ fn bvh_100k_triangles() {
     assert!(children > 5.0, "{children:.2} children a node");
 }
 
+/// Same tree, bit for bit: nodes at the same indices, the same blocks.
+fn assert_same_tree(a: &WideBvh, b: &WideBvh) {
+    assert_eq!(a.nodes.len(), b.nodes.len(), "node count");
+    for (i, (x, y)) in a.nodes.iter().zip(&b.nodes).enumerate() {
+        assert_eq!(x.child, y.child, "children of node {i}");
+        assert_eq!(
+            x.planes.map(|r| r.map(f32::to_bits)),
+            y.planes.map(|r| r.map(f32::to_bits)),
+            "boxes of node {i}"
+        );
+    }
+    assert_eq!(a.blocks.len(), b.blocks.len(), "block count");
+    for (i, (x, y)) in a.blocks.iter().zip(&b.blocks).enumerate() {
+        assert_eq!(x.prim, y.prim, "primitives of block {i}");
+        assert_eq!(
+            x.v.map(|v| v.map(|r| r.map(f32::to_bits))),
+            y.v.map(|v| v.map(|r| r.map(f32::to_bits))),
+            "block {i}"
+        );
+    }
+    assert_eq!(a.generic, b.generic);
+    assert_eq!(a.stack_need(), b.stack_need());
+}
+
+/// The tree does not depend on the number of threads that build it (the
+/// parallel collapse places every node where the sequential one does), so
+/// neither do hit ties nor images. Large enough for every parallel path.
+#[test]
+fn bvh_is_the_same_for_any_thread_count() {
+    let mut rng = Rng::new(14);
+    let mut prims = as_prims(random_soup(&mut rng, 60_000, 1.0, (0.002, 0.03)));
+    for k in 0..3000 {
+        let sphere = rdr::geometry::sphere::Sphere {
+            center: rng.in_cube(1.0),
+            radius: rng.log_range(1e-3, 0.05) as f32,
+        };
+        prims.push(Prim::Sphere { sphere, object: 1 + k });
+    }
+    let build = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        pool.install(|| WideBvh::build(&prims))
+    };
+    let one = build(1);
+    for threads in [2, 3] {
+        assert_same_tree(&one, &build(threads));
+    }
+}
+
 // ---------------------------------------------------------------------------
 // 4. Through the full Scene
 // ---------------------------------------------------------------------------

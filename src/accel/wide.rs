@@ -348,6 +348,12 @@ impl<'a> Collapser<'a> {
     /// subtrees the cost tables choose, mixed leaves split in two while there
     /// is room. Returns the stack depth below it.
     fn open_at(&mut self, index: usize, n: &'a TmpNode) -> usize {
+        let cands = self.wide_children(n);
+        self.node_at(index, cands)
+    }
+
+    /// The children of the wide node standing for binary node `n`.
+    fn wide_children(&self, n: &'a TmpNode) -> Vec<Cand<'a>> {
         let mut cands: Vec<Cand<'a>> = Vec::with_capacity(WIDTH);
         match &n.kind {
             TmpKind::Inner(c) => self.share(&c[0], &c[1], WIDTH, &mut cands),
@@ -364,18 +370,21 @@ impl<'a> Collapser<'a> {
             cands.push(Cand::Leaf(tb, tris.into()));
             cands.push(Cand::Leaf(ob, other.into()));
         }
-        self.node_at(index, cands)
+        cands
     }
 }
 
 impl<'a> Collapser<'a> {
-    /// [`Collapser::open`] for the root, its inner children collapsed in parallel
-    /// and appended with their references moved.
+    /// [`Collapser::open`] for the root, its inner children collapsed in
+    /// parallel and moved into place so that the result is exactly what the
+    /// sequential collapse gives (the same nodes at the same indices, the same
+    /// blocks), whatever the number of threads.
     fn open_parallel(&mut self, t: &'a TmpNode) -> (u32, usize) {
         use rayon::prelude::*;
-        let TmpKind::Inner(c) = &t.kind else { return self.open(t) };
-        let mut cands = Vec::with_capacity(WIDTH);
-        self.share(&c[0], &c[1], WIDTH, &mut cands);
+        if !matches!(t.kind, TmpKind::Inner(_)) {
+            return self.open(t);
+        }
+        let cands = self.wide_children(t);
         let (prims, order) = (self.prims, self.order);
         let parts: Vec<Option<(WideBvh, usize)>> = cands
             .par_iter()
@@ -397,6 +406,10 @@ impl<'a> Collapser<'a> {
             .collect();
         let root = self.out.nodes.len();
         self.out.nodes.push(WideNode::EMPTY);
+        // as in `node_at`: the inner children right after the root, in slot order
+        let inner = cands.iter().filter(|c| !matches!(c, Cand::Leaf(..))).count();
+        let mut next = self.out.nodes.len();
+        self.out.nodes.resize(next + inner, WideNode::EMPTY);
         let mut node = WideNode::EMPTY;
         let mut deepest = 0;
         let k = cands.len();
@@ -409,7 +422,11 @@ impl<'a> Collapser<'a> {
             node.child[slot] = match (c, part) {
                 (_, Some((sub, need))) => {
                     deepest = deepest.max(need);
-                    let (n0, b0, g0) = (
+                    let at = next as u32;
+                    next += 1;
+                    // the subtree's root goes to its reserved slot, the rest after
+                    // everything so far, as the sequential collapse would place them
+                    let (base, b0, g0) = (
                         self.out.nodes.len() as u32,
                         self.out.blocks.len() as u32,
                         self.out.generic.len() as u32,
@@ -420,25 +437,28 @@ impl<'a> Collapser<'a> {
                     );
                     let moved = |r: u32| match r {
                         EMPTY => EMPTY,
-                        r if r & LEAF == 0 => r + n0,
+                        0 => at,
+                        r if r & LEAF == 0 => base + r - 1,
                         r if r & GENERIC != 0 => r + (g0 << 4),
                         r => r + (b0 << 4),
                     };
-                    self.out.nodes.extend(sub.nodes.iter().map(|n| WideNode {
+                    let mut placed = sub.nodes.iter().map(|n| WideNode {
                         planes: n.planes,
                         child: n.child.map(moved),
-                    }));
+                    });
+                    self.out.nodes[at as usize] = placed.next().expect("a subtree has its root");
+                    self.out.nodes.extend(placed);
                     self.out.blocks.extend_from_slice(&sub.blocks);
                     self.out.generic.extend_from_slice(&sub.generic);
-                    n0
+                    at
                 }
                 (Cand::Leaf(_, items), None) => self.leaf(&items),
                 (Cand::Mixed(_, tris, other), None) => {
                     let (tb, ob) = (self.bounds_of(&tris), self.bounds_of(&other));
-                    let i = self.out.nodes.len();
-                    self.out.nodes.push(WideNode::EMPTY);
-                    deepest = deepest.max(self.node_at(i, vec![Cand::Leaf(tb, tris.into()), Cand::Leaf(ob, other.into())]));
-                    i as u32
+                    let at = next;
+                    next += 1;
+                    deepest = deepest.max(self.node_at(at, vec![Cand::Leaf(tb, tris.into()), Cand::Leaf(ob, other.into())]));
+                    at as u32
                 }
                 (Cand::Node(_), None) => unreachable!("inner children are collapsed in parallel"),
             };

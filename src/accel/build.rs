@@ -11,8 +11,8 @@
 //!   leaves stay small (each reference carries its kind; bins count the two
 //!   kinds in the halves of a `u64`). Leaves stop at [`MAX_LEAF`] primitives; a
 //!   node becomes a leaf when that is cheaper than its best split.
-//! * Subtrees above [`PAR_MIN`] references are built with `rayon::join`, and the
-//!   binning of nodes above [`PAR_BIN_MIN`] is split across threads too.
+//! * Subtrees above `PAR_MIN` (2048) references are built with `rayon::join`, and the
+//!   binning of nodes above `PAR_BIN_MIN` (65,536) is split across threads too.
 //! * Below depth [`SAH_DEPTH_LIMIT`] splits are object medians, so depth stays
 //!   bounded; coincident centroids are split in halves.
 

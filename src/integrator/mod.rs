@@ -1,4 +1,4 @@
-//! Integrators: a closed family. The render loop lives in [`crate::render`].
+//! Integrators: a closed family. The render loop lives in [`crate::render`](mod@crate::render).
 
 pub mod intersection_test;
 pub mod path;

@@ -1,6 +1,6 @@
 //! Scenes in two layers: [`desc`] (the JSON as plain structs that remember their
 //! JSON paths) and [`Scene`] (render-ready: loaded meshes, resolved names, BVH),
-//! built by [`build`].
+//! built by [`build`](mod@build).
 
 pub mod build;
 pub mod desc;

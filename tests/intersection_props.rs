@@ -1141,6 +1141,19 @@ fn random_soup(rng: &mut Rng, n: usize, extent: f32, sizes: (f64, f64)) -> Vec<[
         .collect()
 }
 
+/// `n` spheres centred in the unit cube, radii log-uniform in `radii`, objects 1…n.
+fn random_spheres(rng: &mut Rng, n: u32, radii: (f64, f64)) -> Vec<Prim> {
+    (1..=n)
+        .map(|object| Prim::Sphere {
+            sphere: rdr::geometry::sphere::Sphere {
+                center: rng.in_cube(1.0),
+                radius: rng.log_range(radii.0, radii.1) as f32,
+            },
+            object,
+        })
+        .collect()
+}
+
 fn as_prims(tris: Vec<[Vec3; 3]>) -> Vec<Prim> {
     tris.into_iter().enumerate().map(|(i, p)| tri(p, i as u32)).collect()
 }
@@ -1297,13 +1310,7 @@ fn bvh_degenerate_inputs() {
 fn bvh_with_spheres_via_build_bvh() {
     let mut rng = Rng::new(11);
     let mut prims = as_prims(random_soup(&mut rng, 700, 1.0, (0.01, 0.3)));
-    for k in 0..300 {
-        let sphere = rdr::geometry::sphere::Sphere {
-            center: rng.in_cube(1.0),
-            radius: rng.log_range(1e-3, 0.3) as f32,
-        };
-        prims.push(Prim::Sphere { sphere, object: 1 + k });
-    }
+    prims.extend(random_spheres(&mut rng, 300, (1e-3, 0.3)));
     // a sphere enclosing much of the scene and one far away
     let big = rdr::geometry::sphere::Sphere {
         center: Vec3::ZERO,
@@ -1330,15 +1337,7 @@ fn bvh_with_spheres_via_build_bvh() {
 #[test]
 fn bvh_keeps_sphere_leaves_small() {
     let mut rng = Rng::new(13);
-    let prims: Vec<Prim> = (0..5000)
-        .map(|k| Prim::Sphere {
-            sphere: rdr::geometry::sphere::Sphere {
-                center: rng.in_cube(1.0),
-                radius: rng.log_range(1e-3, 0.02) as f32,
-            },
-            object: k,
-        })
-        .collect();
+    let prims = random_spheres(&mut rng, 5000, (1e-3, 0.02));
     let (prims, bvh) = build_bvh(prims);
     let (mut leaves, mut spheres) = (0, 0);
     for (_, _, c) in bvh.children() {
@@ -1407,13 +1406,7 @@ fn assert_same_tree(a: &WideBvh, b: &WideBvh) {
 fn bvh_is_the_same_for_any_thread_count() {
     let mut rng = Rng::new(14);
     let mut prims = as_prims(random_soup(&mut rng, 60_000, 1.0, (0.002, 0.03)));
-    for k in 0..3000 {
-        let sphere = rdr::geometry::sphere::Sphere {
-            center: rng.in_cube(1.0),
-            radius: rng.log_range(1e-3, 0.05) as f32,
-        };
-        prims.push(Prim::Sphere { sphere, object: 1 + k });
-    }
+    prims.extend(random_spheres(&mut rng, 3000, (1e-3, 0.05)));
     let build = |threads: usize| {
         let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
         pool.install(|| WideBvh::build(&prims))

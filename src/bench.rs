@@ -424,6 +424,9 @@ fn timed<T: Send>(pool: &rayon::ThreadPool, work: impl FnOnce() -> T + Send) -> 
     })
 }
 
+/// Names of the ray sets, in the table's order (`--rays`).
+pub const RAY_SETS: [&str; 3] = ["primary", "incoherent", "bounce"];
+
 pub struct Options {
     pub repeat: usize,
     /// Thread counts to build and trace with.
@@ -438,6 +441,9 @@ pub struct Options {
 
 /// Runs the mesh benchmark and returns the report.
 pub fn run(path: &Path, opts: &Options) -> Result<String> {
+    if let Some(r) = opts.rays.iter().find(|r| !RAY_SETS.contains(&r.as_str())) {
+        bail!("--rays: unknown ray set '{r}' ({})", RAY_SETS.join(", "));
+    }
     let mut out = String::new();
     let t0 = Instant::now();
     let prims = load_mesh(path)?;
@@ -502,19 +508,14 @@ pub fn run(path: &Path, opts: &Options) -> Result<String> {
         .install(|| primary.par_iter().map(|r| tracer.closest(r)).collect());
     let eps = 1e-4 * b.extent().length().max(1e-20);
     let bounce = bounce_rays(&ordered, &primary, &primary_hits, 1_000_000, eps, 0xB0B);
-    let sets = [("primary", &primary), ("incoherent", &incoherent), ("bounce", &bounce)];
+    let sets: Vec<(&str, &Vec<Ray>)> = RAY_SETS.into_iter().zip([&primary, &incoherent, &bounce]).collect();
 
     // correctness on a sample: every instruction set, closest and any hit
-    let variants: Vec<(Isa, WideBvh)> = Isa::all_available()
-        .into_iter()
-        .map(|i| {
-            let mut v = bvh.clone();
-            v.set_isa(i);
-            (i, v)
-        })
-        .collect();
-    for (isa, v) in variants.iter().filter(|_| !opts.trace_only) {
-        let t = Wide { prims: &ordered, bvh: v };
+    let checked_isas = if opts.trace_only { Vec::new() } else { Isa::all_available() };
+    for isa in checked_isas {
+        let mut v = bvh.clone();
+        v.set_isa(isa);
+        let t = Wide { prims: &ordered, bvh: &v };
         let mut bad = Vec::new();
         let mut checked = 0;
         for (_, rays) in &sets {

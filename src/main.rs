@@ -257,12 +257,6 @@ fn run(cli: Cli) -> Result<ExitCode> {
                     Some("avx512") => Some(rdr::accel::Isa::Avx512),
                     Some(other) => anyhow::bail!("--isa: unknown instruction set '{other}' (portable, avx2, avx512)"),
                 };
-                for r in &rays {
-                    anyhow::ensure!(
-                        ["primary", "incoherent", "bounce"].contains(&r.as_str()),
-                        "--rays: unknown ray set '{r}' (primary, incoherent, bounce)"
-                    );
-                }
                 let opts = rdr::bench::Options {
                     repeat,
                     threads,

@@ -350,28 +350,33 @@ fn find_split<const N: usize>(refs: &[PrimRef], cent: &B4, geom: &B4) -> (Binner
     (binner, best_split(&bins, cent, geom.half_area()))
 }
 
-fn leaf(refs: &[PrimRef], first: usize, geom: &B4) -> TmpNode {
+/// A leaf of `refs`, which count `counted` ([`count`]).
+fn leaf(refs: &[PrimRef], first: usize, geom: &B4, counted: Count) -> TmpNode {
     TmpNode {
         bounds: geom.aabb(),
         kind: TmpKind::Leaf {
             start: first as u32,
             count: refs.len() as u32,
         },
-        cost: [geom.half_area() * COST_BLOCK * leaf_tests(count(refs)); WIDE],
+        cost: [geom.half_area() * COST_BLOCK * leaf_tests(counted); WIDE],
     }
 }
 
 fn build_rec(refs: &mut [PrimRef], first: usize, geom: B4, cent: B4, depth: usize) -> TmpNode {
     let n = refs.len();
-    // up to a block of triangles costs one test whatever the split: a leaf
-    if n == 1 || (n <= BLOCK.min(MAX_LEAF) && count(refs) >> 32 == 0) {
-        return leaf(refs, first, &geom);
+    // counted once, where the node may still become a leaf
+    let counted = (n <= MAX_LEAF).then(|| count(refs));
+    if let Some(c) = counted {
+        // up to a block of triangles costs one test whatever the split: a leaf
+        if n == 1 || (n <= BLOCK && c >> 32 == 0) {
+            return leaf(refs, first, &geom, c);
+        }
     }
     let ext = cent.hi - cent.lo;
     let mid = if !(ext.x > 0.0 || ext.y > 0.0 || ext.z > 0.0) {
         // all centroids coincide: SAH cannot separate them
-        if n <= MAX_LEAF {
-            return leaf(refs, first, &geom);
+        if let Some(c) = counted {
+            return leaf(refs, first, &geom, c);
         }
         n / 2
     } else if depth >= SAH_DEPTH_LIMIT {
@@ -393,15 +398,10 @@ fn build_rec(refs: &mut [PrimRef], first: usize, geom: B4, cent: B4, depth: usiz
         } else {
             find_split::<BINS>(refs, &cent, &geom)
         };
-        let leaf_cost = if n <= MAX_LEAF {
-            COST_BLOCK * leaf_tests(count(refs))
-        } else {
-            f32::INFINITY
-        };
         match best {
             Some((cost, axis, split)) => {
-                if n <= MAX_LEAF && leaf_cost <= cost {
-                    return leaf(refs, first, &geom);
+                if let Some(c) = counted.filter(|&c| COST_BLOCK * leaf_tests(c) <= cost) {
+                    return leaf(refs, first, &geom, c);
                 }
                 // left of the plane between bins `split` and `split + 1` (doubled
                 // centroids); a comparison instead of a bin index per reference

@@ -488,6 +488,43 @@ fn ref_count(n: &TmpNode) -> usize {
     }
 }
 
+/// Calls a traversal for the tree's instruction set and stack size: the
+/// portable body `$portable::<PORTABLE, S>` or the x86 entry points
+/// `x86::$avx2::<S>` / `x86::$avx512::<S>`, with `S` the small stack where it
+/// is enough.
+macro_rules! dispatch {
+    ($bvh:expr, $portable:ident, $avx2:ident, $avx512:ident, ($($arg:expr),*)) => {{
+        let small = $bvh.stack_need <= STACK_SMALL && !$bvh.large_stack;
+        match $bvh.isa {
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: `isa` is only ever set to an instruction set the CPU has (`set_isa`, `Isa::detect`).
+            Isa::Avx512 => unsafe {
+                if small {
+                    x86::$avx512::<STACK_SMALL>($($arg),*)
+                } else {
+                    x86::$avx512::<STACK_LARGE>($($arg),*)
+                }
+            },
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: as above.
+            Isa::Avx2 => unsafe {
+                if small {
+                    x86::$avx2::<STACK_SMALL>($($arg),*)
+                } else {
+                    x86::$avx2::<STACK_LARGE>($($arg),*)
+                }
+            },
+            _ => {
+                if small {
+                    $portable::<PORTABLE, STACK_SMALL>($($arg),*)
+                } else {
+                    $portable::<PORTABLE, STACK_LARGE>($($arg),*)
+                }
+            }
+        }
+    }};
+}
+
 impl WideBvh {
     /// Builds over `prims` (indices refer to this slice); primitives with
     /// unusable bounds (empty, NaN, infinite) are left out.
@@ -563,34 +600,7 @@ impl WideBvh {
         if self.nodes.is_empty() {
             return None;
         }
-        let small = self.stack_need <= STACK_SMALL && !self.large_stack;
-        match self.isa {
-            #[cfg(target_arch = "x86_64")]
-            // SAFETY: `isa` is only ever set to an instruction set the CPU has (`set_isa`, `Isa::detect`).
-            Isa::Avx512 => unsafe {
-                if small {
-                    x86::closest_avx512::<STACK_SMALL>(self, prims, ray)
-                } else {
-                    x86::closest_avx512::<STACK_LARGE>(self, prims, ray)
-                }
-            },
-            #[cfg(target_arch = "x86_64")]
-            // SAFETY: as above.
-            Isa::Avx2 => unsafe {
-                if small {
-                    x86::closest_avx2::<STACK_SMALL>(self, prims, ray)
-                } else {
-                    x86::closest_avx2::<STACK_LARGE>(self, prims, ray)
-                }
-            },
-            _ => {
-                if small {
-                    closest::<PORTABLE, STACK_SMALL>(self, prims, ray)
-                } else {
-                    closest::<PORTABLE, STACK_LARGE>(self, prims, ray)
-                }
-            }
-        }
+        dispatch!(self, closest, closest_avx2, closest_avx512, (self, prims, ray))
     }
 
     /// Whether anything lies on the ray within `[ray.t_min, ray.t_max]`.
@@ -598,34 +608,7 @@ impl WideBvh {
         if self.nodes.is_empty() {
             return false;
         }
-        let small = self.stack_need <= STACK_SMALL && !self.large_stack;
-        match self.isa {
-            #[cfg(target_arch = "x86_64")]
-            // SAFETY: `isa` is only ever set to an instruction set the CPU has.
-            Isa::Avx512 => unsafe {
-                if small {
-                    x86::any_avx512::<STACK_SMALL>(self, prims, ray)
-                } else {
-                    x86::any_avx512::<STACK_LARGE>(self, prims, ray)
-                }
-            },
-            #[cfg(target_arch = "x86_64")]
-            // SAFETY: as above.
-            Isa::Avx2 => unsafe {
-                if small {
-                    x86::any_avx2::<STACK_SMALL>(self, prims, ray)
-                } else {
-                    x86::any_avx2::<STACK_LARGE>(self, prims, ray)
-                }
-            },
-            _ => {
-                if small {
-                    any::<PORTABLE, STACK_SMALL>(self, prims, ray)
-                } else {
-                    any::<PORTABLE, STACK_LARGE>(self, prims, ray)
-                }
-            }
-        }
+        dispatch!(self, any, any_avx2, any_avx512, (self, prims, ray))
     }
 
     /// Visits the primitives of the leaves the ray's box tests admit, nearest

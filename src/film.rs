@@ -3,7 +3,9 @@
 //! Film `y` grows upwards (row 0 is the bottom); [`Film::to_rgb_rows`] flips it
 //! so output row 0 is the top of the picture. Work is accumulated in
 //! [`FilmTile`]s that are merged in a fixed order, so the image does not depend
-//! on the number of threads.
+//! on the number of threads. Light-tracing contributions to arbitrary pixels go
+//! through [`Splats`] lists, also merged in a fixed order, into a buffer of their own
+//! that is added to the weighted average divided by the number of samples per pixel.
 
 use crate::math::{Vec2, Vec3};
 use crate::scene::desc::FilterDesc;
@@ -144,7 +146,40 @@ impl FilmTile {
     }
 }
 
-/// The whole film: f64 sums of tiles, merged in a deterministic order.
+/// The film of a render job: size in pixels, reconstruction filter, and the tile
+/// size work is split into (no effect on the image).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FilmSettings {
+    pub width: u32,
+    pub height: u32,
+    pub filter: Filter,
+    pub block_size: u32,
+}
+
+/// Contributions of one worker to arbitrary film positions (light tracing), in
+/// the order they were made.
+#[derive(Clone, Debug, Default)]
+pub struct Splats {
+    items: Vec<(Vec2, Vec3)>,
+}
+
+impl Splats {
+    /// Radiance `l` arriving at continuous film position `pos` (film `y` up), as an
+    /// estimate per sample: the film divides splats by the samples per pixel.
+    #[inline]
+    pub fn add(&mut self, pos: Vec2, l: Vec3) {
+        self.items.push((pos, l));
+    }
+    pub fn len(&self) -> usize {
+        self.items.len()
+    }
+    pub fn is_empty(&self) -> bool {
+        self.items.is_empty()
+    }
+}
+
+/// The whole film: f64 sums of tiles, merged in a deterministic order, and the
+/// splat buffer.
 #[derive(Clone, Debug)]
 pub struct Film {
     pub width: u32,
@@ -152,6 +187,10 @@ pub struct Film {
     pub filter: Filter,
     sum: Vec<[f64; 3]>,
     weight: Vec<f64>,
+    splat: Vec<[f64; 3]>,
+    has_splats: bool,
+    /// 1 / ∫∫ filter, so a splat spreads exactly its value over the pixels.
+    splat_norm: f64,
 }
 
 impl Film {
@@ -163,6 +202,40 @@ impl Film {
             filter,
             sum: vec![[0.0; 3]; n],
             weight: vec![0.0; n],
+            splat: Vec::new(),
+            has_splats: false,
+            splat_norm: 1.0 / filter_integral(&filter),
+        }
+    }
+
+    /// Adds a worker's splats, in their order, through the reconstruction filter
+    /// normalised to integrate to one. Positions outside the film are dropped.
+    pub fn add_splats(&mut self, splats: &Splats) {
+        if splats.is_empty() {
+            return;
+        }
+        if !self.has_splats {
+            self.splat = vec![[0.0; 3]; self.sum.len()];
+            self.has_splats = true;
+        }
+        let (w, h) = (self.width as i32, self.height as i32);
+        let k = self.filter.reach();
+        for &(pos, l) in &splats.items {
+            if !(pos.x >= 0.0 && pos.y >= 0.0 && pos.x < w as f32 && pos.y < h as f32) || !l.is_finite() {
+                continue;
+            }
+            let (px, py) = (pos.x.floor() as i32, pos.y.floor() as i32);
+            for y in (py - k).max(0)..=(py + k).min(h - 1) {
+                for x in (px - k).max(0)..=(px + k).min(w - 1) {
+                    let wt = self.filter.eval(pos.x - (x as f32 + 0.5), pos.y - (y as f32 + 0.5)) as f64 * self.splat_norm;
+                    if wt != 0.0 {
+                        let s = &mut self.splat[(y * w + x) as usize];
+                        s[0] += l.x as f64 * wt;
+                        s[1] += l.y as f64 * wt;
+                        s[2] += l.z as f64 * wt;
+                    }
+                }
+            }
         }
     }
 
@@ -181,7 +254,8 @@ impl Film {
 
     /// Pixel values, row 0 = top of the picture. A pixel without weight is black.
     /// The division is `f32(sum) / f32(weight)` as in the original (spec §5.2).
-    pub fn to_rgb_rows(&self) -> Vec<Vec3> {
+    /// Splats, if any, are added times `splat_scale` (1 / samples per pixel).
+    pub fn to_rgb_rows(&self, splat_scale: f64) -> Vec<Vec3> {
         let (w, h) = (self.width as usize, self.height as usize);
         let mut out = vec![Vec3::ZERO; w * h];
         for r in 0..h {
@@ -194,10 +268,28 @@ impl Film {
                     let wf = wt as f32;
                     out[r * w + x] = Vec3::new(s[0] as f32 / wf, s[1] as f32 / wf, s[2] as f32 / wf);
                 }
+                if self.has_splats {
+                    let s = self.splat[j];
+                    out[r * w + x] += Vec3::new(s[0] as f32, s[1] as f32, s[2] as f32) * splat_scale as f32;
+                }
             }
         }
         out
     }
+}
+
+/// ∫∫ of the filter over its support: exact for the box, otherwise from the
+/// separable 1D integral (midpoint rule, 4096 steps; both filters factor as
+/// `f(x, y) = g(x)·g(y)`, so ∫∫f = (∫f(x, 0) dx)² / f(0, 0)).
+fn filter_integral(filter: &Filter) -> f64 {
+    let r = filter.radius() as f64;
+    if let Filter::Box { .. } = filter {
+        return 4.0 * r * r;
+    }
+    let n = 4096;
+    let dx = 2.0 * r / n as f64;
+    let line: f64 = (0..n).map(|i| filter.eval((-r + (i as f64 + 0.5) * dx) as f32, 0.0) as f64 * dx).sum();
+    line * line / filter.eval(0.0, 0.0) as f64
 }
 
 #[cfg(test)]
@@ -212,7 +304,7 @@ mod tests {
         t.add(Vec2::new(4.0, 0.0), Vec3::ONE, &f, 4, 4); // outside: dropped
         let mut film = Film::new(4, 4, f);
         film.merge(&t);
-        let img = film.to_rgb_rows();
+        let img = film.to_rgb_rows(1.0);
         // film row 2 is output row 1
         assert_eq!(img[4 + 1], Vec3::ONE);
         assert_eq!(img.iter().filter(|v| **v != Vec3::ZERO).count(), 1);

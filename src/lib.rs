@@ -21,5 +21,5 @@ pub mod texture;
 
 pub use compat::Profile;
 pub use error::SceneError;
-pub use render::{render, RenderOutput, RenderSettings};
+pub use render::{load, render, Loaded, RenderControl, RenderJob, RenderOutput};
 pub use scene::Scene;

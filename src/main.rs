@@ -4,11 +4,11 @@ use anyhow::{Context, Result};
 use clap::{Parser, Subcommand, ValueEnum};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use rdr::imageio::{check_output_path, write_image, ExrPixels};
-use rdr::{Profile, RenderSettings};
+use rdr::integrator::StopToken;
+use rdr::{Loaded, Profile, RenderControl};
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
-use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -98,7 +98,34 @@ enum Command {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
-    match run(cli) {
+    let result = match cli.command {
+        Command::Render {
+            args,
+            output,
+            quiet,
+            time_limit,
+        } => render(&args, output, quiet, time_limit),
+        Command::Compare {
+            image,
+            reference,
+            variance,
+        } => compare(&image, &reference, variance.as_deref()),
+        Command::Bench {
+            args,
+            repeat,
+            isa,
+            rays,
+            trace_only,
+        } => {
+            let ext = args.scene.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
+            if ext == "obj" || ext == "ply" {
+                bench_mesh(&args, repeat, isa.as_deref(), rays, trace_only)
+            } else {
+                bench_scene(&args)
+            }
+        }
+    };
+    match result {
         Ok(code) => code,
         Err(e) => {
             let msg: Vec<String> = e.chain().map(|c| c.to_string()).collect();
@@ -126,20 +153,21 @@ fn setup_threads(threads: Option<usize>) -> Result<()> {
     Ok(())
 }
 
-fn load(args: &SceneArgs, quiet: bool) -> Result<rdr::Scene> {
-    let scene = rdr::scene::build::load(&args.scene, &args.overrides, profile(args).build_options()).map_err(anyhow::Error::msg)?;
-    if profile(args) == Profile::Rdr171 && scene.integrator != rdr::integrator::Integrator::IntersectionTest {
-        anyhow::bail!(
-            "{}: integrator.type: --compat rdr171 reproduces the course renderer's intersection_test only (it had no other integrator)",
-            args.scene.display()
-        );
-    }
+/// Loads the scene and the job it describes, with the command line's `--spp` and
+/// `--seed` applied.
+fn load(args: &SceneArgs, quiet: bool) -> Result<Loaded> {
+    let mut loaded = rdr::load(&args.scene, &args.overrides, profile(args)).map_err(anyhow::Error::msg)?;
     if !quiet {
-        for w in &scene.warnings {
+        for w in &loaded.scene.warnings {
             eprintln!("warning: {w}");
         }
     }
-    Ok(scene)
+    if let Some(spp) = args.spp {
+        anyhow::ensure!(spp > 0, "--spp must be at least 1");
+        loaded.job.spp = spp;
+    }
+    loaded.job.seed = args.seed;
+    Ok(loaded)
 }
 
 fn default_output(scene: &Path) -> PathBuf {
@@ -147,165 +175,136 @@ fn default_output(scene: &Path) -> PathBuf {
     scene.with_file_name(Path::new(&stem).with_extension("exr"))
 }
 
-fn run(cli: Cli) -> Result<ExitCode> {
-    match cli.command {
-        Command::Render {
-            args,
-            output,
-            quiet,
-            time_limit,
-        } => {
-            if let Some(t) = time_limit {
-                anyhow::ensure!(t.is_finite() && t > 0.0, "--time-limit must be a positive number of seconds");
-            }
-            setup_threads(args.threads)?;
-            let scene = load(&args, quiet)?;
-            let output = output.unwrap_or_else(|| default_output(&args.scene));
-            // Fail before the render, not after it.
-            check_output_path(&output)?;
-            let spp = args.spp.unwrap_or(scene.spp);
-            anyhow::ensure!(spp > 0, "--spp must be at least 1");
-
-            let stop = Arc::new(AtomicBool::new(false));
-            {
-                let stop = stop.clone();
-                ctrlc::set_handler(move || {
-                    if stop.swap(true, Ordering::SeqCst) {
-                        std::process::exit(130);
-                    }
-                    eprintln!("\ninterrupted: saving the finished passes (press Ctrl-C again to quit at once)");
-                })
-                .context("cannot install the Ctrl-C handler")?;
-            }
-            let total = scene.width as u64 * scene.height as u64 * spp as u64;
-            let bar = if !quiet && std::io::stderr().is_terminal() {
-                let b = ProgressBar::with_draw_target(Some(total), ProgressDrawTarget::stderr());
-                b.set_style(
-                    ProgressStyle::with_template("{bar:40} {percent:>3}%  {elapsed_precise} elapsed, ETA {eta}").expect("valid template"),
-                );
-                Some(b)
-            } else {
-                None
-            };
-            let settings = RenderSettings {
-                spp,
-                seed: args.seed,
-                profile: profile(&args),
-                time_limit,
-                progress: bar
-                    .clone()
-                    .map(|b| Arc::new(move |n: u64| b.inc(n)) as Arc<dyn Fn(u64) + Send + Sync>),
-            };
-            let out = rdr::render(&scene, &settings, &stop);
-            if let Some(b) = bar {
-                b.finish_and_clear();
-            }
-            let exr = match settings.profile {
-                Profile::Physical => ExrPixels::Float,
-                Profile::Rdr171 => ExrPixels::HalfTinyexr,
-            };
-            if out.invalid_samples > 0 {
-                eprintln!("warning: {} sample(s) were NaN or infinite and were left out", out.invalid_samples);
-            }
-            write_image(&output, out.width, out.height, &out.pixels, exr)?;
-            println!("{}", output.display());
-            if !quiet {
-                eprintln!(
-                    "rendered {}x{} at {} spp in {:.2} s ({:.3e} samples/s){}",
-                    out.width,
-                    out.height,
-                    out.spp_done,
-                    out.seconds,
-                    out.samples as f64 / out.seconds.max(1e-9),
-                    if out.interrupted {
-                        ", interrupted"
-                    } else if out.time_limited {
-                        ", time limit reached"
-                    } else {
-                        ""
-                    }
-                );
-            }
-            Ok(if out.interrupted { ExitCode::from(130) } else { ExitCode::SUCCESS })
-        }
-        Command::Compare {
-            image,
-            reference,
-            variance,
-        } => compare(&image, &reference, variance.as_deref()),
-        Command::Bench {
-            args,
-            repeat,
-            isa,
-            rays,
-            trace_only,
-        } => {
-            let ext = args.scene.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
-            if ext == "obj" || ext == "ply" {
-                let all = args
-                    .threads
-                    .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
-                anyhow::ensure!(all > 0, "--threads must be at least 1");
-                let mut threads = vec![1];
-                if all > 1 {
-                    threads.push(all);
-                }
-                let isa = match isa.as_deref() {
-                    None => None,
-                    Some("portable") => Some(rdr::accel::Isa::Portable),
-                    Some("avx2") => Some(rdr::accel::Isa::Avx2),
-                    Some("avx512") => Some(rdr::accel::Isa::Avx512),
-                    Some(other) => anyhow::bail!("--isa: unknown instruction set '{other}' (portable, avx2, avx512)"),
-                };
-                let opts = rdr::bench::Options {
-                    repeat,
-                    threads,
-                    isa,
-                    rays,
-                    trace_only,
-                };
-                print!("{}", rdr::bench::run(&args.scene, &opts)?);
-                return Ok(ExitCode::SUCCESS);
-            }
-            setup_threads(args.threads)?;
-            let t0 = Instant::now();
-            let scene = load(&args, true)?;
-            let load_s = t0.elapsed().as_secs_f64();
-            let spp = args.spp.unwrap_or(scene.spp);
-            let settings = RenderSettings {
-                spp,
-                seed: args.seed,
-                profile: profile(&args),
-                time_limit: None,
-                progress: None,
-            };
-            let out = rdr::render(&scene, &settings, &AtomicBool::new(false));
-            println!("scene            {}", args.scene.display());
-            println!("threads          {}", rayon::current_num_threads());
-            println!("primitives       {} ({} triangles)", scene.prims.len(), scene.triangle_count());
-            println!(
-                "load + build     {:.1} ms (BVH {:.2} ms, {} nodes)",
-                load_s * 1e3,
-                scene.bvh_seconds * 1e3,
-                scene.bvh.nodes.len()
-            );
-            println!(
-                "render           {}x{} at {} spp in {:.3} s",
-                out.width, out.height, out.spp_done, out.seconds
-            );
-            println!("samples/s        {:.3e}", out.samples as f64 / out.seconds);
-            if out.rays > 0 {
-                println!(
-                    "rays/s           {:.3e} ({:.2} rays per sample)",
-                    out.rays as f64 / out.seconds,
-                    out.rays as f64 / out.samples as f64
-                );
-            }
-            Ok(ExitCode::SUCCESS)
-        }
+/// `rdr render`.
+fn render(args: &SceneArgs, output: Option<PathBuf>, quiet: bool, time_limit: Option<f64>) -> Result<ExitCode> {
+    if let Some(t) = time_limit {
+        anyhow::ensure!(t.is_finite() && t > 0.0, "--time-limit must be a positive number of seconds");
     }
+    setup_threads(args.threads)?;
+    let Loaded { scene, mut job } = load(args, quiet)?;
+    job.time_limit = time_limit;
+    let output = output.unwrap_or_else(|| default_output(&args.scene));
+    // Fail before the render, not after it.
+    check_output_path(&output)?;
+
+    let stop = Arc::new(StopToken::new());
+    {
+        let stop = stop.clone();
+        ctrlc::set_handler(move || {
+            if stop.stop_again() {
+                std::process::exit(130);
+            }
+            eprintln!("\ninterrupted: saving the finished passes (press Ctrl-C again to quit at once)");
+        })
+        .context("cannot install the Ctrl-C handler")?;
+    }
+    let total = job.film.width as u64 * job.film.height as u64 * job.spp as u64;
+    let bar = if !quiet && std::io::stderr().is_terminal() {
+        let b = ProgressBar::with_draw_target(Some(total), ProgressDrawTarget::stderr());
+        b.set_style(ProgressStyle::with_template("{bar:40} {percent:>3}%  {elapsed_precise} elapsed, ETA {eta}").expect("valid template"));
+        Some(b)
+    } else {
+        None
+    };
+    let control = RenderControl {
+        stop,
+        progress: bar
+            .clone()
+            .map(|b| Arc::new(move |n: u64| b.inc(n)) as Arc<dyn Fn(u64) + Send + Sync>),
+    };
+    let out = rdr::render(&scene, &job, &control);
+    if let Some(b) = bar {
+        b.finish_and_clear();
+    }
+    let exr = match profile(args) {
+        Profile::Physical => ExrPixels::Float,
+        Profile::Rdr171 => ExrPixels::HalfTinyexr,
+    };
+    if out.invalid_samples > 0 {
+        eprintln!("warning: {} sample(s) were NaN or infinite and were left out", out.invalid_samples);
+    }
+    write_image(&output, out.width, out.height, &out.pixels, exr)?;
+    println!("{}", output.display());
+    if !quiet {
+        eprintln!(
+            "rendered {}x{} at {} spp in {:.2} s ({:.3e} samples/s){}",
+            out.width,
+            out.height,
+            out.spp_done,
+            out.seconds,
+            out.samples as f64 / out.seconds.max(1e-9),
+            if out.interrupted {
+                ", interrupted"
+            } else if out.time_limited {
+                ", time limit reached"
+            } else {
+                ""
+            }
+        );
+    }
+    Ok(if out.interrupted { ExitCode::from(130) } else { ExitCode::SUCCESS })
 }
 
+/// `rdr bench MESH`: the BVH benchmark.
+fn bench_mesh(args: &SceneArgs, repeat: usize, isa: Option<&str>, rays: Vec<String>, trace_only: bool) -> Result<ExitCode> {
+    let all = args
+        .threads
+        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+    anyhow::ensure!(all > 0, "--threads must be at least 1");
+    let mut threads = vec![1];
+    if all > 1 {
+        threads.push(all);
+    }
+    let isa = match isa {
+        None => None,
+        Some("portable") => Some(rdr::accel::Isa::Portable),
+        Some("avx2") => Some(rdr::accel::Isa::Avx2),
+        Some("avx512") => Some(rdr::accel::Isa::Avx512),
+        Some(other) => anyhow::bail!("--isa: unknown instruction set '{other}' (portable, avx2, avx512)"),
+    };
+    let opts = rdr::bench::Options {
+        repeat,
+        threads,
+        isa,
+        rays,
+        trace_only,
+    };
+    print!("{}", rdr::bench::run(&args.scene, &opts)?);
+    Ok(ExitCode::SUCCESS)
+}
+
+/// `rdr bench SCENE.json`: load, build and render without writing.
+fn bench_scene(args: &SceneArgs) -> Result<ExitCode> {
+    setup_threads(args.threads)?;
+    let t0 = Instant::now();
+    let Loaded { scene, job } = load(args, true)?;
+    let load_s = t0.elapsed().as_secs_f64();
+    let out = rdr::render(&scene, &job, &RenderControl::default());
+    println!("scene            {}", args.scene.display());
+    println!("threads          {}", rayon::current_num_threads());
+    println!("primitives       {} ({} triangles)", scene.prims.len(), scene.triangle_count());
+    println!(
+        "load + build     {:.1} ms (BVH {:.2} ms, {} nodes)",
+        load_s * 1e3,
+        scene.bvh_seconds * 1e3,
+        scene.bvh.nodes.len()
+    );
+    println!(
+        "render           {}x{} at {} spp in {:.3} s",
+        out.width, out.height, out.spp_done, out.seconds
+    );
+    println!("samples/s        {:.3e}", out.samples as f64 / out.seconds);
+    if out.rays > 0 {
+        println!(
+            "rays/s           {:.3e} ({:.2} rays per sample)",
+            out.rays as f64 / out.seconds,
+            out.rays as f64 / out.samples as f64
+        );
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+/// `rdr compare`.
 fn compare(image: &Path, reference: &Path, variance: Option<&Path>) -> Result<ExitCode> {
     let x = rdr::imageio::read_exr(image)?;
     let r = rdr::imageio::read_exr(reference)?;

@@ -18,10 +18,10 @@
 //! | image lookup | repeat wrap, footprint-driven trilinear, level `log2(w·max(W,H))` | `max(W·s − ½, 0)`, unsigned-modulo wrap, level `(levels−1) + log2(w)` (§8) |
 //! | ray differentials | camera rays (scaled by `max(1/8, 1/√spp)`), dropped after refraction | none: every lookup on level 0 (§13) |
 //!
-//! The texture rows are one switch, [`BuildOptions::textures`]
+//! The integrator rows are [`crate::integrator::rdr171`] (the column renderer that
+//! `--compat rdr171` runs in place of `intersection_test`, see
+//! [`crate::render::RenderJob::from_desc`]); the texture rows are one switch, [`BuildOptions::textures`]
 //! ([`crate::texture::TextureConvention`]), set here; see `src/texture/mipmap.rs`.
-
-pub mod rdr171;
 
 use crate::scene::BuildOptions;
 use crate::texture::TextureConvention;

@@ -7,7 +7,7 @@
 //! the light's own importance, or uniformly for comparisons) and as many BSDF
 //! samples each, combined by MIS.
 
-use super::{shadow_ray, spawn_ray};
+use super::{shadow_ray, spawn_ray, RayCounts};
 use crate::geometry::{Ray, RayDifferential};
 use crate::material::Material;
 use crate::math::{reflect, refract, Frame, Vec2, Vec3, INV_PI};
@@ -15,22 +15,36 @@ use crate::sampler::PixelSampler;
 use crate::sampling::{cosine_hemisphere, power_heuristic};
 use crate::scene::{Interaction, Scene};
 
-/// Counters a render thread keeps for the benchmark figures.
-#[derive(Clone, Copy, Debug, Default)]
-pub struct RayCounts {
-    pub rays: u64,
-    /// Samples whose value was NaN or infinite (dropped).
-    pub invalid: u64,
+/// Parameters (JSON `integrator` keys, besides `type` and `spp`):
+/// * `max_depth` (int ≥ 1, 16) — path segments, the camera ray being the first;
+/// * `light_samples` (int ≥ 1, 1) — samples per area light and environment at each
+///   shading point, per pixel sample (and as many BSDF samples); point lights need
+///   one shadow ray each.
+///
+/// ```json
+/// {"type": "intersection_test", "spp": 32, "max_depth": 16, "light_samples": 4}
+/// ```
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct IntersectionTest {
+    pub max_depth: u32,
+    pub light_samples: u32,
 }
 
-/// Radiance arriving along a camera ray. `diff` (the camera ray's differentials)
-/// sets the texture footprint of the first hit only: rays after a refraction carry
-/// none (pbrt would refract the differentials too, which needs normal derivatives),
-/// so textures seen through a refractor are looked up on their finest MIP level.
-pub fn li(scene: &Scene, mut ray: Ray, diff: Option<RayDifferential>, sampler: &mut PixelSampler, counts: &mut RayCounts) -> Vec3 {
+impl IntersectionTest {
+    /// Radiance arriving along a camera ray. `diff` (the camera ray's differentials)
+    /// sets the texture footprint of the first hit only: rays after a refraction carry
+    /// none (pbrt would refract the differentials too, which needs normal derivatives),
+    /// so textures seen through a refractor are looked up on their finest MIP level.
+    pub fn li(&self, scene: &Scene, ray: Ray, diff: Option<RayDifferential>, sampler: &mut PixelSampler, counts: &mut RayCounts) -> Vec3 {
+        li(scene, self, ray, diff, sampler, counts)
+    }
+}
+
+fn li(scene: &Scene, params: &IntersectionTest, mut ray: Ray, diff: Option<RayDifferential>, sampler: &mut PixelSampler, counts: &mut RayCounts) -> Vec3 {
+    let max_depth = params.max_depth;
     let mut total = Vec3::ZERO;
     // `segment` is the number of path segments so far, the camera ray being the first.
-    for segment in 1..=scene.max_depth {
+    for segment in 1..=max_depth {
         counts.rays += 1;
         let Some(hit) = scene.intersect(&ray) else {
             return total + scene.environment_radiance(ray.d);
@@ -46,11 +60,11 @@ pub fn li(scene: &Scene, mut ray: Ray, diff: Option<RayDifferential>, sampler: &
             Some(Material::Refraction { eta }) => ray = spawn_ray(&it, perfect_refraction(it.wo, it.ns, *eta)),
             Some(Material::Diffuse { texture, twosided }) => {
                 // The light segment must fit into max_depth too (Mitsuba's counting).
-                if segment >= scene.max_depth {
+                if segment >= max_depth {
                     return total;
                 }
                 let albedo = scene.textures[*texture as usize].eval(it.tex_coord());
-                return total + direct_diffuse(scene, &it, albedo, *twosided, sampler, counts);
+                return total + direct_diffuse(scene, &it, albedo, *twosided, params.light_samples, sampler, counts);
             }
             // no material (a light without a BSDF), glass, rough conductor: not this integrator's
             _ => return total,
@@ -78,6 +92,7 @@ fn direct_diffuse(
     it: &Interaction,
     albedo: Vec3,
     twosided: bool,
+    light_samples: u32,
     sampler: &mut PixelSampler,
     counts: &mut RayCounts,
 ) -> Vec3 {
@@ -102,7 +117,7 @@ fn direct_diffuse(
         // only area lights and the environment need the frame (for BSDF sampling)
         let frame = Frame::from_normal(n);
         let mut sum = Vec3::ZERO;
-        for _ in 0..scene.light_samples {
+        for _ in 0..light_samples {
             // light sampling
             if let Some(ls) = light.sample(it.p, Vec2::from(sampler.next_2d()), scene.light_sampling) {
                 let cos = n.dot(ls.wi);
@@ -143,7 +158,7 @@ fn direct_diffuse(
                 sum += radiance * (cos * power_heuristic(bsdf_pdf, light_pdf) / bsdf_pdf);
             }
         }
-        total += sum / scene.light_samples as f32;
+        total += sum / light_samples as f32;
     }
     albedo * INV_PI * total
 }

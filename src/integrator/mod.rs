@@ -1,22 +1,80 @@
-//! Integrators: a closed family. The render loop lives in [`crate::render`](mod@crate::render).
+//! Integrators: a closed family, each owning how it renders a pass into the film.
+//! The render loop ([`crate::render`](mod@crate::render)) only runs passes: it asks
+//! [`Integrator::pass_count`] how many, and calls [`Integrator::render_pass`] for
+//! each, with a [`StopToken`] the integrator checks per tile.
+//!
+//! Adding an integrator: one file with its parameters and its pass, one arm here
+//! (and one in [`Integrator::render_pass`]), one in the scene reader.
 
 pub mod intersection_test;
+pub mod normals;
+pub mod pass;
 pub mod path;
+pub mod rdr171;
 
-pub use path::PathProfile;
+pub use intersection_test::IntersectionTest;
+pub use normals::Normals;
+pub use pass::{camera_pass, CameraSample, PassContext, PassResult, RayCounts, StopToken};
+pub use path::{PathProfile, PathTracer};
 
-/// The integrator a scene asks for.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Integrator {
-    IntersectionTest,
-    Path { profile: PathProfile, rr_threshold: f32 },
-}
-
+use rdr171::Rdr171Columns;
+use crate::film::Film;
 use crate::geometry::ray::RAY_T_MAX;
 use crate::geometry::Ray;
 use crate::light::{LightSample, ShadowTarget};
 use crate::math::{offset_ray_origin, Vec3};
 use crate::scene::Interaction;
+
+/// The integrator a render job runs, with its parameters.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Integrator {
+    IntersectionTest(IntersectionTest),
+    Path(PathTracer),
+    Normals(Normals),
+    /// The course renderer's `intersection_test`, quirks and all (`--compat rdr171`).
+    Rdr171(Rdr171Columns),
+}
+
+impl Integrator {
+    /// The name scenes use for it.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Integrator::IntersectionTest(_) => "intersection_test",
+            Integrator::Path(_) => "path",
+            Integrator::Normals(_) => "normals",
+            Integrator::Rdr171(_) => "intersection_test (rdr171)",
+        }
+    }
+
+    /// Passes a render of `spp` samples per pixel takes: one sample per pixel per
+    /// pass (fine steps for `--time-limit` and Ctrl-C), or one pass for the
+    /// column renderer of `--compat rdr171`.
+    pub fn pass_count(&self, spp: u32) -> u32 {
+        match self {
+            Integrator::Rdr171(_) => 1,
+            _ => spp,
+        }
+    }
+
+    /// Samples per pixel that `passes` finished passes stand for.
+    pub fn spp_done(&self, spp: u32, passes: u32) -> u32 {
+        match self {
+            Integrator::Rdr171(_) => spp * passes,
+            _ => passes,
+        }
+    }
+
+    /// Renders pass `pass` (0-based) into `film`.
+    pub fn render_pass(&self, ctx: &PassContext, pass: u32, film: &mut Film) -> PassResult {
+        let scene = ctx.scene;
+        match self {
+            Integrator::IntersectionTest(i) => camera_pass(ctx, pass, film, |s| i.li(scene, s.ray, s.diff, s.sampler, s.counts)),
+            Integrator::Path(p) => camera_pass(ctx, pass, film, |s| p.li(scene, s.ray, s.diff, s.sampler, s.counts)),
+            Integrator::Normals(n) => camera_pass(ctx, pass, film, |s| n.li(scene, s.ray, s.counts)),
+            Integrator::Rdr171(c) => c.render(ctx, film),
+        }
+    }
+}
 
 /// A ray leaving a surface in direction `d`, its origin pushed off the surface
 /// to the side `d` goes (robust offset, so `t_min` can be 0).

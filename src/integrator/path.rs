@@ -10,8 +10,7 @@
 //! probability min(0.95, max throughput·η²), where η² undoes the radiance scaling
 //! of refraction; survivors are reweighted, so the estimate stays unbiased.
 
-use super::intersection_test::RayCounts;
-use super::spawn_ray;
+use super::{spawn_ray, RayCounts};
 use crate::geometry::{Ray, RayDifferential};
 use crate::light::Light;
 use crate::math::{Vec2, Vec3};
@@ -41,13 +40,37 @@ fn emitter_weight(profile: PathProfile, after_delta: bool, bsdf_pdf: f32, light_
     }
 }
 
-pub fn li(
+/// Parameters (JSON `integrator` keys, besides `type` and `spp`):
+/// * `max_depth` (int ≥ 1, 12) — path segments, the camera ray being the first;
+/// * `profile` (`"MIS"` | `"NEE"` | `"RW"`, `"MIS"`; also the long names
+///   `MultipleImportanceSampling`, `NextEventEstimation`, `RandomWalk`);
+/// * `rr_threshold` (number, 0.1) — read and kept; roulette follows Mitsuba's rule
+///   (see the module docs), so the converged image does not depend on it.
+///
+/// ```json
+/// {"type": "path", "spp": 64, "max_depth": 12, "profile": "MIS"}
+/// ```
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PathTracer {
+    pub max_depth: u32,
+    pub profile: PathProfile,
+    pub rr_threshold: f32,
+}
+
+impl PathTracer {
+    pub fn li(&self, scene: &Scene, ray: Ray, diff: Option<RayDifferential>, sampler: &mut PixelSampler, counts: &mut RayCounts) -> Vec3 {
+        li(scene, ray, diff, sampler, counts, self.profile, self.max_depth)
+    }
+}
+
+fn li(
     scene: &Scene,
     mut ray: Ray,
     diff: Option<RayDifferential>,
     sampler: &mut PixelSampler,
     counts: &mut RayCounts,
     profile: PathProfile,
+    max_depth: u32,
 ) -> Vec3 {
     let mode = scene.light_sampling;
     let mut l = Vec3::ZERO;
@@ -82,7 +105,7 @@ pub fn li(
                 l += beta * le * w;
             }
         }
-        if segment >= scene.max_depth {
+        if segment >= max_depth {
             break;
         }
         // an emitter without a material does not reflect (Mitsuba gives it a black BSDF)

@@ -3,9 +3,7 @@
 use super::desc::{MaterialKind, SceneDesc, ShapeDesc, TextureKind, TextureRef};
 use super::{Object, Prim, Scene, Shape};
 use crate::accel::WideBvh;
-use crate::camera::Camera;
 use crate::error::{Result, SceneError};
-use crate::film::Filter;
 use crate::geometry::mesh::Mesh;
 use crate::geometry::sphere::Sphere;
 use crate::geometry::{obj, Aabb};
@@ -17,7 +15,6 @@ use crate::texture::image::{ImageCache, ImageTexture};
 use crate::texture::{Texture, TextureConvention, UvMapping};
 use rayon::prelude::*;
 use std::collections::HashMap;
-use std::path::Path;
 
 /// Choices the `--compat` profile makes differently at build time, and build
 /// switches for tests and experiments.
@@ -270,15 +267,7 @@ pub fn build(desc: &SceneDesc, opts: BuildOptions) -> Result<Scene> {
     };
     let light_sampler = LightSampler::new(&lights, radius, desc.integrator.light_sampling);
     Ok(Scene {
-        camera: Camera::new(&desc.camera, desc.film.width, desc.film.height),
-        width: desc.film.width,
-        height: desc.film.height,
-        block_size: desc.film.block_size,
-        filter: Filter::new(&desc.film.filter),
-        integrator: desc.integrator.kind,
         uses_footprints: textures.iter().any(|t| matches!(t, Texture::Image(_))),
-        spp: desc.integrator.spp,
-        max_depth: desc.integrator.max_depth,
         textures,
         materials,
         objects,
@@ -286,7 +275,6 @@ pub fn build(desc: &SceneDesc, opts: BuildOptions) -> Result<Scene> {
         environment,
         light_sampler,
         light_sampling: desc.integrator.light_sampling,
-        light_samples: desc.integrator.light_samples,
         center,
         radius,
         prims,
@@ -324,9 +312,4 @@ pub fn prim_bounds(p: &Prim) -> Aabb {
 pub fn build_bvh(prims: Vec<Prim>) -> (Vec<Prim>, WideBvh) {
     let bvh = WideBvh::build(&prims);
     (prims, bvh)
-}
-
-/// Loads and builds a scene file in one step.
-pub fn load(file: &Path, overrides: &[String], opts: BuildOptions) -> Result<Scene> {
-    build(&SceneDesc::load(file, overrides)?, opts)
 }

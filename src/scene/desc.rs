@@ -34,17 +34,19 @@ pub struct SceneDesc {
     pub warnings: Vec<String>,
 }
 
-pub use crate::integrator::Integrator as IntegratorKind;
+use crate::integrator::{Integrator, IntersectionTest, Normals, PathProfile, PathTracer};
 
 /// `integrator`:
-/// * `type` — `"intersection_test"`.
-/// * `spp` (int, 8) — samples per pixel; `max_depth` (int, 16) — path segments.
+/// * `type` (`"path"`) — `"path"`, `"intersection_test"` or `"normals"` (a debug view:
+///   shading normals as colours); `"bdpt"` and `"photon"` render with `path` (with a
+///   warning). The keys of each are documented on its type:
+///   [`PathTracer`] (`spp` 32, `max_depth` 12, `profile`, `rr_threshold`),
+///   [`IntersectionTest`] (`spp` 8, `max_depth` 16, `light_samples` 1), [`Normals`] (`spp` 8).
+/// * `spp` (int ≥ 1) — samples per pixel, default per type as above.
 /// * `point_light_position` (vec3, (0,5,0)), `point_light_flux` (vec3, (1,1,1)) —
 ///   the legacy single point light; present when either key is given or when
 ///   there is no `lights` list.
 /// * `lights` — list of `{"type": "point", "position": [..], "flux": [..]}`.
-/// * `light_samples` (int, 1) — samples per area light and environment at each
-///   shading point, per pixel sample; point lights need one shadow ray each.
 /// * `light_sampling` (`"importance"` | `"uniform"`, `"importance"`) — lights drawn
 ///   by their own importance and chosen by power, or uniformly (for comparisons).
 ///
@@ -54,11 +56,9 @@ pub use crate::integrator::Integrator as IntegratorKind;
 /// ```
 #[derive(Clone, Debug)]
 pub struct IntegratorDesc {
-    pub kind: IntegratorKind,
+    pub integrator: Integrator,
     pub spp: u32,
-    pub max_depth: u32,
     pub point_lights: Vec<PointLightDesc>,
-    pub light_samples: u32,
     pub light_sampling: crate::light::LightSampling,
 }
 
@@ -291,7 +291,7 @@ impl SceneDesc {
 fn parse_integrator(p: &Props) -> Result<IntegratorDesc> {
     let ty = p.string_or("type", "path")?;
     let kind = match ty.as_str() {
-        "intersection_test" => IntegratorKind::IntersectionTest,
+        "intersection_test" | "normals" => ty.as_str(),
         "path" | "bdpt" | "photon" => {
             if ty != "path" {
                 p.ctx().warn(
@@ -299,25 +299,43 @@ fn parse_integrator(p: &Props) -> Result<IntegratorDesc> {
                     format!("integrator '{ty}' is not implemented; rendering with the path tracer"),
                 );
             }
-            let profile = match p.string_or("profile", "MIS")?.as_str() {
-                "RW" | "RandomWalk" => crate::integrator::PathProfile::RandomWalk,
-                "NEE" | "NextEventEstimation" => crate::integrator::PathProfile::NextEvent,
-                "MIS" | "MultipleImportanceSampling" => crate::integrator::PathProfile::Mis,
-                other => return Err(p.error("profile", format!("unknown path profile '{other}' (available: RW, NEE, MIS)"))),
-            };
-            let rr_threshold = p.f32_or("rr_threshold", 0.1)?;
-            IntegratorKind::Path { profile, rr_threshold }
+            "path"
         }
         _ => {
             return Err(p.error(
                 "type",
-                format!("unknown integrator '{ty}' (available: intersection_test, path; bdpt and photon render as path)"),
+                format!("unknown integrator '{ty}' (available: intersection_test, path, normals; bdpt and photon render as path)"),
             ))
         }
     };
-    let path = matches!(kind, IntegratorKind::Path { .. });
-    let spp = p.int_at_least("spp", if path { 32 } else { 8 }, 1)?;
-    let max_depth = p.int_at_least("max_depth", if path { 12 } else { 16 }, 1)?;
+    let (integrator, spp) = match kind {
+        "path" => {
+            let profile = match p.string_or("profile", "MIS")?.as_str() {
+                "RW" | "RandomWalk" => PathProfile::RandomWalk,
+                "NEE" | "NextEventEstimation" => PathProfile::NextEvent,
+                "MIS" | "MultipleImportanceSampling" => PathProfile::Mis,
+                other => return Err(p.error("profile", format!("unknown path profile '{other}' (available: RW, NEE, MIS)"))),
+            };
+            let rr_threshold = p.f32_or("rr_threshold", 0.1)?;
+            let spp = p.int_at_least("spp", 32, 1)?;
+            let max_depth = p.int_at_least("max_depth", 12, 1)?;
+            (
+                Integrator::Path(PathTracer {
+                    max_depth,
+                    profile,
+                    rr_threshold,
+                }),
+                spp,
+            )
+        }
+        "normals" => (Integrator::Normals(Normals), p.int_at_least("spp", 8, 1)?),
+        _ => {
+            let spp = p.int_at_least("spp", 8, 1)?;
+            let max_depth = p.int_at_least("max_depth", 16, 1)?;
+            // read here, after the point lights, as before (errors come in key order)
+            (Integrator::IntersectionTest(IntersectionTest { max_depth, light_samples: 1 }), spp)
+        }
+    };
     let mut point_lights = Vec::new();
     let has_list = p.contains("lights");
     if !has_list || p.contains("point_light_position") || p.contains("point_light_flux") {
@@ -343,6 +361,10 @@ fn parse_integrator(p: &Props) -> Result<IntegratorDesc> {
         l.finish();
     }
     let light_samples = p.int_at_least("light_samples", 1, 1)?;
+    let mut integrator = integrator;
+    if let Integrator::IntersectionTest(t) = &mut integrator {
+        t.light_samples = light_samples;
+    }
     let light_sampling = match p.string_or("light_sampling", "importance")?.as_str() {
         "importance" => crate::light::LightSampling::Importance,
         "uniform" => crate::light::LightSampling::Uniform,
@@ -355,12 +377,10 @@ fn parse_integrator(p: &Props) -> Result<IntegratorDesc> {
     };
     p.finish();
     Ok(IntegratorDesc {
-        light_samples,
-        light_sampling,
-        kind,
+        integrator,
         spp,
-        max_depth,
         point_lights,
+        light_sampling,
     })
 }
 

@@ -7,8 +7,6 @@ pub mod desc;
 pub mod json;
 
 use crate::accel::WideBvh;
-use crate::camera::Camera;
-use crate::film::Filter;
 use crate::geometry::mesh::Mesh;
 use crate::geometry::sphere::Sphere;
 use crate::geometry::{Ray, RayDifferential};
@@ -153,17 +151,11 @@ fn fallback_dpduv(n: Vec3) -> (Vec3, Vec3) {
     crate::math::coordinate_system(n)
 }
 
+/// The world: geometry, materials, textures, lights with their sampler, and the
+/// BVH. What is rendered of it, and how, is a [`crate::render::RenderJob`].
 pub struct Scene {
-    pub camera: Camera,
-    pub width: u32,
-    pub height: u32,
-    pub block_size: u32,
-    pub filter: Filter,
-    pub integrator: crate::integrator::Integrator,
     /// Some texture filters by footprint (an image texture): camera rays carry differentials.
     pub uses_footprints: bool,
-    pub spp: u32,
-    pub max_depth: u32,
     pub textures: Vec<Texture>,
     pub materials: Vec<Material>,
     pub objects: Vec<Object>,
@@ -172,7 +164,6 @@ pub struct Scene {
     pub environment: Option<u32>,
     pub light_sampler: crate::light::LightSampler,
     pub light_sampling: crate::light::LightSampling,
-    pub light_samples: u32,
     /// Bounding sphere of the geometry.
     pub center: Vec3,
     pub radius: f32,

@@ -1,8 +1,9 @@
 //! The RDR171 `intersection_test` exactly as the course's reference images were
 //! made (spec §5, §7, §13, §14). Deliberately unphysical; see the module table
-//! in [`super`].
+//! in [`crate::compat`]. It runs in place of `intersection_test` under `--compat rdr171`.
 
-use crate::film::FilmTile;
+use super::{PassContext, PassResult, RayCounts};
+use crate::film::{Film, FilmTile};
 use crate::geometry::triangle::intersect_moller_trumbore_f64;
 use crate::geometry::Ray;
 use crate::light::Light;
@@ -70,8 +71,30 @@ fn face_forward(d: Vec3, n: Vec3) -> Vec3 {
     }
 }
 
-pub fn li(scene: &Scene, mut ray: Ray) -> Vec3 {
-    for _ in 0..scene.max_depth {
+/// The column renderer: the scene's `max_depth` (surface hits, not segments).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Rdr171Columns {
+    pub max_depth: u32,
+}
+
+impl Rdr171Columns {
+    /// The whole render in one pass: every column with all its samples. Columns
+    /// finished before the stop token is set are kept (the pass is then incomplete).
+    pub fn render(&self, ctx: &PassContext, film: &mut Film) -> PassResult {
+        let column_samples = ctx.film.height as u64 * ctx.spp as u64;
+        let columns = render_columns(ctx, self.max_depth, &|| (ctx.progress)(column_samples));
+        for t in columns.iter().flatten() {
+            film.merge(t);
+        }
+        PassResult {
+            complete: columns.iter().all(Option::is_some),
+            counts: RayCounts::default(),
+        }
+    }
+}
+
+pub fn li(scene: &Scene, mut ray: Ray, max_depth: u32) -> Vec3 {
+    for _ in 0..max_depth {
         let Some(hit) = intersect(scene, &ray) else { return Vec3::ZERO };
         let it = scene.interaction(&ray, &hit);
         match scene.material_of(&it) {
@@ -118,16 +141,17 @@ fn direct(scene: &Scene, it: &Interaction, albedo: Vec3, twosided: bool) -> Vec3
 }
 
 /// Renders column by column, each with a fresh default-seeded sampler (spec §7).
-/// Columns finished before `stop` returns true are kept.
-pub fn render_columns(scene: &Scene, spp: u32, stop: &(dyn Fn() -> bool + Sync), on_column: &(dyn Fn() + Sync)) -> Vec<Option<FilmTile>> {
+/// Columns finished before the stop token is set are kept.
+fn render_columns(ctx: &PassContext, max_depth: u32, on_column: &(dyn Fn() + Sync)) -> Vec<Option<FilmTile>> {
     use rayon::prelude::*;
-    let (w, h) = (scene.width as i32, scene.height as i32);
+    let (scene, camera, filter, spp) = (ctx.scene, ctx.camera, &ctx.film.filter, ctx.spp);
+    let (w, h) = (ctx.film.width as i32, ctx.film.height as i32);
     // one column of slack: a jittered position can round up into the next pixel
-    let reach = scene.filter.reach() + 1;
+    let reach = filter.reach() + 1;
     (0..w)
         .into_par_iter()
         .map(|px| {
-            if stop() {
+            if ctx.stop.is_stopped() {
                 return None;
             }
             let mut sampler = Mt19937Sampler::default();
@@ -136,8 +160,8 @@ pub fn render_columns(scene: &Scene, spp: u32, stop: &(dyn Fn() -> bool + Sync),
                 for _ in 0..spp {
                     let (u1, u2) = sampler.get_2d();
                     let pos = Vec2::new(px as f32 + u1, py as f32 + u2);
-                    let l = li(scene, scene.camera.ray(pos.x, pos.y));
-                    tile.add(pos, l, &scene.filter, w, h);
+                    let l = li(scene, camera.ray(pos.x, pos.y), max_depth);
+                    tile.add(pos, l, filter, w, h);
                 }
             }
             on_column();

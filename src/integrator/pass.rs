@@ -1,0 +1,176 @@
+//! What an integrator's pass works with: the scene, the camera and film settings,
+//! a stop token checked per tile, counters, and the film itself. Camera-ray
+//! integrators share [`camera_pass`], which renders one sample per pixel over
+//! tiles on all cores and merges the tiles (and any splats) in a fixed order.
+
+use crate::camera::Camera;
+use crate::film::{Film, FilmSettings, FilmTile, Splats};
+use crate::geometry::{Ray, RayDifferential};
+use crate::math::{Vec2, Vec3};
+use crate::sampler::PixelSampler;
+use crate::scene::Scene;
+use rayon::prelude::*;
+use std::sync::atomic::{AtomicBool, Ordering};
+
+/// Asks a render to stop. Integrators check it per tile (or column), so a long
+/// pass can be abandoned without waiting for its end.
+#[derive(Debug, Default)]
+pub struct StopToken {
+    flag: AtomicBool,
+}
+
+impl StopToken {
+    pub fn new() -> Self {
+        Self::default()
+    }
+    pub fn stop(&self) {
+        self.flag.store(true, Ordering::SeqCst);
+    }
+    /// Sets the flag and returns whether it was already set (a second Ctrl-C).
+    pub fn stop_again(&self) -> bool {
+        self.flag.swap(true, Ordering::SeqCst)
+    }
+    #[inline]
+    pub fn is_stopped(&self) -> bool {
+        self.flag.load(Ordering::Relaxed)
+    }
+}
+
+/// Counters a render thread keeps for the benchmark figures and the NaN report.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct RayCounts {
+    pub rays: u64,
+    /// Samples whose value was NaN or infinite (dropped).
+    pub invalid: u64,
+}
+
+impl std::ops::AddAssign for RayCounts {
+    fn add_assign(&mut self, o: RayCounts) {
+        self.rays += o.rays;
+        self.invalid += o.invalid;
+    }
+}
+
+/// Everything a pass reads; the film it writes is passed beside it.
+pub struct PassContext<'a> {
+    pub scene: &'a Scene,
+    pub camera: &'a Camera,
+    pub film: &'a FilmSettings,
+    /// Samples per pixel of the whole render (the pass count of camera-ray integrators).
+    pub spp: u32,
+    pub seed: u32,
+    pub stop: &'a StopToken,
+    /// Called with the number of samples finished since the last call.
+    pub progress: &'a (dyn Fn(u64) + Sync),
+}
+
+/// How a pass ended.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct PassResult {
+    /// False when the stop token cut the pass short.
+    pub complete: bool,
+    pub counts: RayCounts,
+}
+
+/// One camera sample: the pixel sampler (its first two dimensions already spent
+/// on the film position), the ray and its differentials when textures need them.
+pub struct CameraSample<'s> {
+    pub pos: Vec2,
+    pub ray: Ray,
+    pub diff: Option<RayDifferential>,
+    pub sampler: &'s mut PixelSampler,
+    pub counts: &'s mut RayCounts,
+    /// Contributions to other pixels (light tracing), merged after the pass.
+    pub splats: &'s mut Splats,
+}
+
+/// Renders sample index `pass` of every pixel: tiles in parallel, each sample's
+/// radiance from `li`, tiles and splats merged into `film` in tile order, so
+/// the result does not depend on the thread count. When the stop token is set,
+/// tiles not yet started are skipped and nothing of the pass is merged.
+pub fn camera_pass<F>(ctx: &PassContext, pass: u32, film: &mut Film, li: F) -> PassResult
+where
+    F: Fn(&mut CameraSample) -> Vec3 + Sync,
+{
+    let scene = ctx.scene;
+    let diff_scale = differential_scale(ctx.spp);
+    let tiles = tile_grid(ctx.film);
+    let (w, h) = (ctx.film.width as i32, ctx.film.height as i32);
+    let filter = &ctx.film.filter;
+    let done: Vec<Option<(FilmTile, Splats, RayCounts)>> = tiles
+        .par_iter()
+        .map(|&(x0, y0, x1, y1)| {
+            if ctx.stop.is_stopped() {
+                return None;
+            }
+            let mut tile = FilmTile::new(x0, y0, x1, y1, filter.reach(), w, h);
+            let mut counts = RayCounts::default();
+            let mut splats = Splats::default();
+            for y in y0..y1 {
+                for x in x0..x1 {
+                    let mut sampler = PixelSampler::new(x as u32, y as u32, pass, ctx.seed);
+                    let (u, v) = sampler.next_2d();
+                    let pos = Vec2::new(x as f32 + u, y as f32 + v);
+                    // differentials only matter to image textures: skip them otherwise
+                    let (ray, diff) = if scene.uses_footprints {
+                        let (ray, diff) = ctx.camera.ray_differential(pos.x, pos.y);
+                        (ray, Some(diff.scaled(&ray, diff_scale)))
+                    } else {
+                        (ctx.camera.ray(pos.x, pos.y), None)
+                    };
+                    let l = li(&mut CameraSample {
+                        pos,
+                        ray,
+                        diff,
+                        sampler: &mut sampler,
+                        counts: &mut counts,
+                        splats: &mut splats,
+                    });
+                    if l.is_finite() {
+                        tile.add(pos, l, filter, w, h);
+                    } else {
+                        counts.invalid += 1; // dropped, reported at the end
+                    }
+                }
+            }
+            (ctx.progress)(((x1 - x0) * (y1 - y0)) as u64);
+            Some((tile, splats, counts))
+        })
+        .collect();
+    let mut result = PassResult {
+        complete: done.iter().all(Option::is_some),
+        counts: RayCounts::default(),
+    };
+    for (_, _, c) in done.iter().flatten() {
+        result.counts += *c;
+    }
+    if result.complete {
+        for (tile, splats, _) in done.iter().flatten() {
+            film.merge(tile);
+            film.add_splats(splats);
+        }
+    }
+    result
+}
+
+/// Camera-ray differentials span one pixel; with `spp` samples per pixel each sample
+/// stands for a smaller footprint, so they are scaled by `max(1/8, 1/√spp)` (pbrt-v4).
+/// Textures are then filtered over about one sample's share of the pixel: a 1-spp
+/// image is antialiased by the MIP pyramid, and many samples converge to the
+/// supersampled (not the over-blurred) picture.
+pub fn differential_scale(spp: u32) -> f32 {
+    (1.0 / (spp.max(1) as f32).sqrt()).max(0.125)
+}
+
+/// Tiles of `block_size`² pixels in row order (film `y` up), clipped to the film.
+pub fn tile_grid(film: &FilmSettings) -> Vec<(i32, i32, i32, i32)> {
+    let b = film.block_size.max(1) as i32;
+    let (w, h) = (film.width as i32, film.height as i32);
+    let mut tiles = Vec::new();
+    for y0 in (0..h).step_by(b as usize) {
+        for x0 in (0..w).step_by(b as usize) {
+            tiles.push((x0, y0, (x0 + b).min(w), (y0 + b).min(h)));
+        }
+    }
+    tiles
+}

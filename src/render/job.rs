@@ -1,0 +1,72 @@
+//! The render job: what is rendered of a scene and how — camera, film, integrator
+//! with its parameters, samples per pixel, seed and time limit. The world itself
+//! (geometry, materials, lights, BVH) is the [`Scene`].
+
+use crate::camera::Camera;
+use crate::compat::Profile;
+use crate::error::{Result, SceneError};
+use crate::film::{FilmSettings, Filter};
+use crate::integrator::rdr171::Rdr171Columns;
+use crate::integrator::Integrator;
+use crate::scene::desc::SceneDesc;
+use crate::scene::{build, Scene};
+use std::path::Path;
+
+#[derive(Clone, Debug)]
+pub struct RenderJob {
+    pub camera: Camera,
+    pub film: FilmSettings,
+    pub integrator: Integrator,
+    /// Samples per pixel (the scene's `integrator.spp` unless overridden).
+    pub spp: u32,
+    /// Seed of the sampler; different seeds give independent images.
+    pub seed: u32,
+    /// Wall-clock budget in seconds: no pass starts that would end after it.
+    pub time_limit: Option<f64>,
+}
+
+impl RenderJob {
+    /// The job a scene description asks for, in `profile`: `--compat rdr171` runs
+    /// the course renderer's column integrator in place of `intersection_test`.
+    pub fn from_desc(desc: &SceneDesc, profile: Profile) -> Result<RenderJob> {
+        let integrator = match (profile, desc.integrator.integrator) {
+            (Profile::Physical, i) => i,
+            (Profile::Rdr171, Integrator::IntersectionTest(t)) => Integrator::Rdr171(Rdr171Columns { max_depth: t.max_depth }),
+            (Profile::Rdr171, _) => {
+                return Err(SceneError::new(
+                    &desc.file,
+                    Some("integrator.type"),
+                    "--compat rdr171 reproduces the course renderer's intersection_test only (it had no other integrator)",
+                ))
+            }
+        };
+        let f = &desc.film;
+        Ok(RenderJob {
+            camera: Camera::new(&desc.camera, f.width, f.height),
+            film: FilmSettings {
+                width: f.width,
+                height: f.height,
+                filter: Filter::new(&f.filter),
+                block_size: f.block_size,
+            },
+            integrator,
+            spp: desc.integrator.spp,
+            seed: 0,
+            time_limit: None,
+        })
+    }
+}
+
+/// A scene file, loaded: the world and the job it describes.
+pub struct Loaded {
+    pub scene: Scene,
+    pub job: RenderJob,
+}
+
+/// Reads, builds and checks a scene file for `profile` in one step.
+pub fn load(file: &Path, overrides: &[String], profile: Profile) -> Result<Loaded> {
+    let desc = SceneDesc::load(file, overrides)?;
+    let scene = build::build(&desc, profile.build_options())?;
+    let job = RenderJob::from_desc(&desc, profile)?;
+    Ok(Loaded { scene, job })
+}

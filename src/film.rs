@@ -288,7 +288,9 @@ fn filter_integral(filter: &Filter) -> f64 {
     }
     let n = 4096;
     let dx = 2.0 * r / n as f64;
-    let line: f64 = (0..n).map(|i| filter.eval((-r + (i as f64 + 0.5) * dx) as f32, 0.0) as f64 * dx).sum();
+    let line: f64 = (0..n)
+        .map(|i| filter.eval((-r + (i as f64 + 0.5) * dx) as f32, 0.0) as f64 * dx)
+        .sum();
     line * line / filter.eval(0.0, 0.0) as f64
 }
 

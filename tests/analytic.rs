@@ -7,9 +7,9 @@ use rdr::Profile;
 use serde_json::json;
 use std::path::Path;
 
-fn scene_from(value: serde_json::Value) -> rdr::Scene {
+fn scene_from(value: serde_json::Value) -> rdr::Loaded {
     let desc = rdr::scene::SceneDesc::from_value(&value, Path::new("analytic.json"), Path::new(".")).unwrap();
-    rdr::scene::build(&desc, rdr::scene::BuildOptions::default()).unwrap()
+    rdr::Loaded::build(&desc, rdr::Profile::Physical).unwrap()
 }
 
 /// A huge white-ish diffuse sphere acting as a floor (top at y = 0), a camera
@@ -42,7 +42,7 @@ fn expected(x: usize, y: usize, h: f32, flux: Vec3) -> Vec3 {
 fn point_light_on_a_diffuse_floor_matches_the_formula() {
     let (h, flux) = (0.7, Vec3::new(10.0, 20.0, 30.0));
     let scene = scene_from(floor_scene(h, flux.to_array(), json!([])));
-    let img = common::render(&scene, 16, 0, Profile::Physical);
+    let img = common::render(&scene, 16, 0);
     for (x, y) in [(16, 16), (0, 0), (32, 5), (7, 29), (20, 11)] {
         let got = img.pixels[y * 33 + x];
         let want = expected(x, y, h, flux);
@@ -61,19 +61,13 @@ fn lights_add_up_and_shadows_are_black() {
         flux,
         json!([{"type": "point", "position": [0.0, 0.7, 0.0], "flux": flux}]),
     ));
-    let (a, b) = (
-        common::render(&one, 4, 0, Profile::Physical),
-        common::render(&two, 4, 0, Profile::Physical),
-    );
+    let (a, b) = (common::render(&one, 4, 0), common::render(&two, 4, 0));
     for (p, q) in a.pixels.iter().zip(&b.pixels) {
         assert!((*q - *p * 2.0).abs().max_element() <= 1e-6 * q.max_element().max(1.0), "{p} {q}");
     }
     // a light under the floor lights nothing the camera sees
     let below = scene_from(floor_scene(-0.5, flux, json!([])));
-    assert!(common::render(&below, 4, 0, Profile::Physical)
-        .pixels
-        .iter()
-        .all(|p| *p == Vec3::ZERO));
+    assert!(common::render(&below, 4, 0).pixels.iter().all(|p| *p == Vec3::ZERO));
 }
 
 #[test]
@@ -105,8 +99,8 @@ fn refraction_follows_snell_into_a_denser_medium() {
     });
     let desc = rdr::scene::SceneDesc::from_value(&value, &dir.join("snell.json"), &dir).unwrap();
     let pixel = |profile: Profile| {
-        let scene = rdr::scene::build(&desc, profile.build_options()).unwrap();
-        common::render(&scene, 1, 0, profile).pixels[0]
+        let scene = rdr::Loaded::build(&desc, profile).unwrap();
+        common::render(&scene, 1, 0).pixels[0]
     };
     let (physical, original) = (pixel(Profile::Physical), pixel(Profile::Rdr171));
     std::fs::remove_dir_all(&dir).ok();
@@ -120,12 +114,12 @@ fn refraction_follows_snell_into_a_denser_medium() {
     );
 }
 
-fn render_with_threads(scene: &rdr::Scene, threads: usize) -> Image {
+fn render_with_threads(scene: &rdr::Loaded, threads: usize) -> Image {
     rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
         .unwrap()
-        .install(|| common::render(scene, 8, 7, Profile::Physical))
+        .install(|| common::render(scene, 8, 7))
 }
 
 #[test]
@@ -137,7 +131,7 @@ fn example_scene_renders_the_same_on_any_number_of_threads() {
     );
     let (a, b) = (render_with_threads(&scene, 1), render_with_threads(&scene, 3));
     assert!(a.pixels == b.pixels, "thread count changed the image");
-    let c = common::render(&scene, 8, 8, Profile::Physical);
+    let c = common::render(&scene, 8, 8);
     assert!(a.pixels != c.pixels, "the seed changes the image");
 }
 
@@ -148,8 +142,8 @@ fn example_scene_looks_like_a_cornell_box() {
         &[r#"{"film": {"resolution": [64, 64]}}"#],
         Profile::Physical,
     );
-    assert!(scene.warnings.is_empty(), "{:?}", scene.warnings);
-    let img = common::render(&scene, 4, 0, Profile::Physical);
+    assert!(scene.scene.warnings.is_empty(), "{:?}", scene.scene.warnings);
+    let img = common::render(&scene, 4, 0);
     let px = |x: usize, y: usize| img.pixels[y * 64 + x];
     let left = px(2, 32);
     let right = px(61, 32);

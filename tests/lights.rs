@@ -11,8 +11,8 @@ use rdr::Profile;
 use std::path::Path;
 
 /// Mean relative variance of a render at `spp` (from two independent halves).
-fn own_variance(scene: &rdr::Scene, spp: u32) -> f64 {
-    let (a, b) = (render(scene, spp, 11, Profile::Physical), render(scene, spp, 12, Profile::Physical));
+fn own_variance(scene: &rdr::Loaded, spp: u32) -> f64 {
+    let (a, b) = (render(scene, spp, 11), render(scene, spp, 12));
     let mut acc = 0.0f64;
     for (p, q) in a.pixels.iter().zip(&b.pixels) {
         for c in 0..3 {
@@ -24,7 +24,7 @@ fn own_variance(scene: &rdr::Scene, spp: u32) -> f64 {
     acc / (3 * a.pixels.len()) as f64
 }
 
-fn env_scene(shared: &Path, extra: &str) -> rdr::Scene {
+fn env_scene(shared: &Path, extra: &str) -> rdr::Loaded {
     let base = r#"{"integrator": {"type": "intersection_test", "spp": 8}}"#;
     let mut o = vec![base];
     if !extra.is_empty() {
@@ -44,17 +44,14 @@ fn env_sphere_converges_to_mitsuba_and_importance_sampling_helps() {
     // A white diffuse sphere is convex: direct light is all the light, so the
     // direct-lighting integrator must match Mitsuba's path tracer.
     let scene = env_scene(&shared, "");
-    let (x1, x2) = (render(&scene, 16, 1, Profile::Physical), render(&scene, 16, 2, Profile::Physical));
+    let (x1, x2) = (render(&scene, 16, 1), render(&scene, 16, 2));
     let good = compare(&block(&x1), &block(&x2), &rb, &vrb);
     eprintln!("importance: {good:?}");
     assert!(good.rel_mse_corrected.abs() < 5.0 * good.std_error + 2e-4, "{good:?}");
 
     // equal sample count, uniform directions: unbiased too ...
     let uniform = env_scene(&shared, r#"{"integrator": {"light_sampling": "uniform"}}"#);
-    let (u1, u2) = (
-        render(&uniform, 16, 1, Profile::Physical),
-        render(&uniform, 16, 2, Profile::Physical),
-    );
+    let (u1, u2) = (render(&uniform, 16, 1), render(&uniform, 16, 2));
     let unif = compare(&block(&u1), &block(&u2), &rb, &vrb);
     assert!(
         unif.rel_mse_corrected.abs() < 5.0 * unif.std_error + 2e-4,
@@ -75,10 +72,7 @@ fn env_sphere_converges_to_mitsuba_and_importance_sampling_helps() {
         &shared,
         r#"{"environment_map": {"transform": [-1.0,0,0,0, 0,1,0,0, 0,0,1,0, 0,0,0,1]}}"#,
     );
-    let (m1, m2) = (
-        render(&mirrored, 16, 1, Profile::Physical),
-        render(&mirrored, 16, 2, Profile::Physical),
-    );
+    let (m1, m2) = (render(&mirrored, 16, 1), render(&mirrored, 16, 2));
     let bad = compare(&block(&m1), &block(&m2), &rb, &vrb);
     eprintln!("mirrored: {bad:?}");
     assert!(
@@ -100,7 +94,7 @@ fn cornell_light_obj() -> String {
 
 /// The bundled Cornell box without its lens, with two point lights and a small
 /// area light under the ceiling (winding faces down).
-fn cornell_with_area_light(sampling: &str) -> rdr::Scene {
+fn cornell_with_area_light(sampling: &str) -> rdr::Loaded {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
     let dir = std::env::temp_dir().join(format!("rdr-lights-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
@@ -115,14 +109,15 @@ fn cornell_with_area_light(sampling: &str) -> rdr::Scene {
     v["film"]["resolution"] = serde_json::json!([24, 24]);
     v["integrator"]["light_sampling"] = serde_json::json!(sampling);
     let desc = rdr::scene::SceneDesc::from_value(&v, &root.join("cornell.json"), &root).unwrap();
-    rdr::scene::build(&desc, rdr::scene::BuildOptions::default()).unwrap()
+    rdr::Loaded::build(&desc, rdr::Profile::Physical).unwrap()
 }
 
 /// Independent estimate of the same image: at the first diffuse hit, point lights
 /// exactly, and the area light by cosine-weighted directions that happen to hit
 /// it (ρ·Le per hit). Returns the mean and the variance of the mean per pixel.
-fn brute_force(scene: &rdr::Scene, per_pixel: usize) -> (Image, Image) {
-    let (w, h) = (scene.width as usize, scene.height as usize);
+fn brute_force(loaded: &rdr::Loaded, per_pixel: usize) -> (Image, Image) {
+    let (scene, job) = (&loaded.scene, &loaded.job);
+    let (w, h) = (job.film.width as usize, job.film.height as usize);
     let mut mean = vec![Vec3::ZERO; w * h];
     let mut var = vec![Vec3::ZERO; w * h];
     let mut state = 0x2545_f491_4f6c_dd1du64;
@@ -137,7 +132,7 @@ fn brute_force(scene: &rdr::Scene, per_pixel: usize) -> (Image, Image) {
             let (mut s1, mut s2) = (Vec3::ZERO, Vec3::ZERO);
             for _ in 0..per_pixel {
                 let film = Vec2::new(x as f32 + rnd(), (h - 1 - row) as f32 + rnd());
-                let ray = scene.camera.ray(film.x, film.y);
+                let ray = job.camera.ray(film.x, film.y);
                 let mut l = Vec3::ZERO;
                 if let Some(hit) = scene.intersect(&ray) {
                     let it = scene.interaction(&ray, &hit);
@@ -190,22 +185,19 @@ fn brute_force(scene: &rdr::Scene, per_pixel: usize) -> (Image, Image) {
 fn point_and_area_lights_match_a_brute_force_estimate() {
     let scene = cornell_with_area_light("importance");
     let (bf, bf_var) = brute_force(&scene, 4096);
-    let (x1, x2) = (render(&scene, 64, 1, Profile::Physical), render(&scene, 64, 2, Profile::Physical));
+    let (x1, x2) = (render(&scene, 64, 1), render(&scene, 64, 2));
     let good = compare(&x1, &x2, &bf, &bf_var);
     eprintln!("importance: {good:?}");
     assert!(good.rel_mse_corrected.abs() < 5.0 * good.std_error + 1e-4, "{good:?}");
 
     let uniform = cornell_with_area_light("uniform");
-    let (u1, u2) = (
-        render(&uniform, 64, 1, Profile::Physical),
-        render(&uniform, 64, 2, Profile::Physical),
-    );
+    let (u1, u2) = (render(&uniform, 64, 1), render(&uniform, 64, 2));
     let unif = compare(&u1, &u2, &bf, &bf_var);
     assert!(unif.rel_mse_corrected.abs() < 5.0 * unif.std_error + 1e-4, "{unif:?}");
     // the area light's noise alone (point lights add none, but their shadow edges
     // add the same pixel noise to both)
-    let only_area = |mut s: rdr::Scene| {
-        for l in s.lights.iter_mut() {
+    let only_area = |mut s: rdr::Loaded| {
+        for l in s.scene.lights.iter_mut() {
             if let rdr::light::Light::Point { flux, .. } = l {
                 *flux = Vec3::ZERO;
             }
@@ -232,9 +224,9 @@ fn point_and_area_lights_match_a_brute_force_estimate() {
 /// The render of a renderer that ignores area lights (the lights removed after building).
 fn without_area_lights() -> (Image, Image) {
     let mut s = cornell_with_area_light("importance");
-    s.lights.retain(|l| !matches!(l, rdr::light::Light::Area(_)));
-    for o in s.objects.iter_mut() {
+    s.scene.lights.retain(|l| !matches!(l, rdr::light::Light::Area(_)));
+    for o in s.scene.objects.iter_mut() {
         o.light = None;
     }
-    (render(&s, 64, 1, Profile::Physical), render(&s, 64, 2, Profile::Physical))
+    (render(&s, 64, 1), render(&s, 64, 2))
 }

@@ -31,7 +31,7 @@ fn reference(shared: &Path, name: &str, mask_rows: Option<(usize, usize)>) -> Re
 }
 
 /// Renders `scene.json` at half resolution (two independent halves of `spp`).
-fn half_res(shared: &Path, scene: &str, spp: u32, extra: &[&str]) -> (Image, Image, rdr::Scene) {
+fn half_res(shared: &Path, scene: &str, spp: u32, extra: &[&str]) -> (Image, Image, rdr::Loaded) {
     let path = shared.join(format!("refs/scenes/{scene}.json"));
     let full: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
     let (w, h) = (
@@ -42,7 +42,7 @@ fn half_res(shared: &Path, scene: &str, spp: u32, extra: &[&str]) -> (Image, Ima
     let mut o = vec![res.as_str()];
     o.extend_from_slice(extra);
     let s = load_scene(&path, &o, Profile::Physical);
-    let (a, b) = (render(&s, spp, 1, Profile::Physical), render(&s, spp, 2, Profile::Physical));
+    let (a, b) = (render(&s, spp, 1), render(&s, spp, 2));
     (a, b, s)
 }
 
@@ -77,7 +77,7 @@ fn white_furnace_is_one_for_every_profile() {
     for profile in ["MIS", "NEE", "RW"] {
         let o = format!(r#"{{"integrator": {{"profile": "{profile}"}}, "film": {{"resolution": [40, 40]}}}}"#);
         let s = load_scene(&shared.join("refs/scenes/sphere_furnace.json"), &[&o], Profile::Physical);
-        let img = render(&s, 64, 3, Profile::Physical);
+        let img = render(&s, 64, 3);
         let m = img.mean();
         eprintln!("furnace {profile}: mean {m}");
         assert!((m - rdr::math::Vec3::ONE).abs().max_element() < 3e-3, "{profile}: {m}");

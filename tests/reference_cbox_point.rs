@@ -31,8 +31,8 @@ fn cbox_point_converges_to_mitsuba_and_wrong_shading_does_not() {
     let r = read(&refs.join("cbox_point_hq.exr"));
     let vr = read(&refs.join("cbox_point_hq.var.exr"));
     let scene = load_scene(&refs.join("scenes/cbox_point.json"), &[], Profile::Physical);
-    let x1 = render(&scene, SPP, 1, Profile::Physical);
-    let x2 = render(&scene, SPP, 2, Profile::Physical);
+    let x1 = render(&scene, SPP, 1);
+    let x2 = render(&scene, SPP, 2);
 
     let good = check("rdr", &x1, &x2, &r, &vr);
     // |bias| below 0.1 % relative MSE, and consistent with zero within the noise
@@ -69,7 +69,7 @@ fn cbox_point_converges_to_mitsuba_and_wrong_shading_does_not() {
     );
     // RDR171's own shading multiplies by d² instead of dividing (the --compat profile does exactly that).
     let compat_scene = load_scene(&refs.join("scenes/cbox_point.json"), &[], Profile::Rdr171);
-    let d2 = render(&compat_scene, SPP, 0, Profile::Rdr171);
+    let d2 = render(&compat_scene, SPP, 0);
     let wrong = check("d² instead of 1/d²", &d2, &d2, &r, &vr);
     assert!(
         wrong.rel_mse_corrected > 100.0 * good.rel_mse_corrected.abs().max(1e-4),

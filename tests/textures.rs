@@ -85,11 +85,11 @@ fn uv_grid_is_upright_and_compat_flips_it() {
     let scene = quad_scene(&dir, &shared.join("textures/uv_grid_512.png"), 64);
 
     let s = common::load_scene(&scene, &[], Profile::Physical);
-    let img = common::render(&s, 4, 0, Profile::Physical);
+    let img = common::render(&s, 4, 0);
     check_uv_grid(&img, false, "default");
 
     let s = common::load_scene(&scene, &[], Profile::Rdr171);
-    let img = common::render(&s, 4, 0, Profile::Rdr171);
+    let img = common::render(&s, 4, 0);
     check_uv_grid(&img, true, "--compat rdr171");
     std::fs::remove_dir_all(&dir).ok();
 }
@@ -100,8 +100,8 @@ fn uv_derivatives_of_a_head_on_quad_are_one_pixel() {
     // any picture will do; this one is generated
     let tex = dir.join("t.png");
     rdr::imageio::write_png(&tex, 2, 2, &[Vec3::ONE; 4]).unwrap();
-    let scene = common::load_scene(&quad_scene(&dir, &tex, 64), &[], Profile::Physical);
-    let (ray, diff) = scene.camera.ray_differential(20.5, 40.5);
+    let rdr::Loaded { scene, job } = common::load_scene(&quad_scene(&dir, &tex, 64), &[], Profile::Physical);
+    let (ray, diff) = job.camera.ray_differential(20.5, 40.5);
     let hit = scene.intersect(&ray).expect("the quad fills the view");
     let mut it = scene.interaction(&ray, &hit);
     assert!((it.dpdu - Vec3::new(2.0, 0.0, 0.0)).length() < 1e-5, "dpdu {}", it.dpdu);
@@ -137,7 +137,7 @@ fn sphere_uv_order_follows_the_profile() {
     let phi = n.y.atan2(n.x) / (2.0 * std::f32::consts::PI);
     let theta = n.z.acos() / std::f32::consts::PI;
     for (profile, uv) in [(Profile::Physical, Vec2::new(phi, theta)), (Profile::Rdr171, Vec2::new(theta, phi))] {
-        let s = common::load_scene(&path, &[], profile);
+        let s = common::load_scene(&path, &[], profile).scene;
         let it = s.interaction(&ray, &s.intersect(&ray).unwrap());
         assert!((it.uv - uv).length() < 1e-5, "{profile:?}: uv {} expected {uv}", it.uv);
         // ∂p/∂u points along increasing φ (default) or θ (compat)
@@ -171,7 +171,7 @@ fn textures_sharing_a_file_share_its_pyramid() {
     });
     let path = dir.join("s.json");
     std::fs::write(&path, scene.to_string()).unwrap();
-    let s = common::load_scene(&path, &[], Profile::Physical);
+    let s = common::load_scene(&path, &[], Profile::Physical).scene;
     let pyramid = |i: usize| match &s.textures[i] {
         Texture::Image(t) => t.mipmap.clone(),
         other => panic!("texture {i} is {other:?}"),
@@ -245,8 +245,9 @@ fn mipmapping_removes_aliasing_of_a_distant_checker_floor() {
     let path = checker_floor_scene(&dir, [w, h]);
     let desc = rdr::scene::SceneDesc::load(&path, &[]).unwrap();
     let build = |mipmap: bool| {
-        rdr::scene::build(
+        rdr::Loaded::build_with(
             &desc,
+            Profile::Physical,
             BuildOptions {
                 mipmap,
                 ..Profile::Physical.build_options()
@@ -256,10 +257,10 @@ fn mipmapping_removes_aliasing_of_a_distant_checker_floor() {
     };
     let (on, off) = (build(true), build(false));
     assert!(
-        matches!(&on.textures[0], Texture::Image(t) if t.mipmap.levels().len() == 7),
+        matches!(&on.scene.textures[0], Texture::Image(t) if t.mipmap.levels().len() == 7),
         "64x64: 7 levels"
     );
-    assert!(matches!(&off.textures[0], Texture::Image(t) if t.mipmap.levels().len() == 1));
+    assert!(matches!(&off.scene.textures[0], Texture::Image(t) if t.mipmap.levels().len() == 1));
 
     // The distant region: rows whose pixel centres see the floor between 16 and 180
     // units away (it ends at 198). There a check (0.5 units) is less than half a pixel
@@ -278,13 +279,13 @@ fn mipmapping_removes_aliasing_of_a_distant_checker_floor() {
 
     let t0 = std::time::Instant::now();
     // ground truth: 256 samples per pixel of the unfiltered texture
-    let truth = common::render(&off, 256, 1, Profile::Physical);
-    let converged_on = common::render(&on, 256, 1, Profile::Physical);
+    let truth = common::render(&off, 256, 1);
+    let converged_on = common::render(&on, 256, 1);
     let mut report = Vec::new();
     let mut errors = Vec::new();
     for spp in [1u32, 4] {
-        let e_on = rel_rms(&common::render(&on, spp, 2, Profile::Physical), &truth, rows.clone());
-        let e_off = rel_rms(&common::render(&off, spp, 2, Profile::Physical), &truth, rows.clone());
+        let e_on = rel_rms(&common::render(&on, spp, 2), &truth, rows.clone());
+        let e_off = rel_rms(&common::render(&off, spp, 2), &truth, rows.clone());
         report.push(format!("{spp} spp: MIP on {e_on:.4}, MIP off {e_off:.4}"));
         errors.push((spp, e_on, e_off));
     }

@@ -40,7 +40,14 @@ impl IntersectionTest {
     }
 }
 
-fn li(scene: &Scene, params: &IntersectionTest, mut ray: Ray, diff: Option<RayDifferential>, sampler: &mut PixelSampler, counts: &mut RayCounts) -> Vec3 {
+fn li(
+    scene: &Scene,
+    params: &IntersectionTest,
+    mut ray: Ray,
+    diff: Option<RayDifferential>,
+    sampler: &mut PixelSampler,
+    counts: &mut RayCounts,
+) -> Vec3 {
     let max_depth = params.max_depth;
     let mut total = Vec3::ZERO;
     // `segment` is the number of path segments so far, the camera ray being the first.

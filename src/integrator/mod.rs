@@ -17,13 +17,13 @@ pub use normals::Normals;
 pub use pass::{camera_pass, CameraSample, PassContext, PassResult, RayCounts, StopToken};
 pub use path::{PathProfile, PathTracer};
 
-use rdr171::Rdr171Columns;
 use crate::film::Film;
 use crate::geometry::ray::RAY_T_MAX;
 use crate::geometry::Ray;
 use crate::light::{LightSample, ShadowTarget};
 use crate::math::{offset_ray_origin, Vec3};
 use crate::scene::Interaction;
+use rdr171::Rdr171Columns;
 
 /// The integrator a render job runs, with its parameters.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -9,7 +9,7 @@ use crate::film::{FilmSettings, Filter};
 use crate::integrator::rdr171::Rdr171Columns;
 use crate::integrator::Integrator;
 use crate::scene::desc::SceneDesc;
-use crate::scene::{build, Scene};
+use crate::scene::{build, BuildOptions, Scene};
 use std::path::Path;
 
 #[derive(Clone, Debug)]
@@ -63,10 +63,22 @@ pub struct Loaded {
     pub job: RenderJob,
 }
 
+impl Loaded {
+    /// Builds the world and the job of a description for `profile`.
+    pub fn build(desc: &SceneDesc, profile: Profile) -> Result<Loaded> {
+        Self::build_with(desc, profile, profile.build_options())
+    }
+
+    /// [`Loaded::build`] with build switches of its own (tests and experiments).
+    pub fn build_with(desc: &SceneDesc, profile: Profile, opts: BuildOptions) -> Result<Loaded> {
+        Ok(Loaded {
+            scene: build::build(desc, opts)?,
+            job: RenderJob::from_desc(desc, profile)?,
+        })
+    }
+}
+
 /// Reads, builds and checks a scene file for `profile` in one step.
 pub fn load(file: &Path, overrides: &[String], profile: Profile) -> Result<Loaded> {
-    let desc = SceneDesc::load(file, overrides)?;
-    let scene = build::build(&desc, profile.build_options())?;
-    let job = RenderJob::from_desc(&desc, profile)?;
-    Ok(Loaded { scene, job })
+    Loaded::build(&SceneDesc::load(file, overrides)?, profile)
 }

@@ -333,7 +333,13 @@ fn parse_integrator(p: &Props) -> Result<IntegratorDesc> {
             let spp = p.int_at_least("spp", 8, 1)?;
             let max_depth = p.int_at_least("max_depth", 16, 1)?;
             // read here, after the point lights, as before (errors come in key order)
-            (Integrator::IntersectionTest(IntersectionTest { max_depth, light_samples: 1 }), spp)
+            (
+                Integrator::IntersectionTest(IntersectionTest {
+                    max_depth,
+                    light_samples: 1,
+                }),
+                spp,
+            )
         }
     };
     let mut point_lights = Vec::new();

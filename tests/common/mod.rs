@@ -2,9 +2,8 @@
 #![allow(dead_code)]
 
 use rdr::metrics::Image;
-use rdr::{Profile, RenderSettings};
+use rdr::{Loaded, Profile, RenderControl};
 use std::path::{Path, PathBuf};
-use std::sync::atomic::AtomicBool;
 
 /// `../shared` beside the project, or `None` (with a printed reason) when absent.
 /// With `CI` set, a missing `../shared` is a failure, not a skip.
@@ -26,23 +25,20 @@ pub fn shared() -> Option<PathBuf> {
     None
 }
 
-pub fn load_scene(path: &Path, overrides: &[&str], profile: Profile) -> rdr::Scene {
+/// The scene and the job of a scene file, for `profile`.
+pub fn load_scene(path: &Path, overrides: &[&str], profile: Profile) -> Loaded {
     let o: Vec<String> = overrides.iter().map(|s| s.to_string()).collect();
-    rdr::scene::build::load(path, &o, profile.build_options()).unwrap_or_else(|e| panic!("{e}"))
+    rdr::load(path, &o, profile).unwrap_or_else(|e| panic!("{e}"))
 }
 
-pub fn render(scene: &rdr::Scene, spp: u32, seed: u32, profile: Profile) -> Image {
-    let out = rdr::render(
-        scene,
-        &RenderSettings {
-            spp,
-            seed,
-            profile,
-            progress: None,
-            time_limit: None,
-        },
-        &AtomicBool::new(false),
-    );
+/// Renders a loaded scene's job with `spp` samples per pixel and `seed`.
+pub fn render(loaded: &Loaded, spp: u32, seed: u32) -> Image {
+    let job = rdr::RenderJob {
+        spp,
+        seed,
+        ..loaded.job.clone()
+    };
+    let out = rdr::render(&loaded.scene, &job, &RenderControl::default());
     Image::new(out.width as usize, out.height as usize, out.pixels)
 }
 

@@ -252,6 +252,11 @@ impl Film {
         }
     }
 
+    /// The splat buffer as summed (film rows, `y` up; empty without splats).
+    pub fn splat_sums(&self) -> &[[f64; 3]] {
+        &self.splat
+    }
+
     /// Pixel values, row 0 = top of the picture. A pixel without weight is black.
     /// The division is `f32(sum) / f32(weight)` as in the original (spec §5.2).
     /// Splats, if any, are added times `splat_scale` (1 / samples per pixel).

@@ -49,3 +49,11 @@ pub fn read(path: &Path) -> Image {
 pub fn scaled(img: &Image, s: f32) -> Image {
     Image::new(img.width, img.height, img.pixels.iter().map(|p| *p * s).collect())
 }
+
+/// A fresh temporary folder, removed when dropped (also when the test fails).
+pub fn temp_dir(prefix: &str) -> tempfile::TempDir {
+    tempfile::Builder::new()
+        .prefix(&format!("rdr-{prefix}-"))
+        .tempdir()
+        .expect("cannot create a temporary folder")
+}

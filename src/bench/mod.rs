@@ -20,10 +20,14 @@
 //! more (the build's threads idle in turn). Each is the best of `--repeat` runs.
 //!
 //! Before timing, every traversal variant is checked against a simple reference
-//! (a binary BVH visited through a closure with the scalar watertight kernel) on a
-//! sample of each ray set.
+//! ([`crate::accel::reference`]: a binary BVH visited through a closure with the
+//! scalar watertight kernel) on a sample of each ray set.
+//!
+//! Files: [`rays`] (the ray sets), `timing` (CPU and wall-clock timing), `report`
+//! ([`run`]: the build, check and table); meshes load here, PLY files through
+//! [`crate::geometry::ply`].
 
-mod rays;
+pub mod rays;
 mod report;
 mod timing;
 

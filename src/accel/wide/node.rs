@@ -13,9 +13,9 @@
 //!   4-lane one does, and the builder's cost model knows it, so leaves fill up
 //!   (7.3 triangles on average for the bunny) and a ray tests about a third fewer
 //!   blocks than with 4-lane blocks.
-//! * **Child references** are `u32`s: a node index, or [`LEAF`] with the first
-//!   block (or, with [`GENERIC`], the first index into `generic`) above bit 4 and
-//!   the count − 1 in the low four bits; [`EMPTY`] marks an unused slot.
+//! * **Child references** are `u32`s: a node index, or `LEAF` with the first
+//!   block (or, with `GENERIC`, the first index into `generic`) above bit 4 and
+//!   the count − 1 in the low four bits; `EMPTY` marks an unused slot.
 
 use crate::geometry::Aabb;
 use crate::math::Vec3;

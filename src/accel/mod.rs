@@ -2,6 +2,7 @@
 
 pub mod build;
 pub mod bvh;
+pub mod reference;
 pub mod wide;
 
 pub use bvh::Bvh;

@@ -1,8 +1,12 @@
-//! Geometry: rays, boxes, the triangle and sphere kernels, meshes and OBJ loading.
+//! Geometry: rays, boxes, the triangle and sphere kernels, primitives and their
+//! surface interactions, meshes and OBJ/PLY loading.
 
 pub mod aabb;
+pub mod interaction;
 pub mod mesh;
 pub mod obj;
+pub mod ply;
+pub mod prim;
 pub mod ray;
 pub mod sphere;
 pub mod triangle;

@@ -35,7 +35,7 @@ impl Ray {
 /// The two auxiliary rays of a camera ray (pbrt's ray differentials): the rays
 /// through the film positions one pixel to the right (`x + 1`) and one pixel up
 /// (`y + 1`) of the main ray's (spec §6). They give the screen-space footprint of a
-/// hit ([`crate::scene::Interaction::compute_uv_derivatives`]).
+/// hit ([`crate::geometry::interaction::Interaction::compute_uv_derivatives`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RayDifferential {
     pub rx_o: Vec3,

@@ -5,8 +5,10 @@ use super::{Object, Prim, Scene, Shape};
 use crate::accel::WideBvh;
 use crate::error::{Result, SceneError};
 use crate::geometry::mesh::Mesh;
+use crate::geometry::obj;
+/// Moved to the geometry layer; re-exported for existing callers.
+pub use crate::geometry::prim::prim_bounds;
 use crate::geometry::sphere::Sphere;
-use crate::geometry::{obj, Aabb};
 use crate::light::environment::EnvImage;
 use crate::light::{AreaLight, EnvironmentLight, Light, LightSampler};
 use crate::material::Material;
@@ -292,16 +294,6 @@ fn resolve_texture(r: &TextureRef, names: &HashMap<&str, u32>, textures: &mut Ve
         TextureRef::Color(c) => {
             textures.push(Texture::Constant(*c));
             Ok(textures.len() as u32 - 1)
-        }
-    }
-}
-
-pub fn prim_bounds(p: &Prim) -> Aabb {
-    match p {
-        Prim::Triangle { p, .. } => Aabb::from_points(p),
-        Prim::Sphere { sphere, .. } => {
-            let r = crate::math::Vec3::splat(sphere.radius * (1.0 + 1e-6) + 1e-6);
-            Aabb::new(sphere.center - r, sphere.center + r)
         }
     }
 }

@@ -1,0 +1,246 @@
+//! The renderer's acceleration structure: an 8-wide BVH collapsed from the binned
+//! SAH tree of [`super::build`], with triangles stored eight to a SIMD block.
+//!
+//! * `collapse`: which binary subtrees become the children of each wide node, by
+//!   SAH cost (Ylitie et al. 2017), the same tree for any number of threads;
+//! * [`node`]: the node layout ([`WideNode`], eight boxes as six rows of eight
+//!   floats), the triangle blocks ([`TriBlock`]) and the child references;
+//! * `traverse`: front-to-back closest-hit and any-hit traversal, generic over
+//!   the instruction set, and the portable kernels;
+//! * `x86`: the AVX2 and AVX-512 kernels, bit-identical to the scalar ones.
+//!
+//! Instruction sets ([`Isa`]) are picked at run time; the portable one runs
+//! everywhere and can be forced with [`WideBvh::set_isa`] (the tests run every
+//! variant the machine has).
+//!
+//! Spheres (and any primitive that is not a triangle) sit in separate leaves of
+//! primitive indices tested with their own kernel.
+
+mod collapse;
+pub mod node;
+mod traverse;
+#[cfg(target_arch = "x86_64")]
+mod x86;
+
+pub use node::{ChildRef, TriBlock, WideNode, LANES, WIDTH};
+
+use crate::accel::build::{self, PrimRef};
+use crate::geometry::prim::{Hit, Prim};
+use crate::geometry::{Aabb, Ray};
+use node::{decode, EMPTY};
+use traverse::{any, closest, PORTABLE};
+
+/// Stack sizes: the small one serves every tree whose worst path needs it.
+const STACK_SMALL: usize = 128;
+const STACK_LARGE: usize = 1024;
+
+/// Instruction set of the traversal kernels.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Isa {
+    Portable,
+    Avx2,
+    Avx512,
+}
+
+impl Isa {
+    /// The best the CPU has.
+    pub fn detect() -> Isa {
+        [Isa::Avx512, Isa::Avx2]
+            .into_iter()
+            .find(|i| i.available())
+            .unwrap_or(Isa::Portable)
+    }
+
+    pub fn available(self) -> bool {
+        match self {
+            Isa::Portable => true,
+            #[cfg(target_arch = "x86_64")]
+            Isa::Avx2 => is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma"),
+            #[cfg(target_arch = "x86_64")]
+            Isa::Avx512 => Isa::Avx2.available() && is_x86_feature_detected!("avx512f") && is_x86_feature_detected!("avx512vl"),
+            #[cfg(not(target_arch = "x86_64"))]
+            _ => false,
+        }
+    }
+
+    /// Every variant this CPU can run.
+    pub fn all_available() -> Vec<Isa> {
+        [Isa::Portable, Isa::Avx2, Isa::Avx512]
+            .into_iter()
+            .filter(|i| i.available())
+            .collect()
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Isa::Portable => "portable",
+            Isa::Avx2 => "avx2",
+            Isa::Avx512 => "avx512",
+        }
+    }
+}
+
+#[derive(Clone, Debug)]
+pub struct WideBvh {
+    /// Node 0 is the root (no nodes: nothing to hit).
+    pub nodes: Vec<WideNode>,
+    pub blocks: Vec<TriBlock>,
+    /// Primitive indices of the generic leaves.
+    pub generic: Vec<u32>,
+    /// Bounds of everything (unpadded).
+    root_bounds: Aabb,
+    /// Primitives in the tree.
+    pub prim_count: usize,
+    isa: Isa,
+    /// Deepest traversal stack any ray can need.
+    stack_need: usize,
+    /// Use the large stack even where the small one would do (tests).
+    large_stack: bool,
+}
+
+impl Default for WideBvh {
+    fn default() -> Self {
+        WideBvh {
+            nodes: Vec::new(),
+            blocks: Vec::new(),
+            generic: Vec::new(),
+            root_bounds: Aabb::EMPTY,
+            prim_count: 0,
+            isa: Isa::detect(),
+            stack_need: 1,
+            large_stack: false,
+        }
+    }
+}
+
+/// Calls a traversal for the tree's instruction set and stack size: the
+/// portable body `$portable::<PORTABLE, S>` or the x86 entry points
+/// `x86::$avx2::<S>` / `x86::$avx512::<S>`, with `S` the small stack where it
+/// is enough.
+macro_rules! dispatch {
+    ($bvh:expr, $portable:ident, $avx2:ident, $avx512:ident, ($($arg:expr),*)) => {{
+        let small = $bvh.stack_need <= STACK_SMALL && !$bvh.large_stack;
+        match $bvh.isa {
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: `isa` is only ever set to an instruction set the CPU has (`set_isa`, `Isa::detect`).
+            Isa::Avx512 => unsafe {
+                if small {
+                    x86::$avx512::<STACK_SMALL>($($arg),*)
+                } else {
+                    x86::$avx512::<STACK_LARGE>($($arg),*)
+                }
+            },
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: as above.
+            Isa::Avx2 => unsafe {
+                if small {
+                    x86::$avx2::<STACK_SMALL>($($arg),*)
+                } else {
+                    x86::$avx2::<STACK_LARGE>($($arg),*)
+                }
+            },
+            _ => {
+                if small {
+                    $portable::<PORTABLE, STACK_SMALL>($($arg),*)
+                } else {
+                    $portable::<PORTABLE, STACK_LARGE>($($arg),*)
+                }
+            }
+        }
+    }};
+}
+
+impl WideBvh {
+    /// Builds over `prims` (indices refer to this slice); primitives with
+    /// unusable bounds (empty, NaN, infinite) are left out.
+    pub fn build(prims: &[Prim]) -> WideBvh {
+        let mut refs = build::make_refs_with(prims.len(), |i| {
+            let p = &prims[i];
+            (p.bounds(), p.is_triangle())
+        });
+        let tree = build::build_tree(&mut refs);
+        let order: Vec<u32> = refs.iter().map(PrimRef::index).collect();
+        drop(refs);
+        collapse::collapse(tree.as_ref(), &order, prims)
+    }
+
+    /// Bounds of all primitives in the tree (empty for an empty tree).
+    pub fn bounds(&self) -> Aabb {
+        self.root_bounds
+    }
+
+    pub fn isa(&self) -> Isa {
+        self.isa
+    }
+
+    /// Forces an instruction set; `false` (and no change) if the CPU lacks it.
+    pub fn set_isa(&mut self, isa: Isa) -> bool {
+        if isa.available() {
+            self.isa = isa;
+        }
+        self.isa == isa
+    }
+
+    /// Bytes of nodes, triangle blocks and generic leaves.
+    pub fn memory_bytes(&self) -> usize {
+        self.nodes.len() * std::mem::size_of::<WideNode>() + self.blocks.len() * std::mem::size_of::<TriBlock>() + self.generic.len() * 4
+    }
+
+    /// Forces the traversal variants with the large stack (which deep trees
+    /// use) so tests reach them on small trees too.
+    #[doc(hidden)]
+    pub fn set_large_stack(&mut self, on: bool) {
+        self.large_stack = on;
+    }
+
+    /// Deepest stack a traversal can need.
+    pub fn stack_need(&self) -> usize {
+        self.stack_need
+    }
+
+    /// Closest hit in `[ray.t_min, ray.t_max]`; `prims` is the slice the tree was built over.
+    pub fn intersect(&self, prims: &[Prim], ray: &Ray) -> Option<Hit> {
+        if self.nodes.is_empty() {
+            return None;
+        }
+        dispatch!(self, closest, closest_avx2, closest_avx512, (self, prims, ray))
+    }
+
+    /// Whether anything lies on the ray within `[ray.t_min, ray.t_max]`.
+    pub fn occluded(&self, prims: &[Prim], ray: &Ray) -> bool {
+        if self.nodes.is_empty() {
+            return false;
+        }
+        dispatch!(self, any, any_avx2, any_avx512, (self, prims, ray))
+    }
+
+    /// Every child reference: `(node, slot, child)` for checks and statistics.
+    pub fn children(&self) -> impl Iterator<Item = (usize, usize, ChildRef)> + '_ {
+        self.nodes.iter().enumerate().flat_map(|(i, n)| {
+            n.child
+                .iter()
+                .enumerate()
+                .filter(|(_, &c)| c != EMPTY)
+                .map(move |(s, &c)| (i, s, decode(c)))
+        })
+    }
+
+    /// Primitive indices of a leaf reference (padding lanes left out).
+    pub fn leaf_prims(&self, c: ChildRef) -> Vec<u32> {
+        match c {
+            ChildRef::Node(_) => Vec::new(),
+            ChildRef::Generic { first, count } => self.generic[first..first + count].to_vec(),
+            ChildRef::Triangles { first, count } => {
+                let mut v = Vec::new();
+                for b in &self.blocks[first..first + count] {
+                    for lane in 0..LANES {
+                        if lane == 0 || b.prim[lane] != b.prim[lane - 1] {
+                            v.push(b.prim[lane]);
+                        }
+                    }
+                }
+                v
+            }
+        }
+    }
+}

@@ -1,0 +1,219 @@
+//! The x86 kernels: AVX2+FMA and AVX-512 (F+VL) entry points of the traversal,
+//! their node tests and the 8-lane triangle block test.
+//!
+//! The instruction set ([`super::Isa`]) is picked at run time with
+//! `is_x86_feature_detected!`: AVX-512 (the node test's hit mask straight from a
+//! mask compare), AVX2+FMA, or portable Rust (scalar kernel per lane); the portable
+//! one runs everywhere and can be forced with [`super::WideBvh::set_isa`] (the tests
+//! run every variant the machine has).
+//!
+//! The block test is the watertight kernel [`intersect_watertight`] evaluated on
+//! eight lanes with the same operations in the same order (no FMA contraction), so
+//! its hits, distances and barycentrics are bit-identical to the scalar kernel;
+//! lanes with an edge function exactly zero go through the scalar kernel (which
+//! decides them in f64).
+
+use super::node::{TriBlock, WideNode, LANES, WIDTH};
+use super::traverse::{any, closest, BlockHits, RayData, AVX2, AVX512, FAR_SCALE};
+use super::WideBvh;
+use crate::geometry::prim::{Hit, Prim};
+use crate::geometry::triangle::intersect_watertight;
+use crate::geometry::Ray;
+use crate::math::gamma;
+use std::arch::x86_64::*;
+
+#[target_feature(enable = "avx2,fma")]
+pub(super) fn closest_avx2<const S: usize>(bvh: &WideBvh, prims: &[Prim], ray: &Ray) -> Option<Hit> {
+    closest::<AVX2, S>(bvh, prims, ray)
+}
+#[target_feature(enable = "avx2,fma")]
+pub(super) fn any_avx2<const S: usize>(bvh: &WideBvh, prims: &[Prim], ray: &Ray) -> bool {
+    any::<AVX2, S>(bvh, prims, ray)
+}
+#[target_feature(enable = "avx2,fma,avx512f,avx512vl")]
+pub(super) fn closest_avx512<const S: usize>(bvh: &WideBvh, prims: &[Prim], ray: &Ray) -> Option<Hit> {
+    closest::<AVX512, S>(bvh, prims, ray)
+}
+#[target_feature(enable = "avx2,fma,avx512f,avx512vl")]
+pub(super) fn any_avx512<const S: usize>(bvh: &WideBvh, prims: &[Prim], ray: &Ray) -> bool {
+    any::<AVX512, S>(bvh, prims, ray)
+}
+
+/// Row `row` of the node's planes.
+#[target_feature(enable = "avx2,fma")]
+#[inline]
+fn row(n: &WideNode, row: usize) -> __m256 {
+    // SAFETY: `row` < 6 (RayData's near/far rows are 2·axis + 0 or 1) and
+    // every row is 8 f32s, 32-byte aligned by WideNode's `repr(align(32))`.
+    unsafe { _mm256_load_ps(n.planes.get_unchecked(row).as_ptr()) }
+}
+
+/// Entry and exit distances of the eight children.
+#[target_feature(enable = "avx2,fma")]
+#[inline]
+fn slabs(n: &WideNode, r: &RayData, t_max: f32) -> (__m256, __m256) {
+    let o = [_mm256_set1_ps(r.o.x), _mm256_set1_ps(r.o.y), _mm256_set1_ps(r.o.z)];
+    let inv = [_mm256_set1_ps(r.inv[0]), _mm256_set1_ps(r.inv[1]), _mm256_set1_ps(r.inv[2])];
+    let near = |a: usize| _mm256_mul_ps(_mm256_sub_ps(row(n, r.near[a]), o[a]), inv[a]);
+    let far = |a: usize| _mm256_mul_ps(_mm256_sub_ps(row(n, r.far[a]), o[a]), inv[a]);
+    let t0 = _mm256_max_ps(_mm256_max_ps(near(0), near(1)), _mm256_max_ps(near(2), _mm256_set1_ps(r.t_min)));
+    let t1 = _mm256_min_ps(_mm256_min_ps(far(0), far(1)), far(2));
+    let t1 = _mm256_min_ps(_mm256_mul_ps(t1, _mm256_set1_ps(FAR_SCALE)), _mm256_set1_ps(t_max));
+    (t0, t1)
+}
+
+#[target_feature(enable = "avx2,fma")]
+#[inline]
+pub(super) fn node_avx2(n: &WideNode, r: &RayData, t_max: f32) -> (u32, [f32; WIDTH]) {
+    let (t0, t1) = slabs(n, r, t_max);
+    let mask = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(t0, t1)) as u32;
+    let mut d = [0.0f32; WIDTH];
+    // SAFETY: `d` is 8 writable f32s; the store is unaligned.
+    unsafe { _mm256_storeu_ps(d.as_mut_ptr(), t0) };
+    (mask, d)
+}
+
+#[target_feature(enable = "avx2,fma,avx512f,avx512vl")]
+#[inline]
+pub(super) fn node_avx512(n: &WideNode, r: &RayData, t_max: f32) -> (u32, [f32; WIDTH]) {
+    let (t0, t1) = slabs(n, r, t_max);
+    let mask = _mm256_cmp_ps_mask::<_CMP_LE_OQ>(t0, t1) as u32;
+    let mut d = [0.0f32; WIDTH];
+    // SAFETY: `d` is 8 writable f32s; the store is unaligned.
+    unsafe { _mm256_storeu_ps(d.as_mut_ptr(), t0) };
+    (mask, d)
+}
+
+/// The watertight kernel on eight triangles, operation for operation as the
+/// scalar [`intersect_watertight`] (AVX arithmetic rounds alike and nothing
+/// is fused), so every lane's result is bit-identical to it.
+#[target_feature(enable = "avx2,fma")]
+#[inline]
+pub(super) fn block_avx(blk: &TriBlock, r: &RayData, t_max: f32) -> BlockHits {
+    let [kx, ky, kz] = r.k;
+    let set = |x: f32| _mm256_set1_ps(x);
+    let zero = _mm256_setzero_ps();
+    let abs = |v: __m256| _mm256_andnot_ps(_mm256_set1_ps(-0.0), v);
+    // SAFETY: each row is 8 f32s, 32-byte aligned (TriBlock is `repr(align(32))`
+    // and every row is 32 bytes).
+    let ld = |a: &[f32; LANES]| unsafe { _mm256_load_ps(a.as_ptr()) };
+    // vertices relative to the origin, permuted, sheared
+    let vert = |k: usize| {
+        // SAFETY: k < 3 and kx, ky, kz < 3 (a permutation of the axes).
+        let v = unsafe { blk.v.get_unchecked(k) };
+        // SAFETY: as above.
+        let (x, y, z) = unsafe { (v.get_unchecked(kx), v.get_unchecked(ky), v.get_unchecked(kz)) };
+        let x = _mm256_sub_ps(ld(x), set(r.op[0]));
+        let y = _mm256_sub_ps(ld(y), set(r.op[1]));
+        let z = _mm256_sub_ps(ld(z), set(r.op[2]));
+        let x = _mm256_add_ps(x, _mm256_mul_ps(set(r.s[0]), z));
+        let y = _mm256_add_ps(y, _mm256_mul_ps(set(r.s[1]), z));
+        (x, y, z)
+    };
+    let (p0x, p0y, p0z) = vert(0);
+    let (p1x, p1y, p1z) = vert(1);
+    let (p2x, p2y, p2z) = vert(2);
+    let e0 = _mm256_sub_ps(_mm256_mul_ps(p1x, p2y), _mm256_mul_ps(p1y, p2x));
+    let e1 = _mm256_sub_ps(_mm256_mul_ps(p2x, p0y), _mm256_mul_ps(p2y, p0x));
+    let e2 = _mm256_sub_ps(_mm256_mul_ps(p0x, p1y), _mm256_mul_ps(p0y, p1x));
+    let cmp_eq = |a, b| _mm256_cmp_ps::<_CMP_EQ_OQ>(a, b);
+    let cmp_lt = |a, b| _mm256_cmp_ps::<_CMP_LT_OS>(a, b);
+    let cmp_le = |a, b| _mm256_cmp_ps::<_CMP_LE_OS>(a, b);
+    let cmp_gt = |a, b| _mm256_cmp_ps::<_CMP_GT_OS>(a, b);
+    let cmp_ge = |a, b| _mm256_cmp_ps::<_CMP_GE_OS>(a, b);
+    let or = |a, b| _mm256_or_ps(a, b);
+    // lanes with an edge function exactly zero: the scalar kernel (f64) decides
+    let on_edge = _mm256_movemask_ps(or(or(cmp_eq(e0, zero), cmp_eq(e1, zero)), cmp_eq(e2, zero))) as u32;
+    let neg = or(or(cmp_lt(e0, zero), cmp_lt(e1, zero)), cmp_lt(e2, zero));
+    let pos = or(or(cmp_gt(e0, zero), cmp_gt(e1, zero)), cmp_gt(e2, zero));
+    let mut reject = _mm256_and_ps(neg, pos);
+    let det = _mm256_add_ps(_mm256_add_ps(e0, e1), e2);
+    // det == 0 or not finite (NaN: "not less than" is true when unordered)
+    reject = or(reject, cmp_eq(det, zero));
+    reject = or(reject, _mm256_cmp_ps::<_CMP_NLT_US>(abs(det), set(f32::INFINITY)));
+    let sz = set(r.s[2]);
+    let (p0z, p1z, p2z) = (_mm256_mul_ps(p0z, sz), _mm256_mul_ps(p1z, sz), _mm256_mul_ps(p2z, sz));
+    let ts = _mm256_add_ps(
+        _mm256_add_ps(_mm256_mul_ps(e0, p0z), _mm256_mul_ps(e1, p1z)),
+        _mm256_mul_ps(e2, p2z),
+    );
+    let tmd = _mm256_mul_ps(set(t_max), det);
+    let det_neg = cmp_lt(det, zero);
+    let det_pos = cmp_gt(det, zero);
+    reject = or(reject, _mm256_and_ps(det_neg, or(cmp_ge(ts, zero), cmp_lt(ts, tmd))));
+    reject = or(reject, _mm256_and_ps(det_pos, or(cmp_le(ts, zero), cmp_gt(ts, tmd))));
+    let mut mask = !(_mm256_movemask_ps(reject) as u32) & 0xff & !on_edge;
+    let mut h = BlockHits {
+        mask: 0,
+        t: [0.0; LANES],
+        b: [[0.0; LANES]; 3],
+    };
+    if mask != 0 {
+        let inv_det = _mm256_div_ps(set(1.0), det);
+        let t = _mm256_mul_ps(ts, inv_det);
+        let mut rej = or(cmp_lt(t, set(r.t_min)), cmp_gt(t, set(t_max)));
+        // the conservative bound on t
+        let max3 = |a, b, c| _mm256_max_ps(_mm256_max_ps(abs(a), abs(b)), abs(c));
+        let max_zt = max3(p0z, p1z, p2z);
+        let delta_z = _mm256_mul_ps(set(gamma(3)), max_zt);
+        let max_xt = max3(p0x, p1x, p2x);
+        let max_yt = max3(p0y, p1y, p2y);
+        let max_z = _mm256_mul_ps(max_zt, set(r.dz_abs));
+        let delta_x = _mm256_mul_ps(set(gamma(5)), _mm256_add_ps(max_xt, max_z));
+        let delta_y = _mm256_mul_ps(set(gamma(5)), _mm256_add_ps(max_yt, max_z));
+        let delta_e = _mm256_mul_ps(
+            set(2.0),
+            _mm256_add_ps(
+                _mm256_add_ps(
+                    _mm256_mul_ps(_mm256_mul_ps(set(gamma(2)), max_xt), max_yt),
+                    _mm256_mul_ps(delta_y, max_xt),
+                ),
+                _mm256_mul_ps(delta_x, max_yt),
+            ),
+        );
+        let max_e = max3(e0, e1, e2);
+        let sum = _mm256_add_ps(
+            _mm256_add_ps(
+                _mm256_mul_ps(_mm256_mul_ps(set(gamma(3)), max_e), max_zt),
+                _mm256_mul_ps(delta_e, max_zt),
+            ),
+            _mm256_mul_ps(delta_z, max_e),
+        );
+        let delta_t = _mm256_mul_ps(_mm256_mul_ps(set(3.0), sum), abs(inv_det));
+        rej = or(rej, cmp_le(t, delta_t));
+        mask &= !(_mm256_movemask_ps(rej) as u32);
+        if mask != 0 {
+            h.mask = mask;
+            let st = |dst: &mut [f32; LANES], v: __m256| {
+                // SAFETY: `dst` is 8 writable f32s; the store is unaligned.
+                unsafe { _mm256_storeu_ps(dst.as_mut_ptr(), v) }
+            };
+            st(&mut h.t, t);
+            st(&mut h.b[0], _mm256_mul_ps(e0, inv_det));
+            st(&mut h.b[1], _mm256_mul_ps(e1, inv_det));
+            st(&mut h.b[2], _mm256_mul_ps(e2, inv_det));
+        }
+    }
+    if on_edge != 0 {
+        edge_lanes(blk, r, t_max, on_edge, &mut h);
+    }
+    h
+}
+
+/// Lanes with an exactly-zero edge function, through the scalar kernel.
+#[cold]
+#[inline(never)]
+fn edge_lanes(blk: &TriBlock, r: &RayData, t_max: f32, lanes: u32, h: &mut BlockHits) {
+    for lane in 0..LANES {
+        if lanes & (1 << lane) == 0 {
+            continue;
+        }
+        if let Some(x) = intersect_watertight(r.o, r.d, r.t_min, t_max, &blk.triangle(lane)) {
+            h.mask |= 1 << lane;
+            h.t[lane] = x.t;
+            for k in 0..3 {
+                h.b[k][lane] = x.b[k];
+            }
+        }
+    }
+}

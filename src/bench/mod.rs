@@ -1,0 +1,81 @@
+//! `rdr bench MESH`: the acceleration-structure benchmark.
+//!
+//! Loads a triangle mesh (OBJ or PLY), builds the BVH the renderer uses and
+//! reports build time and size, then traces three fixed ray sets with closest-hit
+//! and any-hit queries on one thread and on all threads:
+//!
+//! * **primary**: 1000×1000 pinhole rays, 40° field of view, the camera looking at
+//!   the centre of the bounding box from front-right-above (direction (1, 1, 1)),
+//!   pulled back until all eight corners of the box are inside the image;
+//! * **incoherent**: 1,000,000 rays from uniform points on the bounding sphere
+//!   towards uniform points inside the box (fixed seed);
+//! * **bounce**: 1,000,000 cosine-distributed rays leaving the primary hit points
+//!   (hit points reused in turn when fewer than a million primary rays hit),
+//!   offset along the geometric normal on the side the primary ray came from.
+//!
+//! Ray figures are the CPU time of the busiest worker thread (Linux `schedstat`;
+//! the workers claim chunks of rays until none are left), so time the OS gives
+//! other processes does not inflate them, for one thread and for many alike.
+//! Build figures are the worker's CPU time on one thread and wall-clock time on
+//! more (the build's threads idle in turn). Each is the best of `--repeat` runs.
+//!
+//! Before timing, every traversal variant is checked against a simple reference
+//! ([`crate::accel::reference`]: a binary BVH visited through a closure with the
+//! scalar watertight kernel) on a sample of each ray set.
+//!
+//! Files: [`rays`] (the ray sets), `timing` (CPU and wall-clock timing), `report`
+//! ([`run`]: the build, check and table); meshes load here, PLY files through
+//! [`crate::geometry::ply`].
+
+pub mod rays;
+mod report;
+mod timing;
+
+pub use rays::{bounce_rays, incoherent_rays, primary_rays, RaySets};
+pub use report::run;
+
+use crate::accel::Isa;
+use crate::geometry::mesh::Mesh;
+use crate::geometry::prim::Prim;
+use crate::geometry::{obj, ply};
+use crate::math::{Mat4, Vec3};
+use anyhow::{bail, Context, Result};
+use std::path::Path;
+
+/// Triangles of an OBJ or PLY file as scene primitives (object 0), degenerate
+/// (zero-area) triangles dropped.
+pub fn load_mesh(path: &Path) -> Result<Vec<Prim>> {
+    let bytes = std::fs::read(path).with_context(|| format!("cannot read '{}'", path.display()))?;
+    let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
+    let data = match ext.as_str() {
+        "obj" => obj::parse(&String::from_utf8_lossy(&bytes)).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?,
+        "ply" => ply::parse_ply(&bytes).with_context(|| format!("{}", path.display()))?,
+        _ => bail!("'{}': the mesh benchmark reads .obj and .ply files", path.display()),
+    };
+    let (mesh, _) = Mesh::from_obj(data, &Mat4::IDENTITY, Vec3::ZERO, true);
+    if mesh.triangles.is_empty() {
+        bail!("'{}' has no (non-degenerate) triangles", path.display());
+    }
+    Ok((0..mesh.triangles.len())
+        .map(|i| Prim::Triangle {
+            p: mesh.vertices(i),
+            object: 0,
+            index: i as u32,
+        })
+        .collect())
+}
+
+/// Names of the ray sets, in the table's order (`--rays`).
+pub const RAY_SETS: [&str; 3] = ["primary", "incoherent", "bounce"];
+
+pub struct Options {
+    pub repeat: usize,
+    /// Thread counts to build and trace with.
+    pub threads: Vec<usize>,
+    /// Kernels for the timings (default: the best the CPU has).
+    pub isa: Option<Isa>,
+    /// Ray sets to time (empty: all).
+    pub rays: Vec<String>,
+    /// Build once and skip the kernel check (for profiling the traversal).
+    pub trace_only: bool,
+}

@@ -1,0 +1,67 @@
+//! Timing: the busiest worker's CPU time (Linux `schedstat`), else wall-clock time.
+
+use crate::geometry::Ray;
+use std::time::Instant;
+
+/// Seconds to trace all rays (best of `repeat`) and the number of hits. Every
+/// worker claims chunks of 4096 rays until none are left and measures its own
+/// CPU time over that (Linux `schedstat`); the time is the busiest worker's, so
+/// time the OS gives other processes on a shared machine does not count, for
+/// one thread and for many alike (wall-clock time where `schedstat` is missing).
+pub(super) fn time_rays(pool: &rayon::ThreadPool, rays: &[Ray], repeat: usize, f: &(dyn Fn(&Ray) -> bool + Sync)) -> (f64, usize) {
+    use std::sync::atomic::{AtomicUsize, Ordering};
+    const CHUNK: usize = 4096;
+    let mut best = f64::INFINITY;
+    let mut hits = 0;
+    for _ in 0..repeat.max(1) {
+        let next = AtomicUsize::new(0);
+        let w0 = Instant::now();
+        let per_worker: Vec<(Option<f64>, usize)> = pool.broadcast(|_| {
+            let c0 = thread_cpu_seconds();
+            let mut hits = 0;
+            loop {
+                let start = next.fetch_add(1, Ordering::Relaxed) * CHUNK;
+                if start >= rays.len() {
+                    break;
+                }
+                hits += rays[start..(start + CHUNK).min(rays.len())].iter().filter(|r| f(r)).count();
+            }
+            let cpu = match (c0, thread_cpu_seconds()) {
+                (Some(a), Some(b)) if b >= a => Some(b - a),
+                _ => None,
+            };
+            (cpu, hits)
+        });
+        let wall = w0.elapsed().as_secs_f64();
+        let busiest = per_worker
+            .iter()
+            .map(|w| w.0)
+            .collect::<Option<Vec<f64>>>()
+            .and_then(|t| t.into_iter().reduce(f64::max));
+        best = best.min(busiest.unwrap_or(wall).max(1e-9));
+        hits = per_worker.iter().map(|w| w.1).sum();
+    }
+    (best, hits)
+}
+
+/// On-CPU time of the calling thread in seconds (Linux), from its schedstat.
+fn thread_cpu_seconds() -> Option<f64> {
+    let s = std::fs::read_to_string("/proc/thread-self/schedstat").ok()?;
+    Some(s.split_whitespace().next()?.parse::<u64>().ok()? as f64 * 1e-9)
+}
+
+/// Runs `work` in `pool`; seconds taken: the worker's CPU time for a one-thread
+/// pool where the OS reports it (so other load on the machine does not count),
+/// else wall-clock time.
+pub(super) fn timed<T: Send>(pool: &rayon::ThreadPool, work: impl FnOnce() -> T + Send) -> (f64, T) {
+    let single = pool.current_num_threads() == 1;
+    pool.install(|| {
+        let (w0, c0) = (Instant::now(), thread_cpu_seconds());
+        let out = work();
+        let wall = w0.elapsed().as_secs_f64();
+        match (single, c0, thread_cpu_seconds()) {
+            (true, Some(a), Some(b)) if b >= a => ((b - a).max(1e-9), out),
+            _ => (wall, out),
+        }
+    })
+}

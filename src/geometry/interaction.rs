@@ -1,0 +1,181 @@
+//! Surface interactions: the point a ray hit with its normals, texture
+//! coordinates and shading frame, and their screen-space derivatives.
+
+use super::mesh::Mesh;
+use super::prim::{Hit, Prim};
+use super::sphere::Sphere;
+use super::{Ray, RayDifferential};
+use crate::math::{normalize_div, Vec2, Vec3};
+
+/// A surface point with everything shading needs.
+#[derive(Clone, Copy, Debug)]
+pub struct Interaction {
+    pub p: Vec3,
+    /// Geometric normal (triangle winding; spheres: outward).
+    pub ng: Vec3,
+    /// Shading normal (interpolated vertex normals, else `ng`).
+    pub ns: Vec3,
+    pub uv: Vec2,
+    /// `∂p/∂u`, `∂p/∂v` of the uv parameterisation (spec §14.2; an arbitrary frame
+    /// around `ng` where it is degenerate).
+    pub dpdu: Vec3,
+    pub dpdv: Vec3,
+    /// Screen-space derivatives of `uv` per pixel; zero unless
+    /// [`Interaction::compute_uv_derivatives`] was given the ray's differentials.
+    pub duvdx: Vec2,
+    pub duvdy: Vec2,
+    /// Direction back along the incoming ray.
+    pub wo: Vec3,
+    pub object: u32,
+}
+
+/// Order of a sphere's texture coordinates (which one is the azimuth).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SphereUv {
+    /// `uv = (φ/2π, θ/π)` as [`Sphere::uv`] gives it (pbrt, Mitsuba, Blender).
+    PhiTheta,
+    /// `uv = (θ/π, φ/2π)`, the derivatives in the same order.
+    ThetaPhi,
+}
+
+impl Interaction {
+    /// The surface point of `hit` on `prim` (the primitive `hit.prim` names).
+    /// `mesh` gives the mesh of a triangle's object (its vertex normals and uvs);
+    /// `sphere_uv` the order of a sphere's uv. Triangle points are the barycentric
+    /// interpolation `(b0·p0 + b1·p1) + b2·p2` (spec §14.2), which is more
+    /// accurate than `o + t·d`.
+    #[inline]
+    pub fn of_hit<'m>(prim: &Prim, ray: &Ray, hit: &Hit, mesh: impl FnOnce(u32) -> &'m Mesh, sphere_uv: SphereUv) -> Interaction {
+        let wo = -ray.d;
+        match prim {
+            Prim::Triangle { p, object, index } => Interaction::on_triangle(p, hit.b, mesh(*object), *index, *object, wo),
+            Prim::Sphere { sphere, object } => Interaction::on_sphere(sphere, ray.at(hit.t), sphere_uv, *object, wo),
+        }
+    }
+
+    /// The point with barycentrics `b` on triangle `index` of `mesh` (vertices `p`).
+    pub fn on_triangle(p: &[Vec3; 3], b: [f32; 3], mesh: &Mesh, index: u32, object: u32, wo: Vec3) -> Interaction {
+        let pos = (p[0] * b[0] + p[1] * b[1]) + p[2] * b[2];
+        let ng = normalize_div((p[1] - p[0]).cross(p[2] - p[0]));
+        let tri = &mesh.triangles[index as usize];
+        let ns = match tri.n {
+            Some(n) => {
+                let v = mesh.normals[n[0] as usize] * b[0] + mesh.normals[n[1] as usize] * b[1] + mesh.normals[n[2] as usize] * b[2];
+                let l = v.length();
+                if l > 0.0 && l.is_finite() {
+                    v / l
+                } else {
+                    ng
+                }
+            }
+            None => ng,
+        };
+        let uvs = match tri.uv {
+            Some(t) => t.map(|i| mesh.uvs[i as usize]),
+            None => [Vec2::new(0.0, 0.0), Vec2::new(1.0, 0.0), Vec2::new(1.0, 1.0)],
+        };
+        let uv = uvs[0] * b[0] + uvs[1] * b[1] + uvs[2] * b[2];
+        let (dpdu, dpdv) = triangle_dpduv(p, &uvs).unwrap_or_else(|| fallback_dpduv(ng));
+        Interaction {
+            p: pos,
+            ng,
+            ns,
+            uv,
+            dpdu,
+            dpdv,
+            duvdx: Vec2::ZERO,
+            duvdy: Vec2::ZERO,
+            wo,
+            object,
+        }
+    }
+
+    /// The point of `sphere` nearest `hit_point` (the ray at the hit distance).
+    pub fn on_sphere(sphere: &Sphere, hit_point: Vec3, order: SphereUv, object: u32, wo: Vec3) -> Interaction {
+        let (pos, n) = sphere.project(hit_point);
+        let (mut uv, (mut dpdu, mut dpdv)) = (sphere.uv(n), sphere.uv_derivatives(n));
+        match order {
+            SphereUv::PhiTheta => {}
+            SphereUv::ThetaPhi => {
+                uv = Vec2::new(uv.y, uv.x);
+                std::mem::swap(&mut dpdu, &mut dpdv);
+            }
+        }
+        let c = dpdu.cross(dpdv);
+        if !(c.length_squared() > 0.0 && c.is_finite()) {
+            (dpdu, dpdv) = fallback_dpduv(n);
+        }
+        Interaction {
+            p: pos,
+            ng: n,
+            ns: n,
+            uv,
+            dpdu,
+            dpdv,
+            duvdx: Vec2::ZERO,
+            duvdy: Vec2::ZERO,
+            wo,
+            object,
+        }
+    }
+
+    /// Sets `duvdx`, `duvdy` from the ray differentials of the ray that hit this point
+    /// (pbrt-v4's `SurfaceInteraction::ComputeDifferentials`): the auxiliary rays are
+    /// intersected with the tangent plane (`ng` through `p`), giving `∂p/∂x`, `∂p/∂y`,
+    /// and `∂p/∂x = ∂p/∂u·∂u/∂x + ∂p/∂v·∂v/∂x` is solved in the least-squares sense.
+    /// Auxiliary rays parallel to the plane, or a singular system, give zero
+    /// derivatives (no filtering); the results are clamped to ±1e8.
+    pub fn compute_uv_derivatives(&mut self, diff: &RayDifferential) {
+        let n = self.ng;
+        let hit_plane = |o: Vec3, d: Vec3| -> Option<Vec3> {
+            let t = n.dot(self.p - o) / n.dot(d);
+            t.is_finite().then(|| o + d * t)
+        };
+        let (Some(px), Some(py)) = (hit_plane(diff.rx_o, diff.rx_d), hit_plane(diff.ry_o, diff.ry_d)) else {
+            self.duvdx = Vec2::ZERO;
+            self.duvdy = Vec2::ZERO;
+            return;
+        };
+        let (dpdx, dpdy) = (px - self.p, py - self.p);
+        let (a00, a01, a11) = (self.dpdu.dot(self.dpdu), self.dpdu.dot(self.dpdv), self.dpdv.dot(self.dpdv));
+        let det = a00 * a11 - a01 * a01;
+        let inv = 1.0 / det;
+        let solve = |b: Vec3| -> Vec2 {
+            let (b0, b1) = (self.dpdu.dot(b), self.dpdv.dot(b));
+            let r = Vec2::new(a11 * b0 - a01 * b1, a00 * b1 - a01 * b0) * inv;
+            if r.is_finite() {
+                r.clamp(Vec2::splat(-1e8), Vec2::splat(1e8))
+            } else {
+                Vec2::ZERO
+            }
+        };
+        if det == 0.0 || !inv.is_finite() {
+            self.duvdx = Vec2::ZERO;
+            self.duvdy = Vec2::ZERO;
+        } else {
+            self.duvdx = solve(dpdx);
+            self.duvdy = solve(dpdy);
+        }
+    }
+}
+
+/// `∂p/∂u`, `∂p/∂v` from three points and their uv (pbrt); `None` when the uv
+/// triangle is degenerate (|det| < 1e-8) or the two vectors are parallel.
+fn triangle_dpduv(p: &[Vec3; 3], uv: &[Vec2; 3]) -> Option<(Vec3, Vec3)> {
+    let (duv02, duv12) = (uv[0] - uv[2], uv[1] - uv[2]);
+    let (dp02, dp12) = (p[0] - p[2], p[1] - p[2]);
+    let det = duv02.x * duv12.y - duv02.y * duv12.x;
+    if det.abs() < 1e-8 {
+        return None;
+    }
+    let inv = 1.0 / det;
+    let dpdu = (dp02 * duv12.y - dp12 * duv02.y) * inv;
+    let dpdv = (dp12 * duv02.x - dp02 * duv12.x) * inv;
+    let c = dpdu.cross(dpdv);
+    (c.length_squared() > 0.0 && c.is_finite()).then_some((dpdu, dpdv))
+}
+
+/// An arbitrary tangent frame around `n` when the uv parameterisation has none.
+fn fallback_dpduv(n: Vec3) -> (Vec3, Vec3) {
+    crate::math::coordinate_system(n)
+}

@@ -13,7 +13,7 @@
 # same pixel values (float32 bits); `--compat rdr171` EXRs must be byte-identical files.
 set -euo pipefail
 here=$(cd "$(dirname "$0")/.." && pwd)
-shared=${SHARED:-$here/../shared}
+shared=$(realpath -m "${SHARED:-$here/../shared}")
 spp=${SPP:-2}
 
 scenes() {

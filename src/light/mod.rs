@@ -3,9 +3,11 @@
 //! integrators can combine light and BSDF sampling with MIS.
 
 pub mod area;
+pub mod emission;
 pub mod environment;
 
 pub use area::AreaLight;
+pub use emission::{EmissionSample, SceneBounds};
 pub use environment::EnvironmentLight;
 
 use crate::math::{luminance, Vec2, Vec3, INV_4PI, PI};

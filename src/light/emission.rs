@@ -1,0 +1,211 @@
+//! Rays leaving lights, for integrators that trace from the lights (light
+//! tracing, bidirectional path tracing, photon mapping): a position and a
+//! direction with their densities kept apart (area measure and solid angle), as
+//! bidirectional MIS needs them.
+//!
+//! | light | position (`pdf_pos`) | direction (`pdf_dir`) | `le` |
+//! |---|---|---|---|
+//! | point | its position (delta: 1) | uniform over the sphere (1/4π) | intensity Φ/4π |
+//! | mesh area light | uniform by area over all triangles (1/A) | cosine about the normal (cos/π) | radiance |
+//! | sphere area light | uniform over the sphere (1/4πr²) | cosine about the outward normal | radiance |
+//! | environment | uniform on a disk of the scene's radius facing the direction (1/πR²) | the environment's own importance sampling | radiance |
+//!
+//! Emission sampling always uses the lights' own importance (by area for meshes,
+//! never the uniform-triangle comparison mode of [`super::LightSampling`]).
+
+use super::{AreaLight, Light, LightSampling};
+use crate::math::{Frame, Vec2, Vec3, INV_4PI, INV_PI, PI};
+use crate::sampling::{concentric_disk, cosine_hemisphere, uniform_sphere, uniform_triangle};
+
+/// A ray leaving a light.
+#[derive(Clone, Copy, Debug)]
+pub struct EmissionSample {
+    /// Origin: on the light's surface, the point light's position, or on the disk
+    /// outside the scene (environment).
+    pub p: Vec3,
+    /// Surface normal at `p` (area lights; the travel direction for the environment's
+    /// disk), `None` for point lights.
+    pub n: Option<Vec3>,
+    /// Unit direction of travel, away from the light.
+    pub dir: Vec3,
+    /// Radiance (intensity for point lights) carried along `dir`.
+    pub le: Vec3,
+    /// Density of `p`: area measure (1 for a point light's delta position).
+    pub pdf_pos: f32,
+    /// Density of `dir`: solid angle.
+    pub pdf_dir: f32,
+}
+
+/// The scene's bounding sphere, which the environment's disk must cover.
+#[derive(Clone, Copy, Debug)]
+pub struct SceneBounds {
+    pub center: Vec3,
+    pub radius: f32,
+}
+
+impl Light {
+    /// Whether emission starts at a single point (a delta position).
+    pub fn is_delta_position(&self) -> bool {
+        matches!(self, Light::Point { .. })
+    }
+
+    /// Whether the light lies at infinity (its vertices have no position).
+    pub fn is_infinite(&self) -> bool {
+        matches!(self, Light::Environment(_))
+    }
+
+    /// A ray leaving the light; `None` when the sample carries no light.
+    pub fn sample_emission(&self, u_pos: Vec2, u_dir: Vec2, bounds: SceneBounds) -> Option<EmissionSample> {
+        match self {
+            Light::Point { position, flux } => Some(EmissionSample {
+                p: *position,
+                n: None,
+                dir: uniform_sphere(u_dir),
+                le: *flux * INV_4PI,
+                pdf_pos: 1.0,
+                pdf_dir: INV_4PI,
+            }),
+            Light::Area(a) => {
+                let (p, n, pdf_pos) = a.sample_point(u_pos)?;
+                let local = cosine_hemisphere(u_dir);
+                let dir = Frame::from_normal(n).to_world(local);
+                let pdf_dir = local.z * INV_PI;
+                (pdf_dir > 0.0).then_some(EmissionSample {
+                    p,
+                    n: Some(n),
+                    dir,
+                    le: a.radiance,
+                    pdf_pos,
+                    pdf_dir,
+                })
+            }
+            Light::Environment(e) => {
+                // wi points to the sky; light travels along −wi
+                let ls = e.sample(u_dir, LightSampling::Importance)?;
+                if ls.pdf <= 0.0 {
+                    return None;
+                }
+                let dir = -ls.wi;
+                let d = concentric_disk(u_pos) * bounds.radius;
+                let frame = Frame::from_normal(dir);
+                let p = bounds.center + ls.wi * bounds.radius + frame.s * d.x + frame.t * d.y;
+                Some(EmissionSample {
+                    p,
+                    n: Some(dir),
+                    dir,
+                    le: ls.radiance,
+                    pdf_pos: 1.0 / (PI * bounds.radius * bounds.radius),
+                    pdf_dir: ls.pdf,
+                })
+            }
+        }
+    }
+
+    /// Densities `(pdf_pos, pdf_dir)` with which [`Light::sample_emission`] would
+    /// leave point `p` (normal `n`; ignored by point lights and the environment) in
+    /// direction `dir`.
+    pub fn pdf_emission(&self, n: Vec3, dir: Vec3, bounds: SceneBounds) -> (f32, f32) {
+        match self {
+            Light::Point { .. } => (0.0, INV_4PI),
+            Light::Area(a) => (1.0 / a.area(), n.dot(dir).max(0.0) * INV_PI),
+            Light::Environment(e) => (1.0 / (PI * bounds.radius * bounds.radius), e.pdf(-dir, LightSampling::Importance)),
+        }
+    }
+}
+
+impl AreaLight {
+    /// A point uniformly by area over the whole emitter, its geometric normal and
+    /// its area density 1/A.
+    pub fn sample_point(&self, u: Vec2) -> Option<(Vec3, Vec3, f32)> {
+        let area = self.area();
+        if !(area > 0.0) {
+            return None;
+        }
+        match &self.emitter {
+            super::area::Emitter::Mesh { triangles, by_area, .. } => {
+                let (i, _, ux) = by_area.sample_discrete(u.x);
+                let t = &triangles[i];
+                let b = uniform_triangle(Vec2::new(ux, u.y));
+                let q = t[0] * b[0] + t[1] * b[1] + t[2] * b[2];
+                let n = (t[1] - t[0]).cross(t[2] - t[0]).normalize();
+                Some((q, n, 1.0 / area))
+            }
+            super::area::Emitter::Sphere { center, radius } => {
+                let n = uniform_sphere(u);
+                Some((*center + n * *radius, n, 1.0 / area))
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sampling::SplitMix64;
+
+    /// Power estimated from emission samples: E[le·|cos|/(pdf_pos·pdf_dir)] = Φ for
+    /// surfaces (cos at the light), E[le/pdf_dir] = Φ for a point light, and for the
+    /// environment the power through the disk.
+    fn estimated_power(light: &Light, bounds: SceneBounds) -> Vec3 {
+        let mut rng = SplitMix64(7);
+        let n = 200_000;
+        let mut sum = Vec3::ZERO;
+        for _ in 0..n {
+            let u1 = Vec2::new(rng.unit_f32(), rng.unit_f32());
+            let u2 = Vec2::new(rng.unit_f32(), rng.unit_f32());
+            if let Some(s) = light.sample_emission(u1, u2, bounds) {
+                let cos = s.n.map_or(1.0, |n| n.dot(s.dir).abs());
+                sum += s.le * cos / (s.pdf_pos * s.pdf_dir);
+                // the stand-alone densities agree with the sample's
+                let (pp, pd) = light.pdf_emission(s.n.unwrap_or(Vec3::Z), s.dir, bounds);
+                if !light.is_delta_position() {
+                    assert!((pp - s.pdf_pos).abs() <= 1e-4 * s.pdf_pos, "{pp} vs {}", s.pdf_pos);
+                }
+                // (the environment's uv round trip can land in the neighbouring row)
+                assert!((pd - s.pdf_dir).abs() <= 1e-2 * s.pdf_dir, "{pd} vs {}", s.pdf_dir);
+            }
+        }
+        sum / n as f32
+    }
+
+    #[test]
+    fn emission_samples_carry_the_lights_power() {
+        let bounds = SceneBounds {
+            center: Vec3::ZERO,
+            radius: 2.0,
+        };
+        let point = Light::Point {
+            position: Vec3::ONE,
+            flux: Vec3::new(4.0, 2.0, 1.0),
+        };
+        let p = estimated_power(&point, bounds);
+        assert!((p - Vec3::new(4.0, 2.0, 1.0)).abs().max_element() < 1e-3, "point: {p}");
+
+        // a unit square (two triangles) of radiance 2: Φ = π·A·L = 2π
+        let quad = Light::Area(AreaLight::mesh(
+            0,
+            Vec3::splat(2.0),
+            vec![
+                [Vec3::ZERO, Vec3::X, Vec3::new(1.0, 1.0, 0.0)],
+                [Vec3::ZERO, Vec3::new(1.0, 1.0, 0.0), Vec3::Y],
+            ],
+        ));
+        let p = estimated_power(&quad, bounds);
+        assert!((p.x - 2.0 * PI).abs() < 0.02 * 2.0 * PI, "quad: {p}");
+
+        // a sphere of radius 0.5 and radiance 1: Φ = π·4πr²·L = π²
+        let sphere = Light::Area(AreaLight::sphere(0, Vec3::ONE, Vec3::ZERO, 0.5));
+        let p = estimated_power(&sphere, bounds);
+        assert!((p.x - PI * PI).abs() < 0.02 * PI * PI, "sphere: {p}");
+
+        // a constant sky of radiance 0.5 through a disk of radius R: 4π · πR² · L
+        let sky = Light::Environment(crate::light::EnvironmentLight::new(
+            crate::light::environment::EnvImage::Constant(Vec3::splat(0.5)),
+            1.0,
+            &crate::math::Mat4::IDENTITY,
+        ));
+        let p = estimated_power(&sky, bounds);
+        let expected = 4.0 * PI * PI * 4.0 * 0.5;
+        assert!((p.x - expected).abs() < 0.02 * expected, "sky: {p} vs {expected}");
+    }
+}

@@ -221,7 +221,8 @@ impl Film {
         let (w, h) = (self.width as i32, self.height as i32);
         let k = self.filter.reach();
         for &(pos, l) in &splats.items {
-            if !(pos.x >= 0.0 && pos.y >= 0.0 && pos.x < w as f32 && pos.y < h as f32) || !l.is_finite() {
+            let inside = pos.x >= 0.0 && pos.y >= 0.0 && pos.x < w as f32 && pos.y < h as f32;
+            if !inside || !l.is_finite() {
                 continue;
             }
             let (px, py) = (pos.x.floor() as i32, pos.y.floor() as i32);

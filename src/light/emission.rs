@@ -118,7 +118,7 @@ impl AreaLight {
     /// its area density 1/A.
     pub fn sample_point(&self, u: Vec2) -> Option<(Vec3, Vec3, f32)> {
         let area = self.area();
-        if !(area > 0.0) {
+        if area.is_nan() || area <= 0.0 {
             return None;
         }
         match &self.emitter {

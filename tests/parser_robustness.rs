@@ -2,6 +2,8 @@
 //! scene and OBJ text through the parsers (the same calls as `fuzz/fuzz_targets/scene_json.rs`),
 //! which must never panic and must report errors on one line.
 
+mod common;
+
 use rdr::geometry::mesh::Mesh;
 use rdr::geometry::obj;
 use rdr::math::{Mat4, Vec3};
@@ -386,8 +388,8 @@ impl Tally {
 
 #[test]
 fn mutated_scenes_and_objs_never_panic() {
-    let dir = std::env::temp_dir().join(format!("rdr-robustness-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let tmp = common::temp_dir("rdr-robustness");
+    let dir = tmp.path();
     std::fs::write(dir.join("quad.obj"), QUAD_OBJ).unwrap();
     // The seeds are valid: mutations start from something that loads.
     assert_eq!(exercise_scene(SCENE, &dir), Ok(3));
@@ -434,7 +436,6 @@ fn mutated_scenes_and_objs_never_panic() {
         let text = String::from_utf8_lossy(&b).into_owned();
         t.check("mutated OBJ", &b, || exercise_obj(&text));
     }
-    std::fs::remove_dir_all(&dir).ok();
 
     for (what, n) in &t.stages {
         eprintln!("{what:>22}: inputs by stage reached {n:?}");

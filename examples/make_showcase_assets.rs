@@ -37,7 +37,11 @@ fn tiles(size: u32) -> RgbImage {
         let (fx, fy) = ((x % tile) as f32 + 0.5, (y % tile) as f32 + 0.5);
         let t = tile as f32;
         let edge = fx.min(fy).min(t - fx).min(t - fy); // distance to the grout line
-        let base = if (tx + ty) % 2 == 0 { [0.70, 0.30, 0.16] } else { [0.86, 0.80, 0.66] };
+        let base = if (tx + ty) % 2 == 0 {
+            [0.70, 0.30, 0.16]
+        } else {
+            [0.86, 0.80, 0.66]
+        };
         let v = 0.9 + 0.2 * hash(tx, ty);
         let mut c = base.map(|c| c * v);
         // a faint glaze gradient across each tile

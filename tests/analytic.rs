@@ -103,7 +103,7 @@ fn refraction_follows_snell_into_a_denser_medium() {
             {"type": "mesh", "path": "green2.obj", "material_name": "green"}
         ]
     });
-    let desc = rdr::scene::SceneDesc::from_value(&value, &dir.join("snell.json"), &dir).unwrap();
+    let desc = rdr::scene::SceneDesc::from_value(&value, &dir.join("snell.json"), dir).unwrap();
     let pixel = |profile: Profile| {
         let scene = rdr::scene::build(&desc, profile.build_options()).unwrap();
         common::render(&scene, 1, 0, profile).pixels[0]

@@ -392,7 +392,7 @@ fn mutated_scenes_and_objs_never_panic() {
     let dir = tmp.path();
     std::fs::write(dir.join("quad.obj"), QUAD_OBJ).unwrap();
     // The seeds are valid: mutations start from something that loads.
-    assert_eq!(exercise_scene(SCENE, &dir), Ok(3));
+    assert_eq!(exercise_scene(SCENE, dir), Ok(3));
     assert_eq!(exercise_obj(QUAD_OBJ), Ok(2));
     assert_eq!(obj::parse(QUAD_OBJ).unwrap().triangles.len(), 7);
 
@@ -408,7 +408,7 @@ fn mutated_scenes_and_objs_never_panic() {
             mutate_value(&mut rng, &mut v);
         }
         let text = serde_json::to_string_pretty(&v).unwrap();
-        t.check("edited scene", text.as_bytes(), || exercise_scene(&text, &dir));
+        t.check("edited scene", text.as_bytes(), || exercise_scene(&text, dir));
     }
     for _ in 0..20_000 {
         let mut b = SCENE.as_bytes().to_vec();
@@ -416,12 +416,12 @@ fn mutated_scenes_and_objs_never_panic() {
             mutate(&mut rng, &mut b);
         }
         let text = String::from_utf8_lossy(&b).into_owned();
-        t.check("mutated scene", &b, || exercise_scene(&text, &dir));
+        t.check("mutated scene", &b, || exercise_scene(&text, dir));
     }
     for _ in 0..2000 {
         let b: Vec<u8> = (0..rng.below(200)).map(|_| rng.next() as u8).collect();
         let text = String::from_utf8_lossy(&b).into_owned();
-        t.check("random bytes as scene", &b, || exercise_scene(&text, &dir));
+        t.check("random bytes as scene", &b, || exercise_scene(&text, dir));
         t.check("random bytes as OBJ", &b, || exercise_obj(&text));
     }
     for _ in 0..20_000 {

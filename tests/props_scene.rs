@@ -73,7 +73,7 @@ fn scene_queries_match_brute_force() {
         "materials": {"white": {"type": "diffuse", "texture_name": "w"}},
         "objects": objects
     });
-    let desc = rdr::scene::SceneDesc::from_value(&value, Path::new("t.json"), &dir.path()).unwrap();
+    let desc = rdr::scene::SceneDesc::from_value(&value, Path::new("t.json"), dir.path()).unwrap();
     let scene = rdr::scene::build(&desc, rdr::scene::BuildOptions::default()).unwrap();
     let expected_tris = (soup.len() - 1) + grid.len() + 2 * 2;
     assert_eq!(scene.triangle_count(), expected_tris);

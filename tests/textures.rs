@@ -72,7 +72,7 @@ fn uv_grid_is_upright_and_compat_flips_it() {
     let Some(shared) = common::shared() else { return };
     let tmp = common::temp_dir("rdr-textures-uvgrid");
     let dir = tmp.path();
-    let scene = quad_scene(&dir, &shared.join("textures/uv_grid_512.png"), 64);
+    let scene = quad_scene(dir, &shared.join("textures/uv_grid_512.png"), 64);
 
     let s = common::load_scene(&scene, &[], Profile::Physical);
     let img = common::render(&s, 4, 0, Profile::Physical);
@@ -90,7 +90,7 @@ fn uv_derivatives_of_a_head_on_quad_are_one_pixel() {
     // any picture will do; this one is generated
     let tex = dir.join("t.png");
     rdr::imageio::write_png(&tex, 2, 2, &[Vec3::ONE; 4]).unwrap();
-    let scene = common::load_scene(&quad_scene(&dir, &tex, 64), &[], Profile::Physical);
+    let scene = common::load_scene(&quad_scene(dir, &tex, 64), &[], Profile::Physical);
     let (ray, diff) = scene.camera.ray_differential(20.5, 40.5);
     let hit = scene.intersect(&ray).expect("the quad fills the view");
     let mut it = scene.interaction(&ray, &hit);
@@ -232,7 +232,7 @@ fn mipmapping_removes_aliasing_of_a_distant_checker_floor() {
     let tmp = common::temp_dir("rdr-textures-aliasing");
     let dir = tmp.path();
     let (w, h) = (160u32, 120u32);
-    let path = checker_floor_scene(&dir, [w, h]);
+    let path = checker_floor_scene(dir, [w, h]);
     let desc = rdr::scene::SceneDesc::load(&path, &[]).unwrap();
     let build = |mipmap: bool| {
         rdr::scene::build(

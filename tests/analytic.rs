@@ -76,8 +76,8 @@ fn refraction_follows_snell_into_a_denser_medium() {
     // Snell: sin θt = sin 30° / 1.5, so the ray meets the wall at x = tan θt ≈ 0.354.
     // Only the band 0.3 < x < 0.45 of the wall is red. Going straight on would reach
     // x = 0.577, and the original's η ratio (bending away) x ≈ 1.13: both green.
-    let dir = std::env::temp_dir().join(format!("rdr-snell-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let tmp = common::temp_dir("rdr-snell");
+    let dir = tmp.path();
     let quad = |x0: f32, x1: f32, z: f32| format!("v {x0} -50 {z}\nv {x1} -50 {z}\nv {x1} 50 {z}\nv {x0} 50 {z}\nf 1 2 3 4\n");
     std::fs::write(dir.join("face.obj"), quad(-50.0, 50.0, 0.0)).unwrap();
     std::fs::write(dir.join("red.obj"), quad(0.3, 0.45, -1.0)).unwrap();
@@ -97,13 +97,12 @@ fn refraction_follows_snell_into_a_denser_medium() {
             {"type": "mesh", "path": "green2.obj", "material_name": "green"}
         ]
     });
-    let desc = rdr::scene::SceneDesc::from_value(&value, &dir.join("snell.json"), &dir).unwrap();
+    let desc = rdr::scene::SceneDesc::from_value(&value, &dir.join("snell.json"), dir).unwrap();
     let pixel = |profile: Profile| {
         let scene = rdr::Loaded::build(&desc, profile).unwrap();
         common::render(&scene, 1, 0).pixels[0]
     };
     let (physical, original) = (pixel(Profile::Physical), pixel(Profile::Rdr171));
-    std::fs::remove_dir_all(&dir).ok();
     assert!(
         physical.x > 0.0 && physical.y == 0.0,
         "refracted ray should reach the red band: {physical}"

@@ -4,8 +4,10 @@
 //!
 //! Adding a case is one line in `cases()`.
 
+mod common;
+
 use serde_json::{json, Value};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Command;
 
 /// A small valid scene: a sphere and a one-triangle mesh (`tri.obj`, beside it).
@@ -260,17 +262,6 @@ fn rdr(args: &[&std::ffi::OsStr]) -> Run {
     }
 }
 
-/// A fresh, empty folder for this test run.
-fn temp_folder() -> PathBuf {
-    let nanos = std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .map(|d| d.as_nanos())
-        .unwrap_or(0);
-    let dir = std::env::temp_dir().join(format!("rdr-bad-input-{}-{nanos}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
-
 fn slug(name: &str) -> String {
     name.chars()
         .map(|c| if c.is_ascii_alphanumeric() { c.to_ascii_lowercase() } else { '-' })
@@ -304,7 +295,8 @@ fn check_error(run: &Run, names: &[String], expect: &[&str]) -> Vec<String> {
 
 #[test]
 fn broken_scenes_fail_with_one_line_naming_file_and_key() {
-    let dir = temp_folder();
+    let tmp = common::temp_dir("rdr-bad-input");
+    let dir = tmp.path().to_path_buf();
     std::fs::write(dir.join("tri.obj"), TRI_OBJ).unwrap();
     rdr::imageio::write_png(&dir.join("tex.png"), 2, 2, &[rdr::math::Vec3::splat(0.5); 4]).unwrap();
     let base: Value = serde_json::from_str(BASE).unwrap();
@@ -412,6 +404,10 @@ fn broken_scenes_fail_with_one_line_naming_file_and_key() {
         }
     }
 
+    if !failures.is_empty() {
+        // keep the files of a failing run for inspection
+        let _ = tmp.keep();
+    }
     assert!(
         failures.is_empty(),
         "{} of {} cases failed (their files are kept in {}):\n{}",
@@ -420,7 +416,6 @@ fn broken_scenes_fail_with_one_line_naming_file_and_key() {
         dir.display(),
         failures.join("\n")
     );
-    std::fs::remove_dir_all(&dir).ok();
 }
 
 #[test]

@@ -1,13 +1,16 @@
 //! `rdr bench MESH` end to end: it builds, checks every kernel variant against
 //! the reference and prints the whole table; its options are checked.
 
+mod common;
+
 use std::fmt::Write as _;
 use std::process::Command;
 
-/// A UV sphere of `2·n·n` triangles as an OBJ file in a fresh temporary folder.
-fn sphere_obj(name: &str, n: usize) -> std::path::PathBuf {
-    let dir = std::env::temp_dir().join(format!("rdr-bench-cli-{}-{name}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+/// A UV sphere of `2·n·n` triangles as an OBJ file in a fresh temporary folder
+/// (removed when the returned guard drops).
+fn sphere_obj(name: &str, n: usize) -> (tempfile::TempDir, std::path::PathBuf) {
+    let tmp = common::temp_dir(&format!("rdr-bench-cli-{name}"));
+    let dir = tmp.path();
     let mut obj = String::new();
     for i in 0..=n {
         let theta = std::f64::consts::PI * i as f64 / n as f64;
@@ -26,7 +29,7 @@ fn sphere_obj(name: &str, n: usize) -> std::path::PathBuf {
     }
     let path = dir.join("sphere.obj");
     std::fs::write(&path, obj).unwrap();
-    path
+    (tmp, path)
 }
 
 fn bench(args: &[&str]) -> (bool, String, String) {
@@ -44,7 +47,7 @@ fn bench(args: &[&str]) -> (bool, String, String) {
 
 #[test]
 fn mesh_benchmark_checks_every_kernel_and_prints_the_table() {
-    let mesh = sphere_obj("full", 40);
+    let (_tmp, mesh) = sphere_obj("full", 40);
     let (ok, out, err) = bench(&[mesh.to_str().unwrap(), "--repeat", "1", "--threads", "2"]);
     assert!(ok, "rdr bench failed: {err}");
     assert!(out.contains("triangles, loaded in"), "{out}");
@@ -70,12 +73,11 @@ fn mesh_benchmark_checks_every_kernel_and_prints_the_table() {
         assert_eq!(figures.len(), 5, "{row}");
         assert!(figures[..4].iter().all(|&f| f > 0.0), "{row}");
     }
-    let _ = std::fs::remove_dir_all(mesh.parent().unwrap());
 }
 
 #[test]
 fn mesh_benchmark_options() {
-    let mesh = sphere_obj("options", 10);
+    let (_tmp, mesh) = sphere_obj("options", 10);
     let path = mesh.to_str().unwrap();
     // one ray set, no repeated builds or check
     let (ok, out, err) = bench(&[path, "--repeat", "1", "--threads", "1", "--rays", "bounce", "--trace-only"]);
@@ -90,5 +92,4 @@ fn mesh_benchmark_options() {
     assert!(!ok && err.contains("--rays") && err.contains("sideways"), "{err}");
     let (ok, _, err) = bench(&[path, "--isa", "sse9"]);
     assert!(!ok && err.contains("--isa") && err.contains("sse9"), "{err}");
-    let _ = std::fs::remove_dir_all(mesh.parent().unwrap());
 }

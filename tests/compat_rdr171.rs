@@ -7,7 +7,8 @@ use std::process::Command;
 fn render_and_compare(name: &str) {
     let Some(shared) = common::shared() else { return };
     let data = shared.join("scenes/rdr171/data");
-    let out = std::env::temp_dir().join(format!("rdr-compat-{}-{name}.exr", std::process::id()));
+    let tmp = common::temp_dir(&format!("rdr-compat-{name}"));
+    let out = tmp.path().join(format!("{name}.exr"));
     let status = Command::new(env!("CARGO_BIN_EXE_rdr"))
         .args(["render", "--compat", "rdr171", "-q"])
         .arg(data.join(format!("{name}.json")))
@@ -31,7 +32,6 @@ fn render_and_compare(name: &str) {
         &differing[..differing.len().min(10)]
     );
     let same_bytes = std::fs::read(&out).unwrap() == std::fs::read(data.join(format!("{name}.exr"))).unwrap();
-    std::fs::remove_file(&out).ok();
     assert!(same_bytes, "pixels agree but the file layout differs from the original's");
 }
 

@@ -96,8 +96,8 @@ fn cornell_light_obj() -> String {
 /// area light under the ceiling (winding faces down).
 fn cornell_with_area_light(sampling: &str) -> rdr::Loaded {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
-    let dir = std::env::temp_dir().join(format!("rdr-lights-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let tmp = common::temp_dir("rdr-lights");
+    let dir = tmp.path();
     let light_obj = dir.join("ceiling_light.obj");
     std::fs::write(&light_obj, cornell_light_obj()).unwrap();
     let mut v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(root.join("cornell.json")).unwrap()).unwrap();

@@ -2,6 +2,8 @@
 //! scene and OBJ text through the parsers (the same calls as `fuzz/fuzz_targets/scene_json.rs`),
 //! which must never panic and must report errors on one line.
 
+mod common;
+
 use rdr::geometry::mesh::Mesh;
 use rdr::geometry::obj;
 use rdr::math::{Mat4, Vec3};
@@ -386,11 +388,11 @@ impl Tally {
 
 #[test]
 fn mutated_scenes_and_objs_never_panic() {
-    let dir = std::env::temp_dir().join(format!("rdr-robustness-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let tmp = common::temp_dir("rdr-robustness");
+    let dir = tmp.path();
     std::fs::write(dir.join("quad.obj"), QUAD_OBJ).unwrap();
     // The seeds are valid: mutations start from something that loads.
-    assert_eq!(exercise_scene(SCENE, &dir), Ok(3));
+    assert_eq!(exercise_scene(SCENE, dir), Ok(3));
     assert_eq!(exercise_obj(QUAD_OBJ), Ok(2));
     assert_eq!(obj::parse(QUAD_OBJ).unwrap().triangles.len(), 7);
 
@@ -406,7 +408,7 @@ fn mutated_scenes_and_objs_never_panic() {
             mutate_value(&mut rng, &mut v);
         }
         let text = serde_json::to_string_pretty(&v).unwrap();
-        t.check("edited scene", text.as_bytes(), || exercise_scene(&text, &dir));
+        t.check("edited scene", text.as_bytes(), || exercise_scene(&text, dir));
     }
     for _ in 0..20_000 {
         let mut b = SCENE.as_bytes().to_vec();
@@ -414,12 +416,12 @@ fn mutated_scenes_and_objs_never_panic() {
             mutate(&mut rng, &mut b);
         }
         let text = String::from_utf8_lossy(&b).into_owned();
-        t.check("mutated scene", &b, || exercise_scene(&text, &dir));
+        t.check("mutated scene", &b, || exercise_scene(&text, dir));
     }
     for _ in 0..2000 {
         let b: Vec<u8> = (0..rng.below(200)).map(|_| rng.next() as u8).collect();
         let text = String::from_utf8_lossy(&b).into_owned();
-        t.check("random bytes as scene", &b, || exercise_scene(&text, &dir));
+        t.check("random bytes as scene", &b, || exercise_scene(&text, dir));
         t.check("random bytes as OBJ", &b, || exercise_obj(&text));
     }
     for _ in 0..20_000 {
@@ -434,7 +436,6 @@ fn mutated_scenes_and_objs_never_panic() {
         let text = String::from_utf8_lossy(&b).into_owned();
         t.check("mutated OBJ", &b, || exercise_obj(&text));
     }
-    std::fs::remove_dir_all(&dir).ok();
 
     for (what, n) in &t.stages {
         eprintln!("{what:>22}: inputs by stage reached {n:?}");

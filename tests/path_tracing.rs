@@ -192,7 +192,8 @@ fn every_course_scene_renders_or_names_its_missing_asset() {
         .collect();
     scenes.sort();
     assert!(scenes.len() >= 15);
-    let out = std::env::temp_dir().join(format!("rdr-course-{}.exr", std::process::id()));
+    let tmp = common::temp_dir("rdr-course");
+    let out = tmp.path().join("out.exr");
     for scene in scenes {
         let r = std::process::Command::new(env!("CARGO_BIN_EXE_rdr"))
             .args([
@@ -218,5 +219,4 @@ fn every_course_scene_renders_or_names_its_missing_asset() {
             "{name}: the error names a missing asset: {err}"
         );
     }
-    std::fs::remove_file(&out).ok();
 }

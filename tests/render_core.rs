@@ -170,7 +170,7 @@ fn the_stop_token_abandons_a_pass_midway_and_keeps_the_finished_ones() {
 
 #[test]
 fn normals_integrator_shows_the_shading_normal_of_a_sphere() {
-    let dir = common::temp_dir("normals");
+    let dir = common::temp_dir("rdr-normals");
     let scene = serde_json::json!({
         "integrator": {"type": "normals", "spp": 1},
         "film": {"resolution": [33, 33]},
@@ -200,7 +200,7 @@ fn normals_integrator_shows_the_shading_normal_of_a_sphere() {
 
 #[test]
 fn cli_images_are_byte_identical_for_one_two_and_three_threads() {
-    let dir = common::temp_dir("threads");
+    let dir = common::temp_dir("rdr-threads");
     let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell.json");
     let render = |threads: u32| {
         let out = dir.path().join(format!("t{threads}.exr"));

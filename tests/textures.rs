@@ -11,17 +11,6 @@ use rdr::texture::{Texture, TextureConvention};
 use rdr::Profile;
 use std::path::{Path, PathBuf};
 
-/// A fresh, empty folder for one test.
-fn temp_folder(name: &str) -> PathBuf {
-    let nanos = std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .map(|d| d.as_nanos())
-        .unwrap_or(0);
-    let dir = std::env::temp_dir().join(format!("rdr-textures-{name}-{}-{nanos}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
-
 /// The unit quad `[-1, 1]²` at z = 0 facing +z, uv (0,0) bottom-left to (1,1) top-right.
 const QUAD_OBJ: &str = "v -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nf 1/1 2/2 3/3 4/4\n";
 
@@ -81,8 +70,9 @@ fn check_uv_grid(img: &Image, flipped: bool, what: &str) {
 #[test]
 fn uv_grid_is_upright_and_compat_flips_it() {
     let Some(shared) = common::shared() else { return };
-    let dir = temp_folder("uvgrid");
-    let scene = quad_scene(&dir, &shared.join("textures/uv_grid_512.png"), 64);
+    let tmp = common::temp_dir("rdr-textures-uvgrid");
+    let dir = tmp.path();
+    let scene = quad_scene(dir, &shared.join("textures/uv_grid_512.png"), 64);
 
     let s = common::load_scene(&scene, &[], Profile::Physical);
     let img = common::render(&s, 4, 0);
@@ -91,16 +81,16 @@ fn uv_grid_is_upright_and_compat_flips_it() {
     let s = common::load_scene(&scene, &[], Profile::Rdr171);
     let img = common::render(&s, 4, 0);
     check_uv_grid(&img, true, "--compat rdr171");
-    std::fs::remove_dir_all(&dir).ok();
 }
 
 #[test]
 fn uv_derivatives_of_a_head_on_quad_are_one_pixel() {
-    let dir = temp_folder("derivs");
+    let tmp = common::temp_dir("rdr-textures-derivs");
+    let dir = tmp.path();
     // any picture will do; this one is generated
     let tex = dir.join("t.png");
     rdr::imageio::write_png(&tex, 2, 2, &[Vec3::ONE; 4]).unwrap();
-    let rdr::Loaded { scene, job } = common::load_scene(&quad_scene(&dir, &tex, 64), &[], Profile::Physical);
+    let rdr::Loaded { scene, job } = common::load_scene(&quad_scene(dir, &tex, 64), &[], Profile::Physical);
     let (ray, diff) = job.camera.ray_differential(20.5, 40.5);
     let hit = scene.intersect(&ray).expect("the quad fills the view");
     let mut it = scene.interaction(&ray, &hit);
@@ -115,12 +105,12 @@ fn uv_derivatives_of_a_head_on_quad_are_one_pixel() {
     // half the footprint when scaled by ½
     it.compute_uv_derivatives(&diff.scaled(&ray, 0.5));
     assert!((it.duvdx - Vec2::new(0.5 / 64.0, 0.0)).length() < 1e-5, "duvdx {}", it.duvdx);
-    std::fs::remove_dir_all(&dir).ok();
 }
 
 #[test]
 fn sphere_uv_order_follows_the_profile() {
-    let dir = temp_folder("sphere");
+    let tmp = common::temp_dir("rdr-textures-sphere");
+    let dir = tmp.path();
     let scene = serde_json::json!({
         "integrator": {"type": "intersection_test"},
         "film": {"resolution": [8, 8]},
@@ -149,12 +139,12 @@ fn sphere_uv_order_follows_the_profile() {
         }
         assert!(it.dpdu.cross(it.dpdv).length() > 0.0);
     }
-    std::fs::remove_dir_all(&dir).ok();
 }
 
 #[test]
 fn textures_sharing_a_file_share_its_pyramid() {
-    let dir = temp_folder("shared");
+    let tmp = common::temp_dir("rdr-textures-shared");
+    let dir = tmp.path();
     rdr::imageio::write_png(&dir.join("t.png"), 4, 4, &[Vec3::splat(0.5); 16]).unwrap();
     std::fs::write(dir.join("quad.obj"), QUAD_OBJ).unwrap();
     let gen = |s: f32| serde_json::json!({"type": "uvmapping2d", "scale": [s, s]});
@@ -182,7 +172,6 @@ fn textures_sharing_a_file_share_its_pyramid() {
         "the same file spelled differently"
     );
     assert_eq!(pyramid(0).levels().len(), 3, "4x4, 2x2, 1x1");
-    std::fs::remove_dir_all(&dir).ok();
 }
 
 // --- aliasing ------------------------------------------------------------------------
@@ -240,9 +229,10 @@ fn rel_rms(a: &Image, b: &Image, rows: std::ops::Range<usize>) -> f64 {
 
 #[test]
 fn mipmapping_removes_aliasing_of_a_distant_checker_floor() {
-    let dir = temp_folder("aliasing");
+    let tmp = common::temp_dir("rdr-textures-aliasing");
+    let dir = tmp.path();
     let (w, h) = (160u32, 120u32);
-    let path = checker_floor_scene(&dir, [w, h]);
+    let path = checker_floor_scene(dir, [w, h]);
     let desc = rdr::scene::SceneDesc::load(&path, &[]).unwrap();
     let build = |mipmap: bool| {
         rdr::Loaded::build_with(
@@ -305,7 +295,6 @@ fn mipmapping_removes_aliasing_of_a_distant_checker_floor() {
     }
     // many samples with MIP-mapping converge to nearly the unfiltered picture (footprints shrink with 1/√spp)
     assert!(e_conv < BOUND / 2.0, "256 spp with MIP-mapping: {e_conv:.4}");
-    std::fs::remove_dir_all(&dir).ok();
 }
 
 // --- pyramid and lookups ----------------------------------------------------------------

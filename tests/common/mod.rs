@@ -1,6 +1,21 @@
 //! Helpers shared by the integration tests.
 #![allow(dead_code)]
 
+pub mod brute;
+pub mod gen;
+pub mod lattice;
+pub mod rng;
+
+// each test file uses some of these
+#[allow(unused_imports)]
+pub use brute::*;
+#[allow(unused_imports)]
+pub use gen::*;
+#[allow(unused_imports)]
+pub use lattice::*;
+#[allow(unused_imports)]
+pub use rng::Rng;
+
 use rdr::metrics::Image;
 use rdr::{Loaded, Profile, RenderControl};
 use std::path::{Path, PathBuf};
@@ -50,10 +65,11 @@ pub fn scaled(img: &Image, s: f32) -> Image {
     Image::new(img.width, img.height, img.pixels.iter().map(|p| *p * s).collect())
 }
 
-/// A fresh temporary folder, removed when dropped (also when the test fails).
+/// A fresh, uniquely named folder under the system temp dir (`prefix-XXXXXX`),
+/// removed when the returned guard drops, also when the test panics.
 pub fn temp_dir(prefix: &str) -> tempfile::TempDir {
     tempfile::Builder::new()
-        .prefix(&format!("rdr-{prefix}-"))
+        .prefix(&format!("{prefix}-"))
         .tempdir()
-        .expect("cannot create a temporary folder")
+        .unwrap_or_else(|e| panic!("cannot create a temp folder for {prefix}: {e}"))
 }

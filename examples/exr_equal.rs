@@ -29,7 +29,12 @@ fn main() -> ExitCode {
         .filter(|(p, q)| p.to_array().map(f32::to_bits) != q.to_array().map(f32::to_bits))
         .count();
     if differing > 0 {
-        let i = x.pixels.iter().zip(&y.pixels).position(|(p, q)| p.to_array().map(f32::to_bits) != q.to_array().map(f32::to_bits)).unwrap_or(0);
+        let i = x
+            .pixels
+            .iter()
+            .zip(&y.pixels)
+            .position(|(p, q)| p.to_array().map(f32::to_bits) != q.to_array().map(f32::to_bits))
+            .unwrap_or(0);
         eprintln!(
             "{differing} of {} pixels differ; first at ({}, {}): {:?} vs {:?}",
             x.pixels.len(),

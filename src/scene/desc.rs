@@ -81,9 +81,9 @@ pub struct PointLightDesc {
     pub key: String,
 }
 
-/// `film`: `resolution` ([int, int], positive, [600, 600]), `block_side_length` (int ≥ 1,
-/// 16; tile size, no effect on the image), `filter` (object, box of radius 0.5; see
-/// [`Filter`]).
+/// `film`: `resolution` ([int, int], positive, at most 2²⁸ pixels, [600, 600]),
+/// `block_side_length` (int ≥ 1, 16; tile size, no effect on the image), `filter`
+/// (object, box of radius 0.5; see [`Filter`]).
 #[derive(Clone, Debug)]
 pub struct FilmDesc {
     pub width: u32,

@@ -2,7 +2,25 @@
 
 use crate::geometry::{Ray, RayDifferential};
 use crate::math::{normalize_div, Vec3, PI};
-use crate::scene::desc::CameraDesc;
+
+/// Where a pinhole camera is and how it looks: `camera` in a scene, every key
+/// optional:
+/// * `position` (vec3, (0,0,1)), `look_at` (vec3, (0,0,0)) — must differ;
+/// * `ref_up` (vec3, (0,1,0)) — not zero nor parallel to the viewing direction;
+/// * `fov` (vertical degrees, strictly between 0 and 180, 45);
+/// * `focal_length` (> 0, 1; cancels out of the rays).
+///
+/// ```json
+/// "camera": {"position": [0, 1, 6.8], "look_at": [0, 1, 0], "ref_up": [0, 1, 0], "fov": 19.5}
+/// ```
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CameraParams {
+    pub position: Vec3,
+    pub look_at: Vec3,
+    pub ref_up: Vec3,
+    pub fov: f32,
+    pub focal_length: f32,
+}
 
 #[derive(Clone, Debug)]
 pub struct Camera {
@@ -17,7 +35,7 @@ pub struct Camera {
 
 impl Camera {
     /// Set-up in the original's f32 order, so `--compat` rays are bit-exact.
-    pub fn new(d: &CameraDesc, width: u32, height: u32) -> Camera {
+    pub fn new(d: &CameraParams, width: u32, height: u32) -> Camera {
         let f = normalize_div(d.look_at - d.position);
         let r = normalize_div(f.cross(d.ref_up));
         let u = r.cross(f);
@@ -67,7 +85,7 @@ mod tests {
 
     #[test]
     fn image_left_is_world_minus_x_and_fov_is_vertical() {
-        let d = CameraDesc {
+        let d = CameraParams {
             position: Vec3::new(0.0, 1.0, 6.8),
             look_at: Vec3::new(0.0, 1.0, 0.0),
             ref_up: Vec3::Y,
@@ -86,7 +104,7 @@ mod tests {
 
     #[test]
     fn differentials_are_the_rays_one_pixel_right_and_up() {
-        let d = CameraDesc {
+        let d = CameraParams {
             position: Vec3::new(1.0, 2.0, 3.0),
             look_at: Vec3::ZERO,
             ref_up: Vec3::Y,

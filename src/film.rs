@@ -8,25 +8,41 @@
 //! that is added to the weighted average divided by the number of samples per pixel.
 
 use crate::math::{Vec2, Vec3};
-use crate::scene::desc::FilterDesc;
 
+/// The pixel reconstruction filter, `film.filter` in a scene: `type` (`"box"` |
+/// `"gaussian"` | `"mitchell"`, `"box"`), `radius` (> 0, 0.5), `alpha` (gaussian, 2),
+/// `B`, `C` (mitchell, 1/3 each). Without a `filter` object the film uses a box of
+/// radius 0.5.
+///
+/// ```json
+/// "filter": {"type": "gaussian", "radius": 1.5, "alpha": 2}
+/// ```
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Filter {
-    Box { radius: f32 },
-    Gaussian { radius: f32, alpha: f32, tail: f32 },
-    Mitchell { radius: f32, b: f32, c: f32 },
+    Box {
+        radius: f32,
+    },
+    /// `exp(−α·d²) − tail` per axis, clamped at 0; build it with [`Filter::gaussian`],
+    /// which derives `tail = exp(−α·radius²)` so the weight vanishes at the radius.
+    Gaussian {
+        radius: f32,
+        alpha: f32,
+        tail: f32,
+    },
+    Mitchell {
+        radius: f32,
+        b: f32,
+        c: f32,
+    },
 }
 
 impl Filter {
-    pub fn new(d: &FilterDesc) -> Filter {
-        match *d {
-            FilterDesc::Box { radius } => Filter::Box { radius },
-            FilterDesc::Gaussian { radius, alpha } => Filter::Gaussian {
-                radius,
-                alpha,
-                tail: (-alpha * radius * radius).exp(),
-            },
-            FilterDesc::Mitchell { radius, b, c } => Filter::Mitchell { radius, b, c },
+    /// A gaussian of falloff `alpha` cut off (and shifted to 0) at `radius`.
+    pub fn gaussian(radius: f32, alpha: f32) -> Filter {
+        Filter::Gaussian {
+            radius,
+            alpha,
+            tail: (-alpha * radius * radius).exp(),
         }
     }
 
@@ -320,25 +336,24 @@ mod tests {
 
     #[test]
     fn filters_vanish_at_their_radius_and_peak_at_the_centre() {
-        for d in [
-            FilterDesc::Gaussian { radius: 1.5, alpha: 2.0 },
-            FilterDesc::Mitchell {
+        for f in [
+            Filter::gaussian(1.5, 2.0),
+            Filter::Mitchell {
                 radius: 2.0,
                 b: 1.0 / 3.0,
                 c: 1.0 / 3.0,
             },
         ] {
-            let f = Filter::new(&d);
             let r = f.radius();
             assert!(f.eval(r, 0.0).abs() < 1e-6 && f.eval(r + 0.01, 0.0) == 0.0);
             assert!(f.eval(0.0, 0.0) > f.eval(0.5, 0.2));
         }
-        assert_eq!(Filter::new(&FilterDesc::Gaussian { radius: 1.5, alpha: 2.0 }).reach(), 1);
+        assert_eq!(Filter::gaussian(1.5, 2.0).reach(), 1);
     }
 
     #[test]
     fn wide_filter_spreads_a_sample_over_neighbours() {
-        let f = Filter::new(&FilterDesc::Gaussian { radius: 1.5, alpha: 2.0 });
+        let f = Filter::gaussian(1.5, 2.0);
         let mut t = FilmTile::new(1, 1, 2, 2, f.reach(), 3, 3);
         t.add(Vec2::new(1.5, 1.5), Vec3::ONE, &f, 3, 3);
         assert_eq!(t.weight.iter().filter(|w| **w > 0.0).count(), 9);

@@ -11,24 +11,35 @@ pub use microfacet::Distribution;
 
 use crate::math::{Frame, Vec3};
 
+/// A material, `materials.<name>` in a scene: `type` (`"diffuse"`) and the keys of
+/// each variant below. Textures are `T`: references by name (or inline colours) in the
+/// scene description, indices into the scene's textures (the default) once it is built.
+///
+/// ```json
+/// "materials": {
+///   "white": {"type": "diffuse", "texture_name": "white"},
+///   "metal": {"type": "roughconductor", "texture_name": "white", "etaT": [0.2, 0.9, 1.1],
+///             "k": [3.9, 2.4, 2.2], "alpha_x": 0.2, "alpha_y": 0.2, "distribution": "ggx"}
+/// }
+/// ```
 #[derive(Clone, Debug)]
-pub enum Material {
-    /// Lambertian, albedo from a texture; one-sided unless `twosided`.
-    Diffuse {
-        texture: u32,
-        twosided: bool,
-    },
-    /// Perfect refraction with index `eta` inside, vacuum outside; weight 1.
-    Refraction {
-        eta: f32,
-    },
-    Glass {
-        reflect: Vec3,
-        transmit: Vec3,
-        eta: f32,
-    },
+pub enum Material<T = u32> {
+    /// `diffuse`: Lambertian, albedo from a texture; one-sided unless `twosided`.
+    /// `texture_name` (required; legacy scenes may give an inline `color` instead,
+    /// accepted with a warning), `twosided` (false).
+    Diffuse { texture: T, twosided: bool },
+    /// `refraction`: perfect refraction with index `eta` (> 0, 1.5) inside, vacuum
+    /// outside; weight 1.
+    Refraction { eta: f32 },
+    /// `glass`: a smooth dielectric; `R` (reflectance, vec3, (1,1,1)), `T`
+    /// (transmittance, vec3, (1,1,1)), `eta` (> 0, 1.5).
+    Glass { reflect: Vec3, transmit: Vec3, eta: f32 },
+    /// `roughconductor`: `texture_name` (required, a tint; legacy scenes may give an
+    /// inline `R` instead, accepted with a warning), `etaI`, `etaT`, `k` (vec3, (1,1,1)
+    /// each), `alpha_x`, `alpha_y` (≥ 0, 0.1 each), `distribution` (`"beckmann"` |
+    /// `"ggx"`, `"beckmann"`).
     RoughConductor {
-        texture: u32,
+        texture: T,
         eta_i: Vec3,
         eta_t: Vec3,
         k: Vec3,
@@ -38,10 +49,44 @@ pub enum Material {
     },
 }
 
-impl Material {
+impl<T> Material<T> {
     /// Specular materials have a Dirac-delta BSDF.
     pub fn is_delta(&self) -> bool {
         matches!(self, Material::Refraction { .. } | Material::Glass { .. })
+    }
+
+    /// The same material with every texture replaced by `f(texture)` (in declaration
+    /// order): how a description's texture references become indices.
+    pub fn try_map_textures<U, E>(&self, mut f: impl FnMut(&T) -> Result<U, E>) -> Result<Material<U>, E> {
+        Ok(match self {
+            Material::Diffuse { texture, twosided } => Material::Diffuse {
+                texture: f(texture)?,
+                twosided: *twosided,
+            },
+            Material::Refraction { eta } => Material::Refraction { eta: *eta },
+            Material::Glass { reflect, transmit, eta } => Material::Glass {
+                reflect: *reflect,
+                transmit: *transmit,
+                eta: *eta,
+            },
+            Material::RoughConductor {
+                texture,
+                eta_i,
+                eta_t,
+                k,
+                alpha_x,
+                alpha_y,
+                distribution,
+            } => Material::RoughConductor {
+                texture: f(texture)?,
+                eta_i: *eta_i,
+                eta_t: *eta_t,
+                k: *k,
+                alpha_x: *alpha_x,
+                alpha_y: *alpha_y,
+                distribution: *distribution,
+            },
+        })
     }
 }
 

@@ -5,7 +5,7 @@
 use crate::camera::Camera;
 use crate::compat::Profile;
 use crate::error::{Result, SceneError};
-use crate::film::{FilmSettings, Filter};
+use crate::film::FilmSettings;
 use crate::integrator::rdr171::Rdr171Columns;
 use crate::integrator::Integrator;
 use crate::scene::desc::SceneDesc;
@@ -46,7 +46,7 @@ impl RenderJob {
             film: FilmSettings {
                 width: f.width,
                 height: f.height,
-                filter: Filter::new(&f.filter),
+                filter: f.filter,
                 block_size: f.block_size,
             },
             integrator,

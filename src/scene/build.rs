@@ -1,6 +1,7 @@
 //! Description → render-ready scene: loads meshes, resolves names, builds the BVH.
 
-use super::desc::{MaterialKind, SceneDesc, ShapeDesc, TextureKind, TextureRef};
+use super::desc::{MeshFile, SceneDesc, TextureRef};
+use super::source::Source;
 use super::{Object, Prim, Scene, Shape};
 use crate::accel::WideBvh;
 use crate::error::{Result, SceneError};
@@ -8,13 +9,11 @@ use crate::geometry::mesh::Mesh;
 use crate::geometry::obj;
 /// Moved to the geometry layer; re-exported for existing callers.
 pub use crate::geometry::prim::prim_bounds;
-use crate::geometry::sphere::Sphere;
 use crate::light::environment::EnvImage;
 use crate::light::{AreaLight, EnvironmentLight, Light, LightSampler};
-use crate::material::Material;
 use crate::math::Vec3;
 use crate::texture::image::{ImageCache, ImageTexture};
-use crate::texture::{Texture, TextureConvention, UvMapping};
+use crate::texture::{Texture, TextureConvention};
 use rayon::prelude::*;
 use std::collections::HashMap;
 
@@ -42,7 +41,7 @@ impl Default for BuildOptions {
     }
 }
 
-fn lookup(names: &HashMap<&str, u32>, name: &str, what: &str, desc: &SceneDesc, key: &str) -> Result<u32> {
+fn lookup(names: &HashMap<&str, u32>, name: &str, what: &str, desc: &SceneDesc, source: &Source) -> Result<u32> {
     names.get(name).copied().ok_or_else(|| {
         let mut known: Vec<&str> = names.keys().copied().collect();
         known.sort();
@@ -51,19 +50,18 @@ fn lookup(names: &HashMap<&str, u32>, name: &str, what: &str, desc: &SceneDesc, 
         } else {
             format!("defined: {}", known.join(", "))
         };
-        SceneError::new(&desc.file, Some(key), format!("no {what} named '{name}' ({known})"))
+        source.error(&desc.file, format!("no {what} named '{name}' ({known})"))
     })
 }
 
-fn load_mesh(
-    desc: &SceneDesc,
-    path: &super::desc::At<String>,
-    opts: BuildOptions,
-    transform: &crate::math::Mat4,
-    translate: crate::math::Vec3,
-) -> Result<(Mesh, Vec<String>)> {
+fn load_mesh(desc: &SceneDesc, file: &MeshFile, opts: BuildOptions) -> Result<(Mesh, Vec<String>)> {
+    let MeshFile {
+        path,
+        transform,
+        translate,
+    } = file;
     let full = desc.base_dir.join(&path.value);
-    let err = |msg: String| SceneError::new(&desc.file, Some(&path.key), msg);
+    let err = |msg: String| path.source.error(&desc.file, msg);
     let text = std::fs::read(&full).map_err(|e| err(format!("cannot read mesh '{}': {e}", full.display())))?;
     let text = String::from_utf8_lossy(&text);
     let data = obj::parse(&text).map_err(|e| err(format!("{}: {e}", full.display())))?;
@@ -71,7 +69,7 @@ fn load_mesh(
     if data.triangles.is_empty() {
         return Err(err(format!("mesh '{}' has no faces", full.display())));
     }
-    let (mesh, report) = Mesh::from_obj(data, transform, translate, opts.swap_uv_on_rewind);
+    let (mesh, report) = Mesh::from_obj(data, transform, *translate, opts.swap_uv_on_rewind);
     if report.degenerate > 0 {
         warnings.push(format!(
             "{}: {} degenerate (zero-area) triangle(s) skipped, the first from line {}",
@@ -91,18 +89,18 @@ pub fn build(desc: &SceneDesc, opts: BuildOptions) -> Result<Scene> {
 
     let texture_names: HashMap<&str, u32> = desc.textures.iter().enumerate().map(|(i, t)| (t.name.as_str(), i as u32)).collect();
     // Image files load first (once per distinct file, in parallel).
-    let image_paths: Vec<(std::path::PathBuf, &str)> = desc
+    let image_paths: Vec<(std::path::PathBuf, &Source)> = desc
         .textures
         .iter()
-        .filter_map(|t| match &t.kind {
-            TextureKind::Image { path, .. } => Some((desc.base_dir.join(&path.value), path.key.as_str())),
+        .filter_map(|t| match &t.texture {
+            Texture::Image(file) => Some((desc.base_dir.join(&file.path.value), &file.path.source)),
             _ => None,
         })
         .collect();
     let mut images = ImageCache::default();
     let files: Vec<std::path::PathBuf> = image_paths.iter().map(|(p, _)| p.clone()).collect();
     images.load_all(&files, opts.textures, opts.mipmap).map_err(|(i, e)| {
-        let (full, key) = &image_paths[i];
+        let (full, source) = &image_paths[i];
         // the loader's messages name the file already; name it here only when not
         let (e, full) = (format!("{e:#}"), full.display().to_string());
         let msg = if e.contains(&full) {
@@ -110,22 +108,16 @@ pub fn build(desc: &SceneDesc, opts: BuildOptions) -> Result<Scene> {
         } else {
             format!("cannot load image texture '{full}': {e}")
         };
-        SceneError::new(&desc.file, Some(key), msg)
+        source.error(&desc.file, msg)
     })?;
     let mut textures = Vec::with_capacity(desc.textures.len());
     for t in &desc.textures {
-        textures.push(match &t.kind {
-            TextureKind::Constant { color } => Texture::Constant(*color),
-            TextureKind::Checkerboard { color0, color1, mapping } => Texture::Checkerboard {
-                color0: *color0,
-                color1: *color1,
-                mapping: UvMapping::new(mapping),
-            },
-            TextureKind::Image { path, mapping } => Texture::Image(ImageTexture {
-                mipmap: images.get(&desc.base_dir.join(&path.value)).expect("loaded above"),
-                mapping: UvMapping::new(mapping),
-            }),
-        });
+        textures.push(t.texture.try_map_image(|file| {
+            Ok::<_, SceneError>(ImageTexture {
+                mipmap: images.get(&desc.base_dir.join(&file.path.value)).expect("loaded above"),
+                mapping: file.mapping,
+            })
+        })?);
     }
 
     let material_names: HashMap<&str, u32> = desc
@@ -136,35 +128,10 @@ pub fn build(desc: &SceneDesc, opts: BuildOptions) -> Result<Scene> {
         .collect();
     let mut materials = Vec::with_capacity(desc.materials.len());
     for m in &desc.materials {
-        materials.push(match &m.kind {
-            MaterialKind::Diffuse { texture, twosided } => Material::Diffuse {
-                texture: resolve_texture(texture, &texture_names, &mut textures, desc)?,
-                twosided: *twosided,
-            },
-            MaterialKind::Refraction { eta } => Material::Refraction { eta: *eta },
-            MaterialKind::Glass { reflect, transmit, eta } => Material::Glass {
-                reflect: *reflect,
-                transmit: *transmit,
-                eta: *eta,
-            },
-            MaterialKind::RoughConductor {
-                texture,
-                eta_i,
-                eta_t,
-                k,
-                alpha_x,
-                alpha_y,
-                distribution,
-            } => Material::RoughConductor {
-                texture: resolve_texture(texture, &texture_names, &mut textures, desc)?,
-                eta_i: *eta_i,
-                eta_t: *eta_t,
-                k: *k,
-                alpha_x: *alpha_x,
-                alpha_y: *alpha_y,
-                distribution: *distribution,
-            },
-        });
+        materials.push(
+            m.material
+                .try_map_textures(|t| resolve_texture(t, &texture_names, &mut textures, desc))?,
+        );
     }
 
     // Meshes load in parallel; errors are reported for the first failing object.
@@ -172,18 +139,8 @@ pub fn build(desc: &SceneDesc, opts: BuildOptions) -> Result<Scene> {
         .objects
         .par_iter()
         .map(|o| match &o.shape {
-            ShapeDesc::Mesh {
-                path,
-                transform,
-                translate,
-            } => load_mesh(desc, path, opts, transform, *translate).map(|(m, w)| (Shape::Mesh(m), w)),
-            ShapeDesc::Sphere { center, radius } => Ok((
-                Shape::Sphere(Sphere {
-                    center: *center,
-                    radius: *radius,
-                }),
-                Vec::new(),
-            )),
+            Shape::Mesh(file) => load_mesh(desc, file, opts).map(|(m, w)| (Shape::Mesh(m), w)),
+            Shape::Sphere(s) => Ok((Shape::Sphere(*s), Vec::new())),
         })
         .collect();
     let mut objects = Vec::with_capacity(desc.objects.len());
@@ -202,7 +159,7 @@ pub fn build(desc: &SceneDesc, opts: BuildOptions) -> Result<Scene> {
         let material = o
             .material
             .as_ref()
-            .map(|m| lookup(&material_names, &m.value, "material", desc, &m.key))
+            .map(|m| lookup(&material_names, &m.value, "material", desc, &m.source))
             .transpose()?;
         let light = o.light.as_ref().map(|l| {
             lights.push(Light::Area(match &shape {
@@ -217,7 +174,7 @@ pub fn build(desc: &SceneDesc, opts: BuildOptions) -> Result<Scene> {
     let environment = match &desc.environment_map {
         None => None,
         Some(env) => {
-            let t = lookup(&texture_names, &env.texture.value, "texture", desc, &env.texture.key)?;
+            let t = lookup(&texture_names, &env.texture.value, "texture", desc, &env.texture.source)?;
             // the texture's file is loaded already: its level 0 is the image as read
             let image = match &textures[t as usize] {
                 Texture::Constant(color) => EnvImage::Constant(*color),
@@ -231,11 +188,10 @@ pub fn build(desc: &SceneDesc, opts: BuildOptions) -> Result<Scene> {
                     }
                 }
                 Texture::Checkerboard { .. } => {
-                    return Err(SceneError::new(
-                        &desc.file,
-                        Some(&env.texture.key),
-                        "an environment map needs an image or constant texture",
-                    ))
+                    return Err(env
+                        .texture
+                        .source
+                        .error(&desc.file, "an environment map needs an image or constant texture"))
                 }
             };
             lights.push(Light::Environment(EnvironmentLight::new(image, env.scale, &env.transform)));
@@ -290,7 +246,7 @@ pub fn build(desc: &SceneDesc, opts: BuildOptions) -> Result<Scene> {
 /// Index of a material's texture; inline colours become constant textures.
 fn resolve_texture(r: &TextureRef, names: &HashMap<&str, u32>, textures: &mut Vec<Texture>, desc: &SceneDesc) -> Result<u32> {
     match r {
-        TextureRef::Named(t) => lookup(names, &t.value, "texture", desc, &t.key),
+        TextureRef::Named(t) => lookup(names, &t.value, "texture", desc, &t.source),
         TextureRef::Color(c) => {
             textures.push(Texture::Constant(*c));
             Ok(textures.len() as u32 - 1)

@@ -1,21 +1,25 @@
-//! Scene description: the RDR171 JSON read into plain structs (spec §3–§12).
+//! Scene description: the RDR171 JSON read into plain values (spec §3–§12).
 //! Nothing here touches the file system except reading the scene itself; meshes
 //! and textures are loaded when the render-ready scene is built (`build.rs`).
 //!
-//! Each struct's documentation lists its keys with their defaults.
+//! The variant families are the render layer's own types with their unresolved
+//! parts as parameters: [`Material<TextureRef>`](Material), [`Texture<ImageFile>`](Texture),
+//! [`Shape<MeshFile>`](Shape), and [`Filter`], [`CameraParams`], [`UvMapping`] as they
+//! are. Each type's documentation (here or on the shared type) lists its keys with
+//! their defaults; values that later steps may report on keep their [`Source`].
 
 use super::json::{Context, Props};
+use super::source::{Located, Source};
+use super::Shape;
+use crate::camera::CameraParams;
 use crate::error::Result;
+use crate::film::Filter;
+use crate::geometry::sphere::Sphere;
+use crate::material::{Distribution, Material};
 use crate::math::{Mat4, Vec2, Vec3};
+use crate::texture::{Texture, UvMapping};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
-
-/// A value together with the JSON path it was read from.
-#[derive(Clone, Debug, PartialEq)]
-pub struct At<T> {
-    pub value: T,
-    pub key: String,
-}
 
 /// The whole scene. Top-level keys: `integrator`, `film`, `camera` (required),
 /// `textures`, `materials`, `objects`, `environment_map`.
@@ -26,7 +30,7 @@ pub struct SceneDesc {
     pub base_dir: PathBuf,
     pub integrator: IntegratorDesc,
     pub film: FilmDesc,
-    pub camera: CameraDesc,
+    pub camera: CameraParams,
     pub textures: Vec<TextureDesc>,
     pub materials: Vec<MaterialDesc>,
     pub objects: Vec<ObjectDesc>,
@@ -51,6 +55,7 @@ use crate::integrator::{Integrator, IntersectionTest, Normals, PathProfile, Path
 ///   by their own importance and chosen by power, or uniformly (for comparisons).
 ///
 /// ```json
+/// {"type": "path", "profile": "NEE", "spp": 64, "max_depth": 8}
 /// {"type": "intersection_test", "spp": 32, "max_depth": 16,
 ///  "lights": [{"type": "point", "position": [0, 1.5, 0.5], "flux": [17, 12, 5]}]}
 /// ```
@@ -70,82 +75,33 @@ pub struct PointLightDesc {
     pub key: String,
 }
 
-/// `film`: `resolution` ([int, int], [600, 600]), `block_side_length` (int ≥ 1, 16;
-/// tile size, no effect on the image), `filter` (object, box of radius 0.5).
+/// `film`: `resolution` ([int, int], positive, at most 2²⁸ pixels, [600, 600]),
+/// `block_side_length` (int ≥ 1, 16; tile size, no effect on the image), `filter`
+/// (object, box of radius 0.5; see [`Filter`]).
 #[derive(Clone, Debug)]
 pub struct FilmDesc {
     pub width: u32,
     pub height: u32,
     pub block_size: u32,
-    pub filter: FilterDesc,
-}
-
-/// `film.filter`: `type` (`"box"` | `"gaussian"` | `"mitchell"`, `"box"`), `radius`
-/// (0.5), `alpha` (gaussian, 2), `B`, `C` (mitchell, 1/3 each).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum FilterDesc {
-    Box { radius: f32 },
-    Gaussian { radius: f32, alpha: f32 },
-    Mitchell { radius: f32, b: f32, c: f32 },
-}
-
-/// `camera` (pinhole): `position` ((0,0,1)), `look_at` ((0,0,0)), `ref_up` ((0,1,0)),
-/// `fov` (vertical degrees, 45), `focal_length` (1; cancels out).
-#[derive(Clone, Debug)]
-pub struct CameraDesc {
-    pub position: Vec3,
-    pub look_at: Vec3,
-    pub ref_up: Vec3,
-    pub fov: f32,
-    pub focal_length: f32,
+    pub filter: Filter,
 }
 
 /// `textures.<name>`: `type` = `constant` (`color`, required) | `checkerboard`
 /// (`color0` (0.4), `color1` (0.2), `tex_coordinate_generator`) | `image` (`path`,
-/// `tex_coordinate_generator`); see [`TextureKind`].
+/// `tex_coordinate_generator`); see [`Texture`] and [`UvMapping`].
 #[derive(Clone, Debug)]
 pub struct TextureDesc {
     pub name: String,
-    pub key: String,
-    pub kind: TextureKind,
+    pub source: Source,
+    pub texture: Texture<ImageFile>,
 }
 
+/// An `image` texture's file (`path`, relative to the scene file's folder, read when
+/// the scene is built) and its `tex_coordinate_generator`.
 #[derive(Clone, Debug)]
-pub enum TextureKind {
-    /// `constant`: `color` (vec3, required).
-    Constant { color: Vec3 },
-    /// `checkerboard`: `color0` (vec3, (0.4, 0.4, 0.4)), `color1` (vec3, (0.2, 0.2, 0.2)),
-    /// `tex_coordinate_generator` (required); checks 0.5 wide in `st`.
-    Checkerboard {
-        color0: Vec3,
-        color1: Vec3,
-        mapping: UvMappingDesc,
-    },
-    /// `image`:
-    /// * `path` (string, required) — relative to the scene file's folder. EXR and Radiance
-    ///   `.hdr` are read as linear values, PNG and JPEG decoded from sRGB; alpha is dropped.
-    ///   The file is read when the scene is built (once, however many textures name it);
-    ///   a missing or undecodable file is an error naming this key.
-    /// * `tex_coordinate_generator` (required) — `st = scale ⊙ uv + delta`.
-    ///
-    /// `st = (0, 0)` is the bottom-left corner of the picture and `(1, 1)` the top-right
-    /// (`--compat rdr171`: `t = 0` is the top row, as in the original); the picture repeats
-    /// outside [0, 1]². Lookups are MIP-mapped (trilinear) from the ray footprint; see
-    /// `src/texture/mipmap.rs`.
-    ///
-    /// ```json
-    /// "grid": {"type": "image", "path": "textures/uv_grid.png",
-    ///          "tex_coordinate_generator": {"type": "uvmapping2d", "scale": [4, 4]}}
-    /// ```
-    Image { path: At<String>, mapping: UvMappingDesc },
-}
-
-/// `tex_coordinate_generator`: `type` = `"uvmapping2d"`, `scale` ((1,1)), `delta`
-/// ((0,0)): `st = scale ⊙ uv + delta`.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct UvMappingDesc {
-    pub scale: Vec2,
-    pub delta: Vec2,
+pub struct ImageFile {
+    pub path: Located<String>,
+    pub mapping: UvMapping,
 }
 
 /// `materials.<name>`: `type` (`"diffuse"`) and per type:
@@ -153,84 +109,59 @@ pub struct UvMappingDesc {
 /// * `refraction`: `eta` (1.5);
 /// * `glass`: `R` ((1,1,1)), `T` ((1,1,1)), `eta` (1.5);
 /// * `roughconductor`: `texture_name` (required), `etaI`, `etaT`, `k` ((1,1,1)),
-///   `alpha_x`, `alpha_y` (0.1), `distribution` (`"beckmann"` | `"ggx"`, `"beckmann"`).
+///   `alpha_x`, `alpha_y` (0.1), `distribution` (`"beckmann"` | `"ggx"`, `"beckmann"`);
+///
+/// see [`Material`].
 #[derive(Clone, Debug)]
 pub struct MaterialDesc {
     pub name: String,
-    pub key: String,
-    pub kind: MaterialKind,
-}
-
-#[derive(Clone, Debug)]
-pub enum MaterialKind {
-    Diffuse {
-        texture: TextureRef,
-        twosided: bool,
-    },
-    Refraction {
-        eta: f32,
-    },
-    Glass {
-        reflect: Vec3,
-        transmit: Vec3,
-        eta: f32,
-    },
-    RoughConductor {
-        texture: TextureRef,
-        eta_i: Vec3,
-        eta_t: Vec3,
-        k: Vec3,
-        alpha_x: f32,
-        alpha_y: f32,
-        distribution: crate::material::Distribution,
-    },
+    pub source: Source,
+    pub material: Material<TextureRef>,
 }
 
 /// A material's texture: by name, or an inline colour (legacy keys).
 #[derive(Clone, Debug)]
 pub enum TextureRef {
-    Named(At<String>),
+    Named(Located<String>),
     Color(Vec3),
 }
 
-/// `objects[i]`: `type` (`"mesh"` | `"sphere"`), `material_name`, `light`; at least
-/// one of the last two.
+/// `objects[i]`: `type` (`"mesh"` | `"sphere"`, required; see [`Shape`]), `material_name`,
+/// `light`; at least one of the last two.
 #[derive(Clone, Debug)]
 pub struct ObjectDesc {
-    pub key: String,
-    pub shape: ShapeDesc,
-    pub material: Option<At<String>>,
+    pub source: Source,
+    pub shape: Shape<MeshFile>,
+    pub material: Option<Located<String>>,
     pub light: Option<AreaLightDesc>,
 }
 
-/// * `mesh`: `path` (OBJ, required), `transform` (16 numbers row-major, identity),
-///   `translate` ((0,0,0), added after `transform`);
-/// * `sphere`: `center` ((0,0,0)), `radius` (1).
+/// A `mesh` object's file and placement: `path` (OBJ, relative to the scene file's
+/// folder, required; read when the scene is built), `transform` (16 numbers row-major,
+/// identity), `translate` ((0,0,0), added after `transform`).
+///
+/// ```json
+/// {"type": "mesh", "path": "meshes/bunny.obj", "translate": [0, 0.5, 0], "material_name": "white"}
+/// ```
 #[derive(Clone, Debug)]
-pub enum ShapeDesc {
-    Mesh {
-        path: At<String>,
-        transform: Mat4,
-        translate: Vec3,
-    },
-    Sphere {
-        center: Vec3,
-        radius: f32,
-    },
+pub struct MeshFile {
+    pub path: Located<String>,
+    pub transform: Mat4,
+    pub translate: Vec3,
 }
 
 /// `objects[i].light`: `type` (`"area"`), `radiance` ((1,1,1)); one-sided emission.
 #[derive(Clone, Debug)]
 pub struct AreaLightDesc {
-    pub key: String,
+    pub source: Source,
     pub radiance: Vec3,
 }
 
 /// `environment_map`: `texture_name` (required), `scale` (1), `transform` (identity).
 #[derive(Clone, Debug)]
 pub struct EnvMapDesc {
-    pub key: String,
-    pub texture: At<String>,
+    pub source: Source,
+    pub texture: Located<String>,
     pub scale: f32,
     pub transform: Mat4,
 }
@@ -408,7 +339,7 @@ fn parse_film(p: &Props) -> Result<FilmDesc> {
     }
     let block_size = p.int_at_least("block_side_length", 16, 1)?;
     let filter = match p.object_opt("filter")? {
-        None => FilterDesc::Box { radius: 0.5 },
+        None => Filter::Box { radius: 0.5 },
         Some(f) => {
             let ty = f.string_or("type", "box")?;
             let radius = f.f32_or("radius", 0.5)?;
@@ -416,12 +347,9 @@ fn parse_film(p: &Props) -> Result<FilmDesc> {
                 return Err(f.error("radius", format!("must be positive, found {radius}")));
             }
             let d = match ty.as_str() {
-                "box" => FilterDesc::Box { radius },
-                "gaussian" => FilterDesc::Gaussian {
-                    radius,
-                    alpha: f.f32_or("alpha", 2.0)?,
-                },
-                "mitchell" => FilterDesc::Mitchell {
+                "box" => Filter::Box { radius },
+                "gaussian" => Filter::gaussian(radius, f.f32_or("alpha", 2.0)?),
+                "mitchell" => Filter::Mitchell {
                     radius,
                     b: f.f32_or("B", 1.0 / 3.0)?,
                     c: f.f32_or("C", 1.0 / 3.0)?,
@@ -441,8 +369,8 @@ fn parse_film(p: &Props) -> Result<FilmDesc> {
     })
 }
 
-fn parse_camera(p: &Props) -> Result<CameraDesc> {
-    let c = CameraDesc {
+fn parse_camera(p: &Props) -> Result<CameraParams> {
+    let c = CameraParams {
         position: p.vec3_or("position", Vec3::new(0.0, 0.0, 1.0))?,
         look_at: p.vec3_or("look_at", Vec3::ZERO)?,
         ref_up: p.vec3_or("ref_up", Vec3::Y)?,
@@ -466,7 +394,7 @@ fn parse_camera(p: &Props) -> Result<CameraDesc> {
     Ok(c)
 }
 
-fn parse_mapping(p: &Props) -> Result<UvMappingDesc> {
+fn parse_mapping(p: &Props) -> Result<UvMapping> {
     let g = p.object("tex_coordinate_generator")?;
     let ty = g.string("type")?;
     if ty != "uvmapping2d" {
@@ -475,7 +403,7 @@ fn parse_mapping(p: &Props) -> Result<UvMappingDesc> {
             format!("unknown texture coordinate generator '{ty}' (available: uvmapping2d)"),
         ));
     }
-    let m = UvMappingDesc {
+    let m = UvMapping {
         scale: g.vec2_or("scale", Vec2::ONE)?,
         delta: g.vec2_or("delta", Vec2::ZERO)?,
     };
@@ -483,26 +411,19 @@ fn parse_mapping(p: &Props) -> Result<UvMappingDesc> {
     Ok(m)
 }
 
-fn at(p: &Props, key: &str, value: String) -> At<String> {
-    At {
-        value,
-        key: p.key_path(key),
-    }
-}
-
 fn parse_texture(name: &str, p: &Props) -> Result<TextureDesc> {
     let ty = p.string("type")?;
-    let kind = match ty.as_str() {
-        "constant" => TextureKind::Constant { color: p.vec3("color")? },
-        "checkerboard" => TextureKind::Checkerboard {
+    let texture = match ty.as_str() {
+        "constant" => Texture::Constant(p.vec3("color")?),
+        "checkerboard" => Texture::Checkerboard {
             color0: p.vec3_or("color0", Vec3::splat(0.4))?,
             color1: p.vec3_or("color1", Vec3::splat(0.2))?,
             mapping: parse_mapping(p)?,
         },
-        "image" => TextureKind::Image {
-            path: at(p, "path", p.string("path")?),
+        "image" => Texture::Image(ImageFile {
+            path: p.located("path", p.string("path")?),
             mapping: parse_mapping(p)?,
-        },
+        }),
         _ => {
             return Err(p.error(
                 "type",
@@ -513,8 +434,8 @@ fn parse_texture(name: &str, p: &Props) -> Result<TextureDesc> {
     p.finish();
     Ok(TextureDesc {
         name: name.to_string(),
-        key: p.path.clone(),
-        kind,
+        source: p.own_source(),
+        texture,
     })
 }
 
@@ -535,7 +456,7 @@ fn texture_ref(p: &Props, legacy: &str) -> Result<TextureRef> {
         );
         return Ok(TextureRef::Color(p.vec3(legacy)?));
     }
-    Ok(TextureRef::Named(at(p, "texture_name", p.string("texture_name")?)))
+    Ok(TextureRef::Named(p.located("texture_name", p.string("texture_name")?)))
 }
 
 fn parse_material(name: &str, p: &Props) -> Result<MaterialDesc> {
@@ -547,18 +468,18 @@ fn parse_material(name: &str, p: &Props) -> Result<MaterialDesc> {
         }
         Ok(eta)
     };
-    let kind = match ty.as_str() {
-        "diffuse" => MaterialKind::Diffuse {
+    let material = match ty.as_str() {
+        "diffuse" => Material::Diffuse {
             texture: texture_ref(p, "color")?,
             twosided: p.bool_or("twosided", false)?,
         },
-        "refraction" => MaterialKind::Refraction { eta: positive_eta("eta")? },
-        "glass" => MaterialKind::Glass {
+        "refraction" => Material::Refraction { eta: positive_eta("eta")? },
+        "glass" => Material::Glass {
             reflect: p.vec3_or("R", Vec3::ONE)?,
             transmit: p.vec3_or("T", Vec3::ONE)?,
             eta: positive_eta("eta")?,
         },
-        "roughconductor" => MaterialKind::RoughConductor {
+        "roughconductor" => Material::RoughConductor {
             texture: texture_ref(p, "R")?,
             eta_i: p.vec3_or("etaI", Vec3::ONE)?,
             eta_t: p.vec3_or("etaT", Vec3::ONE)?,
@@ -566,8 +487,8 @@ fn parse_material(name: &str, p: &Props) -> Result<MaterialDesc> {
             alpha_x: non_negative(p, "alpha_x", p.f32_or("alpha_x", 0.1)?)?,
             alpha_y: non_negative(p, "alpha_y", p.f32_or("alpha_y", 0.1)?)?,
             distribution: match p.string_or("distribution", "beckmann")?.as_str() {
-                "beckmann" => crate::material::Distribution::Beckmann,
-                "ggx" => crate::material::Distribution::Ggx,
+                "beckmann" => Distribution::Beckmann,
+                "ggx" => Distribution::Ggx,
                 other => {
                     return Err(p.error(
                         "distribution",
@@ -586,32 +507,32 @@ fn parse_material(name: &str, p: &Props) -> Result<MaterialDesc> {
     p.finish();
     Ok(MaterialDesc {
         name: name.to_string(),
-        key: p.path.clone(),
-        kind,
+        source: p.own_source(),
+        material,
     })
 }
 
 fn parse_object(p: &Props) -> Result<ObjectDesc> {
     let ty = p.string("type")?;
     let shape = match ty.as_str() {
-        "mesh" => ShapeDesc::Mesh {
-            path: at(p, "path", p.string("path")?),
+        "mesh" => Shape::Mesh(MeshFile {
+            path: p.located("path", p.string("path")?),
             transform: p.mat4_or("transform", Mat4::IDENTITY)?,
             translate: p.vec3_or("translate", Vec3::ZERO)?,
-        },
+        }),
         "sphere" => {
             let radius = p.f32_or("radius", 1.0)?;
             if radius <= 0.0 {
                 return Err(p.error("radius", format!("must be positive, found {radius}")));
             }
-            ShapeDesc::Sphere {
+            Shape::Sphere(Sphere {
                 center: p.vec3_or("center", Vec3::ZERO)?,
                 radius,
-            }
+            })
         }
         _ => return Err(p.error("type", format!("unknown object type '{ty}' (available: mesh, sphere)"))),
     };
-    let material = p.string_opt("material_name")?.map(|m| at(p, "material_name", m));
+    let material = p.string_opt("material_name")?.map(|m| p.located("material_name", m));
     let light = match p.object_opt("light")? {
         None => None,
         Some(l) => {
@@ -625,7 +546,7 @@ fn parse_object(p: &Props) -> Result<ObjectDesc> {
             }
             l.finish();
             Some(AreaLightDesc {
-                key: l.path.clone(),
+                source: l.own_source(),
                 radiance,
             })
         }
@@ -635,7 +556,7 @@ fn parse_object(p: &Props) -> Result<ObjectDesc> {
     }
     p.finish();
     Ok(ObjectDesc {
-        key: p.path.clone(),
+        source: p.own_source(),
         shape,
         material,
         light,
@@ -644,8 +565,8 @@ fn parse_object(p: &Props) -> Result<ObjectDesc> {
 
 fn parse_env(p: &Props) -> Result<EnvMapDesc> {
     let e = EnvMapDesc {
-        key: p.path.clone(),
-        texture: at(p, "texture_name", p.string("texture_name")?),
+        source: p.own_source(),
+        texture: p.located("texture_name", p.string("texture_name")?),
         scale: non_negative(p, "scale", p.f32_or("scale", 1.0)?)?,
         transform: p.mat4_or("transform", Mat4::IDENTITY)?,
     };

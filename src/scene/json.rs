@@ -1,6 +1,7 @@
 //! Reading JSON values with the RDR171 typing rules (spec §2), remembering the
 //! JSON path of every value so errors and warnings can name it.
 
+use super::source::{Located, Source};
 use crate::error::{Result, SceneError};
 use crate::math::{mat4_from_row_major, Mat4, Vec2, Vec3};
 use serde_json::{Map, Value};
@@ -81,6 +82,24 @@ impl<'a> Props<'a> {
 
     pub fn error(&self, key: &str, msg: impl Into<String>) -> SceneError {
         self.ctx.error(&self.key_path(key), msg)
+    }
+
+    /// Where `key` of this object is.
+    pub fn source(&self, key: &str) -> Source {
+        Source::Json(self.key_path(key))
+    }
+
+    /// Where this object itself is.
+    pub fn own_source(&self) -> Source {
+        Source::Json(self.path.clone())
+    }
+
+    /// `value`, read from `key` of this object.
+    pub fn located<T>(&self, key: &str, value: T) -> Located<T> {
+        Located {
+            value,
+            source: self.source(key),
+        }
     }
 
     pub fn contains(&self, key: &str) -> bool {

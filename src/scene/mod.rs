@@ -1,10 +1,14 @@
-//! Scenes in two layers: [`desc`] (the JSON as plain structs that remember their
-//! JSON paths) and [`Scene`] (render-ready: loaded meshes, resolved names, BVH),
-//! built by [`build`](mod@build).
+//! Scenes in two layers: [`desc`] (the JSON as plain values that remember where
+//! they came from, a [`Source`]) and [`Scene`] (render-ready: loaded meshes, resolved
+//! names, BVH), built by [`build`](mod@build). Both layers share one definition of
+//! each variant family, generic over what is still unresolved in the description:
+//! [`Material`], [`Texture`], [`Shape`], [`Filter`], [`crate::camera::CameraParams`]
+//! and [`crate::texture::UvMapping`].
 
 pub mod build;
 pub mod desc;
 pub mod json;
+pub mod source;
 
 use crate::accel::WideBvh;
 pub use crate::geometry::interaction::Interaction;
@@ -19,10 +23,17 @@ use crate::math::Vec3;
 use crate::texture::{TexCoord, Texture, TextureConvention};
 pub use build::{build, BuildOptions};
 pub use desc::SceneDesc;
+pub use source::{Located, Source};
 
+/// An object's geometry, chosen by `objects[i].type`. The mesh is `M`: a file to
+/// read in the scene description ([`desc::MeshFile`]: `path`, `transform`,
+/// `translate`), the loaded [`Mesh`] (the default) once the scene is built.
 #[derive(Clone, Debug)]
-pub enum Shape {
-    Mesh(Mesh),
+pub enum Shape<M = Mesh> {
+    /// `mesh`: `path` (OBJ, required), `transform` (16 numbers row-major, identity),
+    /// `translate` ((0,0,0), added after `transform`); see [`desc::MeshFile`].
+    Mesh(M),
+    /// `sphere`: `center` (vec3, (0,0,0)), `radius` (> 0, 1).
     Sphere(Sphere),
 }
 

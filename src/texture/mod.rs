@@ -11,7 +11,6 @@ pub mod image;
 pub mod mipmap;
 
 use crate::math::{Vec2, Vec3};
-use crate::scene::desc::UvMappingDesc;
 pub use image::ImageTexture;
 pub use mipmap::MipMap;
 
@@ -59,7 +58,12 @@ impl From<Vec2> for TexCoord {
     }
 }
 
-/// `st = scale ⊙ uv + delta`.
+/// `st = scale ⊙ uv + delta`: a texture's `tex_coordinate_generator` in a scene,
+/// `type` = `"uvmapping2d"` (required), `scale` (vec2, (1,1)), `delta` (vec2, (0,0)).
+///
+/// ```json
+/// "tex_coordinate_generator": {"type": "uvmapping2d", "scale": [4, 4], "delta": [0.5, 0]}
+/// ```
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct UvMapping {
     pub scale: Vec2,
@@ -67,29 +71,56 @@ pub struct UvMapping {
 }
 
 impl UvMapping {
-    pub fn new(d: &UvMappingDesc) -> Self {
-        UvMapping {
-            scale: d.scale,
-            delta: d.delta,
-        }
-    }
     #[inline]
     pub fn map(&self, uv: Vec2) -> Vec2 {
         self.scale * uv + self.delta
     }
 }
 
+/// A texture, `textures.<name>` in a scene, chosen by `type` (required). The image
+/// is `I`: a file to read in the scene description, the loaded [`ImageTexture`] (the
+/// default) once the scene is built.
 #[derive(Clone, Debug)]
-pub enum Texture {
+pub enum Texture<I = ImageTexture> {
+    /// `constant`: `color` (vec3, required).
     Constant(Vec3),
-    /// Checks 0.5 wide in `st`; the cells on both sides of 0 merge (spec §8).
-    Checkerboard {
-        color0: Vec3,
-        color1: Vec3,
-        mapping: UvMapping,
-    },
-    /// A picture (spec §8 `image`), shared with other textures using the same file.
-    Image(ImageTexture),
+    /// `checkerboard`: `color0` (vec3, (0.4, 0.4, 0.4)), `color1` (vec3, (0.2, 0.2, 0.2)),
+    /// `tex_coordinate_generator` (required, a [`UvMapping`]); checks 0.5 wide in `st`,
+    /// the cells on both sides of 0 merge (spec §8).
+    Checkerboard { color0: Vec3, color1: Vec3, mapping: UvMapping },
+    /// `image` (spec §8):
+    /// * `path` (string, required) — relative to the scene file's folder. EXR and Radiance
+    ///   `.hdr` are read as linear values, PNG and JPEG decoded from sRGB; alpha is dropped.
+    ///   The file is read when the scene is built (once, however many textures name it);
+    ///   a missing or undecodable file is an error naming this key.
+    /// * `tex_coordinate_generator` (required, a [`UvMapping`]) — `st = scale ⊙ uv + delta`.
+    ///
+    /// `st = (0, 0)` is the bottom-left corner of the picture and `(1, 1)` the top-right
+    /// (`--compat rdr171`: `t = 0` is the top row, as in the original); the picture repeats
+    /// outside [0, 1]². Lookups are MIP-mapped (trilinear) from the ray footprint; see
+    /// [`mipmap`]. Once built, the picture is shared with other textures using the same file.
+    ///
+    /// ```json
+    /// "grid": {"type": "image", "path": "textures/uv_grid.png",
+    ///          "tex_coordinate_generator": {"type": "uvmapping2d", "scale": [4, 4]}}
+    /// ```
+    Image(I),
+}
+
+impl<I> Texture<I> {
+    /// The same texture with its image replaced by `f(image)` (the other variants are
+    /// copied): how a description's file becomes a loaded picture.
+    pub fn try_map_image<J, E>(&self, f: impl FnOnce(&I) -> Result<J, E>) -> Result<Texture<J>, E> {
+        Ok(match self {
+            Texture::Constant(c) => Texture::Constant(*c),
+            Texture::Checkerboard { color0, color1, mapping } => Texture::Checkerboard {
+                color0: *color0,
+                color1: *color1,
+                mapping: *mapping,
+            },
+            Texture::Image(i) => Texture::Image(f(i)?),
+        })
+    }
 }
 
 impl Texture {

@@ -4,6 +4,7 @@ pub mod accel;
 pub mod bench;
 pub mod camera;
 pub mod compat;
+pub mod desc;
 pub mod error;
 pub mod film;
 pub mod geometry;

@@ -8,7 +8,7 @@ use serde_json::json;
 use std::path::Path;
 
 fn scene_from(value: serde_json::Value) -> rdr::Loaded {
-    let desc = rdr::scene::SceneDesc::from_value(&value, Path::new("analytic.json"), Path::new(".")).unwrap();
+    let desc = rdr::desc::SceneDesc::from_value(&value, Path::new("analytic.json"), Path::new(".")).unwrap();
     rdr::Loaded::build(&desc, rdr::Profile::Physical).unwrap()
 }
 
@@ -97,7 +97,7 @@ fn refraction_follows_snell_into_a_denser_medium() {
             {"type": "mesh", "path": "green2.obj", "material_name": "green"}
         ]
     });
-    let desc = rdr::scene::SceneDesc::from_value(&value, &dir.join("snell.json"), dir).unwrap();
+    let desc = rdr::desc::SceneDesc::from_value(&value, &dir.join("snell.json"), dir).unwrap();
     let pixel = |profile: Profile| {
         let scene = rdr::Loaded::build(&desc, profile).unwrap();
         common::render(&scene, 1, 0).pixels[0]

@@ -422,7 +422,7 @@ fn broken_scenes_fail_with_one_line_naming_file_and_key() {
 fn valid_scene_fixture_parses() {
     // Guards the fixture: if BASE stops being valid, every error case passes for the wrong reason.
     let v: Value = serde_json::from_str(BASE).unwrap();
-    let desc = rdr::scene::SceneDesc::from_value(&v, Path::new("base.json"), Path::new(".")).unwrap();
+    let desc = rdr::desc::SceneDesc::from_value(&v, Path::new("base.json"), Path::new(".")).unwrap();
     assert!(desc.warnings.is_empty(), "{:?}", desc.warnings);
     assert_eq!(desc.objects.len(), 2);
 }

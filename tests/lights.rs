@@ -108,7 +108,7 @@ fn cornell_with_area_light(sampling: &str) -> rdr::Loaded {
     );
     v["film"]["resolution"] = serde_json::json!([24, 24]);
     v["integrator"]["light_sampling"] = serde_json::json!(sampling);
-    let desc = rdr::scene::SceneDesc::from_value(&v, &root.join("cornell.json"), &root).unwrap();
+    let desc = rdr::desc::SceneDesc::from_value(&v, &root.join("cornell.json"), &root).unwrap();
     rdr::Loaded::build(&desc, rdr::Profile::Physical).unwrap()
 }
 

@@ -4,11 +4,11 @@
 
 mod common;
 
+use rdr::desc::json::{merge, parse_text};
+use rdr::desc::{build, BuildOptions, SceneDesc};
 use rdr::geometry::mesh::Mesh;
 use rdr::geometry::obj;
 use rdr::math::{Mat4, Vec3};
-use rdr::scene::json::{merge, parse_text};
-use rdr::scene::{build, BuildOptions, SceneDesc};
 use serde_json::{json, Value};
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::path::Path;

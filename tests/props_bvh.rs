@@ -10,10 +10,10 @@ mod common;
 use common::*;
 use rdr::accel::bvh::{Bvh, MAX_LEAF};
 use rdr::accel::wide::{ChildRef, Isa, WideBvh};
+use rdr::desc::build::{build_bvh, prim_bounds};
 use rdr::geometry::aabb::Aabb;
 use rdr::geometry::Ray;
 use rdr::math::Vec3;
-use rdr::scene::build::{build_bvh, prim_bounds};
 use rdr::scene::Prim;
 
 fn bvh_closest(bvh: &Bvh, prims: &[Prim], ray: &Ray) -> Option<(u32, f32)> {

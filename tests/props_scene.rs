@@ -8,11 +8,11 @@ mod common;
 
 use common::*;
 use rdr::accel::wide::Isa;
+use rdr::desc::build::{build_bvh, prim_bounds};
 use rdr::geometry::aabb::Aabb;
 use rdr::geometry::triangle::intersect_watertight;
 use rdr::geometry::Ray;
 use rdr::math::Vec3;
-use rdr::scene::build::{build_bvh, prim_bounds};
 use rdr::scene::Prim;
 use std::path::Path;
 
@@ -73,8 +73,8 @@ fn scene_queries_match_brute_force() {
         "materials": {"white": {"type": "diffuse", "texture_name": "w"}},
         "objects": objects
     });
-    let desc = rdr::scene::SceneDesc::from_value(&value, Path::new("t.json"), dir.path()).unwrap();
-    let scene = rdr::scene::build(&desc, rdr::scene::BuildOptions::default()).unwrap();
+    let desc = rdr::desc::SceneDesc::from_value(&value, Path::new("t.json"), dir.path()).unwrap();
+    let scene = rdr::desc::build(&desc, rdr::desc::BuildOptions::default()).unwrap();
     let expected_tris = (soup.len() - 1) + grid.len() + 2 * 2;
     assert_eq!(scene.triangle_count(), expected_tris);
     assert_eq!(scene.prims.len(), expected_tris + 41);

@@ -3,9 +3,9 @@
 
 mod common;
 
+use rdr::desc::BuildOptions;
 use rdr::math::{Vec2, Vec3};
 use rdr::metrics::Image;
-use rdr::scene::BuildOptions;
 use rdr::texture::mipmap::{Level, MipMap};
 use rdr::texture::{Texture, TextureConvention};
 use rdr::Profile;
@@ -233,7 +233,7 @@ fn mipmapping_removes_aliasing_of_a_distant_checker_floor() {
     let dir = tmp.path();
     let (w, h) = (160u32, 120u32);
     let path = checker_floor_scene(dir, [w, h]);
-    let desc = rdr::scene::SceneDesc::load(&path, &[]).unwrap();
+    let desc = rdr::desc::SceneDesc::load(&path, &[]).unwrap();
     let build = |mipmap: bool| {
         rdr::Loaded::build_with(
             &desc,

@@ -12,9 +12,9 @@ use std::path::Path;
 fuzz_target!(|data: &[u8]| {
     let text = String::from_utf8_lossy(data);
     let file = Path::new("fuzz.json");
-    if let Ok(value) = rdr::scene::json::parse_text(&text, file) {
+    if let Ok(value) = rdr::desc::json::parse_text(&text, file) {
         // `from_value` reads nothing from disk; the base folder only anchors paths.
-        let _ = rdr::scene::SceneDesc::from_value(&value, file, Path::new("."));
+        let _ = rdr::desc::SceneDesc::from_value(&value, file, Path::new("."));
     }
     let _ = rdr::geometry::obj::parse(&text);
 });

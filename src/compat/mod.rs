@@ -23,7 +23,7 @@
 //! [`crate::render::RenderJob::from_desc`]); the texture rows are one switch, [`BuildOptions::textures`]
 //! ([`crate::texture::TextureConvention`]), set here; see `src/texture/mipmap.rs`.
 
-use crate::scene::BuildOptions;
+use crate::desc::BuildOptions;
 use crate::texture::TextureConvention;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]

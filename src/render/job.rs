@@ -4,12 +4,12 @@
 
 use crate::camera::Camera;
 use crate::compat::Profile;
+use crate::desc::{build, BuildOptions, SceneDesc};
 use crate::error::{Result, SceneError};
 use crate::film::FilmSettings;
 use crate::integrator::rdr171::Rdr171Columns;
 use crate::integrator::Integrator;
-use crate::scene::desc::SceneDesc;
-use crate::scene::{build, BuildOptions, Scene};
+use crate::scene::Scene;
 use std::path::Path;
 
 #[derive(Clone, Debug)]

@@ -1,14 +1,9 @@
-//! Scenes in two layers: [`desc`] (the JSON as plain values that remember where
-//! they came from, a [`Source`]) and [`Scene`] (render-ready: loaded meshes, resolved
-//! names, BVH), built by [`build`](mod@build). Both layers share one definition of
+//! The world, render-ready: loaded meshes, resolved names, lights with their
+//! sampler, the BVH ([`Scene`]). It is built from the description layer
+//! ([`crate::desc`]) by [`crate::desc::build`], and shares with it one definition of
 //! each variant family, generic over what is still unresolved in the description:
-//! [`Material`], [`Texture`], [`Shape`], [`Filter`], [`crate::camera::CameraParams`]
-//! and [`crate::texture::UvMapping`].
-
-pub mod build;
-pub mod desc;
-pub mod json;
-pub mod source;
+//! [`Material`], [`Texture`], [`Shape`], [`crate::film::Filter`],
+//! [`crate::camera::CameraParams`] and [`crate::texture::UvMapping`].
 
 use crate::accel::WideBvh;
 pub use crate::geometry::interaction::Interaction;
@@ -21,9 +16,6 @@ use crate::light::Light;
 use crate::material::Material;
 use crate::math::Vec3;
 use crate::texture::{TexCoord, Texture, TextureConvention};
-pub use build::{build, BuildOptions};
-pub use desc::SceneDesc;
-pub use source::{Located, Source};
 
 /// An object's geometry, chosen by `objects[i].type`. The mesh is `M`: a file to
 /// read in the scene description ([`desc::MeshFile`]: `path`, `transform`,

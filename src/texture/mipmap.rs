@@ -32,7 +32,7 @@
 //! * Level `ℓ = (levels − 1) + log2(max(f, 1e-8))`; `ℓ < 0` → level 0, `ℓ ≥ levels` →
 //!   the coarsest level, else blend `⌊ℓ⌋` and `min(⌊ℓ⌋ + 1, coarsest)`.
 //!
-//! With MIP-mapping turned off ([`crate::scene::BuildOptions::mipmap`]) only level 0
+//! With MIP-mapping turned off ([`crate::desc::BuildOptions::mipmap`]) only level 0
 //! is built and every lookup is bilinear on it.
 
 use super::TextureConvention;

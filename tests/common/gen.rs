@@ -1,10 +1,10 @@
 //! Generators of primitives and rays for the property tests.
 
 use super::rng::Rng;
+use rdr::desc::build::prim_bounds;
 use rdr::geometry::aabb::Aabb;
 use rdr::geometry::Ray;
 use rdr::math::Vec3;
-use rdr::scene::build::prim_bounds;
 use rdr::scene::Prim;
 
 pub fn tri(p: [Vec3; 3], index: u32) -> Prim {

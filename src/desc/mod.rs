@@ -1,6 +1,9 @@
-//! Scene description: the RDR171 JSON read into plain values (spec §3–§12).
-//! Nothing here touches the file system except reading the scene itself; meshes
-//! and textures are loaded when the render-ready scene is built (`build.rs`).
+//! The description layer: a scene file read into plain values that remember where
+//! they came from ([`Source`]), and [`build`](mod@build), the separate step that turns
+//! them into the render-ready [`crate::scene::Scene`] (the job's camera, film and
+//! integrator become a [`crate::render::RenderJob`]). The RDR171 JSON (spec §3–§12)
+//! is read by [`json`]. Nothing here touches the file system except reading the scene
+//! itself; meshes and textures are loaded when the scene is built.
 //!
 //! The variant families are the render layer's own types with their unresolved
 //! parts as parameters: [`Material<TextureRef>`](Material), [`Texture<ImageFile>`](Texture),
@@ -8,16 +11,22 @@
 //! are. Each type's documentation (here or on the shared type) lists its keys with
 //! their defaults; values that later steps may report on keep their [`Source`].
 
-use super::json::{Context, Props};
-use super::source::{Located, Source};
-use super::Shape;
+pub mod build;
+pub mod json;
+pub mod source;
+
+pub use build::{build, BuildOptions};
+pub use source::{Located, Source};
+
 use crate::camera::CameraParams;
 use crate::error::Result;
 use crate::film::Filter;
 use crate::geometry::sphere::Sphere;
 use crate::material::{Distribution, Material};
 use crate::math::{Mat4, Vec2, Vec3};
+use crate::scene::Shape;
 use crate::texture::{Texture, UvMapping};
+use json::{Context, Props};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 
@@ -171,13 +180,13 @@ impl SceneDesc {
     pub fn load(file: &Path, overrides: &[String]) -> Result<SceneDesc> {
         let ctx = Context::new(file);
         let text = std::fs::read_to_string(file).map_err(|e| ctx.error("", format!("cannot read scene: {e}")))?;
-        let mut value = super::json::parse_text(&text, file)?;
+        let mut value = json::parse_text(&text, file)?;
         for patch in overrides {
             let p: Value = serde_json::from_str(patch).map_err(|e| ctx.error("", format!("--override is not valid JSON: {e}")))?;
             if !p.is_object() {
                 return Err(ctx.error("", "--override must be a JSON object"));
             }
-            super::json::merge(&mut value, &p);
+            json::merge(&mut value, &p);
         }
         let base = file.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
         Self::from_value(&value, file, base)

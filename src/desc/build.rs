@@ -1,8 +1,7 @@
 //! Description → render-ready scene: loads meshes, resolves names, builds the BVH.
 
-use super::desc::{MeshFile, SceneDesc, TextureRef};
 use super::source::Source;
-use super::{Object, Prim, Scene, Shape};
+use super::{MeshFile, SceneDesc, TextureRef};
 use crate::accel::WideBvh;
 use crate::error::{Result, SceneError};
 use crate::geometry::mesh::Mesh;
@@ -12,6 +11,7 @@ pub use crate::geometry::prim::prim_bounds;
 use crate::light::environment::EnvImage;
 use crate::light::{AreaLight, EnvironmentLight, Light, LightSampler};
 use crate::math::Vec3;
+use crate::scene::{Object, Prim, Scene, Shape};
 use crate::texture::image::{ImageCache, ImageTexture};
 use crate::texture::{Texture, TextureConvention};
 use rayon::prelude::*;

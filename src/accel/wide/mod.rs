@@ -6,8 +6,11 @@
 //! * [`node`]: the node layout ([`WideNode`], eight boxes as six rows of eight
 //!   floats), the triangle blocks ([`TriBlock`]) and the child references;
 //! * `traverse`: front-to-back closest-hit and any-hit traversal, generic over
-//!   the instruction set, and the portable kernels;
-//! * `x86`: the AVX2 and AVX-512 kernels, bit-identical to the scalar ones.
+//!   a kernel trait (node and block tests of one instruction set), and the
+//!   portable kernels;
+//! * `x86`: the AVX2 and AVX-512 kernels, bit-identical to the scalar ones, and
+//!   the `#[target_feature]` entry points that instantiate the traversal with
+//!   them (the dependency goes one way: `x86` uses `traverse`).
 //!
 //! Instruction sets ([`Isa`]) are picked at run time; the portable one runs
 //! everywhere and can be forced with [`WideBvh::set_isa`] (the tests run every
@@ -28,7 +31,7 @@ use crate::accel::build::{self, PrimRef};
 use crate::geometry::prim::{Hit, Prim};
 use crate::geometry::{Aabb, Ray};
 use node::{decode, EMPTY};
-use traverse::{any, closest, PORTABLE};
+use traverse::{any, closest, Portable};
 
 /// Stack sizes: the small one serves every tree whose worst path needs it.
 const STACK_SMALL: usize = 128;
@@ -114,7 +117,7 @@ impl Default for WideBvh {
 }
 
 /// Calls a traversal for the tree's instruction set and stack size: the
-/// portable body `$portable::<PORTABLE, S>` or the x86 entry points
+/// portable body `$portable::<Portable, S>` or the x86 entry points
 /// `x86::$avx2::<S>` / `x86::$avx512::<S>`, with `S` the small stack where it
 /// is enough.
 macro_rules! dispatch {
@@ -141,9 +144,9 @@ macro_rules! dispatch {
             },
             _ => {
                 if small {
-                    $portable::<PORTABLE, STACK_SMALL>($($arg),*)
+                    $portable::<Portable, STACK_SMALL>($($arg),*)
                 } else {
-                    $portable::<PORTABLE, STACK_LARGE>($($arg),*)
+                    $portable::<Portable, STACK_LARGE>($($arg),*)
                 }
             }
         }

@@ -69,8 +69,12 @@ pub struct TriBlock {
 }
 
 impl TriBlock {
+    /// The lane's vertices (spelt out rather than `[0, 1, 2].map(…)`, whose
+    /// `try_map` the portable block test did not always get inlined).
+    #[inline]
     pub fn triangle(&self, lane: usize) -> [Vec3; 3] {
-        [0, 1, 2].map(|k| Vec3::new(self.v[k][0][lane], self.v[k][1][lane], self.v[k][2][lane]))
+        let v = |k: usize| Vec3::new(self.v[k][0][lane], self.v[k][1][lane], self.v[k][2][lane]);
+        [v(0), v(1), v(2)]
     }
 }
 

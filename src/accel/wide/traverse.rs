@@ -1,5 +1,6 @@
-//! Traversal: closest-hit and any-hit queries, generic over the kernels'
-//! instruction set, and the portable kernels.
+//! Traversal: closest-hit and any-hit queries, generic over the kernels
+//! ([`Kernel`]: a node test and a block test per instruction set), and the
+//! portable kernels.
 //!
 //! Traversal is front to back: children hit are visited nearest first and stack
 //! entries farther than the current closest hit are skipped; any-hit queries stop
@@ -168,33 +169,32 @@ fn block_portable(blk: &TriBlock, r: &RayData, t_max: f32) -> BlockHits {
     h
 }
 
-pub(super) const PORTABLE: u8 = 0;
-#[cfg(target_arch = "x86_64")]
-pub(super) const AVX2: u8 = 1;
-#[cfg(target_arch = "x86_64")]
-pub(super) const AVX512: u8 = 2;
-
-#[inline(always)]
-fn node_test<const ISA: u8>(n: &WideNode, r: &RayData, t_max: f32) -> (u32, [f32; WIDTH]) {
-    match ISA {
-        #[cfg(target_arch = "x86_64")]
-        // SAFETY: ISA ≠ PORTABLE is only instantiated inside the `x86` entry points,
-        // which carry (and are only called with) the matching target features.
-        AVX512 => unsafe { super::x86::node_avx512(n, r, t_max) },
-        #[cfg(target_arch = "x86_64")]
-        // SAFETY: as above.
-        AVX2 => unsafe { super::x86::node_avx2(n, r, t_max) },
-        _ => node_portable(n, r, t_max),
-    }
+/// One instruction set's node and block tests: what the generic traversal
+/// ([`closest`], [`any`]) is instantiated with. Both must give the portable
+/// kernels' results bit for bit.
+///
+/// The portable kernel, [`Portable`], is here; the AVX2 and AVX-512 ones are
+/// private to `x86`, which instantiates the traversal with them only inside
+/// its `#[target_feature]` entry points.
+pub(super) trait Kernel {
+    /// Hit mask and entry distances of the node's children.
+    fn node(n: &WideNode, r: &RayData, t_max: f32) -> (u32, [f32; WIDTH]);
+    /// Hits of the block's lanes.
+    fn block(b: &TriBlock, r: &RayData, t_max: f32) -> BlockHits;
 }
 
-#[inline(always)]
-fn block_test<const ISA: u8>(b: &TriBlock, r: &RayData, t_max: f32) -> BlockHits {
-    match ISA {
-        #[cfg(target_arch = "x86_64")]
-        // SAFETY: as in `node_test`: both instruction sets include AVX2.
-        AVX2 | AVX512 => unsafe { super::x86::block_avx(b, r, t_max) },
-        _ => block_portable(b, r, t_max),
+/// The portable kernels: Rust that runs on every CPU.
+pub(super) struct Portable;
+
+impl Kernel for Portable {
+    #[inline(always)]
+    fn node(n: &WideNode, r: &RayData, t_max: f32) -> (u32, [f32; WIDTH]) {
+        node_portable(n, r, t_max)
+    }
+
+    #[inline(always)]
+    fn block(b: &TriBlock, r: &RayData, t_max: f32) -> BlockHits {
+        block_portable(b, r, t_max)
     }
 }
 
@@ -235,7 +235,7 @@ fn key(d: f32, child: u32) -> u64 {
 
 /// Closest hit; the generic body of every instruction set's entry point.
 #[inline(always)]
-pub(super) fn closest<const ISA: u8, const S: usize>(bvh: &WideBvh, prims: &[Prim], ray: &Ray) -> Option<Hit> {
+pub(super) fn closest<K: Kernel, const S: usize>(bvh: &WideBvh, prims: &[Prim], ray: &Ray) -> Option<Hit> {
     let r = RayData::new(ray);
     let mut t_max = ray.t_max;
     let mut best: Option<Hit> = None;
@@ -248,7 +248,7 @@ pub(super) fn closest<const ISA: u8, const S: usize>(bvh: &WideBvh, prims: &[Pri
     loop {
         if cur & LEAF == 0 {
             let node = &bvh.nodes[cur as usize];
-            let (mask, d) = node_test::<ISA>(node, &r, t_max);
+            let (mask, d) = K::node(node, &r, t_max);
             if mask != 0 {
                 let a = mask.trailing_zeros() as usize;
                 let rest = mask & (mask - 1);
@@ -299,7 +299,7 @@ pub(super) fn closest<const ISA: u8, const S: usize>(bvh: &WideBvh, prims: &[Pri
                 }
             } else if r.tri_ok {
                 for blk in &bvh.blocks[first..first + count] {
-                    let h = block_test::<ISA>(blk, &r, t_max);
+                    let h = K::block(blk, &r, t_max);
                     if h.mask != 0 {
                         let mut lane = h.mask.trailing_zeros() as usize;
                         let mut m = h.mask & (h.mask - 1);
@@ -337,7 +337,7 @@ pub(super) fn closest<const ISA: u8, const S: usize>(bvh: &WideBvh, prims: &[Pri
 
 /// Any hit; the generic body of every instruction set's entry point.
 #[inline(always)]
-pub(super) fn any<const ISA: u8, const S: usize>(bvh: &WideBvh, prims: &[Prim], ray: &Ray) -> bool {
+pub(super) fn any<K: Kernel, const S: usize>(bvh: &WideBvh, prims: &[Prim], ray: &Ray) -> bool {
     let r = RayData::new(ray);
     let t_max = ray.t_max;
     // not zeroed for every ray; entries `..sp` are initialised
@@ -347,7 +347,7 @@ pub(super) fn any<const ISA: u8, const S: usize>(bvh: &WideBvh, prims: &[Prim], 
     loop {
         if cur & LEAF == 0 {
             let node = &bvh.nodes[cur as usize];
-            let (mask, _) = node_test::<ISA>(node, &r, t_max);
+            let (mask, _) = K::node(node, &r, t_max);
             if mask != 0 {
                 let mut m = mask & (mask - 1);
                 while m != 0 {
@@ -370,7 +370,7 @@ pub(super) fn any<const ISA: u8, const S: usize>(bvh: &WideBvh, prims: &[Prim], 
                 }
             } else if r.tri_ok {
                 for blk in &bvh.blocks[first..first + count] {
-                    if block_test::<ISA>(blk, &r, t_max).mask != 0 {
+                    if K::block(blk, &r, t_max).mask != 0 {
                         return true;
                     }
                 }

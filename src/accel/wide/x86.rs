@@ -14,7 +14,7 @@
 //! decides them in f64).
 
 use super::node::{TriBlock, WideNode, LANES, WIDTH};
-use super::traverse::{any, closest, BlockHits, RayData, AVX2, AVX512, FAR_SCALE};
+use super::traverse::{any, closest, BlockHits, Kernel, RayData, FAR_SCALE};
 use super::WideBvh;
 use crate::geometry::prim::{Hit, Prim};
 use crate::geometry::triangle::intersect_watertight;
@@ -22,21 +22,70 @@ use crate::geometry::Ray;
 use crate::math::gamma;
 use std::arch::x86_64::*;
 
+// The entry points: the generic traversal instantiated with an AVX kernel
+// inside a function that enables its instruction set, so the kernel inlines
+// into code compiled for it. Callers must have detected the features at run
+// time (`super::Isa::available`).
+
 #[target_feature(enable = "avx2,fma")]
 pub(super) fn closest_avx2<const S: usize>(bvh: &WideBvh, prims: &[Prim], ray: &Ray) -> Option<Hit> {
-    closest::<AVX2, S>(bvh, prims, ray)
+    closest::<Avx2, S>(bvh, prims, ray)
 }
 #[target_feature(enable = "avx2,fma")]
 pub(super) fn any_avx2<const S: usize>(bvh: &WideBvh, prims: &[Prim], ray: &Ray) -> bool {
-    any::<AVX2, S>(bvh, prims, ray)
+    any::<Avx2, S>(bvh, prims, ray)
 }
 #[target_feature(enable = "avx2,fma,avx512f,avx512vl")]
 pub(super) fn closest_avx512<const S: usize>(bvh: &WideBvh, prims: &[Prim], ray: &Ray) -> Option<Hit> {
-    closest::<AVX512, S>(bvh, prims, ray)
+    closest::<Avx512, S>(bvh, prims, ray)
 }
 #[target_feature(enable = "avx2,fma,avx512f,avx512vl")]
 pub(super) fn any_avx512<const S: usize>(bvh: &WideBvh, prims: &[Prim], ray: &Ray) -> bool {
-    any::<AVX512, S>(bvh, prims, ray)
+    any::<Avx512, S>(bvh, prims, ray)
+}
+
+/// The AVX2+FMA kernels. Private to this module and named only in
+/// `closest_avx2` and `any_avx2`: its safe methods call `#[target_feature]`
+/// code, so it must never be reachable from anywhere else.
+struct Avx2;
+
+impl Kernel for Avx2 {
+    #[inline(always)]
+    fn node(n: &WideNode, r: &RayData, t_max: f32) -> (u32, [f32; WIDTH]) {
+        // SAFETY: `Avx2` is only instantiated inside `closest_avx2`/`any_avx2`,
+        // which enable avx2,fma and are only called once the CPU is known to
+        // have them (runtime detection, `Isa::available`).
+        unsafe { node_avx2(n, r, t_max) }
+    }
+
+    #[inline(always)]
+    fn block(b: &TriBlock, r: &RayData, t_max: f32) -> BlockHits {
+        // SAFETY: as in `node`.
+        unsafe { block_avx(b, r, t_max) }
+    }
+}
+
+/// The AVX-512 (F+VL) kernels: the AVX2 block test and a node test taking its
+/// hit mask straight from a mask compare. Private to this module and named
+/// only in `closest_avx512` and `any_avx512`, as [`Avx2`].
+struct Avx512;
+
+impl Kernel for Avx512 {
+    #[inline(always)]
+    fn node(n: &WideNode, r: &RayData, t_max: f32) -> (u32, [f32; WIDTH]) {
+        // SAFETY: `Avx512` is only instantiated inside `closest_avx512`/
+        // `any_avx512`, which enable avx2,fma,avx512f,avx512vl and are only
+        // called once the CPU is known to have them (runtime detection,
+        // `Isa::available`).
+        unsafe { node_avx512(n, r, t_max) }
+    }
+
+    #[inline(always)]
+    fn block(b: &TriBlock, r: &RayData, t_max: f32) -> BlockHits {
+        // SAFETY: as in `node`; the features include avx2,fma, which
+        // `block_avx` needs.
+        unsafe { block_avx(b, r, t_max) }
+    }
 }
 
 /// Row `row` of the node's planes.
@@ -64,7 +113,7 @@ fn slabs(n: &WideNode, r: &RayData, t_max: f32) -> (__m256, __m256) {
 
 #[target_feature(enable = "avx2,fma")]
 #[inline]
-pub(super) fn node_avx2(n: &WideNode, r: &RayData, t_max: f32) -> (u32, [f32; WIDTH]) {
+fn node_avx2(n: &WideNode, r: &RayData, t_max: f32) -> (u32, [f32; WIDTH]) {
     let (t0, t1) = slabs(n, r, t_max);
     let mask = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(t0, t1)) as u32;
     let mut d = [0.0f32; WIDTH];
@@ -75,7 +124,7 @@ pub(super) fn node_avx2(n: &WideNode, r: &RayData, t_max: f32) -> (u32, [f32; WI
 
 #[target_feature(enable = "avx2,fma,avx512f,avx512vl")]
 #[inline]
-pub(super) fn node_avx512(n: &WideNode, r: &RayData, t_max: f32) -> (u32, [f32; WIDTH]) {
+fn node_avx512(n: &WideNode, r: &RayData, t_max: f32) -> (u32, [f32; WIDTH]) {
     let (t0, t1) = slabs(n, r, t_max);
     let mask = _mm256_cmp_ps_mask::<_CMP_LE_OQ>(t0, t1) as u32;
     let mut d = [0.0f32; WIDTH];
@@ -89,7 +138,7 @@ pub(super) fn node_avx512(n: &WideNode, r: &RayData, t_max: f32) -> (u32, [f32; 
 /// is fused), so every lane's result is bit-identical to it.
 #[target_feature(enable = "avx2,fma")]
 #[inline]
-pub(super) fn block_avx(blk: &TriBlock, r: &RayData, t_max: f32) -> BlockHits {
+fn block_avx(blk: &TriBlock, r: &RayData, t_max: f32) -> BlockHits {
     let [kx, ky, kz] = r.k;
     let set = |x: f32| _mm256_set1_ps(x);
     let zero = _mm256_setzero_ps();

@@ -634,7 +634,6 @@ fn src_crate() -> Crate {
 // ---------------------------------------------------------------------------
 
 #[test]
-#[ignore = "enabled when the render-core refactor lands"]
 fn src_has_no_import_cycles() {
     assert_no_cycles(&src_crate());
 }

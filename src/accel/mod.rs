@@ -1,9 +1,11 @@
 //! Acceleration structures.
 
 pub mod build;
+pub mod photon_map;
 pub mod bvh;
 pub mod reference;
 pub mod wide;
 
 pub use bvh::Bvh;
+pub use photon_map::KdTree;
 pub use wide::{Isa, WideBvh};

@@ -102,3 +102,173 @@ fn kd_tree_is_the_same_for_any_thread_count() {
     assert_eq!(one, build(2));
     assert_eq!(one, build(3));
 }
+
+// ---------------------------------------------------------------- integrators
+
+use common::*;
+use rdr::metrics::{compare, Comparison, Image};
+use rdr::Profile;
+use std::path::Path;
+
+/// Reference and its variance averaged over `k`×`k` blocks.
+fn reference(shared: &Path, name: &str, k: usize) -> (Image, Image) {
+    let r = read(&shared.join(format!("refs/{name}.exr")));
+    let vr = read(&shared.join(format!("refs/{name}.var.exr")));
+    (r.block_average(k, false), vr.block_average(k, true))
+}
+
+/// Renders a reference scene at half resolution with `integrator` keys, twice
+/// (seeds 1 and 2), each averaged over 2×2 blocks: 4×4 blocks of the reference.
+fn render_pair(shared: &Path, scene: &str, integrator: &str, spp: u32) -> (Image, Image) {
+    let path = shared.join(format!("refs/scenes/{scene}.json"));
+    let o = format!(r#"{{"film": {{"resolution": [128, 128]}}, "integrator": {integrator}}}"#);
+    let s = load_scene(&path, &[&o], Profile::Physical);
+    let a = render(&s, spp, 1).block_average(2, false);
+    let b = render(&s, spp, 2).block_average(2, false);
+    (a, b)
+}
+
+fn check(label: &str, x: &(Image, Image), r: &(Image, Image)) -> Comparison {
+    let c = compare(&x.0, &x.1, &r.0, &r.1);
+    eprintln!(
+        "{label:>34}: relMSE corrected {:+.3e} ± {:.1e}  (raw {:.2e}, noise {:.2e})",
+        c.rel_mse_corrected, c.std_error, c.rel_mse_raw, c.rel_mse_noise
+    );
+    c
+}
+
+const SPPM: &str = r#"{"type": "sppm", "photons_per_iteration": 30000}"#;
+
+/// SPPM's bias shrinks with the radius: at 4N iterations the noise-corrected error
+/// is below 0.6× its value at N, and below a stated bound.
+#[test]
+fn sppm_bias_shrinks_with_iterations() {
+    let Some(shared) = shared() else { return };
+    for (scene, reference_name, bound) in [("cbox_path", "cbox", 2.0e-3), ("caustic_cbox", "caustic_cbox", 3.0e-3)] {
+        let r = reference(&shared, reference_name, 4);
+        let early = check(&format!("{scene} sppm 8 it"), &render_pair(&shared, scene, SPPM, 8), &r);
+        let late = check(&format!("{scene} sppm 32 it"), &render_pair(&shared, scene, SPPM, 32), &r);
+        assert!(early.rel_mse_corrected > 5.0 * early.std_error, "{scene}: a measurable bias at N: {early:?}");
+        assert!(late.rel_mse_corrected < 0.6 * early.rel_mse_corrected, "{scene}: {late:?} vs {early:?}");
+        assert!(late.rel_mse_corrected < bound, "{scene}: {late:?}");
+    }
+}
+
+/// The `photon` integrator with course-like settings (100 000 photons per map,
+/// k = 64) on cbox: its bias, stated in the README.
+#[test]
+fn photon_bias_on_cbox() {
+    let Some(shared) = shared() else { return };
+    let r = reference(&shared, "cbox", 4);
+    let c = check(
+        "cbox photon 4×4 spp",
+        &render_pair(&shared, "cbox_path", r#"{"type": "photon", "n_iterations": 4, "n_photons": 100000}"#, 4),
+        &r,
+    );
+    assert!(c.rel_mse_corrected < 4.0e-3, "{c:?}");
+}
+
+/// A course scene with the photon integrator renders; `photon.json` names its missing mesh.
+#[test]
+fn photon_renders_the_course_scenes() {
+    let Some(shared) = shared() else { return };
+    let data = shared.join("scenes/rdr171/data");
+    let s = load_scene(
+        &data.join("cbox_photon.json"),
+        &[r#"{"film": {"resolution": [48, 48]}, "integrator": {"n_photons": 20000}}"#],
+        Profile::Physical,
+    );
+    assert_eq!(s.job.integrator.name(), "photon");
+    let img = render(&s, 2, 0);
+    let m = img.mean();
+    assert!(m.x > 0.1 && m.is_finite(), "{m}");
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_rdr"))
+        .arg("render")
+        .arg(data.join("photon.json"))
+        .args(["-q", "-o", "/dev/null"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    assert!(err.contains("light.obj"), "{err}");
+}
+
+/// Inside an inward-wound sphere, twosided diffuse albedo 0.5 emitting 0.5 on its
+/// inner side: L = 0.5 / (1 − 0.5) = 1 everywhere.
+fn furnace(dir: &Path, integrator: &str) -> rdr::Loaded {
+    let (nu, nv) = (48, 24);
+    let mut obj = String::new();
+    for j in 0..=nv {
+        for i in 0..nu {
+            let (t, p) = (std::f32::consts::PI * j as f32 / nv as f32, 2.0 * std::f32::consts::PI * i as f32 / nu as f32);
+            obj += &format!("v {} {} {}\n", t.sin() * p.cos(), t.cos(), t.sin() * p.sin());
+        }
+    }
+    let v = |i: usize, j: usize| j * nu + (i % nu) + 1;
+    for j in 0..nv {
+        for i in 0..nu {
+            // wound so that the normal points inwards
+            obj += &format!("f {} {} {}\n", v(i, j), v(i, j + 1), v(i + 1, j + 1));
+            obj += &format!("f {} {} {}\n", v(i, j), v(i + 1, j + 1), v(i + 1, j));
+        }
+    }
+    std::fs::write(dir.join("sphere.obj"), obj).unwrap();
+    let scene = format!(
+        r#"{{"integrator": {integrator},
+            "film": {{"resolution": [24, 24]}},
+            "camera": {{"position": [0, 0, 0], "look_at": [0, 0, -1], "ref_up": [0, 1, 0], "fov": 90, "focal_length": 1}},
+            "textures": {{"half": {{"type": "constant", "color": [0.5, 0.5, 0.5]}}}},
+            "materials": {{"white": {{"type": "diffuse", "texture_name": "half", "twosided": true}}}},
+            "objects": [{{"type": "mesh", "path": "sphere.obj", "material_name": "white",
+                          "light": {{"type": "area", "radiance": [0.5, 0.5, 0.5]}}}}]}}"#
+    );
+    let path = dir.join("furnace.json");
+    std::fs::write(&path, scene).unwrap();
+    load_scene(&path, &[], Profile::Physical)
+}
+
+#[test]
+fn white_furnace_is_one_for_photon_and_sppm() {
+    let dir = temp_dir("furnace");
+    for (integrator, spp) in [
+        (r#"{"type": "photon", "max_depth": 64, "n_photons": 50000, "n_iterations": 4}"#, 4),
+        (r#"{"type": "sppm", "max_depth": 64, "photons_per_iteration": 20000}"#, 32),
+    ] {
+        let s = furnace(dir.path(), integrator);
+        let img = render(&s, spp, 0);
+        let m = img.mean();
+        let worst = img.pixels.iter().map(|p| (p.x - 1.0).abs()).fold(0.0f32, f32::max);
+        eprintln!("furnace {integrator}: mean {m}, worst pixel off by {worst}");
+        assert!((m - rdr::math::Vec3::ONE).abs().max_element() < 0.02, "{integrator}: {m}");
+        assert!(worst < 0.15, "{integrator}: every pixel 1 within noise, worst {worst}");
+    }
+}
+
+#[test]
+fn photon_and_sppm_images_do_not_depend_on_the_thread_count() {
+    let Some(shared) = shared() else { return };
+    let dir = temp_dir("photon-threads");
+    let scene = shared.join("refs/scenes/caustic_cbox.json");
+    for integrator in [
+        r#"{"type": "sppm", "photons_per_iteration": 10000}"#,
+        r#"{"type": "photon", "n_photons": 10000, "n_iterations": 2}"#,
+    ] {
+        let run = |threads: u32| {
+            let out = dir.path().join(format!("t{threads}.exr"));
+            let o = format!(r#"{{"film": {{"resolution": [40, 30]}}, "integrator": {integrator}}}"#);
+            let status = std::process::Command::new(env!("CARGO_BIN_EXE_rdr"))
+                .arg("render")
+                .arg(&scene)
+                .args(["--spp", "2", "-q", "--threads", &threads.to_string(), "--override", &o, "-o"])
+                .arg(&out)
+                .status()
+                .unwrap();
+            assert!(status.success());
+            std::fs::read(out).unwrap()
+        };
+        let one = run(1);
+        assert_eq!(one, run(2), "{integrator}: 2 threads");
+        assert_eq!(one, run(3), "{integrator}: 3 threads");
+    }
+}

@@ -137,18 +137,19 @@ fn check(label: &str, x: &(Image, Image), r: &(Image, Image)) -> Comparison {
     c
 }
 
-const SPPM: &str = r#"{"type": "sppm", "photons_per_iteration": 30000}"#;
-
 /// SPPM's bias shrinks with the radius: at 4N iterations the noise-corrected error
-/// is below 0.6× its value at N, and below a stated bound.
+/// is below 0.6× its value at N, and below a stated bound (cbox 3e-4, caustic_cbox
+/// 5e-4 at 32 iterations; measured 1.2e-4 and 2.0e-4).
 #[test]
 fn sppm_bias_shrinks_with_iterations() {
     let Some(shared) = shared() else { return };
-    for (scene, reference_name, bound) in [("cbox_path", "cbox", 2.0e-3), ("caustic_cbox", "caustic_cbox", 3.0e-3)] {
+    // (the caustic's noise needs more photons to show the bias at N)
+    for (scene, reference_name, photons, bound) in [("cbox_path", "cbox", 30_000, 3.0e-4), ("caustic_cbox", "caustic_cbox", 100_000, 5.0e-4)] {
         let r = reference(&shared, reference_name, 4);
-        let early = check(&format!("{scene} sppm 8 it"), &render_pair(&shared, scene, SPPM, 8), &r);
-        let late = check(&format!("{scene} sppm 32 it"), &render_pair(&shared, scene, SPPM, 32), &r);
-        assert!(early.rel_mse_corrected > 5.0 * early.std_error, "{scene}: a measurable bias at N: {early:?}");
+        let sppm = format!(r#"{{"type": "sppm", "photons_per_iteration": {photons}}}"#);
+        let early = check(&format!("{scene} sppm 8 it"), &render_pair(&shared, scene, &sppm, 8), &r);
+        let late = check(&format!("{scene} sppm 32 it"), &render_pair(&shared, scene, &sppm, 32), &r);
+        assert!(early.rel_mse_corrected > 3.0 * early.std_error, "{scene}: a measurable bias at N: {early:?}");
         assert!(late.rel_mse_corrected < 0.6 * early.rel_mse_corrected, "{scene}: {late:?} vs {early:?}");
         assert!(late.rel_mse_corrected < bound, "{scene}: {late:?}");
     }

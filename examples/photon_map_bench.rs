@@ -16,7 +16,8 @@ struct Grid {
 }
 
 fn hash(c: [i32; 3], size: usize) -> usize {
-    ((c[0] as u32).wrapping_mul(73_856_093) ^ (c[1] as u32).wrapping_mul(19_349_663) ^ (c[2] as u32).wrapping_mul(83_492_791)) as usize % size
+    ((c[0] as u32).wrapping_mul(73_856_093) ^ (c[1] as u32).wrapping_mul(19_349_663) ^ (c[2] as u32).wrapping_mul(83_492_791)) as usize
+        % size
 }
 
 impl Grid {
@@ -37,7 +38,12 @@ impl Grid {
             points[fill[k] as usize] = *p;
             fill[k] += 1;
         }
-        Grid { cell, size, start: count, points }
+        Grid {
+            cell,
+            size,
+            start: count,
+            points,
+        }
     }
 
     fn within(&self, q: &[f32; 3], r: f32, mut f: impl FnMut(&[f32; 3])) {

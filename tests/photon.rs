@@ -151,9 +151,15 @@ fn sppm_bias_shrinks_with_iterations() {
         let early = check(&format!("{scene} sppm 8 it"), &render_pair(&shared, scene, sppm, 8), &r);
         let late = check(&format!("{scene} sppm 32 it"), &render_pair(&shared, scene, sppm, 32), &r);
         if scene == "cbox_path" {
-            assert!(early.rel_mse_corrected > 5.0 * early.std_error, "{scene}: a measurable bias at N: {early:?}");
+            assert!(
+                early.rel_mse_corrected > 5.0 * early.std_error,
+                "{scene}: a measurable bias at N: {early:?}"
+            );
         }
-        assert!(late.rel_mse_corrected < 0.6 * early.rel_mse_corrected, "{scene}: {late:?} vs {early:?}");
+        assert!(
+            late.rel_mse_corrected < 0.6 * early.rel_mse_corrected,
+            "{scene}: {late:?} vs {early:?}"
+        );
         assert!(late.rel_mse_corrected < bound, "{scene}: {late:?}");
     }
 }
@@ -166,7 +172,12 @@ fn photon_bias_on_cbox() {
     let r = reference(&shared, "cbox", 4);
     let c = check(
         "cbox photon 4×4 spp",
-        &render_pair(&shared, "cbox_path", r#"{"type": "photon", "n_iterations": 4, "n_photons": 100000}"#, 4),
+        &render_pair(
+            &shared,
+            "cbox_path",
+            r#"{"type": "photon", "n_iterations": 4, "n_photons": 100000}"#,
+            4,
+        ),
         &r,
     );
     // measured 1.3e-4 ± 1.3e-5 (the k-NN blur at corners and edges)
@@ -206,7 +217,10 @@ fn furnace(dir: &Path, integrator: &str) -> rdr::Loaded {
     let mut obj = String::new();
     for j in 0..=nv {
         for i in 0..nu {
-            let (t, p) = (std::f32::consts::PI * j as f32 / nv as f32, 2.0 * std::f32::consts::PI * i as f32 / nu as f32);
+            let (t, p) = (
+                std::f32::consts::PI * j as f32 / nv as f32,
+                2.0 * std::f32::consts::PI * i as f32 / nu as f32,
+            );
             obj += &format!("v {} {} {}\n", t.sin() * p.cos(), t.cos(), t.sin() * p.sin());
         }
     }

@@ -1,8 +1,8 @@
 //! Acceleration structures.
 
 pub mod build;
-pub mod photon_map;
 pub mod bvh;
+pub mod photon_map;
 pub mod reference;
 pub mod wide;
 

@@ -82,6 +82,9 @@ pub struct Shooting {
     pub rr_threshold: f32,
 }
 
+/// One chunk's photons: positions, payloads, rays cast.
+type Chunk = (Vec<[f32; 3]>, Vec<Photon>, u64);
+
 /// Shoots `s.count` photons for `iteration`; `None` when the stop token was set.
 pub fn shoot(scene: &Scene, s: Shooting, iteration: u32, seed: u32, stop: &StopToken) -> Option<PhotonMap> {
     let n = s.count as usize;
@@ -91,7 +94,7 @@ pub fn shoot(scene: &Scene, s: Shooting, iteration: u32, seed: u32, stop: &StopT
             ..PhotonMap::default()
         });
     }
-    let chunks: Vec<Option<(Vec<[f32; 3]>, Vec<Photon>, u64)>> = (0..n.div_ceil(CHUNK))
+    let chunks: Vec<Option<Chunk>> = (0..n.div_ceil(CHUNK))
         .into_par_iter()
         .map(|c| {
             if stop.is_stopped() {
@@ -138,7 +141,9 @@ fn trace_photon(scene: &Scene, s: Shooting, rng: &mut SplitMix64, store: &mut im
         radius: scene.radius,
     };
     let light = &scene.lights[index];
-    let Some(es) = light.sample_emission(u2(), u2(), bounds) else { return 0 };
+    let Some(es) = light.sample_emission(u2(), u2(), bounds) else {
+        return 0;
+    };
     let cos = es.n.map_or(1.0, |n| n.dot(es.dir).abs());
     let denom = pmf * es.pdf_pos * es.pdf_dir;
     if denom <= 0.0 || es.le == Vec3::ZERO {

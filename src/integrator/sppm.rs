@@ -164,7 +164,11 @@ impl Sppm {
                 .pixels
                 .iter()
                 .map(|p| {
-                    let indirect = if p.r > 0.0 { p.tau / (photons * PI * p.r * p.r) } else { Vec3::ZERO };
+                    let indirect = if p.r > 0.0 {
+                        p.tau / (photons * PI * p.r * p.r)
+                    } else {
+                        Vec3::ZERO
+                    };
                     p.ld / n + indirect
                 })
                 .collect();

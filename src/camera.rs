@@ -60,6 +60,12 @@ impl Camera {
         normalize_div((sx * self.right + sy * self.up) + self.forward)
     }
 
+    /// Angle (radians, small-angle) one pixel spans at the centre of the view:
+    /// a pixel's footprint at distance d is about `d · pixel_spread()`.
+    pub fn pixel_spread(&self) -> f32 {
+        2.0 * self.up.length() / (self.height * self.forward.length())
+    }
+
     #[inline]
     pub fn ray(&self, x: f32, y: f32) -> Ray {
         Ray::new(self.position, self.direction(x, y))

@@ -195,8 +195,10 @@ impl Splats {
 }
 
 /// The whole film: f64 sums of tiles, merged in a deterministic order, and the
-/// splat buffer.
-#[derive(Clone, Debug)]
+/// splat buffer. Integrators whose pixel value is not an average of samples
+/// (SPPM) keep their own state beside it ([`Film::aux_mut`]) and write their
+/// estimate with [`Film::set_estimate`].
+#[derive(Debug)]
 pub struct Film {
     pub width: u32,
     pub height: u32,
@@ -207,6 +209,11 @@ pub struct Film {
     has_splats: bool,
     /// 1 / ∫∫ filter, so a splat spreads exactly its value over the pixels.
     splat_norm: f64,
+    /// State an integrator keeps across passes (photon maps, SPPM's pixel statistics).
+    aux: Option<Box<dyn std::any::Any + Send + Sync>>,
+    /// Pixel values (film rows, `y` up) an integrator computed itself; they replace
+    /// the weighted average of samples in [`Film::to_rgb_rows`].
+    estimate: Option<Vec<Vec3>>,
 }
 
 impl Film {
@@ -221,7 +228,37 @@ impl Film {
             splat: Vec::new(),
             has_splats: false,
             splat_norm: 1.0 / filter_integral(&filter),
+            aux: None,
+            estimate: None,
         }
+    }
+
+    /// The integrator state of type `T`, if the film holds one.
+    pub fn aux<T: std::any::Any>(&self) -> Option<&T> {
+        self.aux.as_ref()?.downcast_ref()
+    }
+
+    /// Takes the integrator state of type `T` out of the film (to use it while the
+    /// film is written); put it back with [`Film::set_aux`].
+    pub fn take_aux<T: std::any::Any>(&mut self) -> Option<Box<T>> {
+        match self.aux.take()?.downcast::<T>() {
+            Ok(b) => Some(b),
+            Err(other) => {
+                self.aux = Some(other);
+                None
+            }
+        }
+    }
+
+    pub fn set_aux<T: std::any::Any + Send + Sync>(&mut self, state: Box<T>) {
+        self.aux = Some(state);
+    }
+
+    /// Sets the pixel values (film rows, `y` up, `width·height` of them) that
+    /// replace the weighted average of samples from now on.
+    pub fn set_estimate(&mut self, pixels: Vec<Vec3>) {
+        assert_eq!(pixels.len(), self.sum.len(), "estimate size");
+        self.estimate = Some(pixels);
     }
 
     /// Adds a worker's splats, in their order, through the reconstruction filter
@@ -285,7 +322,9 @@ impl Film {
             for x in 0..w {
                 let j = y * w + x;
                 let wt = self.weight[j];
-                if wt != 0.0 {
+                if let Some(e) = &self.estimate {
+                    out[r * w + x] = e[j];
+                } else if wt != 0.0 {
                     let s = self.sum[j];
                     let wf = wt as f32;
                     out[r * w + x] = Vec3::new(s[0] as f32 / wf, s[1] as f32 / wf, s[2] as f32 / wf);

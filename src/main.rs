@@ -241,6 +241,9 @@ fn render(args: &SceneArgs, output: Option<PathBuf>, quiet: bool, time_limit: Op
                 ""
             }
         );
+        if let Some(summary) = &out.summary {
+            eprintln!("{summary}");
+        }
     }
     Ok(if out.interrupted { ExitCode::from(130) } else { ExitCode::SUCCESS })
 }

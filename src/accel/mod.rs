@@ -2,8 +2,10 @@
 
 pub mod build;
 pub mod bvh;
+pub mod photon_map;
 pub mod reference;
 pub mod wide;
 
 pub use bvh::Bvh;
+pub use photon_map::KdTree;
 pub use wide::{Isa, WideBvh};

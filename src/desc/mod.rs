@@ -47,13 +47,15 @@ pub struct SceneDesc {
     pub warnings: Vec<String>,
 }
 
-use crate::integrator::{Integrator, IntersectionTest, Normals, PathProfile, PathTracer};
+use crate::integrator::{Integrator, IntersectionTest, Normals, PathProfile, PathTracer, PhotonMapper, Sppm};
 
 /// `integrator`:
-/// * `type` (`"path"`) — `"path"`, `"intersection_test"` or `"normals"` (a debug view:
-///   shading normals as colours); `"bdpt"` and `"photon"` render with `path` (with a
-///   warning). The keys of each are documented on its type:
+/// * `type` (`"path"`) — `"path"`, `"intersection_test"`, `"photon"`, `"sppm"` or
+///   `"normals"` (a debug view: shading normals as colours); `"bdpt"` renders with
+///   `path` (with a warning). The keys of each are documented on its type:
 ///   [`PathTracer`] (`spp` 32, `max_depth` 12, `profile`, `rr_threshold`),
+///   [`PhotonMapper`] (`spp` 16, `n_photons`, `n_iterations`, `n_near_photons`, …),
+///   [`Sppm`] (`spp` 64 iterations, `photons_per_iteration`, `initial_radius`, …),
 ///   [`IntersectionTest`] (`spp` 8, `max_depth` 16, `light_samples` 1), [`Normals`] (`spp` 8).
 /// * `spp` (int ≥ 1) — samples per pixel, default per type as above.
 /// * `point_light_position` (vec3, (0,5,0)), `point_light_flux` (vec3, (1,1,1)) —
@@ -231,8 +233,8 @@ impl SceneDesc {
 fn parse_integrator(p: &Props) -> Result<IntegratorDesc> {
     let ty = p.string_or("type", "path")?;
     let kind = match ty.as_str() {
-        "intersection_test" | "normals" => ty.as_str(),
-        "path" | "bdpt" | "photon" => {
+        "intersection_test" | "normals" | "photon" | "sppm" => ty.as_str(),
+        "path" | "bdpt" => {
             if ty != "path" {
                 p.ctx().warn(
                     &p.key_path("type"),
@@ -244,7 +246,7 @@ fn parse_integrator(p: &Props) -> Result<IntegratorDesc> {
         _ => {
             return Err(p.error(
                 "type",
-                format!("unknown integrator '{ty}' (available: intersection_test, path, normals; bdpt and photon render as path)"),
+                format!("unknown integrator '{ty}' (available: intersection_test, path, photon, sppm, normals; bdpt renders as path)"),
             ))
         }
     };
@@ -269,6 +271,37 @@ fn parse_integrator(p: &Props) -> Result<IntegratorDesc> {
             )
         }
         "normals" => (Integrator::Normals(Normals), p.int_at_least("spp", 8, 1)?),
+        "photon" => (
+            Integrator::Photon(PhotonMapper {
+                n_photons: p.int_at_least("n_photons", 100_000, 1)?,
+                n_iterations: p.int_at_least("n_iterations", 1, 1)?,
+                n_near_photons: p.int_at_least("n_near_photons", 64, 1)?,
+                max_depth: p.int_at_least("max_depth", 12, 1)?,
+                rr_threshold: unit_interval(p, "rr_threshold")?,
+            }),
+            p.int_at_least("spp", 16, 1)?,
+        ),
+        "sppm" => {
+            let initial_radius = match p.contains("initial_radius") {
+                true => Some(p.f32_or("initial_radius", 0.0)?).filter(|r| *r > 0.0),
+                false => None,
+            };
+            if p.contains("initial_radius") && initial_radius.is_none() {
+                return Err(p.error("initial_radius", "initial_radius must be positive"));
+            }
+            let alpha = p.f32_or("alpha", 2.0 / 3.0)?;
+            if !(alpha > 0.0 && alpha <= 1.0) {
+                return Err(p.error("alpha", "alpha must lie in (0, 1]"));
+            }
+            let sppm = Sppm {
+                photons_per_iteration: p.int_at_least("photons_per_iteration", 100_000, 1)?,
+                initial_radius,
+                alpha,
+                max_depth: p.int_at_least("max_depth", 12, 1)?,
+                rr_threshold: unit_interval(p, "rr_threshold")?,
+            };
+            (Integrator::Sppm(sppm), p.int_at_least("spp", 64, 1)?)
+        }
         _ => {
             let spp = p.int_at_least("spp", 8, 1)?;
             let max_depth = p.int_at_least("max_depth", 16, 1)?;
@@ -328,6 +361,15 @@ fn parse_integrator(p: &Props) -> Result<IntegratorDesc> {
         point_lights,
         light_sampling,
     })
+}
+
+/// `rr_threshold` of the photon integrators: a number in [0, 1], 0.1 when absent.
+fn unit_interval(p: &Props, key: &str) -> Result<f32> {
+    let v = p.f32_or(key, 0.1)?;
+    if !(0.0..=1.0).contains(&v) {
+        return Err(p.error(key, format!("{key} must lie in [0, 1]")));
+    }
+    Ok(v)
 }
 
 /// A point light's flux; the error names the flux key itself.

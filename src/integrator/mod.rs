@@ -10,12 +10,16 @@ pub mod intersection_test;
 pub mod normals;
 pub mod pass;
 pub mod path;
+pub mod photon;
 pub mod rdr171;
+pub mod sppm;
 
 pub use intersection_test::IntersectionTest;
 pub use normals::Normals;
 pub use pass::{camera_pass, CameraSample, PassContext, PassResult, RayCounts, StopToken};
 pub use path::{PathProfile, PathTracer};
+pub use photon::PhotonMapper;
+pub use sppm::Sppm;
 
 use crate::film::Film;
 use crate::geometry::ray::RAY_T_MAX;
@@ -31,6 +35,10 @@ pub enum Integrator {
     IntersectionTest(IntersectionTest),
     Path(PathTracer),
     Normals(Normals),
+    /// Photon mapping: direct light by light sampling, the rest from k-NN photon maps.
+    Photon(PhotonMapper),
+    /// Stochastic progressive photon mapping.
+    Sppm(Sppm),
     /// The course renderer's `intersection_test`, quirks and all (`--compat rdr171`).
     Rdr171(Rdr171Columns),
 }
@@ -42,16 +50,20 @@ impl Integrator {
             Integrator::IntersectionTest(_) => "intersection_test",
             Integrator::Path(_) => "path",
             Integrator::Normals(_) => "normals",
+            Integrator::Photon(_) => "photon",
+            Integrator::Sppm(_) => "sppm",
             Integrator::Rdr171(_) => "intersection_test (rdr171)",
         }
     }
 
     /// Passes a render of `spp` samples per pixel takes: one sample per pixel per
     /// pass (fine steps for `--time-limit` and Ctrl-C), or one pass for the
-    /// column renderer of `--compat rdr171`.
+    /// column renderer of `--compat rdr171`; `photon` takes `spp` passes for
+    /// each of its iterations.
     pub fn pass_count(&self, spp: u32) -> u32 {
         match self {
             Integrator::Rdr171(_) => 1,
+            Integrator::Photon(p) => p.pass_count(spp),
             _ => spp,
         }
     }
@@ -71,7 +83,18 @@ impl Integrator {
             Integrator::IntersectionTest(i) => camera_pass(ctx, pass, film, |s| i.li(scene, s.ray, s.diff, s.sampler, s.counts)),
             Integrator::Path(p) => camera_pass(ctx, pass, film, |s| p.li(scene, s.ray, s.diff, s.sampler, s.counts)),
             Integrator::Normals(n) => camera_pass(ctx, pass, film, |s| n.li(scene, s.ray, s.counts)),
+            Integrator::Photon(p) => p.render_pass(ctx, pass, film),
+            Integrator::Sppm(p) => p.render_pass(ctx, pass, film),
             Integrator::Rdr171(c) => c.render(ctx, film),
+        }
+    }
+
+    /// A line for the render summary (photon counts, memory, radii), if any.
+    pub fn summary(&self, film: &Film) -> Option<String> {
+        match self {
+            Integrator::Photon(p) => p.summary(film),
+            Integrator::Sppm(p) => p.summary(film),
+            _ => None,
         }
     }
 }

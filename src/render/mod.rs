@@ -38,6 +38,8 @@ pub struct RenderOutput {
     pub invalid_samples: u64,
     /// The render stopped early to stay within `time_limit`.
     pub time_limited: bool,
+    /// What the integrator reports besides the image (photon counts, memory, radii).
+    pub summary: Option<String>,
 }
 
 /// Renders `scene` as `job` says. When the stop token is set the current pass is
@@ -99,5 +101,6 @@ pub fn render(scene: &Scene, job: &RenderJob, control: &RenderControl) -> Render
         interrupted,
         invalid_samples: invalid,
         time_limited,
+        summary: job.integrator.summary(&film),
     }
 }

@@ -1,0 +1,456 @@
+//! Photon mapping (the `photon` integrator, Jensen's two passes) and what it
+//! shares with [`super::sppm`]: shooting photons, the camera path to a visible
+//! point, direct light by light sampling.
+//!
+//! **Path lengths.** A camera path reaches its visible point after `k` segments
+//! (1 when the surface is seen directly, more through specular bounces); a photon
+//! is deposited after `s` segments from its light (1: straight from the light).
+//! Direct light at the visible point comes from light sampling (length `k + 1`),
+//! so only photons with `s ≥ 2` are stored, and a photon counts at a visible point
+//! only if `k + s ≤ max_depth`: `photon`, `sppm` and `path` then mean the same
+//! image for the same `max_depth` (up to the density estimate's blur).
+//!
+//! **Photons** leave the lights in proportion to power (the scene's light
+//! sampler), start with flux `Le·|cos| / (pmf · pdf_pos · pdf_dir)`, and carry
+//! flux: at a refraction the BSDF's radiance weight includes 1/η², which flux
+//! does not have (adjoint transport), so the photon's weight is multiplied by
+//! η² again; at shading normals the adjoint correction
+//! `|wo·ng||wi·ns| / (|wo·ns||wi·ng|)` applies. They are stored at every
+//! non-specular surface after the first segment and continue by BSDF sampling;
+//! Russian roulette (`rr_threshold`) starts once a photon's flux drops below that
+//! fraction of its initial flux, survivors keep at least that fraction.
+//! Random numbers: one [`SplitMix64`] per photon, seeded by (seed, iteration,
+//! photon index); photons are shot in chunks of [`CHUNK`] in parallel and
+//! concatenated in chunk order, so the map does not depend on the thread count.
+//!
+//! **Gathering.** At a visible point with BSDF `f` and camera throughput `β`,
+//! `L = β · Σ f(wo, wi_p) · Φ_p / (N_emitted · π r²)` over the photons within
+//! `r`. Photons whose direction lies on the other side of the surface (f = 0)
+//! contribute nothing, and SPPM does not count them in its radius update.
+
+use super::{camera_pass, shadow_ray, spawn_ray, PassContext, PassResult, RayCounts, StopToken};
+use crate::accel::photon_map::KdTree;
+use crate::film::Film;
+use crate::geometry::{Ray, RayDifferential};
+use crate::light::SceneBounds;
+use crate::material::{Bsdf, BsdfKind};
+use crate::math::{offset_ray_origin, Vec2, Vec3, PI};
+use crate::sampler::PixelSampler;
+use crate::sampling::SplitMix64;
+use crate::scene::{Interaction, Scene};
+use rayon::prelude::*;
+use std::cell::RefCell;
+
+/// Photons per parallel work item (and per stop-token check).
+pub const CHUNK: usize = 4096;
+
+/// A photon at a surface: where it came from, its flux, its path length.
+#[derive(Clone, Copy, Debug)]
+pub struct Photon {
+    /// Unit direction back towards where the photon came from.
+    pub wi: Vec3,
+    pub power: Vec3,
+    /// Segments from the light to here (≥ 2).
+    pub segments: u32,
+}
+
+/// Bytes a stored photon takes: the kd-tree's point (12 + 4 + 1) and the payload.
+pub const BYTES_PER_PHOTON: usize = KdTree::<3>::BYTES_PER_POINT + std::mem::size_of::<Photon>();
+
+/// The photons of one iteration in a kd-tree; `photons[slot]` is the tree's point `slot`.
+#[derive(Debug, Default)]
+pub struct PhotonMap {
+    pub tree: KdTree<3>,
+    pub photons: Vec<Photon>,
+    /// Photons shot (the density estimate's N).
+    pub emitted: u64,
+    pub rays: u64,
+}
+
+impl PhotonMap {
+    pub fn bytes(&self) -> usize {
+        self.photons.len() * BYTES_PER_PHOTON
+    }
+}
+
+/// How photons are shot.
+#[derive(Clone, Copy, Debug)]
+pub struct Shooting {
+    pub count: u32,
+    /// Longest photon path stored (segments).
+    pub max_segments: u32,
+    pub rr_threshold: f32,
+}
+
+/// One chunk's photons: positions, payloads, rays cast.
+type Chunk = (Vec<[f32; 3]>, Vec<Photon>, u64);
+
+/// Shoots `s.count` photons for `iteration`; `None` when the stop token was set.
+pub fn shoot(scene: &Scene, s: Shooting, iteration: u32, seed: u32, stop: &StopToken) -> Option<PhotonMap> {
+    let n = s.count as usize;
+    if scene.lights.is_empty() || n == 0 || s.max_segments < 2 {
+        return Some(PhotonMap {
+            emitted: n as u64,
+            ..PhotonMap::default()
+        });
+    }
+    let chunks: Vec<Option<Chunk>> = (0..n.div_ceil(CHUNK))
+        .into_par_iter()
+        .map(|c| {
+            if stop.is_stopped() {
+                return None;
+            }
+            let (mut pts, mut ph, mut rays) = (Vec::new(), Vec::new(), 0u64);
+            for i in c * CHUNK..((c + 1) * CHUNK).min(n) {
+                let key = (seed as u64) << 40 ^ (iteration as u64) << 32 ^ i as u64;
+                let mut rng = SplitMix64(key.wrapping_mul(0x9e37_79b9_7f4a_7c15));
+                rays += trace_photon(scene, s, &mut rng, &mut |p, photon| {
+                    pts.push(p.to_array());
+                    ph.push(photon);
+                });
+            }
+            Some((pts, ph, rays))
+        })
+        .collect();
+    let mut pts = Vec::new();
+    let mut photons = Vec::new();
+    let mut rays = 0;
+    for c in chunks {
+        let (p, ph, r) = c?;
+        pts.extend(p);
+        photons.extend(ph);
+        rays += r;
+    }
+    let tree = KdTree::build(pts);
+    let photons = tree.permute(&photons);
+    Some(PhotonMap {
+        tree,
+        photons,
+        emitted: n as u64,
+        rays,
+    })
+}
+
+/// Traces one photon, calling `store` at each deposit; returns the rays cast.
+fn trace_photon(scene: &Scene, s: Shooting, rng: &mut SplitMix64, store: &mut impl FnMut(Vec3, Photon)) -> u64 {
+    let mut u2 = || Vec2::new(rng.unit_f32(), rng.unit_f32());
+    let ul = u2();
+    let (index, pmf, _) = scene.light_sampler.sample(ul.x);
+    let bounds = SceneBounds {
+        center: scene.center,
+        radius: scene.radius,
+    };
+    let light = &scene.lights[index];
+    let Some(es) = light.sample_emission(u2(), u2(), bounds) else {
+        return 0;
+    };
+    let cos = es.n.map_or(1.0, |n| n.dot(es.dir).abs());
+    let denom = pmf * es.pdf_pos * es.pdf_dir;
+    if denom <= 0.0 || es.le == Vec3::ZERO {
+        return 0;
+    }
+    let mut beta = es.le * (cos / denom);
+    let threshold = beta.max_element() * s.rr_threshold;
+    let o = match (es.n, light.is_infinite()) {
+        (Some(n), false) => offset_ray_origin(es.p, if n.dot(es.dir) >= 0.0 { n } else { -n }),
+        _ => es.p,
+    };
+    let mut ray = Ray::new(o, es.dir);
+    let mut rays = 0;
+    let mut segments = 1u32;
+    loop {
+        rays += 1;
+        let Some(hit) = scene.intersect(&ray) else { break };
+        let it = scene.interaction(&ray, &hit);
+        let Some(material) = scene.material_of(&it) else { break };
+        let tc = it.tex_coord();
+        let bsdf = material.bsdf(it.ns, it.wo, |t| scene.textures[t as usize].eval(tc));
+        if !bsdf.is_delta() && segments >= 2 {
+            store(
+                it.p,
+                Photon {
+                    wi: it.wo,
+                    power: beta,
+                    segments,
+                },
+            );
+        }
+        if segments >= s.max_segments {
+            break;
+        }
+        let (uc, u) = (rng.unit_f32(), Vec2::new(rng.unit_f32(), rng.unit_f32()));
+        let Some(bs) = bsdf.sample(it.wo, u, uc) else { break };
+        // flux, not radiance: undo the BSDF's 1/η² (bs.eta² = 1/eta_ti²), and the
+        // adjoint shading-normal correction
+        let (won, wig) = (it.wo.dot(it.ns).abs(), bs.wi.dot(it.ng).abs());
+        let correction = if won > 0.0 && wig > 0.0 {
+            it.wo.dot(it.ng).abs() * bs.wi.dot(it.ns).abs() / (won * wig)
+        } else {
+            0.0
+        };
+        beta *= bs.weight * (bs.eta * bs.eta * correction);
+        if !beta.is_finite() || beta.max_element() <= 0.0 {
+            break;
+        }
+        let m = beta.max_element();
+        if m < threshold {
+            let q = m / threshold;
+            if rng.unit_f32() >= q {
+                break;
+            }
+            beta /= q;
+        }
+        ray = spawn_ray(&it, bs.wi);
+        segments += 1;
+    }
+    rays
+}
+
+/// Where a camera path stops to gather photons.
+#[derive(Clone, Copy, Debug)]
+pub struct VisiblePoint {
+    pub p: Vec3,
+    pub wo: Vec3,
+    pub bsdf: Bsdf,
+    /// Camera throughput up to here.
+    pub beta: Vec3,
+    /// Camera segments to here.
+    pub segments: u32,
+    /// Length of the camera path (for a footprint-sized radius).
+    pub distance: f32,
+}
+
+impl VisiblePoint {
+    /// `Σ f·Φ` over the photons of `slots` that pass the path-length rule, and how many did.
+    pub fn gather(&self, map: &PhotonMap, max_depth: u32, slots: impl Iterator<Item = usize>) -> (Vec3, u32) {
+        let mut sum = Vec3::ZERO;
+        let mut m = 0;
+        for slot in slots {
+            let ph = &map.photons[slot];
+            if self.segments + ph.segments > max_depth {
+                continue;
+            }
+            let f = self.bsdf.eval(self.wo, ph.wi);
+            if f != Vec3::ZERO {
+                sum += f * ph.power;
+                m += 1;
+            }
+        }
+        (sum, m)
+    }
+}
+
+fn is_glossy(b: &Bsdf) -> bool {
+    matches!(b.kind, BsdfKind::Conductor { .. })
+}
+
+/// Follows a camera ray through specular bounces (and glossy ones when
+/// `through_glossy`, as pbrt-v4's SPPM does, with light sampling at each) to its
+/// visible point. Returns the emission seen and the direct light found on the way,
+/// and the visible point (if the path reaches one where photons may still count).
+pub fn camera_path(
+    scene: &Scene,
+    mut ray: Ray,
+    diff: Option<RayDifferential>,
+    sampler: &mut PixelSampler,
+    counts: &mut RayCounts,
+    max_depth: u32,
+    through_glossy: bool,
+) -> (Vec3, Option<VisiblePoint>) {
+    let mut l = Vec3::ZERO;
+    let mut beta = Vec3::ONE;
+    let mut specular = true;
+    let mut distance = 0.0;
+    let mut segment = 1u32;
+    loop {
+        counts.rays += 1;
+        let Some(hit) = scene.intersect(&ray) else {
+            if specular {
+                l += beta * scene.environment_radiance(ray.d);
+            }
+            return (l, None);
+        };
+        let mut it = scene.interaction(&ray, &hit);
+        distance += hit.t;
+        if let (1, Some(d)) = (segment, &diff) {
+            it.compute_uv_derivatives(d);
+        }
+        if specular {
+            if let Some((_, area)) = scene.area_light_of(&it) {
+                l += beta * area.emitted(it.ng, it.wo);
+            }
+        }
+        if segment >= max_depth {
+            return (l, None);
+        }
+        let Some(material) = scene.material_of(&it) else { return (l, None) };
+        let tc = it.tex_coord();
+        let bsdf = material.bsdf(it.ns, it.wo, |t| scene.textures[t as usize].eval(tc));
+        if !bsdf.is_delta() {
+            l += beta * direct_light(scene, &it, &bsdf, sampler, counts);
+            if !(through_glossy && is_glossy(&bsdf)) {
+                let vp = VisiblePoint {
+                    p: it.p,
+                    wo: it.wo,
+                    bsdf,
+                    beta,
+                    segments: segment,
+                    distance,
+                };
+                return (l, (segment + 2 <= max_depth).then_some(vp));
+            }
+            if segment + 2 > max_depth {
+                return (l, None);
+            }
+        }
+        let uc = sampler.next_1d();
+        let Some(bs) = bsdf.sample(it.wo, Vec2::from(sampler.next_2d()), uc) else {
+            return (l, None);
+        };
+        beta *= bs.weight;
+        if beta == Vec3::ZERO || !beta.is_finite() {
+            return (l, None);
+        }
+        specular = bs.delta;
+        ray = spawn_ray(&it, bs.wi);
+        segment += 1;
+    }
+}
+
+/// Direct light at a surface by light sampling only (one light chosen by power).
+pub fn direct_light(scene: &Scene, it: &Interaction, bsdf: &Bsdf, sampler: &mut PixelSampler, counts: &mut RayCounts) -> Vec3 {
+    if scene.lights.is_empty() {
+        return Vec3::ZERO;
+    }
+    let (index, pmf, _) = scene.light_sampler.sample(sampler.next_1d());
+    let u = Vec2::from(sampler.next_2d());
+    let Some(ls) = scene.lights[index].sample(it.p, u, scene.light_sampling) else {
+        return Vec3::ZERO;
+    };
+    let f = bsdf.eval(it.wo, ls.wi);
+    if f == Vec3::ZERO || ls.pdf <= 0.0 || ls.radiance == Vec3::ZERO || pmf <= 0.0 {
+        return Vec3::ZERO;
+    }
+    counts.rays += 1;
+    if scene.occluded(&shadow_ray(it, &ls)) {
+        return Vec3::ZERO;
+    }
+    f * ls.radiance * (it.ns.dot(ls.wi).abs() / (pmf * ls.pdf))
+}
+
+/// Parameters (JSON `integrator` keys, besides `type`):
+/// * `n_photons` (int ≥ 1, 100000) — photons shot per iteration;
+/// * `n_iterations` (int ≥ 1, 1) — independent photon maps; the image averages them;
+/// * `spp` (int ≥ 1, 16) — camera samples per pixel per iteration (`--spp` sets it);
+///   a render takes `n_iterations · spp` passes of one sample per pixel;
+/// * `n_near_photons` (int ≥ 1, 64) — k of the k-nearest-neighbour estimate
+///   `β · Σ f·Φ / (N_emitted · π r²)` over the k nearest photons, r the distance of
+///   the (k+1)-th (so a uniform density is estimated without bias);
+/// * `max_depth` (int ≥ 1, 12) — longest path in segments, camera and photon
+///   segments together (see the module docs);
+/// * `rr_threshold` (number in [0, 1], 0.1) — photon Russian roulette starts below
+///   this fraction of the photon's initial flux (0: never).
+///
+/// The camera path follows specular bounces to the first non-specular surface,
+/// takes direct light there by light sampling and the rest from the photon map.
+///
+/// ```json
+/// {"type": "photon", "n_photons": 100000, "n_iterations": 4, "spp": 16, "n_near_photons": 64}
+/// ```
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PhotonMapper {
+    pub n_photons: u32,
+    pub n_iterations: u32,
+    pub n_near_photons: u32,
+    pub max_depth: u32,
+    pub rr_threshold: f32,
+}
+
+/// The current iteration's photon map, kept in the film between passes.
+struct MapState {
+    iteration: u32,
+    map: PhotonMap,
+    stored: u64,
+    emitted: u64,
+    bytes: usize,
+}
+
+thread_local! {
+    static KNN: RefCell<Vec<(f32, u32)>> = const { RefCell::new(Vec::new()) };
+}
+
+impl PhotonMapper {
+    pub fn pass_count(&self, spp: u32) -> u32 {
+        self.n_iterations.saturating_mul(spp)
+    }
+
+    pub fn render_pass(&self, ctx: &PassContext, pass: u32, film: &mut Film) -> PassResult {
+        let scene = ctx.scene;
+        let iteration = pass / ctx.spp.max(1);
+        let mut state = film.take_aux::<MapState>();
+        let mut shot_rays = 0;
+        if state.as_ref().is_none_or(|s| s.iteration != iteration) {
+            let shooting = Shooting {
+                count: self.n_photons,
+                max_segments: self.max_depth.saturating_sub(1),
+                rr_threshold: self.rr_threshold,
+            };
+            let Some(map) = shoot(scene, shooting, iteration, ctx.seed, ctx.stop) else {
+                if let Some(s) = state {
+                    film.set_aux(s);
+                }
+                return PassResult::default();
+            };
+            shot_rays = map.rays;
+            let (stored, emitted) = state.as_ref().map_or((0, 0), |s| (s.stored, s.emitted));
+            state = Some(Box::new(MapState {
+                iteration,
+                stored: stored + map.photons.len() as u64,
+                emitted: emitted + map.emitted,
+                bytes: map.bytes(),
+                map,
+            }));
+        }
+        let state = state.unwrap();
+        let map = &state.map;
+        let k = self.n_near_photons as usize;
+        let inv_n = 1.0 / map.emitted.max(1) as f32;
+        let mut r = camera_pass(ctx, pass, film, |s| {
+            let (l, vp) = camera_path(scene, s.ray, s.diff, s.sampler, s.counts, self.max_depth, false);
+            let Some(vp) = vp else { return l };
+            if map.photons.is_empty() {
+                return l;
+            }
+            KNN.with_borrow_mut(|near| {
+                map.tree.knn(&vp.p.to_array(), k + 1, f32::INFINITY, near);
+                // the k nearest inside the sphere through the (k+1)-th: k/(π r²) is
+                // unbiased for a uniform density, (k+1)/(π r²) would be k+1/k too high
+                let Some(&(r2, _)) = near.last() else { return l };
+                if r2 <= 0.0 || near.len() < 2 {
+                    return l;
+                }
+                let inside = &near[..near.len() - 1];
+                let (sum, _) = vp.gather(map, self.max_depth, inside.iter().map(|n| n.1 as usize));
+                l + vp.beta * sum * (inv_n / (PI * r2))
+            })
+        });
+        r.counts.rays += shot_rays;
+        film.set_aux(state);
+        r
+    }
+
+    /// Photon counts and memory, for the render summary.
+    pub fn summary(&self, film: &Film) -> Option<String> {
+        let s = film.aux::<MapState>()?;
+        Some(format!(
+            "photon: {} photon map(s), {} photons shot, {} stored ({:.1} per map), last map {:.1} MB ({} bytes per photon), k = {}",
+            s.iteration + 1,
+            s.emitted,
+            s.stored,
+            s.stored as f64 / (s.iteration + 1) as f64,
+            s.bytes as f64 / 1e6,
+            BYTES_PER_PHOTON,
+            self.n_near_photons
+        ))
+    }
+}

@@ -1,0 +1,200 @@
+//! Stochastic progressive photon mapping (Hachisuka & Jensen 2009), the `sppm`
+//! integrator, in the design of pbrt-v4's `SPPMIntegrator` but with photons in a
+//! kd-tree gathered per pixel (rather than visible points in a grid splatted by
+//! photons): every iteration (= pass) traces one camera sample per pixel to its
+//! visible point (through specular and glossy bounces, light sampling at every
+//! non-specular vertex), shoots a fresh photon map, and each pixel gathers the
+//! photons within its own radius `r`. With M photons counted this iteration
+//! (see [`super::photon`] for which count),
+//!
+//! `N' = N + αM`, `r' = r·√(N'/(N + M))`, `τ' = (τ + β·Σ f·Φ)·(r'/r)²`,
+//!
+//! and the pixel is `Σ L_direct / n + τ / (n · N_photons · π r²)` after n
+//! iterations. Pixels are independent, so the image depends only on the seed and
+//! the iteration count; the state lives in the film between passes. The pixel
+//! is its own square (box filter of radius ½; other filters are ignored).
+
+use super::photon::{camera_path, shoot, Shooting, BYTES_PER_PHOTON};
+use super::{PassContext, PassResult, RayCounts};
+use crate::film::Film;
+use crate::math::{Vec2, Vec3, PI};
+use crate::sampler::PixelSampler;
+use rayon::prelude::*;
+
+/// Parameters (JSON `integrator` keys, besides `type`):
+/// * `spp` (int ≥ 1, 64) — iterations, one camera sample per pixel each (`--spp`
+///   and `--time-limit` count them as for every integrator);
+/// * `photons_per_iteration` (int ≥ 1, 100000);
+/// * `initial_radius` (number > 0; absent: 4 pixel footprints at each pixel's
+///   first visible point, i.e. 4 × path length × the pixel's angle);
+/// * `alpha` (number in (0, 1], 2/3) — the fraction of new photons kept;
+/// * `max_depth` (int ≥ 1, 12) — segments, camera and photon together;
+/// * `rr_threshold` (number in [0, 1], 0.1) — photon Russian roulette, as `photon`.
+///
+/// ```json
+/// {"type": "sppm", "spp": 256, "photons_per_iteration": 200000}
+/// ```
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Sppm {
+    pub photons_per_iteration: u32,
+    pub initial_radius: Option<f32>,
+    pub alpha: f32,
+    pub max_depth: u32,
+    pub rr_threshold: f32,
+}
+
+/// Pixel footprints the default initial radius spans.
+pub const FOOTPRINTS: f32 = 4.0;
+
+#[derive(Clone, Copy, Debug, Default)]
+struct Pixel {
+    /// Sum of direct light (and emission) over the iterations.
+    ld: Vec3,
+    tau: Vec3,
+    n: f32,
+    /// 0 until the pixel's first visible point.
+    r: f32,
+}
+
+#[derive(Debug)]
+struct State {
+    pixels: Vec<Pixel>,
+    iterations: u32,
+    photons_emitted: u64,
+    photons_stored: u64,
+    map_bytes: usize,
+}
+
+impl Sppm {
+    pub fn render_pass(&self, ctx: &PassContext, pass: u32, film: &mut Film) -> PassResult {
+        let scene = ctx.scene;
+        let (w, h) = (ctx.film.width as usize, ctx.film.height as usize);
+        debug_assert_eq!(w * h, film.width as usize * film.height as usize);
+        let shooting = Shooting {
+            count: self.photons_per_iteration,
+            max_segments: self.max_depth.saturating_sub(1),
+            rr_threshold: self.rr_threshold,
+        };
+        let Some(map) = shoot(scene, shooting, pass, ctx.seed, ctx.stop) else {
+            return PassResult::default();
+        };
+        let mut state = film.take_aux::<State>().unwrap_or_else(|| {
+            Box::new(State {
+                pixels: vec![Pixel::default(); w * h],
+                iterations: 0,
+                photons_emitted: 0,
+                photons_stored: 0,
+                map_bytes: 0,
+            })
+        });
+        let spread = ctx.camera.pixel_spread();
+        let (alpha, max_depth) = (self.alpha, self.max_depth);
+        // rows of the film (y up), each row's pixels updated into a copy
+        let rows: Vec<Option<(Vec<Pixel>, RayCounts)>> = state
+            .pixels
+            .par_chunks(w)
+            .enumerate()
+            .map(|(y, row)| {
+                if ctx.stop.is_stopped() {
+                    return None;
+                }
+                let mut counts = RayCounts::default();
+                let mut out = row.to_vec();
+                let mut slots = Vec::new();
+                for (x, px) in out.iter_mut().enumerate() {
+                    let mut sampler = PixelSampler::new(x as u32, y as u32, pass, ctx.seed);
+                    let (u, v) = sampler.next_2d();
+                    let pos = Vec2::new(x as f32 + u, y as f32 + v);
+                    let ray = ctx.camera.ray(pos.x, pos.y);
+                    let (l, vp) = camera_path(scene, ray, None, &mut sampler, &mut counts, max_depth, true);
+                    if l.is_finite() {
+                        px.ld += l;
+                    } else {
+                        counts.invalid += 1;
+                    }
+                    let Some(vp) = vp else { continue };
+                    if px.r == 0.0 {
+                        px.r = self.initial_radius.unwrap_or(FOOTPRINTS * spread * vp.distance);
+                    }
+                    if px.r <= 0.0 || !px.r.is_finite() {
+                        continue;
+                    }
+                    slots.clear();
+                    map.tree.within(&vp.p.to_array(), px.r, |s, _| slots.push(s));
+                    let (phi, m) = vp.gather(&map, max_depth, slots.iter().copied());
+                    if m == 0 {
+                        continue;
+                    }
+                    let add = vp.beta * phi;
+                    if !add.is_finite() {
+                        counts.invalid += 1;
+                        continue;
+                    }
+                    let n_new = px.n + alpha * m as f32;
+                    let r_new = px.r * (n_new / (px.n + m as f32)).sqrt();
+                    px.tau = (px.tau + add) * ((r_new * r_new) / (px.r * px.r));
+                    px.n = n_new;
+                    px.r = r_new;
+                }
+                (ctx.progress)(w as u64);
+                Some((out, counts))
+            })
+            .collect();
+        let mut result = PassResult {
+            complete: rows.iter().all(Option::is_some),
+            counts: RayCounts {
+                rays: map.rays,
+                invalid: 0,
+            },
+        };
+        for (_, c) in rows.iter().flatten() {
+            result.counts += *c;
+        }
+        if result.complete {
+            for (y, (row, _)) in rows.into_iter().flatten().enumerate() {
+                state.pixels[y * w..(y + 1) * w].copy_from_slice(&row);
+            }
+            state.iterations += 1;
+            state.photons_emitted += map.emitted;
+            state.photons_stored += map.photons.len() as u64;
+            state.map_bytes = state.map_bytes.max(map.bytes());
+            let n = state.iterations as f32;
+            let photons = state.photons_emitted as f32;
+            let image = state
+                .pixels
+                .iter()
+                .map(|p| {
+                    let indirect = if p.r > 0.0 {
+                        p.tau / (photons * PI * p.r * p.r)
+                    } else {
+                        Vec3::ZERO
+                    };
+                    p.ld / n + indirect
+                })
+                .collect();
+            film.set_estimate(image);
+        }
+        film.set_aux(state);
+        result
+    }
+
+    /// Photon counts, memory and radii, for the render summary.
+    pub fn summary(&self, film: &Film) -> Option<String> {
+        let s = film.aux::<State>()?;
+        let mut radii: Vec<f32> = s.pixels.iter().map(|p| p.r).filter(|r| *r > 0.0).collect();
+        radii.sort_by(f32::total_cmp);
+        let q = |f: f64| radii.get(((radii.len() as f64 - 1.0) * f).round() as usize).copied().unwrap_or(0.0);
+        Some(format!(
+            "sppm: {} iterations, {} photons shot, {} stored ({:.0} per iteration, at most {:.1} MB, {} bytes per photon); final radius min/median/max {:.3e}/{:.3e}/{:.3e}",
+            s.iterations,
+            s.photons_emitted,
+            s.photons_stored,
+            s.photons_stored as f64 / s.iterations.max(1) as f64,
+            s.map_bytes as f64 / 1e6,
+            BYTES_PER_PHOTON,
+            q(0.0),
+            q(0.5),
+            q(1.0)
+        ))
+    }
+}

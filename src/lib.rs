@@ -10,6 +10,7 @@ pub mod film;
 pub mod geometry;
 pub mod imageio;
 pub mod integrator;
+pub mod limits;
 pub mod light;
 pub mod material;
 pub mod math;

@@ -28,6 +28,7 @@ use crate::accel::build::{self, PrimRef};
 use crate::geometry::prim::{Hit, Prim};
 use crate::geometry::{Aabb, Ray};
 use node::{decode, EMPTY};
+use std::sync::atomic::{AtomicU64, Ordering};
 use traverse::{any, closest, PORTABLE};
 
 /// Stack sizes: the small one serves every tree whose worst path needs it.
@@ -150,6 +151,27 @@ macro_rules! dispatch {
     }};
 }
 
+/// Rays with a NaN or infinite origin or direction (or a NaN range) seen by
+/// [`WideBvh::intersect`] and [`WideBvh::occluded`], which treat them as misses.
+static INVALID_RAYS: AtomicU64 = AtomicU64::new(0);
+
+/// How many NaN or infinite rays traversal has refused so far in this process.
+pub fn invalid_rays() -> u64 {
+    INVALID_RAYS.load(Ordering::Relaxed)
+}
+
+/// Whether a ray can be traversed: finite origin and direction, a range that is not
+/// NaN. Others miss (and are counted): their box tests would give NaN distances and
+/// masks that admit empty child slots. One branch per query, never taken by good rays.
+#[inline(always)]
+fn usable(ray: &Ray) -> bool {
+    let ok = ray.o.is_finite() && ray.d.is_finite() && !(ray.t_min.is_nan() || ray.t_max.is_nan());
+    if !ok {
+        INVALID_RAYS.fetch_add(1, Ordering::Relaxed);
+    }
+    ok
+}
+
 impl WideBvh {
     /// Builds over `prims` (indices refer to this slice); primitives with
     /// unusable bounds (empty, NaN, infinite) are left out.
@@ -200,7 +222,7 @@ impl WideBvh {
 
     /// Closest hit in `[ray.t_min, ray.t_max]`; `prims` is the slice the tree was built over.
     pub fn intersect(&self, prims: &[Prim], ray: &Ray) -> Option<Hit> {
-        if self.nodes.is_empty() {
+        if self.nodes.is_empty() || !usable(ray) {
             return None;
         }
         dispatch!(self, closest, closest_avx2, closest_avx512, (self, prims, ray))
@@ -208,7 +230,7 @@ impl WideBvh {
 
     /// Whether anything lies on the ray within `[ray.t_min, ray.t_max]`.
     pub fn occluded(&self, prims: &[Prim], ray: &Ray) -> bool {
-        if self.nodes.is_empty() {
+        if self.nodes.is_empty() || !usable(ray) {
             return false;
         }
         dispatch!(self, any, any_avx2, any_avx512, (self, prims, ray))

@@ -152,10 +152,7 @@ pub fn check_input_file(path: &Path, max_bytes: u64) -> std::io::Result<u64> {
         return Err(Error::new(ErrorKind::IsADirectory, "it is a folder, not a file"));
     }
     if !meta.is_file() {
-        return Err(Error::new(
-            ErrorKind::InvalidInput,
-            "not a regular file (a pipe, socket or device)",
-        ));
+        return Err(Error::new(ErrorKind::InvalidInput, "not a regular file (a pipe, socket or device)"));
     }
     if meta.len() > max_bytes {
         return Err(Error::new(

@@ -46,8 +46,8 @@ use std::path::Path;
 /// (zero-area) triangles dropped.
 pub fn load_mesh(path: &Path) -> Result<Vec<Prim>> {
     // a regular file of a sane size whose parsed form fits the memory budget
-    let bytes =
-        crate::limits::read_input_file(path, crate::limits::max_input_file()).with_context(|| format!("cannot read '{}'", path.display()))?;
+    let bytes = crate::limits::read_input_file(path, crate::limits::max_input_file())
+        .with_context(|| format!("cannot read '{}'", path.display()))?;
     crate::limits::check_memory((bytes.len() as u64).checked_mul(obj::MEMORY_PER_BYTE), || {
         format!("mesh '{}'", path.display())
     })

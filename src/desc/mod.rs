@@ -289,7 +289,11 @@ fn parse_integrator(p: &Props) -> Result<IntegratorDesc> {
     let has_list = p.contains("lights");
     if !has_list || p.contains("point_light_position") || p.contains("point_light_flux") {
         point_lights.push(PointLightDesc {
-            position: point(p, "point_light_position", p.vec3_or("point_light_position", Vec3::new(0.0, 5.0, 0.0))?)?,
+            position: point(
+                p,
+                "point_light_position",
+                p.vec3_or("point_light_position", Vec3::new(0.0, 5.0, 0.0))?,
+            )?,
             flux: non_negative_flux(p, "point_light_flux", p.vec3_or("point_light_flux", Vec3::ONE)?)?,
             key: p.key_path("point_light_position"),
         });
@@ -358,7 +362,13 @@ fn capped(p: &Props, key: &str, v: u32, max: u32) -> u32 {
 fn point(p: &Props, key: &str, v: Vec3) -> Result<Vec3> {
     let max = crate::limits::MAX_COORD;
     if v.abs().max_element() > max {
-        return Err(p.error(key, format!("[{:?}, {:?}, {:?}] is out of range (coordinates must be within ±{max:e})", v.x, v.y, v.z)));
+        return Err(p.error(
+            key,
+            format!(
+                "[{:?}, {:?}, {:?}] is out of range (coordinates must be within ±{max:e})",
+                v.x, v.y, v.z
+            ),
+        ));
     }
     Ok(v)
 }
@@ -397,17 +407,17 @@ fn parse_film(p: &Props) -> Result<FilmDesc> {
                 return Err(f.error("radius", format!("must be positive, found {radius}")));
             }
             if radius > MAX_FILTER_RADIUS {
-                return Err(f.error(
-                    "radius",
-                    format!("{radius} is too large (at most {MAX_FILTER_RADIUS} pixels)"),
-                ));
+                return Err(f.error("radius", format!("{radius} is too large (at most {MAX_FILTER_RADIUS} pixels)")));
             }
             let d = match ty.as_str() {
                 "box" => Filter::Box { radius },
                 "gaussian" => {
                     let alpha = f.f32_or("alpha", 2.0)?;
                     if alpha <= 0.0 {
-                        return Err(f.error("alpha", format!("must be positive, found {alpha} (the filter would weigh every sample 0)")));
+                        return Err(f.error(
+                            "alpha",
+                            format!("must be positive, found {alpha} (the filter would weigh every sample 0)"),
+                        ));
                     }
                     let g = Filter::gaussian(radius, alpha);
                     // the weight at a pixel's centre and half a pixel away must not vanish
@@ -465,7 +475,10 @@ fn parse_camera(p: &Props) -> Result<CameraParams> {
     // the basis the rays are made of must come out finite (any resolution's aspect
     // only scales `right`, which the film size check keeps finite)
     if !crate::camera::Camera::new(&c, 1, 1).is_finite() {
-        return Err(p.ctx().error(&p.path, "the camera's view basis is not finite (position, look_at, ref_up or focal_length out of range)"));
+        return Err(p.ctx().error(
+            &p.path,
+            "the camera's view basis is not finite (position, look_at, ref_up or focal_length out of range)",
+        ));
     }
     p.finish();
     Ok(c)

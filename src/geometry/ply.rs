@@ -110,9 +110,7 @@ pub fn parse_ply(bytes: &[u8]) -> Result<ObjData> {
             .checked_mul(per)
             .and_then(|n| n.checked_add(need))
             .filter(|&n| n <= body_len + 1)
-            .with_context(|| {
-                format!("element '{name}' claims {count} records, more than the {body_len} bytes of the body can hold")
-            })?;
+            .with_context(|| format!("element '{name}' claims {count} records, more than the {body_len} bytes of the body can hold"))?;
     }
     let mut data = ObjData::default();
     for (name, count, props) in &elements {

@@ -16,6 +16,7 @@ pub mod material;
 pub mod math;
 pub mod metrics;
 pub mod render;
+pub mod robustness;
 pub mod sampler;
 pub mod sampling;
 pub mod scene;

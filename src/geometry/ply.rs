@@ -63,7 +63,7 @@ pub fn parse_ply(bytes: &[u8]) -> Result<ObjData> {
         None
     } else {
         Some(
-            std::str::from_utf8(&bytes[body..])
+            std::str::from_utf8(bytes.get(body..).unwrap_or_default())
                 .context("PLY body is not text")?
                 .split_whitespace(),
         )

@@ -266,3 +266,56 @@ impl WideBvh {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::math::Vec3;
+
+    /// NaN and infinite rays miss and are counted, on every kernel; huge but finite
+    /// ones (whose box tests overflow) never index an empty slot.
+    #[test]
+    fn bad_rays_miss_and_are_counted() {
+        let mut prims = Vec::new();
+        for i in 0..200 {
+            let x = i as f32 * 0.1;
+            prims.push(Prim::Triangle {
+                p: [Vec3::new(x, 0.0, 0.0), Vec3::new(x + 1.0, 0.0, 0.0), Vec3::new(x, 1.0, 0.0)],
+                object: 0,
+                index: i,
+            });
+        }
+        let mut bvh = WideBvh::build(&prims);
+        let good = Ray::new(Vec3::new(0.3, 0.3, 5.0), Vec3::new(0.0, 0.0, -1.0));
+        for isa in Isa::all_available() {
+            assert!(bvh.set_isa(isa));
+            assert!(bvh.intersect(&prims, &good).is_some());
+            let before = invalid_rays();
+            let nan = f32::NAN;
+            let bad = [
+                Ray::new(Vec3::new(nan, 0.3, 5.0), Vec3::new(0.0, 0.0, -1.0)),
+                Ray::new(Vec3::new(0.3, 0.3, 5.0), Vec3::new(nan, nan, nan)),
+                Ray::new(Vec3::new(f32::INFINITY, 0.3, 5.0), Vec3::new(0.0, 0.0, -1.0)),
+                Ray::with_range(Vec3::new(0.3, 0.3, 5.0), Vec3::new(0.0, 0.0, -1.0), 0.0, nan),
+            ];
+            for r in &bad {
+                assert!(bvh.intersect(&prims, r).is_none());
+                assert!(!bvh.occluded(&prims, r));
+                let mut visited = 0;
+                bvh.traverse(r, |_, _| {
+                    visited += 1;
+                    false
+                });
+                assert_eq!(visited, 0);
+            }
+            assert!(invalid_rays() - before >= 3 * bad.len() as u64);
+            for o in [3e38f32, -3e38, 1e30] {
+                for d in [Vec3::new(-1.0, 0.0, 0.0), Vec3::new(1e-30, 1.0, 0.0).normalize(), Vec3::new(0.0, 0.0, 1.0)] {
+                    let r = Ray::new(Vec3::new(o, 0.5, 0.0), d);
+                    let _ = bvh.intersect(&prims, &r);
+                    let _ = bvh.occluded(&prims, &r);
+                }
+            }
+        }
+    }
+}

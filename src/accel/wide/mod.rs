@@ -162,14 +162,29 @@ pub fn invalid_rays() -> u64 {
 
 /// Whether a ray can be traversed: finite origin and direction, a range that is not
 /// NaN. Others miss (and are counted): their box tests would give NaN distances and
-/// masks that admit empty child slots. One branch per query, never taken by good rays.
+/// masks that admit empty child slots. Good rays pay five adds and two compares (a
+/// sum is finite only when every term is, and `t_max >= t_min` is false for NaN).
 #[inline(always)]
 fn usable(ray: &Ray) -> bool {
-    let ok = ray.o.is_finite() && ray.d.is_finite() && !(ray.t_min.is_nan() || ray.t_max.is_nan());
-    if !ok {
+    let s = (ray.o.x + ray.o.y) + (ray.o.z + ray.d.x) + (ray.d.y + ray.d.z);
+    if s.is_finite() && ray.t_max >= ray.t_min {
+        return true;
+    }
+    refused(ray)
+}
+
+/// The rare path of [`usable`]: an empty range is a plain miss; anything else (NaN or
+/// infinite values, or coordinates so close to `f32::MAX` that their sum overflows)
+/// is counted.
+#[cold]
+#[inline(never)]
+fn refused(ray: &Ray) -> bool {
+    let finite = ray.o.is_finite() && ray.d.is_finite() && !ray.t_min.is_nan() && !ray.t_max.is_nan();
+    let s = (ray.o.x + ray.o.y) + (ray.o.z + ray.d.x) + (ray.d.y + ray.d.z);
+    if !(finite && s.is_finite()) {
         INVALID_RAYS.fetch_add(1, Ordering::Relaxed);
     }
-    ok
+    false
 }
 
 impl WideBvh {

@@ -44,7 +44,8 @@ fn save_failure(target: &str, data: &[u8]) -> PathBuf {
 }
 
 fn fnv(data: &[u8]) -> u64 {
-    data.iter().fold(0xcbf2_9ce4_8422_2325u64, |h, &b| (h ^ b as u64).wrapping_mul(0x100_0000_01b3))
+    data.iter()
+        .fold(0xcbf2_9ce4_8422_2325u64, |h, &b| (h ^ b as u64).wrapping_mul(0x100_0000_01b3))
 }
 
 /// A small memory budget: mutated headers that claim big sizes are refused, not
@@ -217,7 +218,10 @@ fn mutated_corpus_files_never_panic() {
                 }
             }
         }
-        report.push(format!("{target}: {runs} inputs ({accepted} accepted), slowest {:.0} ms", slowest * 1e3));
+        report.push(format!(
+            "{target}: {runs} inputs ({accepted} accepted), slowest {:.0} ms",
+            slowest * 1e3
+        ));
         if slowest > 5.0 {
             failures.push(format!("{target}: an input took {slowest:.1} s"));
         }

@@ -53,7 +53,7 @@ impl Mesh {
             let p = t.p.map(|i| positions[i as usize]);
             let c = (p[1] - p[0]).cross(p[2] - p[0]);
             let max = crate::limits::MAX_COORD;
-            if !c.is_finite() || p.iter().any(|v| !(v.abs().max_element() <= max)) {
+            if !c.is_finite() || p.iter().any(|v| !v.is_finite() || v.abs().max_element() > max) {
                 // not degenerate: too large for f32 ray arithmetic (or made non-finite
                 // by the transform)
                 report.too_large += 1;

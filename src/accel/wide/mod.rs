@@ -325,7 +325,11 @@ mod tests {
             }
             assert!(invalid_rays() - before >= 3 * bad.len() as u64);
             for o in [3e38f32, -3e38, 1e30] {
-                for d in [Vec3::new(-1.0, 0.0, 0.0), Vec3::new(1e-30, 1.0, 0.0).normalize(), Vec3::new(0.0, 0.0, 1.0)] {
+                for d in [
+                    Vec3::new(-1.0, 0.0, 0.0),
+                    Vec3::new(1e-30, 1.0, 0.0).normalize(),
+                    Vec3::new(0.0, 0.0, 1.0),
+                ] {
                     let r = Ray::new(Vec3::new(o, 0.5, 0.0), d);
                     let _ = bvh.intersect(&prims, &r);
                     let _ = bvh.occluded(&prims, &r);

@@ -378,6 +378,7 @@ fn bench_mesh(args: &SceneArgs, repeat: usize, isa: Option<&str>, rays: Vec<Stri
         .threads
         .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
     check_threads(all)?;
+    anyhow::ensure!(repeat <= 1000, "--repeat {repeat} is more than the 1000 supported");
     let mut threads = vec![1];
     if all > 1 {
         threads.push(all);

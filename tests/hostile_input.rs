@@ -556,6 +556,11 @@ fn cases(dir: &Path) -> Vec<Case> {
             os(&[&"bench", &d("tri.obj"), &"--threads", &"100000"]),
             &[&"--threads"],
         ),
+        err(
+            "bench --repeat 2^32",
+            os(&[&"bench", &d("tri.obj"), &"--repeat", &"4294967296"]),
+            &[&"--repeat"],
+        ),
         // 6. other
         err(
             "compare with a smaller variance image",

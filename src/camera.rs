@@ -51,6 +51,20 @@ impl Camera {
         }
     }
 
+    /// Whether the basis and the rays through the film's corners and centre are
+    /// finite and non-zero (scenes are checked with this before rendering).
+    pub fn is_finite(&self) -> bool {
+        let ok = |v: Vec3| v.is_finite() && v.length_squared() > 0.0 && v.length_squared().is_finite();
+        let (w, h) = (self.width, self.height);
+        self.position.is_finite()
+            && ok(self.forward)
+            && ok(self.right)
+            && ok(self.up)
+            && [(0.0, 0.0), (w, 0.0), (0.0, h), (w, h), (0.5 * w, 0.5 * h)]
+                .iter()
+                .all(|&(x, y)| ok(self.direction(x, y)))
+    }
+
     /// Direction through the continuous film position `(x, y)`; film `y` grows
     /// upwards, `(0, 0)` is the bottom-left corner of the view.
     #[inline]

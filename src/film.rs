@@ -127,12 +127,13 @@ impl FilmTile {
                 return;
             }
         }
+        // the footprint clipped to this tile (which lies inside the film): the work per
+        // sample is bounded by the tile, whatever the filter's radius
         let k = filter.reach();
-        for y in py - k..=py + k {
-            for x in px - k..=px + k {
-                if x < 0 || y < 0 || x >= film_w || y >= film_h {
-                    continue;
-                }
+        let (ya, yb) = ((py - k).max(self.y0), (py + k).min(self.y0 + self.h - 1));
+        let (xa, xb) = ((px - k).max(self.x0), (px + k).min(self.x0 + self.w - 1));
+        for y in ya..=yb {
+            for x in xa..=xb {
                 let w = filter.eval(pos.x - (x as f32 + 0.5), pos.y - (y as f32 + 0.5));
                 if w != 0.0 {
                     self.splat(x, y, l, w);
@@ -170,6 +171,23 @@ pub struct FilmSettings {
     pub height: u32,
     pub filter: Filter,
     pub block_size: u32,
+}
+
+impl FilmSettings {
+    /// Bytes a render of this film allocates at most, or `None` on overflow: the
+    /// film's f64 sums, weights and splats, every tile of a pass (with the filter's
+    /// reach around it; a pass keeps all its tiles until it is merged), the image and
+    /// the file written from it.
+    pub fn memory_bytes(&self) -> Option<u64> {
+        let (w, h) = (self.width as u64, self.height as u64);
+        let pixels = w.checked_mul(h)?;
+        let b = self.block_size.max(1) as u64;
+        let k = self.filter.reach().max(0) as u64;
+        let (tx, ty) = (w.div_ceil(b), h.div_ceil(b));
+        let tile_px = (b + 2 * k).min(w).checked_mul((b + 2 * k).min(h))?;
+        let tiles = tx.checked_mul(ty)?.checked_mul(tile_px)?.checked_mul(20)?;
+        pixels.checked_mul(24 + 8 + 24 + 12 + 12)?.checked_add(tiles)
+    }
 }
 
 /// Contributions of one worker to arbitrary film positions (light tracing), in

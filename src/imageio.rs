@@ -51,6 +51,11 @@ pub fn f32_to_half_tinyexr(x: f32) -> u16 {
 /// Writes an OpenEXR 2.0 single-part scanline file, uncompressed, channels B, G, R
 /// (the sorted order the format requires), rows top-down.
 pub fn write_exr(path: &Path, width: u32, height: u32, rgb: &[Vec3], pixels: ExrPixels) -> Result<()> {
+    write_atomically(path, &encode_exr(width, height, rgb, pixels))
+}
+
+/// The bytes of the file [`write_exr`] writes.
+pub fn encode_exr(width: u32, height: u32, rgb: &[Vec3], pixels: ExrPixels) -> Vec<u8> {
     let (w, h) = (width as usize, height as usize);
     assert_eq!(rgb.len(), w * h, "image size");
     let (ptype, bytes_per) = match pixels {
@@ -107,17 +112,55 @@ pub fn write_exr(path: &Path, width: u32, height: u32, rgb: &[Vec3], pixels: Exr
             }
         }
     }
-    write_atomically(path, &out)
+    out
 }
 
-/// Writes through a temporary file and a rename, so a failed write never leaves
-/// a truncated image behind.
-fn write_atomically(path: &Path, bytes: &[u8]) -> Result<()> {
-    let tmp = path.with_extension(format!("{}.partial", path.extension().and_then(|e| e.to_str()).unwrap_or("tmp")));
-    let mut f = std::fs::File::create(&tmp).with_context(|| format!("cannot write {}", tmp.display()))?;
-    f.write_all(bytes).with_context(|| format!("cannot write {}", tmp.display()))?;
-    drop(f);
-    std::fs::rename(&tmp, path).with_context(|| format!("cannot write {}", path.display()))
+/// The folder a file is written into (`.` for a bare file name).
+fn folder_of(path: &Path) -> &Path {
+    path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."))
+}
+
+/// A new, uniquely named temporary file beside `path`, created exclusively (never an
+/// existing file or a planted symbolic link), removed again when dropped.
+fn temp_beside(path: &Path) -> std::io::Result<tempfile::NamedTempFile> {
+    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    tempfile::Builder::new()
+        .prefix(&format!(".{name}."))
+        .suffix(".partial")
+        .tempfile_in(folder_of(path))
+}
+
+/// Writes through a unique temporary file beside `path` and a rename, so a failed
+/// write never leaves a truncated image (nor its temporary file) behind, and two
+/// writers of one path never mix their bytes: the file is always one of them whole.
+pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<()> {
+    let fail = |e: std::io::Error| anyhow::anyhow!("cannot write {}: {e}", path.display());
+    let mut tmp = temp_beside(path).map_err(fail)?;
+    tmp.write_all(bytes).map_err(fail)?;
+    tmp.as_file().sync_data().map_err(fail)?;
+    tmp.persist(path).map_err(|e| fail(e.error))?;
+    Ok(())
+}
+
+/// Saves `bytes` (an image whose real output could not be written) as a new file in
+/// the system's temporary folder, named after `path`, and returns where.
+pub fn save_elsewhere(path: &Path, bytes: &[u8]) -> Result<std::path::PathBuf> {
+    let stem = path
+        .file_stem()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "image".into());
+    let ext = path
+        .extension()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "exr".into());
+    let mut f = tempfile::Builder::new()
+        .prefix(&format!("rdr-{stem}-"))
+        .suffix(&format!(".{ext}"))
+        .tempfile()
+        .context("cannot create a file in the temporary folder")?;
+    f.write_all(bytes).context("cannot write to the temporary folder")?;
+    let (_, kept) = f.keep().context("cannot keep the file in the temporary folder")?;
+    Ok(kept)
 }
 
 /// Linear → sRGB-encoded 8 bit, clamped.
@@ -132,6 +175,12 @@ pub fn linear_to_srgb8(v: f32) -> u8 {
 }
 
 pub fn write_png(path: &Path, width: u32, height: u32, rgb: &[Vec3]) -> Result<()> {
+    let buf = encode_png(width, height, rgb).with_context(|| format!("cannot encode {}", path.display()))?;
+    write_atomically(path, &buf)
+}
+
+/// The bytes of the file [`write_png`] writes.
+pub fn encode_png(width: u32, height: u32, rgb: &[Vec3]) -> Result<Vec<u8>> {
     let bytes: Vec<u8> = rgb
         .iter()
         .flat_map(|p| [linear_to_srgb8(p.x), linear_to_srgb8(p.y), linear_to_srgb8(p.z)])
@@ -144,19 +193,28 @@ pub fn write_png(path: &Path, width: u32, height: u32, rgb: &[Vec3]) -> Result<(
         height,
         image::ExtendedColorType::Rgb8,
         image::ImageFormat::Png,
-    )
-    .with_context(|| format!("cannot encode {}", path.display()))?;
-    write_atomically(path, buf.get_ref())
+    )?;
+    Ok(buf.into_inner())
 }
 
 /// Checks, before rendering, that `path` can be written by [`write_image`]: a
-/// supported extension and an existing folder.
+/// supported extension, an existing folder we may create files in (a probe
+/// temporary file is made and removed), and no folder of that name.
 pub fn check_output_path(path: &Path) -> Result<()> {
     output_format(path)?;
-    let dir = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+    let dir = folder_of(path);
     if !dir.is_dir() {
         bail!("{}: cannot write: folder {} does not exist", path.display(), dir.display());
     }
+    if path.is_dir() {
+        bail!("{}: cannot write: it is a folder", path.display());
+    }
+    if let Ok(m) = std::fs::symlink_metadata(path) {
+        if !m.is_file() && !m.file_type().is_symlink() {
+            bail!("{}: cannot write: it exists and is not a regular file", path.display());
+        }
+    }
+    temp_beside(path).map_err(|e| anyhow::anyhow!("{}: cannot write in folder {}: {e}", path.display(), dir.display()))?;
     Ok(())
 }
 
@@ -171,9 +229,14 @@ fn output_format(path: &Path) -> Result<&'static str> {
 
 /// Output format from the file extension: `.exr` or `.png`.
 pub fn write_image(path: &Path, width: u32, height: u32, rgb: &[Vec3], exr: ExrPixels) -> Result<()> {
+    write_atomically(path, &encode_image(path, width, height, rgb, exr)?)
+}
+
+/// The bytes of the file [`write_image`] writes to `path`.
+pub fn encode_image(path: &Path, width: u32, height: u32, rgb: &[Vec3], exr: ExrPixels) -> Result<Vec<u8>> {
     match output_format(path)? {
-        "exr" => write_exr(path, width, height, rgb, exr),
-        _ => write_png(path, width, height, rgb),
+        "exr" => Ok(encode_exr(width, height, rgb, exr)),
+        _ => encode_png(width, height, rgb).with_context(|| format!("cannot encode {}", path.display())),
     }
 }
 
@@ -192,22 +255,72 @@ impl RgbImage {
     }
 }
 
+/// Reads an EXR file (a regular file of a sane size, its header checked against the
+/// file's size and the memory budget before any pixel is allocated).
 pub fn read_exr(path: &Path) -> Result<RgbImage> {
+    let bytes = read_input(path)?;
+    decode_exr(&bytes, path, 12)
+}
+
+/// A whole input image file, after checking it is a regular file within the budget.
+fn read_input(path: &Path) -> Result<Vec<u8>> {
+    crate::limits::read_input_file(path, crate::limits::memory_budget()).map_err(|e| anyhow::anyhow!("cannot read {}: {e}", path.display()))
+}
+
+/// Checks an EXR's header before decoding: every part's offset table (8 bytes a
+/// chunk, always stored) must fit in the file, and `bytes_per_pixel` of the caller's
+/// plus the decoder's own 16 per pixel of the largest part must fit the memory budget.
+fn check_exr_header(bytes: &[u8], name: &Path) -> Result<()> {
+    let meta = exr::meta::MetaData::read_from_buffered(std::io::Cursor::new(bytes), false)
+        .map_err(|e| anyhow::anyhow!("cannot read {}: {e}", name.display()))?;
+    for h in meta.headers.iter() {
+        let (w, ht) = (h.layer_size.width() as u64, h.layer_size.height() as u64);
+        let table = (h.chunk_count as u64).checked_mul(8);
+        if table.is_none_or(|t| t > bytes.len() as u64) {
+            bail!(
+                "cannot read {}: the header claims {w}x{ht} pixels ({} chunks) but the file has only {} bytes",
+                name.display(),
+                h.chunk_count,
+                bytes.len()
+            );
+        }
+    }
+    Ok(())
+}
+
+/// Decodes EXR bytes (`name` is only for messages); `bytes_per_pixel` is what the
+/// caller keeps per pixel afterwards, for the memory check.
+pub fn decode_exr(bytes: &[u8], name: &Path, bytes_per_pixel: u64) -> Result<RgbImage> {
     use exr::prelude::*;
-    let img = read_first_rgba_layer_from_file(
-        path,
-        |res, _| RgbImage {
-            width: res.width(),
-            height: res.height(),
-            pixels: vec![Vec3::ZERO; res.width() * res.height()],
-        },
-        |img: &mut RgbImage, pos, (r, g, b, _a): (f32, f32, f32, f32)| {
-            let w = img.width;
-            img.pixels[pos.y() * w + pos.x()] = Vec3::new(r, g, b);
-        },
-    )
-    // the exr error shows its I/O cause in its own message: keep it flat, not chained
-    .map_err(|e| anyhow::anyhow!("cannot read {}: {e}", path.display()))?;
+    check_exr_header(bytes, name)?;
+    let meta = exr::meta::MetaData::read_from_buffered(std::io::Cursor::new(bytes), false)
+        .map_err(|e| anyhow::anyhow!("cannot read {}: {e}", name.display()))?;
+    for h in meta.headers.iter() {
+        let (w, ht) = (h.layer_size.width() as u64, h.layer_size.height() as u64);
+        crate::limits::check_memory(w.checked_mul(ht).and_then(|n| n.checked_mul(bytes_per_pixel + 16)), || {
+            format!("{} ({w}x{ht} pixels)", name.display())
+        })
+        .map_err(|m| anyhow::anyhow!("cannot read {m}"))?;
+    }
+    let img = read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .rgba_channels(
+            |res, _| RgbImage {
+                width: res.width(),
+                height: res.height(),
+                pixels: vec![Vec3::ZERO; res.width() * res.height()],
+            },
+            |img: &mut RgbImage, pos, (r, g, b, _a): (f32, f32, f32, f32)| {
+                let w = img.width;
+                img.pixels[pos.y() * w + pos.x()] = Vec3::new(r, g, b);
+            },
+        )
+        .first_valid_layer()
+        .all_attributes()
+        .from_buffered(std::io::Cursor::new(bytes))
+        // the exr error shows its I/O cause in its own message: keep it flat, not chained
+        .map_err(|e| anyhow::anyhow!("cannot read {}: {e}", name.display()))?;
     Ok(img.layer_data.channel_data.pixels)
 }
 
@@ -235,18 +348,44 @@ pub fn srgb_to_linear(v: f32) -> f32 {
 /// EXR (any compression the `exr` crate reads, DWAA included) and Radiance HDR are
 /// linear already; PNG and JPEG are decoded from sRGB. Alpha is dropped.
 pub fn read_texture_image(path: &Path) -> Result<RgbImage> {
+    decode_texture_image(&read_input(path)?, path)
+}
+
+/// Bytes a texture keeps per pixel after decoding: linear RGB and its MIP pyramid.
+const TEXTURE_BYTES_PER_PIXEL: u64 = 12 + 16;
+
+/// [`read_texture_image`] of bytes already read; `path` gives the format (its
+/// extension, unless the content says otherwise) and names the file in messages.
+pub fn decode_texture_image(bytes: &[u8], path: &Path) -> Result<RgbImage> {
     let ext = path
         .extension()
         .and_then(|e| e.to_str())
         .map(str::to_ascii_lowercase)
         .unwrap_or_default();
     if ext == "exr" {
-        return read_exr(path);
+        return decode_exr(bytes, path, TEXTURE_BYTES_PER_PIXEL);
     }
-    let reader = image::ImageReader::open(path)
-        .with_context(|| format!("cannot read {}", path.display()))?
-        .with_guessed_format()
-        .with_context(|| format!("cannot read {}", path.display()))?;
+    let open = || -> Result<image::ImageReader<std::io::Cursor<&[u8]>>> {
+        let mut reader = image::ImageReader::new(std::io::Cursor::new(bytes));
+        if let Ok(f) = image::ImageFormat::from_path(path) {
+            reader.set_format(f);
+        }
+        reader
+            .with_guessed_format()
+            .with_context(|| format!("cannot read {}", path.display()))
+    };
+    // the size from the header first: decoded pixels (up to 16 bytes each), their
+    // conversion and what the texture keeps must fit the memory budget
+    if let Ok((w, h)) = open()?.into_dimensions() {
+        crate::limits::check_memory((w as u64 * h as u64).checked_mul(32 + TEXTURE_BYTES_PER_PIXEL), || {
+            format!("{} ({w}x{h} pixels)", path.display())
+        })
+        .map_err(|m| anyhow::anyhow!("cannot decode {m}"))?;
+    }
+    let mut reader = open()?;
+    let mut limits = image::Limits::default();
+    limits.max_alloc = Some(crate::limits::memory_budget());
+    reader.limits(limits);
     let format = reader.format();
     let img = reader
         .decode()

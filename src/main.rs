@@ -3,10 +3,12 @@
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand, ValueEnum};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
-use rdr::imageio::{check_output_path, write_image, ExrPixels};
+use rdr::imageio::{check_output_path, encode_image, save_elsewhere, write_atomically, ExrPixels};
 use rdr::integrator::StopToken;
+use rdr::limits::sanitize;
 use rdr::{Loaded, Profile, RenderControl};
 use std::io::IsTerminal;
+use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::sync::Arc;
@@ -17,6 +19,44 @@ use std::time::Instant;
 struct Cli {
     #[command(subcommand)]
     command: Command,
+    /// Memory the large buffers (film, images, meshes) may take, such as 8G or 512M;
+    /// default half of what this process may use (physical memory, address-space
+    /// limit, cgroup limit, whichever is smallest).
+    #[arg(long, global = true, value_name = "SIZE", value_parser = parse_size)]
+    max_memory: Option<u64>,
+}
+
+fn parse_size(s: &str) -> Result<u64, String> {
+    rdr::limits::parse_bytes(s)
+}
+
+/// A line on standard error; a full or closed stderr is not an error of ours.
+macro_rules! note {
+    ($($t:tt)*) => {{
+        let _ = writeln!(std::io::stderr(), $($t)*);
+    }};
+}
+
+/// Standard output was closed by its reader (`rdr … | head`): end quietly.
+#[derive(Debug)]
+struct BrokenPipe;
+
+impl std::fmt::Display for BrokenPipe {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("broken pipe")
+    }
+}
+
+impl std::error::Error for BrokenPipe {}
+
+/// Writes `text` and a newline to standard output.
+fn say(text: impl std::fmt::Display) -> Result<()> {
+    let mut o = std::io::stdout().lock();
+    match writeln!(o, "{text}").and_then(|_| o.flush()) {
+        Ok(()) => Ok(()),
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Err(BrokenPipe.into()),
+        Err(e) => Err(anyhow::anyhow!("cannot write to standard output: {e}")),
+    }
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -97,7 +137,31 @@ enum Command {
 }
 
 fn main() -> ExitCode {
-    let cli = Cli::parse();
+    // a bug must still end as one `error:` line and exit status 1, not a trace per thread
+    std::panic::set_hook(Box::new(|info| {
+        let msg = info
+            .payload()
+            .downcast_ref::<&str>()
+            .map(|s| s.to_string())
+            .or_else(|| info.payload().downcast_ref::<String>().cloned())
+            .unwrap_or_default();
+        let at = info
+            .location()
+            .map(|l| format!(" at {}:{}", l.file(), l.line()))
+            .unwrap_or_default();
+        note!(
+            "error: internal error (a bug in rdr, please report it): {}{at}",
+            sanitize(&msg).replace('\n', " ")
+        );
+        std::process::exit(1);
+    }));
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e) => return parse_error(e),
+    };
+    if let Some(m) = cli.max_memory {
+        rdr::limits::set_memory_budget(m);
+    }
     let result = match cli.command {
         Command::Render {
             args,
@@ -127,12 +191,48 @@ fn main() -> ExitCode {
     };
     match result {
         Ok(code) => code,
+        Err(e) if e.is::<BrokenPipe>() => ExitCode::SUCCESS,
         Err(e) => {
             let msg: Vec<String> = e.chain().map(|c| c.to_string()).collect();
-            eprintln!("error: {}", msg.join(": "));
+            note!("error: {}", sanitize(&msg.join(": ")));
             ExitCode::from(1)
         }
     }
+}
+
+/// Command-line errors as every other failure: one `error:` line, exit status 1
+/// (`--help` and `--version` print as usual and succeed).
+fn parse_error(e: clap::Error) -> ExitCode {
+    use clap::error::ErrorKind;
+    match e.kind() {
+        ErrorKind::DisplayHelp | ErrorKind::DisplayVersion => {
+            let _ = e.print();
+            ExitCode::SUCCESS
+        }
+        ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand | ErrorKind::MissingSubcommand => {
+            note!("error: a subcommand is needed: render, compare or bench (see rdr --help)");
+            ExitCode::from(1)
+        }
+        _ => {
+            let text = e.render().to_string();
+            let first = text.lines().find(|l| !l.trim().is_empty()).unwrap_or("error: invalid command line");
+            let first = first.strip_prefix("error: ").unwrap_or(first);
+            note!("error: {} (see rdr --help)", sanitize(first));
+            ExitCode::from(1)
+        }
+    }
+}
+
+/// Most worker threads: a few per core is plenty; more only costs memory (stacks).
+fn max_threads() -> usize {
+    4 * std::thread::available_parallelism().map_or(1, |n| n.get())
+}
+
+fn check_threads(n: usize) -> Result<()> {
+    anyhow::ensure!(n > 0, "--threads must be at least 1");
+    let max = max_threads();
+    anyhow::ensure!(n <= max, "--threads {n} is more than the {max} supported (4 per core)");
+    Ok(())
 }
 
 fn profile(args: &SceneArgs) -> Profile {
@@ -144,7 +244,7 @@ fn profile(args: &SceneArgs) -> Profile {
 
 fn setup_threads(threads: Option<usize>) -> Result<()> {
     if let Some(n) = threads {
-        anyhow::ensure!(n > 0, "--threads must be at least 1");
+        check_threads(n)?;
         rayon::ThreadPoolBuilder::new()
             .num_threads(n)
             .build_global()
@@ -159,7 +259,7 @@ fn load(args: &SceneArgs, quiet: bool) -> Result<Loaded> {
     let mut loaded = rdr::load(&args.scene, &args.overrides, profile(args)).map_err(anyhow::Error::msg)?;
     if !quiet {
         for w in &loaded.scene.warnings {
-            eprintln!("warning: {w}");
+            note!("warning: {}", sanitize(w));
         }
     }
     if let Some(spp) = args.spp {
@@ -168,6 +268,14 @@ fn load(args: &SceneArgs, quiet: bool) -> Result<Loaded> {
     }
     loaded.job.seed = args.seed;
     Ok(loaded)
+}
+
+/// Whether two paths name the same existing file (links and spellings resolved).
+fn same_file(a: &Path, b: &Path) -> bool {
+    match (std::fs::canonicalize(a), std::fs::canonicalize(b)) {
+        (Ok(x), Ok(y)) => x == y,
+        _ => false,
+    }
 }
 
 fn default_output(scene: &Path) -> PathBuf {
@@ -185,6 +293,12 @@ fn render(args: &SceneArgs, output: Option<PathBuf>, quiet: bool, time_limit: Op
     job.time_limit = time_limit;
     let output = output.unwrap_or_else(|| default_output(&args.scene));
     // Fail before the render, not after it.
+    if same_file(&output, &args.scene) {
+        anyhow::bail!(
+            "{}: refusing to write the image over the scene file (choose another output with -o)",
+            output.display()
+        );
+    }
     check_output_path(&output)?;
 
     let stop = Arc::new(StopToken::new());
@@ -194,7 +308,7 @@ fn render(args: &SceneArgs, output: Option<PathBuf>, quiet: bool, time_limit: Op
             if stop.stop_again() {
                 std::process::exit(130);
             }
-            eprintln!("\ninterrupted: saving the finished passes (press Ctrl-C again to quit at once)");
+            note!("\ninterrupted: saving the finished passes (press Ctrl-C again to quit at once)");
         })
         .context("cannot install the Ctrl-C handler")?;
     }
@@ -221,12 +335,25 @@ fn render(args: &SceneArgs, output: Option<PathBuf>, quiet: bool, time_limit: Op
         Profile::Rdr171 => ExrPixels::HalfTinyexr,
     };
     if out.invalid_samples > 0 {
-        eprintln!("warning: {} sample(s) were NaN or infinite and were left out", out.invalid_samples);
+        note!("warning: {} sample(s) were NaN or infinite and were left out", out.invalid_samples);
     }
-    write_image(&output, out.width, out.height, &out.pixels, exr)?;
-    println!("{}", output.display());
+    if out.invalid_rays > 0 {
+        note!(
+            "warning: {} ray(s) were NaN or infinite and were counted as misses",
+            out.invalid_rays
+        );
+    }
+    let bytes = encode_image(&output, out.width, out.height, &out.pixels, exr)?;
+    if let Err(e) = write_atomically(&output, &bytes) {
+        // the render is not lost: keep it where it can be written
+        match save_elsewhere(&output, &bytes) {
+            Ok(saved) => anyhow::bail!("{e:#}; the image was saved to {} instead", saved.display()),
+            Err(e2) => anyhow::bail!("{e:#}; saving it in the temporary folder failed too ({e2:#}): the image is lost"),
+        }
+    }
+    say(output.display())?;
     if !quiet {
-        eprintln!(
+        note!(
             "rendered {}x{} at {} spp in {:.2} s ({:.3e} samples/s){}",
             out.width,
             out.height,
@@ -253,7 +380,8 @@ fn bench_mesh(args: &SceneArgs, repeat: usize, isa: Option<&str>, rays: Vec<Stri
     let all = args
         .threads
         .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
-    anyhow::ensure!(all > 0, "--threads must be at least 1");
+    check_threads(all)?;
+    anyhow::ensure!(repeat <= 1000, "--repeat {repeat} is more than the 1000 supported");
     let mut threads = vec![1];
     if all > 1 {
         threads.push(all);
@@ -272,7 +400,8 @@ fn bench_mesh(args: &SceneArgs, repeat: usize, isa: Option<&str>, rays: Vec<Stri
         rays,
         trace_only,
     };
-    print!("{}", rdr::bench::run(&args.scene, &opts)?);
+    let report = rdr::bench::run(&args.scene, &opts)?;
+    say(report.trim_end_matches('\n'))?;
     Ok(ExitCode::SUCCESS)
 }
 
@@ -283,27 +412,33 @@ fn bench_scene(args: &SceneArgs) -> Result<ExitCode> {
     let Loaded { scene, job } = load(args, true)?;
     let load_s = t0.elapsed().as_secs_f64();
     let out = rdr::render(&scene, &job, &RenderControl::default());
-    println!("scene            {}", args.scene.display());
-    println!("threads          {}", rayon::current_num_threads());
-    println!("primitives       {} ({} triangles)", scene.prims.len(), scene.triangle_count());
-    println!(
+    use std::fmt::Write as _;
+    let mut t = String::new();
+    let _ = writeln!(t, "scene            {}", args.scene.display());
+    let _ = writeln!(t, "threads          {}", rayon::current_num_threads());
+    let _ = writeln!(t, "primitives       {} ({} triangles)", scene.prims.len(), scene.triangle_count());
+    let _ = writeln!(
+        t,
         "load + build     {:.1} ms (BVH {:.2} ms, {} nodes)",
         load_s * 1e3,
         scene.bvh_seconds * 1e3,
         scene.bvh.nodes.len()
     );
-    println!(
+    let _ = writeln!(
+        t,
         "render           {}x{} at {} spp in {:.3} s",
         out.width, out.height, out.spp_done, out.seconds
     );
-    println!("samples/s        {:.3e}", out.samples as f64 / out.seconds);
+    let _ = writeln!(t, "samples/s        {:.3e}", out.samples as f64 / out.seconds);
     if out.rays > 0 {
-        println!(
+        let _ = writeln!(
+            t,
             "rays/s           {:.3e} ({:.2} rays per sample)",
             out.rays as f64 / out.seconds,
             out.rays as f64 / out.samples as f64
         );
     }
+    say(t.trim_end_matches('\n'))?;
     Ok(ExitCode::SUCCESS)
 }
 
@@ -322,15 +457,27 @@ fn compare(image: &Path, reference: &Path, variance: Option<&Path>) -> Result<Ex
         r.height
     );
     let v = variance.map(rdr::imageio::read_exr).transpose()?;
+    if let (Some(v), Some(vp)) = (&v, variance) {
+        anyhow::ensure!(
+            (v.width, v.height) == (r.width, r.height),
+            "{} is {}x{} but the reference {} is {}x{}",
+            vp.display(),
+            v.width,
+            v.height,
+            reference.display(),
+            r.width,
+            r.height
+        );
+    }
     let (rel, noise) = rdr::metrics::rel_mse(&x, &r, v.as_ref());
     let (mx, mr) = (x.mean(), r.mean());
-    println!(
-        "mean RGB      {:.5} {:.5} {:.5}   (reference {:.5} {:.5} {:.5})",
+    let mut t = format!(
+        "mean RGB      {:.5} {:.5} {:.5}   (reference {:.5} {:.5} {:.5})\nrelMSE        {rel:.4e}",
         mx.x, mx.y, mx.z, mr.x, mr.y, mr.z
     );
-    println!("relMSE        {rel:.4e}");
     if v.is_some() {
-        println!("of which the reference's own noise {noise:.4e}");
+        t += &format!("\nof which the reference's own noise {noise:.4e}");
     }
+    say(t)?;
     Ok(ExitCode::SUCCESS)
 }

@@ -1,20 +1,15 @@
-//! Arbitrary bytes, read as UTF-8 text (lossily), through the scene reader and the
-//! OBJ reader: both must return errors, never panic.
+//! Arbitrary bytes, read as UTF-8 text (lossily), through the scene reader, the job
+//! built from it and the OBJ reader (`rdr::robustness::scene_json`): all must
+//! return errors, never panic.
 //!
 //! `cargo +nightly fuzz run scene_json` (from the project root). CI runs the
-//! deterministic version of this in `tests/parser_robustness.rs`.
+//! deterministic version of this in `tests/parser_robustness.rs`, and replays and
+//! mutates `fuzz/corpus/scene_json` in `tests/fuzz_corpus.rs`.
 
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use std::path::Path;
 
 fuzz_target!(|data: &[u8]| {
-    let text = String::from_utf8_lossy(data);
-    let file = Path::new("fuzz.json");
-    if let Ok(value) = rdr::desc::json::parse_text(&text, file) {
-        // `from_value` reads nothing from disk; the base folder only anchors paths.
-        let _ = rdr::desc::SceneDesc::from_value(&value, file, Path::new("."));
-    }
-    let _ = rdr::geometry::obj::parse(&text);
+    let _ = rdr::robustness::run("scene_json", data);
 });

@@ -45,7 +45,13 @@ use std::path::Path;
 /// Triangles of an OBJ or PLY file as scene primitives (object 0), degenerate
 /// (zero-area) triangles dropped.
 pub fn load_mesh(path: &Path) -> Result<Vec<Prim>> {
-    let bytes = std::fs::read(path).with_context(|| format!("cannot read '{}'", path.display()))?;
+    // a regular file of a sane size whose parsed form fits the memory budget
+    let bytes = crate::limits::read_input_file(path, crate::limits::max_input_file())
+        .with_context(|| format!("cannot read '{}'", path.display()))?;
+    crate::limits::check_memory((bytes.len() as u64).checked_mul(obj::MEMORY_PER_BYTE), || {
+        format!("mesh '{}'", path.display())
+    })
+    .map_err(anyhow::Error::msg)?;
     let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
     let data = match ext.as_str() {
         "obj" => obj::parse(&String::from_utf8_lossy(&bytes)).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?,

@@ -62,7 +62,14 @@ fn load_mesh(desc: &SceneDesc, file: &MeshFile, opts: BuildOptions) -> Result<(M
     } = file;
     let full = desc.base_dir.join(&path.value);
     let err = |msg: String| path.source.error(&desc.file, msg);
-    let text = std::fs::read(&full).map_err(|e| err(format!("cannot read mesh '{}': {e}", full.display())))?;
+    // a regular file of a sane size (a FIFO would block, /dev/zero never end), whose
+    // parsed form fits the memory budget
+    let text = crate::limits::read_input_file(&full, crate::limits::max_input_file())
+        .map_err(|e| err(format!("cannot read mesh '{}': {e}", full.display())))?;
+    crate::limits::check_memory((text.len() as u64).checked_mul(obj::MEMORY_PER_BYTE), || {
+        format!("mesh '{}'", full.display())
+    })
+    .map_err(err)?;
     let text = String::from_utf8_lossy(&text);
     let data = obj::parse(&text).map_err(|e| err(format!("{}: {e}", full.display())))?;
     let mut warnings: Vec<String> = data.warnings.iter().map(|w| format!("{}: {w}", full.display())).collect();
@@ -78,7 +85,25 @@ fn load_mesh(desc: &SceneDesc, file: &MeshFile, opts: BuildOptions) -> Result<(M
             report.first_degenerate_line.unwrap_or(0)
         ));
     }
+    if report.too_large > 0 {
+        warnings.push(format!(
+            "{}: {} triangle(s) with coordinates beyond ±{:e} (after the transform) skipped, the first from line {}",
+            full.display(),
+            report.too_large,
+            crate::limits::MAX_COORD,
+            report.first_too_large_line.unwrap_or(0)
+        ));
+    }
     if mesh.triangles.is_empty() {
+        if report.too_large > 0 {
+            return Err(err(format!(
+                "mesh '{}' has no usable triangles: {} are too large (coordinates beyond ±{:e}), {} degenerate",
+                full.display(),
+                report.too_large,
+                crate::limits::MAX_COORD,
+                report.degenerate
+            )));
+        }
         return Err(err(format!("mesh '{}' has only degenerate triangles", full.display())));
     }
     Ok((mesh, warnings))

@@ -181,7 +181,10 @@ impl SceneDesc {
     /// Reads a scene file, applies `--override` patches (spec §1), and parses it.
     pub fn load(file: &Path, overrides: &[String]) -> Result<SceneDesc> {
         let ctx = Context::new(file);
-        let text = std::fs::read_to_string(file).map_err(|e| ctx.error("", format!("cannot read scene: {e}")))?;
+        // a regular file of a sane size: a FIFO would block, /dev/zero never end
+        let bytes = crate::limits::read_input_file(file, crate::limits::max_input_file())
+            .map_err(|e| ctx.error("", format!("cannot read scene: {e}")))?;
+        let text = String::from_utf8(bytes).map_err(|_| ctx.error("", "cannot read scene: stream did not contain valid UTF-8"))?;
         let mut value = json::parse_text(&text, file)?;
         for patch in overrides {
             let p: Value = serde_json::from_str(patch).map_err(|e| ctx.error("", format!("--override is not valid JSON: {e}")))?;
@@ -260,7 +263,7 @@ fn parse_integrator(p: &Props) -> Result<IntegratorDesc> {
             };
             let rr_threshold = p.f32_or("rr_threshold", 0.1)?;
             let spp = p.int_at_least("spp", 32, 1)?;
-            let max_depth = p.int_at_least("max_depth", 12, 1)?;
+            let max_depth = capped(p, "max_depth", p.int_at_least("max_depth", 12, 1)?, MAX_DEPTH);
             (
                 Integrator::Path(PathTracer {
                     max_depth,
@@ -276,7 +279,7 @@ fn parse_integrator(p: &Props) -> Result<IntegratorDesc> {
                 n_photons: p.int_at_least("n_photons", 100_000, 1)?,
                 n_iterations: p.int_at_least("n_iterations", 1, 1)?,
                 n_near_photons: p.int_at_least("n_near_photons", 64, 1)?,
-                max_depth: p.int_at_least("max_depth", 12, 1)?,
+                max_depth: capped(p, "max_depth", p.int_at_least("max_depth", 12, 1)?, MAX_DEPTH),
                 rr_threshold: unit_interval(p, "rr_threshold")?,
             }),
             p.int_at_least("spp", 16, 1)?,
@@ -297,14 +300,14 @@ fn parse_integrator(p: &Props) -> Result<IntegratorDesc> {
                 photons_per_iteration: p.int_at_least("photons_per_iteration", 100_000, 1)?,
                 initial_radius,
                 alpha,
-                max_depth: p.int_at_least("max_depth", 12, 1)?,
+                max_depth: capped(p, "max_depth", p.int_at_least("max_depth", 12, 1)?, MAX_DEPTH),
                 rr_threshold: unit_interval(p, "rr_threshold")?,
             };
             (Integrator::Sppm(sppm), p.int_at_least("spp", 64, 1)?)
         }
         _ => {
             let spp = p.int_at_least("spp", 8, 1)?;
-            let max_depth = p.int_at_least("max_depth", 16, 1)?;
+            let max_depth = capped(p, "max_depth", p.int_at_least("max_depth", 16, 1)?, MAX_DEPTH);
             // read here, after the point lights, as before (errors come in key order)
             (
                 Integrator::IntersectionTest(IntersectionTest {
@@ -319,7 +322,11 @@ fn parse_integrator(p: &Props) -> Result<IntegratorDesc> {
     let has_list = p.contains("lights");
     if !has_list || p.contains("point_light_position") || p.contains("point_light_flux") {
         point_lights.push(PointLightDesc {
-            position: p.vec3_or("point_light_position", Vec3::new(0.0, 5.0, 0.0))?,
+            position: point(
+                p,
+                "point_light_position",
+                p.vec3_or("point_light_position", Vec3::new(0.0, 5.0, 0.0))?,
+            )?,
             flux: non_negative_flux(p, "point_light_flux", p.vec3_or("point_light_flux", Vec3::ONE)?)?,
             key: p.key_path("point_light_position"),
         });
@@ -333,13 +340,13 @@ fn parse_integrator(p: &Props) -> Result<IntegratorDesc> {
             ));
         }
         point_lights.push(PointLightDesc {
-            position: l.vec3("position")?,
+            position: point(&l, "position", l.vec3("position")?)?,
             flux: non_negative_flux(&l, "flux", l.vec3("flux")?)?,
             key: l.path.clone(),
         });
         l.finish();
     }
-    let light_samples = p.int_at_least("light_samples", 1, 1)?;
+    let light_samples = capped(p, "light_samples", p.int_at_least("light_samples", 1, 1)?, MAX_LIGHT_SAMPLES);
     let mut integrator = integrator;
     if let Integrator::IntersectionTest(t) = &mut integrator {
         t.light_samples = light_samples;
@@ -372,6 +379,50 @@ fn unit_interval(p: &Props, key: &str) -> Result<f32> {
     Ok(v)
 }
 
+/// Most path segments a sample may take (`max_depth`): glass without absorption
+/// never ends a path by Russian roulette, so the depth bounds the work per sample.
+pub const MAX_DEPTH: u32 = 1024;
+/// Most `light_samples` per shading point.
+pub const MAX_LIGHT_SAMPLES: u32 = 1024;
+/// Largest filter radius in pixels: each sample touches (2·radius)² pixels.
+pub const MAX_FILTER_RADIUS: f32 = 32.0;
+
+/// `v` capped at `max`, with a warning when it was larger.
+fn capped(p: &Props, key: &str, v: u32, max: u32) -> u32 {
+    if v > max {
+        p.ctx()
+            .warn(&p.key_path(key), format!("{v} is more than the {max} supported; using {max}"));
+        return max;
+    }
+    v
+}
+
+/// A position or size read from `key`: every coordinate within ±[`MAX_COORD`], so the
+/// arithmetic of rays and bounds stays finite.
+///
+/// [`MAX_COORD`]: crate::limits::MAX_COORD
+fn point(p: &Props, key: &str, v: Vec3) -> Result<Vec3> {
+    let max = crate::limits::MAX_COORD;
+    if v.abs().max_element() > max {
+        return Err(p.error(
+            key,
+            format!(
+                "[{:?}, {:?}, {:?}] is out of range (coordinates must be within ±{max:e})",
+                v.x, v.y, v.z
+            ),
+        ));
+    }
+    Ok(v)
+}
+
+/// A scalar in `[lo, hi]`.
+fn in_range(p: &Props, key: &str, v: f32, lo: f32, hi: f32) -> Result<f32> {
+    if !(v >= lo && v <= hi) {
+        return Err(p.error(key, format!("must be between {lo:e} and {hi:e}, found {v:e}")));
+    }
+    Ok(v)
+}
+
 /// A point light's flux; the error names the flux key itself.
 fn non_negative_flux(p: &Props, key: &str, flux: Vec3) -> Result<Vec3> {
     if flux.min_element() < 0.0 {
@@ -397,9 +448,29 @@ fn parse_film(p: &Props) -> Result<FilmDesc> {
             if radius <= 0.0 {
                 return Err(f.error("radius", format!("must be positive, found {radius}")));
             }
+            if radius > MAX_FILTER_RADIUS {
+                return Err(f.error("radius", format!("{radius} is too large (at most {MAX_FILTER_RADIUS} pixels)")));
+            }
             let d = match ty.as_str() {
                 "box" => Filter::Box { radius },
-                "gaussian" => Filter::gaussian(radius, f.f32_or("alpha", 2.0)?),
+                "gaussian" => {
+                    let alpha = f.f32_or("alpha", 2.0)?;
+                    if alpha <= 0.0 {
+                        return Err(f.error(
+                            "alpha",
+                            format!("must be positive, found {alpha} (the filter would weigh every sample 0)"),
+                        ));
+                    }
+                    let g = Filter::gaussian(radius, alpha);
+                    // the weight at a pixel's centre and half a pixel away must not vanish
+                    if g.eval(0.0, 0.0) < 1e-4 || (radius > 0.5 && g.eval(0.5, 0.0) <= 0.0) {
+                        return Err(f.error(
+                            "alpha",
+                            format!("{alpha} with radius {radius} makes the filter weights vanish (alpha·radius² must be at least 1e-4 and alpha at most about 300)"),
+                        ));
+                    }
+                    g
+                }
                 "mitchell" => Filter::Mitchell {
                     radius,
                     b: f.f32_or("B", 1.0 / 3.0)?,
@@ -422,9 +493,9 @@ fn parse_film(p: &Props) -> Result<FilmDesc> {
 
 fn parse_camera(p: &Props) -> Result<CameraParams> {
     let c = CameraParams {
-        position: p.vec3_or("position", Vec3::new(0.0, 0.0, 1.0))?,
-        look_at: p.vec3_or("look_at", Vec3::ZERO)?,
-        ref_up: p.vec3_or("ref_up", Vec3::Y)?,
+        position: point(p, "position", p.vec3_or("position", Vec3::new(0.0, 0.0, 1.0))?)?,
+        look_at: point(p, "look_at", p.vec3_or("look_at", Vec3::ZERO)?)?,
+        ref_up: point(p, "ref_up", p.vec3_or("ref_up", Vec3::Y)?)?,
         fov: p.f32_or("fov", 45.0)?,
         focal_length: p.f32_or("focal_length", 1.0)?,
     };
@@ -434,12 +505,22 @@ fn parse_camera(p: &Props) -> Result<CameraParams> {
     if c.focal_length <= 0.0 {
         return Err(p.error("focal_length", format!("must be positive, found {}", c.focal_length)));
     }
+    // it cancels out of the rays, but scales the basis: keep that arithmetic finite
+    in_range(p, "focal_length", c.focal_length, 1e-6, 1e6)?;
     let forward = c.look_at - c.position;
     if forward.length_squared() == 0.0 {
         return Err(p.error("look_at", "equals the camera position"));
     }
     if forward.normalize().cross(c.ref_up).length_squared() < 1e-12 {
         return Err(p.error("ref_up", "is zero or parallel to the viewing direction"));
+    }
+    // the basis the rays are made of must come out finite (any resolution's aspect
+    // only scales `right`, which the film size check keeps finite)
+    if !crate::camera::Camera::new(&c, 1, 1).is_finite() {
+        return Err(p.ctx().error(
+            &p.path,
+            "the camera's view basis is not finite (position, look_at, ref_up or focal_length out of range)",
+        ));
     }
     p.finish();
     Ok(c)
@@ -517,7 +598,8 @@ fn parse_material(name: &str, p: &Props) -> Result<MaterialDesc> {
         if eta <= 0.0 {
             return Err(p.error(key, format!("must be positive, found {eta}")));
         }
-        Ok(eta)
+        // refraction divides and squares it: beyond this the directions are not finite
+        in_range(p, key, eta, 1e-3, 1e3)
     };
     let material = match ty.as_str() {
         "diffuse" => Material::Diffuse {
@@ -569,15 +651,16 @@ fn parse_object(p: &Props) -> Result<ObjectDesc> {
         "mesh" => Shape::Mesh(MeshFile {
             path: p.located("path", p.string("path")?),
             transform: p.mat4_or("transform", Mat4::IDENTITY)?,
-            translate: p.vec3_or("translate", Vec3::ZERO)?,
+            translate: point(p, "translate", p.vec3_or("translate", Vec3::ZERO)?)?,
         }),
         "sphere" => {
             let radius = p.f32_or("radius", 1.0)?;
             if radius <= 0.0 {
                 return Err(p.error("radius", format!("must be positive, found {radius}")));
             }
+            in_range(p, "radius", radius, 0.0, crate::limits::MAX_COORD)?;
             Shape::Sphere(Sphere {
-                center: p.vec3_or("center", Vec3::ZERO)?,
+                center: point(p, "center", p.vec3_or("center", Vec3::ZERO)?)?,
                 radius,
             })
         }

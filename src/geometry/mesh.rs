@@ -16,6 +16,10 @@ pub struct Mesh {
 pub struct MeshReport {
     pub degenerate: usize,
     pub first_degenerate_line: Option<u32>,
+    /// Triangles with a coordinate beyond ±[`crate::limits::MAX_COORD`] (after the
+    /// transform) or whose area overflows f32, skipped.
+    pub too_large: usize,
+    pub first_too_large_line: Option<u32>,
     pub rewound: usize,
 }
 
@@ -48,7 +52,15 @@ impl Mesh {
         for mut t in obj.triangles {
             let p = t.p.map(|i| positions[i as usize]);
             let c = (p[1] - p[0]).cross(p[2] - p[0]);
-            if c == Vec3::ZERO || !c.is_finite() {
+            let max = crate::limits::MAX_COORD;
+            if !c.is_finite() || p.iter().any(|v| !v.is_finite() || v.abs().max_element() > max) {
+                // not degenerate: too large for f32 ray arithmetic (or made non-finite
+                // by the transform)
+                report.too_large += 1;
+                report.first_too_large_line.get_or_insert(t.line);
+                continue;
+            }
+            if c == Vec3::ZERO {
                 report.degenerate += 1;
                 report.first_degenerate_line.get_or_insert(t.line);
                 continue;

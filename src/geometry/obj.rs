@@ -7,6 +7,15 @@
 
 use crate::math::{Vec2, Vec3};
 
+/// Bytes of memory a mesh may take per byte of its OBJ text, at most (a face line
+/// `f 1 2 3` of 8 bytes becomes a triangle in the reader, the mesh, the scene's
+/// primitives and the BVH): the file size is checked against the budget with it.
+pub const MEMORY_PER_BYTE: u64 = 24;
+
+/// Polygons with more corners than this are fan-triangulated (with a warning) instead
+/// of ear-clipped: ear clipping here is cubic in the worst case.
+pub const EAR_CLIP_MAX: usize = 256;
+
 /// One triangle: indices into the mesh's positions, normals and uvs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct ObjTriangle {
@@ -79,6 +88,7 @@ pub fn parse(text: &str) -> Result<ObjData, ObjError> {
     let mut d = ObjData::default();
     let mut unknown: Vec<String> = Vec::new();
     let mut short_faces = 0usize;
+    let mut big_polygons = 0usize;
     for (lineno, raw) in text.lines().enumerate() {
         let line = lineno + 1;
         let content = raw.split('#').next().unwrap_or("");
@@ -118,7 +128,13 @@ pub fn parse(text: &str) -> Result<ObjData, ObjError> {
                 }
                 let has_n = corners.iter().all(|c| c.2.is_some());
                 let has_t = corners.iter().all(|c| c.1.is_some());
-                for [a, b, c] in triangulate(&corners.iter().map(|c| d.positions[c.0 as usize]).collect::<Vec<_>>()) {
+                let tris = if corners.len() > EAR_CLIP_MAX {
+                    big_polygons += 1;
+                    (1..corners.len() - 1).map(|k| [0, k, k + 1]).collect()
+                } else {
+                    triangulate(&corners.iter().map(|c| d.positions[c.0 as usize]).collect::<Vec<_>>())
+                };
+                for [a, b, c] in tris {
                     let pick = |f: &dyn Fn(&Corner) -> u32| [f(&corners[a]), f(&corners[b]), f(&corners[c])];
                     d.triangles.push(ObjTriangle {
                         p: pick(&|c| c.0),
@@ -138,6 +154,11 @@ pub fn parse(text: &str) -> Result<ObjData, ObjError> {
     }
     if short_faces > 0 {
         d.warnings.push(format!("{short_faces} face(s) with fewer than 3 vertices skipped"));
+    }
+    if big_polygons > 0 {
+        d.warnings.push(format!(
+            "{big_polygons} polygon(s) with more than {EAR_CLIP_MAX} vertices fan-triangulated (concave ones may render wrong)"
+        ));
     }
     if !unknown.is_empty() {
         d.warnings.push(format!("unknown statement(s) ignored: {}", unknown.join(", ")));

@@ -63,7 +63,7 @@ pub fn parse_ply(bytes: &[u8]) -> Result<ObjData> {
         None
     } else {
         Some(
-            std::str::from_utf8(&bytes[body..])
+            std::str::from_utf8(bytes.get(body..).unwrap_or_default())
                 .context("PLY body is not text")?
                 .split_whitespace(),
         )
@@ -86,8 +86,37 @@ pub fn parse_ply(bytes: &[u8]) -> Result<ObjData> {
             _ => f64::from_le_bytes(b.try_into()?),
         })
     };
+    // Every record takes some bytes of the body (binary: its scalars and list counts;
+    // ASCII: a number and a separator per property): counts the body cannot hold are
+    // refused before anything is allocated or looped over.
+    let body_len = bytes.len().saturating_sub(body) as u64;
+    let mut need = 0u64;
+    for (name, count, props) in &elements {
+        let mut per = 0u64;
+        for (t, list, _) in props {
+            per += match (binary, list) {
+                (true, None) => size(t)? as u64,
+                (true, Some(ct)) => size(ct)? as u64,
+                (false, _) => 2,
+            };
+        }
+        if per == 0 {
+            if name == "vertex" && *count > 0 {
+                bail!("element 'vertex' has no properties (x, y, z are needed)");
+            }
+            continue;
+        }
+        need = (*count as u64)
+            .checked_mul(per)
+            .and_then(|n| n.checked_add(need))
+            .filter(|&n| n <= body_len + 1)
+            .with_context(|| format!("element '{name}' claims {count} records, more than the {body_len} bytes of the body can hold"))?;
+    }
     let mut data = ObjData::default();
     for (name, count, props) in &elements {
+        if props.is_empty() {
+            continue; // records of nothing
+        }
         for _ in 0..*count {
             let mut xyz = [0.0f32; 3];
             let mut face: Vec<u32> = Vec::new();
@@ -163,5 +192,12 @@ element face 1\nproperty list uchar uint vertex_indices\nend_header\n"
         let mut short = bin.clone();
         short.truncate(bin.len() - 2);
         assert!(parse_ply(&short).is_err());
+        // counts the body cannot hold, and records without properties
+        let huge = b"ply\nformat ascii 1.0\nelement vertex 4000000000\nproperty float x\nend_header\n0\n";
+        assert!(format!("{:#}", parse_ply(huge).unwrap_err()).contains("4000000000 records"));
+        let empty = b"ply\nformat binary_little_endian 1.0\nelement vertex 4000000000\nend_header\n";
+        assert!(format!("{:#}", parse_ply(empty).unwrap_err()).contains("no properties"));
+        let other = b"ply\nformat ascii 1.0\nelement junk 18446744073709551615\nend_header\n";
+        assert!(parse_ply(other).unwrap().positions.is_empty());
     }
 }

@@ -71,7 +71,7 @@ impl Integrator {
     /// Samples per pixel that `passes` finished passes stand for.
     pub fn spp_done(&self, spp: u32, passes: u32) -> u32 {
         match self {
-            Integrator::Rdr171(_) => spp * passes,
+            Integrator::Rdr171(_) => spp.saturating_mul(passes),
             _ => passes,
         }
     }

@@ -41,14 +41,33 @@ impl RenderJob {
             }
         };
         let f = &desc.film;
+        let camera = Camera::new(&desc.camera, f.width, f.height);
+        if !camera.is_finite() {
+            return Err(SceneError::new(
+                &desc.file,
+                Some("camera"),
+                "the camera's view basis is not finite for this film's aspect ratio",
+            ));
+        }
+        let film = FilmSettings {
+            width: f.width,
+            height: f.height,
+            filter: f.filter,
+            block_size: f.block_size,
+        };
+        crate::limits::check_memory(film.memory_bytes(), || {
+            format!(
+                "a film of {}x{} pixels (filter radius {}, blocks of {})",
+                f.width,
+                f.height,
+                f.filter.radius(),
+                f.block_size
+            )
+        })
+        .map_err(|m| SceneError::new(&desc.file, Some("film.resolution"), m))?;
         Ok(RenderJob {
-            camera: Camera::new(&desc.camera, f.width, f.height),
-            film: FilmSettings {
-                width: f.width,
-                height: f.height,
-                filter: f.filter,
-                block_size: f.block_size,
-            },
+            camera,
+            film,
             integrator,
             spp: desc.integrator.spp,
             seed: 0,

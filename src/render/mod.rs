@@ -40,12 +40,16 @@ pub struct RenderOutput {
     pub time_limited: bool,
     /// What the integrator reports besides the image (photon counts, memory, radii).
     pub summary: Option<String>,
+    /// Rays with a NaN or infinite origin or direction, treated as misses (counted
+    /// process-wide: renders running at the same time add to each other's figure).
+    pub invalid_rays: u64,
 }
 
 /// Renders `scene` as `job` says. When the stop token is set the current pass is
 /// abandoned (integrators check it per tile) and the finished passes are returned.
 pub fn render(scene: &Scene, job: &RenderJob, control: &RenderControl) -> RenderOutput {
     let start = Instant::now();
+    let invalid_rays_before = crate::accel::wide::invalid_rays();
     let report = |n: u64| {
         if let Some(p) = &control.progress {
             p(n)
@@ -95,12 +99,13 @@ pub fn render(scene: &Scene, job: &RenderJob, control: &RenderControl) -> Render
         height: f.height,
         pixels: film.to_rgb_rows(1.0 / spp_done.max(1) as f64),
         spp_done,
-        samples: f.width as u64 * f.height as u64 * spp_done as u64,
+        samples: (f.width as u64 * f.height as u64).saturating_mul(spp_done as u64),
         rays,
         seconds: start.elapsed().as_secs_f64(),
         interrupted,
         invalid_samples: invalid,
         time_limited,
         summary: job.integrator.summary(&film),
+        invalid_rays: crate::accel::wide::invalid_rays() - invalid_rays_before,
     }
 }

@@ -34,6 +34,13 @@ pub fn load_mipmap(path: &Path, convention: TextureConvention, mipmap: bool) -> 
     Ok(MipMap::new(Level::new(img.width, img.height, img.pixels), convention, mipmap))
 }
 
+/// [`load_mipmap`] of a file's bytes already read (`name` gives the format by its
+/// extension and names the file in messages): the fuzz target's entry point.
+pub fn decode_mipmap(bytes: &[u8], name: &Path, convention: TextureConvention, mipmap: bool) -> anyhow::Result<MipMap> {
+    let img = crate::imageio::decode_texture_image(bytes, name)?;
+    Ok(MipMap::new(Level::new(img.width, img.height, img.pixels), convention, mipmap))
+}
+
 /// The same file under different spellings (`a.png`, `./a.png`, `x/../a.png`, links)
 /// gives the same key.
 fn file_key(path: &Path) -> PathBuf {

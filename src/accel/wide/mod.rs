@@ -31,6 +31,7 @@ use crate::accel::build::{self, PrimRef};
 use crate::geometry::prim::{Hit, Prim};
 use crate::geometry::{Aabb, Ray};
 use node::{decode, EMPTY};
+use std::sync::atomic::{AtomicU64, Ordering};
 use traverse::{any, closest, Portable};
 
 /// Stack sizes: the small one serves every tree whose worst path needs it.
@@ -153,6 +154,42 @@ macro_rules! dispatch {
     }};
 }
 
+/// Rays with a NaN or infinite origin or direction (or a NaN range) seen by
+/// [`WideBvh::intersect`] and [`WideBvh::occluded`], which treat them as misses.
+static INVALID_RAYS: AtomicU64 = AtomicU64::new(0);
+
+/// How many NaN or infinite rays traversal has refused so far in this process.
+pub fn invalid_rays() -> u64 {
+    INVALID_RAYS.load(Ordering::Relaxed)
+}
+
+/// Whether a ray can be traversed: finite origin and direction, a range that is not
+/// NaN. Others miss (and are counted): their box tests would give NaN distances and
+/// masks that admit empty child slots. Good rays pay five adds and two compares (a
+/// sum is finite only when every term is, and `t_max >= t_min` is false for NaN).
+#[inline(always)]
+fn usable(ray: &Ray) -> bool {
+    let s = (ray.o.x + ray.o.y) + (ray.o.z + ray.d.x) + (ray.d.y + ray.d.z);
+    if s.is_finite() && ray.t_max >= ray.t_min {
+        return true;
+    }
+    refused(ray)
+}
+
+/// The rare path of [`usable`]: an empty range is a plain miss; anything else (NaN or
+/// infinite values, or coordinates so close to `f32::MAX` that their sum overflows)
+/// is counted.
+#[cold]
+#[inline(never)]
+fn refused(ray: &Ray) -> bool {
+    let finite = ray.o.is_finite() && ray.d.is_finite() && !ray.t_min.is_nan() && !ray.t_max.is_nan();
+    let s = (ray.o.x + ray.o.y) + (ray.o.z + ray.d.x) + (ray.d.y + ray.d.z);
+    if !(finite && s.is_finite()) {
+        INVALID_RAYS.fetch_add(1, Ordering::Relaxed);
+    }
+    false
+}
+
 impl WideBvh {
     /// Builds over `prims` (indices refer to this slice); primitives with
     /// unusable bounds (empty, NaN, infinite) are left out.
@@ -203,7 +240,7 @@ impl WideBvh {
 
     /// Closest hit in `[ray.t_min, ray.t_max]`; `prims` is the slice the tree was built over.
     pub fn intersect(&self, prims: &[Prim], ray: &Ray) -> Option<Hit> {
-        if self.nodes.is_empty() {
+        if self.nodes.is_empty() || !usable(ray) {
             return None;
         }
         dispatch!(self, closest, closest_avx2, closest_avx512, (self, prims, ray))
@@ -211,7 +248,7 @@ impl WideBvh {
 
     /// Whether anything lies on the ray within `[ray.t_min, ray.t_max]`.
     pub fn occluded(&self, prims: &[Prim], ray: &Ray) -> bool {
-        if self.nodes.is_empty() {
+        if self.nodes.is_empty() || !usable(ray) {
             return false;
         }
         dispatch!(self, any, any_avx2, any_avx512, (self, prims, ray))
@@ -243,6 +280,63 @@ impl WideBvh {
                     }
                 }
                 v
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::math::Vec3;
+
+    /// NaN and infinite rays miss and are counted, on every kernel; huge but finite
+    /// ones (whose box tests overflow) never index an empty slot.
+    #[test]
+    fn bad_rays_miss_and_are_counted() {
+        let mut prims = Vec::new();
+        for i in 0..200 {
+            let x = i as f32 * 0.1;
+            prims.push(Prim::Triangle {
+                p: [Vec3::new(x, 0.0, 0.0), Vec3::new(x + 1.0, 0.0, 0.0), Vec3::new(x, 1.0, 0.0)],
+                object: 0,
+                index: i,
+            });
+        }
+        let mut bvh = WideBvh::build(&prims);
+        let good = Ray::new(Vec3::new(0.3, 0.3, 5.0), Vec3::new(0.0, 0.0, -1.0));
+        for isa in Isa::all_available() {
+            assert!(bvh.set_isa(isa));
+            assert!(bvh.intersect(&prims, &good).is_some());
+            let before = invalid_rays();
+            let nan = f32::NAN;
+            let bad = [
+                Ray::new(Vec3::new(nan, 0.3, 5.0), Vec3::new(0.0, 0.0, -1.0)),
+                Ray::new(Vec3::new(0.3, 0.3, 5.0), Vec3::new(nan, nan, nan)),
+                Ray::new(Vec3::new(f32::INFINITY, 0.3, 5.0), Vec3::new(0.0, 0.0, -1.0)),
+                Ray::with_range(Vec3::new(0.3, 0.3, 5.0), Vec3::new(0.0, 0.0, -1.0), 0.0, nan),
+            ];
+            for r in &bad {
+                assert!(bvh.intersect(&prims, r).is_none());
+                assert!(!bvh.occluded(&prims, r));
+                let mut visited = 0;
+                bvh.traverse(r, |_, _| {
+                    visited += 1;
+                    false
+                });
+                assert_eq!(visited, 0);
+            }
+            assert!(invalid_rays() - before >= 3 * bad.len() as u64);
+            for o in [3e38f32, -3e38, 1e30] {
+                for d in [
+                    Vec3::new(-1.0, 0.0, 0.0),
+                    Vec3::new(1e-30, 1.0, 0.0).normalize(),
+                    Vec3::new(0.0, 0.0, 1.0),
+                ] {
+                    let r = Ray::new(Vec3::new(o, 0.5, 0.0), d);
+                    let _ = bvh.intersect(&prims, &r);
+                    let _ = bvh.occluded(&prims, &r);
+                }
             }
         }
     }

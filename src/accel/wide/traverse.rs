@@ -32,6 +32,9 @@ impl WideBvh {
         if self.nodes.is_empty() {
             return;
         }
+        if !super::usable(ray) {
+            return;
+        }
         let r = RayData::new(ray);
         let mut t_max = ray.t_max;
         let mut stack: Vec<(u32, f32)> = Vec::with_capacity(64);
@@ -288,7 +291,9 @@ pub(super) fn closest<K: Kernel, const S: usize>(bvh: &WideBvh, prims: &[Prim], 
                 cur = unsafe { st[sp].assume_init() } as u32;
                 continue;
             }
-        } else {
+        } else if cur != EMPTY {
+            // an empty slot is never admitted by a box test of a finite ray; the
+            // check keeps a bad one (huge but finite coordinates) from indexing garbage
             let (first, count) = leaf_range(cur);
             if cur & GENERIC != 0 {
                 for &p in &bvh.generic[first..first + count] {
@@ -360,7 +365,9 @@ pub(super) fn any<K: Kernel, const S: usize>(bvh: &WideBvh, prims: &[Prim], ray:
                 cur = node.child[mask.trailing_zeros() as usize];
                 continue;
             }
-        } else {
+        } else if cur != EMPTY {
+            // an empty slot is never admitted by a box test of a finite ray; the
+            // check keeps a bad one (huge but finite coordinates) from indexing garbage
             let (first, count) = leaf_range(cur);
             if cur & GENERIC != 0 {
                 for &p in &bvh.generic[first..first + count] {

@@ -1,0 +1,67 @@
+//! Entry points of the fuzz targets (`fuzz/fuzz_targets/*.rs`), shared with the
+//! corpus replay and mutation test (`tests/fuzz_corpus.rs`) so stable `cargo test`
+//! runs exactly what `cargo fuzz` runs. Each takes arbitrary bytes and must return
+//! (an error is fine) without panicking, aborting or hanging.
+
+use crate::geometry::mesh::Mesh;
+use crate::geometry::{obj, ply};
+use crate::math::{Mat4, Vec3};
+use crate::texture::TextureConvention;
+use std::path::Path;
+
+/// The corpus folders and fuzz targets, by name.
+pub const TARGETS: [&str; 4] = ["scene_json", "obj", "ply", "texture_image"];
+
+/// Runs target `name` on `data`; `Ok` when the input was accepted.
+pub fn run(name: &str, data: &[u8]) -> Result<(), String> {
+    match name {
+        "scene_json" => scene_json(data),
+        "obj" => obj_mesh(data),
+        "ply" => ply_mesh(data),
+        "texture_image" => texture_image(data),
+        other => Err(format!("unknown fuzz target '{other}'")),
+    }
+}
+
+/// The scene reader (and the OBJ reader on the same text).
+pub fn scene_json(data: &[u8]) -> Result<(), String> {
+    let text = String::from_utf8_lossy(data);
+    let file = Path::new("fuzz.json");
+    let _ = obj::parse(&text);
+    let value = crate::desc::json::parse_text(&text, file).map_err(|e| e.to_string())?;
+    // `from_value` reads nothing from disk; the base folder only anchors paths
+    let desc = crate::desc::SceneDesc::from_value(&value, file, Path::new(".")).map_err(|e| e.to_string())?;
+    // the job (camera basis, film memory estimate) needs no file either
+    crate::render::RenderJob::from_desc(&desc, crate::Profile::Physical).map_err(|e| e.to_string())?;
+    Ok(())
+}
+
+/// The OBJ reader and the mesh built from it.
+pub fn obj_mesh(data: &[u8]) -> Result<(), String> {
+    let d = obj::parse(&String::from_utf8_lossy(data)).map_err(|e| e.to_string())?;
+    let _ = Mesh::from_obj(d, &Mat4::IDENTITY, Vec3::ZERO, true);
+    Ok(())
+}
+
+/// The PLY reader and the mesh built from it.
+pub fn ply_mesh(data: &[u8]) -> Result<(), String> {
+    let d = ply::parse_ply(data).map_err(|e| format!("{e:#}"))?;
+    let _ = Mesh::from_obj(d, &Mat4::IDENTITY, Vec3::ZERO, true);
+    Ok(())
+}
+
+/// The texture loader: the first byte picks the file name's extension (the decoder
+/// also guesses from the content), the rest is the file; then its MIP pyramid.
+pub fn texture_image(data: &[u8]) -> Result<(), String> {
+    let Some((&pick, bytes)) = data.split_first() else {
+        return Err("empty".into());
+    };
+    let name = ["fuzz.exr", "fuzz.png", "fuzz.hdr", "fuzz.jpg"][pick as usize % 4];
+    let conv = if pick & 4 == 0 {
+        TextureConvention::Physical
+    } else {
+        TextureConvention::Rdr171
+    };
+    crate::texture::image::decode_mipmap(bytes, Path::new(name), conv, true).map_err(|e| format!("{e:#}"))?;
+    Ok(())
+}

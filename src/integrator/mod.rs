@@ -6,16 +6,20 @@
 //! Adding an integrator: one file with its parameters and its pass, one arm here
 //! (and one in [`Integrator::render_pass`]), one in the scene reader.
 
+pub mod bdpt;
 pub mod intersection_test;
 pub mod normals;
 pub mod pass;
 pub mod path;
+pub mod ptracer;
 pub mod rdr171;
 
+pub use bdpt::Bdpt;
 pub use intersection_test::IntersectionTest;
 pub use normals::Normals;
 pub use pass::{camera_pass, CameraSample, PassContext, PassResult, RayCounts, StopToken};
 pub use path::{PathProfile, PathTracer};
+pub use ptracer::Ptracer;
 
 use crate::film::Film;
 use crate::geometry::ray::RAY_T_MAX;
@@ -30,6 +34,10 @@ use rdr171::Rdr171Columns;
 pub enum Integrator {
     IntersectionTest(IntersectionTest),
     Path(PathTracer),
+    /// Bidirectional path tracing.
+    Bdpt(Bdpt),
+    /// Light tracing (particle tracing) alone.
+    Ptracer(Ptracer),
     Normals(Normals),
     /// The course renderer's `intersection_test`, quirks and all (`--compat rdr171`).
     Rdr171(Rdr171Columns),
@@ -41,6 +49,8 @@ impl Integrator {
         match self {
             Integrator::IntersectionTest(_) => "intersection_test",
             Integrator::Path(_) => "path",
+            Integrator::Bdpt(_) => "bdpt",
+            Integrator::Ptracer(_) => "ptracer",
             Integrator::Normals(_) => "normals",
             Integrator::Rdr171(_) => "intersection_test (rdr171)",
         }
@@ -70,6 +80,8 @@ impl Integrator {
         match self {
             Integrator::IntersectionTest(i) => camera_pass(ctx, pass, film, |s| i.li(scene, s.ray, s.diff, s.sampler, s.counts)),
             Integrator::Path(p) => camera_pass(ctx, pass, film, |s| p.li(scene, s.ray, s.diff, s.sampler, s.counts)),
+            Integrator::Bdpt(b) => camera_pass(ctx, pass, film, |s| b.li(scene, ctx.camera, s)),
+            Integrator::Ptracer(p) => camera_pass(ctx, pass, film, |s| p.li(scene, ctx.camera, s)),
             Integrator::Normals(n) => camera_pass(ctx, pass, film, |s| n.li(scene, s.ray, s.counts)),
             Integrator::Rdr171(c) => c.render(ctx, film),
         }

@@ -34,13 +34,15 @@ pub struct SceneDesc {
     pub warnings: Vec<String>,
 }
 
-use crate::integrator::{Integrator, IntersectionTest, Normals, PathProfile, PathTracer};
+use crate::integrator::{bdpt::Heuristic, Bdpt, Integrator, IntersectionTest, Normals, PathProfile, PathTracer, Ptracer};
 
 /// `integrator`:
-/// * `type` (`"path"`) — `"path"`, `"intersection_test"` or `"normals"` (a debug view:
-///   shading normals as colours); `"bdpt"` and `"photon"` render with `path` (with a
-///   warning). The keys of each are documented on its type:
+/// * `type` (`"path"`) — `"path"`, `"bdpt"`, `"ptracer"`, `"intersection_test"` or
+///   `"normals"` (a debug view: shading normals as colours); `"photon"` renders with
+///   `path` (with a warning). The keys of each are documented on its type:
 ///   [`PathTracer`] (`spp` 32, `max_depth` 12, `profile`, `rr_threshold`),
+///   [`Bdpt`] (as `path`, and `mis`, `strategy`, `strategy_weighted`), [`Ptracer`]
+///   (`spp` 32, `max_depth` 12, `rr_threshold`),
 ///   [`IntersectionTest`] (`spp` 8, `max_depth` 16, `light_samples` 1), [`Normals`] (`spp` 8).
 /// * `spp` (int ≥ 1) — samples per pixel, default per type as above.
 /// * `point_light_position` (vec3, (0,5,0)), `point_light_flux` (vec3, (1,1,1)) —
@@ -291,8 +293,8 @@ impl SceneDesc {
 fn parse_integrator(p: &Props) -> Result<IntegratorDesc> {
     let ty = p.string_or("type", "path")?;
     let kind = match ty.as_str() {
-        "intersection_test" | "normals" => ty.as_str(),
-        "path" | "bdpt" | "photon" => {
+        "intersection_test" | "normals" | "bdpt" | "ptracer" => ty.as_str(),
+        "path" | "photon" => {
             if ty != "path" {
                 p.ctx().warn(
                     &p.key_path("type"),
@@ -304,12 +306,12 @@ fn parse_integrator(p: &Props) -> Result<IntegratorDesc> {
         _ => {
             return Err(p.error(
                 "type",
-                format!("unknown integrator '{ty}' (available: intersection_test, path, normals; bdpt and photon render as path)"),
+                format!("unknown integrator '{ty}' (available: intersection_test, path, bdpt, ptracer, normals; photon renders as path)"),
             ))
         }
     };
     let (integrator, spp) = match kind {
-        "path" => {
+        "path" | "bdpt" => {
             let profile = match p.string_or("profile", "MIS")?.as_str() {
                 "RW" | "RandomWalk" => PathProfile::RandomWalk,
                 "NEE" | "NextEventEstimation" => PathProfile::NextEvent,
@@ -319,14 +321,24 @@ fn parse_integrator(p: &Props) -> Result<IntegratorDesc> {
             let rr_threshold = p.f32_or("rr_threshold", 0.1)?;
             let spp = p.int_at_least("spp", 32, 1)?;
             let max_depth = p.int_at_least("max_depth", 12, 1)?;
-            (
-                Integrator::Path(PathTracer {
-                    max_depth,
-                    profile,
-                    rr_threshold,
-                }),
-                spp,
-            )
+            if kind == "path" {
+                (
+                    Integrator::Path(PathTracer {
+                        max_depth,
+                        profile,
+                        rr_threshold,
+                    }),
+                    spp,
+                )
+            } else {
+                (Integrator::Bdpt(parse_bdpt(p, max_depth, rr_threshold)?), spp)
+            }
+        }
+        "ptracer" => {
+            let rr_threshold = p.f32_or("rr_threshold", 0.1)?;
+            let spp = p.int_at_least("spp", 32, 1)?;
+            let max_depth = p.int_at_least("max_depth", 12, 1)?;
+            (Integrator::Ptracer(Ptracer { max_depth, rr_threshold }), spp)
         }
         "normals" => (Integrator::Normals(Normals), p.int_at_least("spp", 8, 1)?),
         _ => {
@@ -387,6 +399,29 @@ fn parse_integrator(p: &Props) -> Result<IntegratorDesc> {
         spp,
         point_lights,
         light_sampling,
+    })
+}
+
+/// The keys only `bdpt` has (see [`Bdpt`]): `mis`, `strategy`, `strategy_weighted`.
+fn parse_bdpt(p: &Props, max_depth: u32, rr_threshold: f32) -> Result<Bdpt> {
+    let heuristic = match p.string_or("mis", "power")?.as_str() {
+        "power" => Heuristic::Power,
+        "balance" => Heuristic::Balance,
+        other => return Err(p.error("mis", format!("unknown MIS heuristic '{other}' (available: power, balance)"))),
+    };
+    let strategy = match p.contains("strategy") {
+        true => match p.vec2i_or("strategy", [0, 0])? {
+            [s, t] if s >= 0 && t >= 1 => Some((s as u32, t as u32)),
+            _ => return Err(p.error("strategy", "expected [s, t] with s ≥ 0, t ≥ 1")),
+        },
+        false => None,
+    };
+    Ok(Bdpt {
+        max_depth,
+        rr_threshold,
+        heuristic,
+        strategy,
+        strategy_weighted: p.bool_or("strategy_weighted", false)?,
     })
 }
 

@@ -318,16 +318,18 @@ fn bdpt_equals_path_on_a_smooth_shaded_mesh() {
     }
 }
 
-/// A diffuse ball inside a glass (or `refraction`) ball inside a box lit from above:
-/// light reaches the inner ball only through the outer one, so the η² of
-/// refraction matters on both subpaths.
+/// The camera and a diffuse ball inside a big glass (or `refraction`) ball, lit from
+/// outside by an area light in a big diffuse sphere: every light subpath that
+/// reaches the camera crossed the glass once more inwards than outwards, so the
+/// η² of refraction must be right on both subpaths (radiance: scaled, importance:
+/// not, for `glass`; the reverse for `refraction`).
 fn nested_glass(dir: &Path, integrator: &str, outer: &str) -> rdr::Loaded {
-    std::fs::write(dir.join("lamp.obj"), "v -0.4 1.9 -0.4\nv 0.4 1.9 -0.4\nv 0.4 1.9 0.4\nv -0.4 1.9 0.4\nf 1 2 3 4\n").unwrap();
+    std::fs::write(dir.join("lamp.obj"), "v -0.6 2.6 -0.6\nv 0.6 2.6 -0.6\nv 0.6 2.6 0.6\nv -0.6 2.6 0.6\nf 1 2 3 4\n").unwrap();
     let v = json!({
         "integrator": {"type": integrator, "max_depth": 8, "lights": []},
         "film": {"resolution": [24, 24]},
-        "camera": {"position": [0.0, 0.8, 3.0], "look_at": [0.0, 0.6, 0.0], "ref_up": [0.0, 1.0, 0.0], "fov": 40.0},
-        "textures": {"white": {"type": "constant", "color": [0.8, 0.8, 0.8]}, "red": {"type": "constant", "color": [0.8, 0.2, 0.1]}},
+        "camera": {"position": [0.0, 0.3, 1.6], "look_at": [0.0, 0.0, 0.0], "ref_up": [0.0, 1.0, 0.0], "fov": 50.0},
+        "textures": {"white": {"type": "constant", "color": [0.8, 0.8, 0.8]}, "red": {"type": "constant", "color": [0.8, 0.3, 0.2]}},
         "materials": {
             "white": {"type": "diffuse", "texture_name": "white", "twosided": true},
             "red": {"type": "diffuse", "texture_name": "red"},
@@ -335,9 +337,9 @@ fn nested_glass(dir: &Path, integrator: &str, outer: &str) -> rdr::Loaded {
             "refraction": {"type": "refraction", "eta": 1.5}
         },
         "objects": [
-            {"type": "sphere", "center": [0.0, 0.6, 0.0], "radius": 0.6, "material_name": outer},
-            {"type": "sphere", "center": [0.0, 0.6, 0.0], "radius": 0.35, "material_name": "red"},
-            {"type": "sphere", "center": [0.0, 0.0, 0.0], "radius": 4.0, "material_name": "white"},
+            {"type": "sphere", "center": [0.0, 0.0, 0.0], "radius": 2.2, "material_name": outer},
+            {"type": "sphere", "center": [0.0, 0.0, 0.0], "radius": 0.6, "material_name": "red"},
+            {"type": "sphere", "center": [0.0, 0.0, 0.0], "radius": 6.0, "material_name": "white"},
             {"type": "mesh", "path": "lamp.obj", "light": {"type": "area", "radiance": [6, 6, 6]}}
         ]
     });

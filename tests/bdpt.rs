@@ -156,7 +156,10 @@ fn inside_a_diffuse_sphere_every_pixel_is_one() {
             let worst = img.pixels.iter().map(|p| (p.x - 1.0).abs()).fold(0.0f32, f32::max);
             eprintln!("{integrator:>8} emitting {emitting:>5}: mean {m}, worst pixel off by {worst}");
             // the 64-gon sphere is not round: a point light's direct term varies by ~0.2 %
-            assert!((m - Vec3::ONE).abs().max_element() < 0.01, "{integrator} emitting {emitting}: mean {m}");
+            assert!(
+                (m - Vec3::ONE).abs().max_element() < 0.01,
+                "{integrator} emitting {emitting}: mean {m}"
+            );
             let bound = if integrator == "ptracer" { 0.4 } else { 0.25 };
             assert!(worst < bound, "{integrator} emitting {emitting}: worst pixel off by {worst}");
         }
@@ -174,14 +177,34 @@ fn each_strategy_alone_converges_to_the_same_image_and_weighted_shares_add_up() 
     let Some(shared) = shared() else { return };
     // paths of exactly 3 segments (max_depth 3: the (s, t) with s + t = 4)
     let strat = |s: u32, t: u32, weighted: bool, spp: u32| {
-        let l = small_cbox(&shared, 16, 3, &format!(r#", "strategy": [{s}, {t}], "strategy_weighted": {weighted}"#));
+        let l = small_cbox(
+            &shared,
+            16,
+            3,
+            &format!(r#", "strategy": [{s}, {t}], "strategy_weighted": {weighted}"#),
+        );
         (render(&l, spp, 11), render(&l, spp, 12))
     };
     let strategies = [(0u32, 4u32), (1, 3), (2, 2), (3, 1)];
-    let imgs: Vec<_> = strategies.iter().map(|&(s, t)| strat(s, t, false, if s == 0 { 256 } else { 64 })).collect();
+    let imgs: Vec<_> = strategies
+        .iter()
+        .map(|&(s, t)| strat(s, t, false, if s == 0 { 256 } else { 64 }))
+        .collect();
     // (1, 3) is the lowest-variance strategy here: the others against it, block-averaged
-    let avg = |(a, b): &(Image, Image)| Image::new(a.width, a.height, a.pixels.iter().zip(&b.pixels).map(|(p, q)| (*p + *q) * 0.5).collect());
-    let var = |(a, b): &(Image, Image)| Image::new(a.width, a.height, a.pixels.iter().zip(&b.pixels).map(|(p, q)| (*p - *q) * (*p - *q) * 0.25).collect());
+    let avg = |(a, b): &(Image, Image)| {
+        Image::new(
+            a.width,
+            a.height,
+            a.pixels.iter().zip(&b.pixels).map(|(p, q)| (*p + *q) * 0.5).collect(),
+        )
+    };
+    let var = |(a, b): &(Image, Image)| {
+        Image::new(
+            a.width,
+            a.height,
+            a.pixels.iter().zip(&b.pixels).map(|(p, q)| (*p - *q) * (*p - *q) * 0.25).collect(),
+        )
+    };
     let k = 4;
     let r = avg(&imgs[1]).block_average(k, false);
     let vr = var(&imgs[1]).block_average(k, true);
@@ -259,7 +282,11 @@ fn splats_are_normalised_for_any_spp_filter_thread_count_and_time_limit() {
     let o = r#"{"film": {"resolution": [20, 20], "block_size": 4}, "integrator": {"type": "bdpt"}}"#;
     let l = load_scene(&shared.join("refs/scenes/caustic_cbox.json"), &[o], Profile::Physical);
     let bits = |n: usize| {
-        let img = rayon::ThreadPoolBuilder::new().num_threads(n).build().unwrap().install(|| render(&l, 3, 4));
+        let img = rayon::ThreadPoolBuilder::new()
+            .num_threads(n)
+            .build()
+            .unwrap()
+            .install(|| render(&l, 3, 4));
         img.pixels.iter().flat_map(|p| p.to_array().map(f32::to_bits)).collect::<Vec<_>>()
     };
     let one = bits(1);
@@ -271,7 +298,11 @@ fn splats_are_normalised_for_any_spp_filter_thread_count_and_time_limit() {
 /// a quad area light, on a large diffuse floor.
 fn smooth_sphere(dir: &Path, integrator: &str, point_light: bool) -> rdr::Loaded {
     std::fs::write(dir.join("ball.obj"), sphere_obj(10, 0.6, false, true)).unwrap();
-    std::fs::write(dir.join("lamp.obj"), "v -0.5 2.5 -0.5\nv 0.5 2.5 -0.5\nv 0.5 2.5 0.5\nv -0.5 2.5 0.5\nf 1 2 3 4\n").unwrap();
+    std::fs::write(
+        dir.join("lamp.obj"),
+        "v -0.5 2.5 -0.5\nv 0.5 2.5 -0.5\nv 0.5 2.5 0.5\nv -0.5 2.5 0.5\nf 1 2 3 4\n",
+    )
+    .unwrap();
     let mut objects = vec![
         json!({"type": "mesh", "path": "ball.obj", "material_name": "white", "translate": [0.0, 0.6, 0.0]}),
         json!({"type": "sphere", "center": [0.0, -100.0, 0.0], "radius": 100.0, "material_name": "white"}),
@@ -296,8 +327,20 @@ fn smooth_sphere(dir: &Path, integrator: &str, point_light: bool) -> rdr::Loaded
 /// `bdpt` against `path` on the same scene (path's two halves as the reference).
 fn bdpt_vs_path(name: &str, path: &rdr::Loaded, bdpt: &rdr::Loaded, spp_path: u32, spp_bdpt: u32, k: usize) -> Comparison {
     let (p1, p2) = (render(path, spp_path, 21), render(path, spp_path, 22));
-    let r = Image::new(p1.width, p1.height, p1.pixels.iter().zip(&p2.pixels).map(|(a, b)| (*a + *b) * 0.5).collect());
-    let vr = Image::new(p1.width, p1.height, p1.pixels.iter().zip(&p2.pixels).map(|(a, b)| (*a - *b) * (*a - *b) * 0.25).collect());
+    let r = Image::new(
+        p1.width,
+        p1.height,
+        p1.pixels.iter().zip(&p2.pixels).map(|(a, b)| (*a + *b) * 0.5).collect(),
+    );
+    let vr = Image::new(
+        p1.width,
+        p1.height,
+        p1.pixels
+            .iter()
+            .zip(&p2.pixels)
+            .map(|(a, b)| (*a - *b) * (*a - *b) * 0.25)
+            .collect(),
+    );
     let (b1, b2) = (render(bdpt, spp_bdpt, 23), render(bdpt, spp_bdpt, 24));
     check(
         name,
@@ -324,7 +367,11 @@ fn bdpt_equals_path_on_a_smooth_shaded_mesh() {
 /// η² of refraction must be right on both subpaths (radiance: scaled, importance:
 /// not, for `glass`; the reverse for `refraction`).
 fn nested_glass(dir: &Path, integrator: &str, outer: &str) -> rdr::Loaded {
-    std::fs::write(dir.join("lamp.obj"), "v -0.6 2.6 -0.6\nv 0.6 2.6 -0.6\nv 0.6 2.6 0.6\nv -0.6 2.6 0.6\nf 1 2 3 4\n").unwrap();
+    std::fs::write(
+        dir.join("lamp.obj"),
+        "v -0.6 2.6 -0.6\nv 0.6 2.6 -0.6\nv 0.6 2.6 0.6\nv -0.6 2.6 0.6\nf 1 2 3 4\n",
+    )
+    .unwrap();
     let v = json!({
         "integrator": {"type": integrator, "max_depth": 8, "lights": []},
         "film": {"resolution": [24, 24]},

@@ -92,7 +92,12 @@ impl Bdpt {
 }
 
 /// The light tracer's sample (`ptracer`): see [`super::ptracer`].
-pub(crate) fn light_tracing_sample(max_depth: u32, scene: &crate::scene::Scene, camera: &crate::camera::Camera, s: &mut CameraSample) -> Vec3 {
+pub(crate) fn light_tracing_sample(
+    max_depth: u32,
+    scene: &crate::scene::Scene,
+    camera: &crate::camera::Camera,
+    s: &mut CameraSample,
+) -> Vec3 {
     let e = Engine {
         ctx: ctx(scene, camera),
         max_depth: max_depth as usize,
@@ -140,7 +145,17 @@ impl Engine<'_> {
         // the light tracer only looks for the environment behind its first segment
         let cam_max = if light_tracing { 2 } else { self.max_depth + 1 };
         let pdf_dir = ctx.camera.pdf_dir(cs.ray.d);
-        self.walk(cs.ray, cs.diff, Vec3::ONE, pdf_dir, TransportMode::Radiance, cam_max, &mut cam, cs.sampler, cs.counts);
+        self.walk(
+            cs.ray,
+            cs.diff,
+            Vec3::ONE,
+            pdf_dir,
+            TransportMode::Radiance,
+            cam_max,
+            &mut cam,
+            cs.sampler,
+            cs.counts,
+        );
         let mut light = Vec::with_capacity(self.max_depth.min(16));
         self.light_subpath(&mut light, cs.sampler, cs.counts);
 
@@ -247,7 +262,8 @@ impl Engine<'_> {
             if mode == TransportMode::Radiance {
                 eta_scale *= bs.eta * bs.eta;
             }
-            if n - 1 >= RR_DEPTH {
+            let segments = n - 1; // so far, the camera ray or the light's ray first
+            if segments >= RR_DEPTH {
                 let q = (beta.max_element() * rr_norm * eta_scale).min(0.95);
                 if sampler.next_1d() >= q {
                     break;
@@ -270,11 +286,18 @@ impl Engine<'_> {
         let (index, pmf, _) = scene.light_sampler.sample(sampler.next_1d());
         let (u_pos, u_dir) = (Vec2::from(sampler.next_2d()), Vec2::from(sampler.next_2d()));
         let light = &scene.lights[index];
-        let Some(es) = light.sample_emission(u_pos, u_dir, ctx.bounds) else { return };
+        let Some(es) = light.sample_emission(u_pos, u_dir, ctx.bounds) else {
+            return;
+        };
         if pmf <= 0.0 || es.pdf_pos <= 0.0 || es.pdf_dir <= 0.0 || es.le == Vec3::ZERO {
             return;
         }
-        let mut v = Vertex::new(Kind::Light(index as u32), es.p, es.n.unwrap_or(Vec3::ZERO), Vec3::splat(1.0 / (pmf * es.pdf_pos)));
+        let mut v = Vertex::new(
+            Kind::Light(index as u32),
+            es.p,
+            es.n.unwrap_or(Vec3::ZERO),
+            Vec3::splat(1.0 / (pmf * es.pdf_pos)),
+        );
         if light.is_infinite() {
             v.infinite = true;
             v.ng = -es.dir;
@@ -288,7 +311,17 @@ impl Engine<'_> {
             _ => es.p,
         };
         let ray = Ray::with_range(o, es.dir, 0.0, RAY_T_MAX);
-        self.walk(ray, None, beta, es.pdf_dir, TransportMode::Importance, self.max_depth, path, sampler, counts);
+        self.walk(
+            ray,
+            None,
+            beta,
+            es.pdf_dir,
+            TransportMode::Importance,
+            self.max_depth,
+            path,
+            sampler,
+            counts,
+        );
         if path.len() > 1 {
             path[1].pdf_fwd = ctx.pdf_light(&path[0], &path[1]);
         }
@@ -330,7 +363,11 @@ impl Engine<'_> {
             let w = v / d2.sqrt();
             // We·cos_cam = 1/(A cos³θ): the pinhole's importance (1/(A cos⁴θ)) times its cosine
             let we = 1.0 / (ctx.camera.image_plane_area() * cos_cam * cos_cam * cos_cam);
-            let f = if s == 1 { ctx.emitted(qs, w) } else { qs.f(w, TransportMode::Importance) };
+            let f = if s == 1 {
+                ctx.emitted(qs, w)
+            } else {
+                qs.f(w, TransportMode::Importance)
+            };
             l = qs.beta * f * (qs.cos(w) * we / d2);
             if l == Vec3::ZERO || !self.visible(qs, &cam[0], counts) {
                 return None;
@@ -412,7 +449,13 @@ impl Engine<'_> {
         d: &'d mut PathDensities,
     ) -> &'d PathDensities {
         let ctx = &self.ctx;
-        let lv = |i: usize| if s == 1 && i == 0 { sampled.unwrap_or(&light[0]) } else { &light[i] };
+        let lv = |i: usize| {
+            if s == 1 && i == 0 {
+                sampled.unwrap_or(&light[0])
+            } else {
+                &light[i]
+            }
+        };
         let cv = |j: usize| if t == 1 && j == 0 { sampled.unwrap_or(&cam[0]) } else { &cam[j] };
         d.clear();
         for i in 0..s {
@@ -495,7 +538,14 @@ pub struct MisCheck {
 /// taken as a path; the weights of all strategies that could have made it must sum
 /// to 1, and the densities the connection assembled must equal those recomputed
 /// from the vertices alone (specular vertices excepted: density 0 either way).
-pub fn mis_self_check(scene: &crate::scene::Scene, camera: &crate::camera::Camera, width: u32, height: u32, max_depth: u32, samples: u32) -> MisCheck {
+pub fn mis_self_check(
+    scene: &crate::scene::Scene,
+    camera: &crate::camera::Camera,
+    width: u32,
+    height: u32,
+    max_depth: u32,
+    samples: u32,
+) -> MisCheck {
     let e = Engine {
         ctx: ctx(scene, camera),
         max_depth: max_depth as usize,
@@ -511,7 +561,17 @@ pub fn mis_self_check(scene: &crate::scene::Scene, camera: &crate::camera::Camer
         let ray = camera.ray(u * width as f32, v * height as f32);
         let mut cam = vec![Vertex::new(Kind::Camera, camera.position, Vec3::ZERO, Vec3::ONE)];
         cam[0].pdf_fwd = 1.0;
-        e.walk(ray, None, Vec3::ONE, camera.pdf_dir(ray.d), TransportMode::Radiance, e.max_depth + 1, &mut cam, &mut sampler, &mut counts);
+        e.walk(
+            ray,
+            None,
+            Vec3::ONE,
+            camera.pdf_dir(ray.d),
+            TransportMode::Radiance,
+            e.max_depth + 1,
+            &mut cam,
+            &mut sampler,
+            &mut counts,
+        );
         let mut light = Vec::new();
         e.light_subpath(&mut light, &mut sampler, &mut counts);
         let mut sample_off = false;
@@ -522,7 +582,9 @@ pub fn mis_self_check(scene: &crate::scene::Scene, camera: &crate::camera::Camer
                     continue;
                 }
                 let mut probe = sampler;
-                let Some((c, _)) = e.connect(&light, &cam, s, t, &mut probe, &mut counts, None) else { continue };
+                let Some((c, _)) = e.connect(&light, &cam, s, t, &mut probe, &mut counts, None) else {
+                    continue;
+                };
                 if c == Vec3::ZERO {
                     continue;
                 }
@@ -531,14 +593,18 @@ pub fn mis_self_check(scene: &crate::scene::Scene, camera: &crate::camera::Camer
                 if s == 1 && t > 1 {
                     let mut probe = sampler;
                     let (index, _, _) = scene.light_sampler.sample(probe.next_1d());
-                    let Some(ls) = scene.lights[index].sample(cam[t - 1].p, Vec2::from(probe.next_2d()), scene.light_sampling) else { continue };
+                    let Some(ls) = scene.lights[index].sample(cam[t - 1].p, Vec2::from(probe.next_2d()), scene.light_sampling) else {
+                        continue;
+                    };
                     let mut q = match ls.target {
                         crate::light::ShadowTarget::Infinity => {
                             let mut q = Vertex::new(Kind::Light(index as u32), cam[t - 1].p, ls.wi, Vec3::ONE);
                             q.infinite = true;
                             q
                         }
-                        crate::light::ShadowTarget::Point { p, n } => Vertex::new(Kind::Light(index as u32), p, n.unwrap_or(Vec3::ZERO), Vec3::ONE),
+                        crate::light::ShadowTarget::Point { p, n } => {
+                            Vertex::new(Kind::Light(index as u32), p, n.unwrap_or(Vec3::ZERO), Vec3::ONE)
+                        }
                     };
                     q.pdf_fwd = e.ctx.pdf_light_origin(&q);
                     sampled = Some(q);

@@ -440,7 +440,12 @@ fn veach_converges_outside_the_glossy_band() {
     let r = read(&shared.join("refs/veach.exr")).without_rows(a0, a1).block_average(4, false);
     let vr = read(&shared.join("refs/veach.var.exr")).without_rows(a0, a1).block_average(4, true);
     let (a, b) = reduced(&shared, "veach_path", 4, 32, &[BDPT]);
-    let c = check("bdpt veach", (&a.without_rows(a0 / 4, a1 / 4), &b.without_rows(a0 / 4, a1 / 4)), &r, &vr);
+    let c = check(
+        "bdpt veach",
+        (&a.without_rows(a0 / 4, a1 / 4), &b.without_rows(a0 / 4, a1 / 4)),
+        &r,
+        &vr,
+    );
     // veach's variance file is a lower bound (heavy tails): the looser bound of path's test
     assert!(c.rel_mse_corrected.abs() < 5.0 * c.std_error + 3e-3, "{c:?}");
 }

@@ -295,9 +295,13 @@ fn splats_are_normalised_for_any_spp_filter_thread_count_and_time_limit() {
     assert_eq!(one, bits(3), "3 threads");
 }
 
-/// A ~100-triangle sphere with vertex normals (or a point light beside it) under
-/// a quad area light, on a large diffuse floor.
+/// A ~100-triangle sphere with vertex normals under a quad area light (or a point
+/// light beside it), on a large floor with an image texture (4×4 texels, bilinear).
 fn smooth_sphere(dir: &Path, integrator: &str, point_light: bool) -> rdr::Loaded {
+    let texels: Vec<Vec3> = (0..16)
+        .map(|i| Vec3::new(0.2 + 0.05 * i as f32, 0.9 - 0.04 * i as f32, 0.3 + 0.3 * (i % 2) as f32))
+        .collect();
+    rdr::imageio::write_png(&dir.join("tiles.png"), 4, 4, &texels).unwrap();
     std::fs::write(dir.join("ball.obj"), sphere_obj(10, 0.6, false, true)).unwrap();
     std::fs::write(
         dir.join("lamp.obj"),
@@ -306,7 +310,7 @@ fn smooth_sphere(dir: &Path, integrator: &str, point_light: bool) -> rdr::Loaded
     .unwrap();
     let mut objects = vec![
         json!({"type": "mesh", "path": "ball.obj", "material_name": "white", "translate": [0.0, 0.6, 0.0]}),
-        json!({"type": "sphere", "center": [0.0, -100.0, 0.0], "radius": 100.0, "material_name": "white"}),
+        json!({"type": "sphere", "center": [0.0, -100.0, 0.0], "radius": 100.0, "material_name": "floor"}),
     ];
     let mut integ = json!({"type": integrator, "max_depth": 5, "lights": []});
     if point_light {
@@ -318,8 +322,9 @@ fn smooth_sphere(dir: &Path, integrator: &str, point_light: bool) -> rdr::Loaded
         "integrator": integ,
         "film": {"resolution": [32, 24]},
         "camera": {"position": [0.0, 1.2, 3.2], "look_at": [0.0, 0.5, 0.0], "ref_up": [0.0, 1.0, 0.0], "fov": 40.0},
-        "textures": {"white": {"type": "constant", "color": [0.8, 0.7, 0.6]}},
-        "materials": {"white": {"type": "diffuse", "texture_name": "white"}},
+        "textures": {"white": {"type": "constant", "color": [0.8, 0.7, 0.6]},
+                     "tiles": {"type": "image", "path": "tiles.png", "tex_coordinate_generator": {"type": "uvmapping2d", "scale": [400, 200]}}},
+        "materials": {"white": {"type": "diffuse", "texture_name": "white"}, "floor": {"type": "diffuse", "texture_name": "tiles"}},
         "objects": objects
     });
     scene_from(&v, dir)

@@ -80,6 +80,39 @@ impl Camera {
         2.0 * self.up.length() / (self.height * self.forward.length())
     }
 
+    /// Area of the image plane at distance 1 from the eye (the whole film).
+    pub fn image_plane_area(&self) -> f32 {
+        4.0 * self.right.length() * self.up.length() / self.forward.length_squared()
+    }
+
+    /// The continuous film position a world point projects to and cos θ of its
+    /// direction to the optical axis; `None` behind the eye or outside the film.
+    /// The inverse of [`Camera::direction`].
+    pub fn project(&self, p: Vec3) -> Option<(crate::math::Vec2, f32)> {
+        let v = p - self.position;
+        let z = v.dot(self.forward) / self.forward.length_squared();
+        if z <= 0.0 || !z.is_finite() {
+            return None;
+        }
+        let sx = v.dot(self.right) / self.right.length_squared() / z;
+        let sy = v.dot(self.up) / self.up.length_squared() / z;
+        let (x, y) = ((sx + 1.0) * 0.5 * self.width, (sy + 1.0) * 0.5 * self.height);
+        if !(x >= 0.0 && x < self.width && y >= 0.0 && y < self.height) {
+            return None;
+        }
+        let cos = v.dot(self.forward) / (v.length() * self.forward.length());
+        Some((crate::math::Vec2::new(x, y), cos))
+    }
+
+    /// Solid-angle density of camera rays in direction `w` (unit) for film positions
+    /// drawn uniformly over the whole film: 1/(A·cos³θ), 0 outside the view.
+    pub fn pdf_dir(&self, w: Vec3) -> f32 {
+        match self.project(self.position + w) {
+            Some((_, cos)) => 1.0 / (self.image_plane_area() * cos * cos * cos),
+            None => 0.0,
+        }
+    }
+
     #[inline]
     pub fn ray(&self, x: f32, y: f32) -> Ray {
         Ray::new(self.position, self.direction(x, y))
@@ -120,6 +153,37 @@ mod tests {
         assert!((top.y / -top.z - 1.0).abs() < 1e-6);
         let right = c.direction(200.0, 50.0);
         assert!((right.x / -right.z - 2.0).abs() < 1e-6);
+    }
+
+    #[test]
+    fn projection_inverts_directions_and_densities_integrate_to_one() {
+        let d = CameraParams {
+            position: Vec3::new(0.5, 1.0, 3.0),
+            look_at: Vec3::new(0.0, 0.8, 0.0),
+            ref_up: Vec3::Y,
+            fov: 50.0,
+            focal_length: 1.0,
+        };
+        let c = Camera::new(&d, 64, 48);
+        for (x, y) in [(0.5f32, 0.5f32), (10.25, 40.0), (63.9, 0.1), (32.0, 24.0)] {
+            let (pos, _) = c.project(c.position + c.direction(x, y) * 2.7).unwrap();
+            assert!((pos.x - x).abs() < 1e-3 && (pos.y - y).abs() < 1e-3, "({x},{y}) -> {pos}");
+        }
+        assert!(c.project(c.position - c.direction(32.0, 24.0)).is_none(), "behind the eye");
+        // ∫ pdf_dir dω over the view = 1 (film sampled uniformly): E[1/pdf] over the film = Ω
+        let n = 200;
+        let mut omega = 0.0f64;
+        let mut expect = 0.0f64;
+        for i in 0..n {
+            for j in 0..n {
+                let (x, y) = ((i as f32 + 0.5) / n as f32 * 64.0, (j as f32 + 0.5) / n as f32 * 48.0);
+                let w = c.direction(x, y);
+                omega += 1.0 / c.pdf_dir(w) as f64 / (n * n) as f64;
+                let cos = w.dot((d.look_at - d.position).normalize()) as f64;
+                expect += c.image_plane_area() as f64 * cos * cos * cos / (n * n) as f64;
+            }
+        }
+        assert!((omega - expect).abs() < 1e-4 * expect, "{omega} vs {expect}");
     }
 
     #[test]

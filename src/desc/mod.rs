@@ -47,13 +47,17 @@ pub struct SceneDesc {
     pub warnings: Vec<String>,
 }
 
-use crate::integrator::{Integrator, IntersectionTest, Normals, PathProfile, PathTracer, PhotonMapper, Sppm};
+use crate::integrator::{
+    bdpt::Heuristic, Bdpt, Integrator, IntersectionTest, Normals, PathProfile, PathTracer, PhotonMapper, Ptracer, Sppm,
+};
 
 /// `integrator`:
-/// * `type` (`"path"`) — `"path"`, `"intersection_test"`, `"photon"`, `"sppm"` or
-///   `"normals"` (a debug view: shading normals as colours); `"bdpt"` renders with
-///   `path` (with a warning). The keys of each are documented on its type:
+/// * `type` (`"path"`) — `"path"`, `"bdpt"`, `"ptracer"`, `"intersection_test"`, `"photon"`,
+///   `"sppm"` or `"normals"` (a debug view: shading normals as colours). The keys of each
+///   are documented on its type:
 ///   [`PathTracer`] (`spp` 32, `max_depth` 12, `profile`, `rr_threshold`),
+///   [`Bdpt`] (as `path`, and `mis`, `strategy`, `strategy_weighted`), [`Ptracer`]
+///   (`spp` 32, `max_depth` 12, `rr_threshold`),
 ///   [`PhotonMapper`] (`spp` 16, `n_photons`, `n_iterations`, `n_near_photons`, …),
 ///   [`Sppm`] (`spp` 64 iterations, `photons_per_iteration`, `initial_radius`, …),
 ///   [`IntersectionTest`] (`spp` 8, `max_depth` 16, `light_samples` 1), [`Normals`] (`spp` 8).
@@ -236,25 +240,17 @@ impl SceneDesc {
 fn parse_integrator(p: &Props) -> Result<IntegratorDesc> {
     let ty = p.string_or("type", "path")?;
     let kind = match ty.as_str() {
-        "intersection_test" | "normals" | "photon" | "sppm" => ty.as_str(),
-        "path" | "bdpt" => {
-            if ty != "path" {
-                p.ctx().warn(
-                    &p.key_path("type"),
-                    format!("integrator '{ty}' is not implemented; rendering with the path tracer"),
-                );
-            }
-            "path"
-        }
+        "intersection_test" | "normals" | "photon" | "sppm" | "bdpt" | "ptracer" => ty.as_str(),
+        "path" => "path",
         _ => {
             return Err(p.error(
                 "type",
-                format!("unknown integrator '{ty}' (available: intersection_test, path, photon, sppm, normals; bdpt renders as path)"),
+                format!("unknown integrator '{ty}' (available: path, bdpt, ptracer, intersection_test, photon, sppm, normals)"),
             ))
         }
     };
     let (integrator, spp) = match kind {
-        "path" => {
+        "path" | "bdpt" => {
             let profile = match p.string_or("profile", "MIS")?.as_str() {
                 "RW" | "RandomWalk" => PathProfile::RandomWalk,
                 "NEE" | "NextEventEstimation" => PathProfile::NextEvent,
@@ -264,14 +260,24 @@ fn parse_integrator(p: &Props) -> Result<IntegratorDesc> {
             let rr_threshold = p.f32_or("rr_threshold", 0.1)?;
             let spp = p.int_at_least("spp", 32, 1)?;
             let max_depth = capped(p, "max_depth", p.int_at_least("max_depth", 12, 1)?, MAX_DEPTH);
-            (
-                Integrator::Path(PathTracer {
-                    max_depth,
-                    profile,
-                    rr_threshold,
-                }),
-                spp,
-            )
+            if kind == "path" {
+                (
+                    Integrator::Path(PathTracer {
+                        max_depth,
+                        profile,
+                        rr_threshold,
+                    }),
+                    spp,
+                )
+            } else {
+                (Integrator::Bdpt(parse_bdpt(p, max_depth, rr_threshold)?), spp)
+            }
+        }
+        "ptracer" => {
+            let rr_threshold = p.f32_or("rr_threshold", 0.1)?;
+            let spp = p.int_at_least("spp", 32, 1)?;
+            let max_depth = capped(p, "max_depth", p.int_at_least("max_depth", 12, 1)?, MAX_DEPTH);
+            (Integrator::Ptracer(Ptracer { max_depth, rr_threshold }), spp)
         }
         "normals" => (Integrator::Normals(Normals), p.int_at_least("spp", 8, 1)?),
         "photon" => (
@@ -421,6 +427,29 @@ fn in_range(p: &Props, key: &str, v: f32, lo: f32, hi: f32) -> Result<f32> {
         return Err(p.error(key, format!("must be between {lo:e} and {hi:e}, found {v:e}")));
     }
     Ok(v)
+}
+
+/// The keys only `bdpt` has (see [`Bdpt`]): `mis`, `strategy`, `strategy_weighted`.
+fn parse_bdpt(p: &Props, max_depth: u32, rr_threshold: f32) -> Result<Bdpt> {
+    let heuristic = match p.string_or("mis", "power")?.as_str() {
+        "power" => Heuristic::Power,
+        "balance" => Heuristic::Balance,
+        other => return Err(p.error("mis", format!("unknown MIS heuristic '{other}' (available: power, balance)"))),
+    };
+    let strategy = match p.contains("strategy") {
+        true => match p.vec2i_or("strategy", [0, 0])? {
+            [s, t] if s >= 0 && t >= 1 => Some((s as u32, t as u32)),
+            _ => return Err(p.error("strategy", "expected [s, t] with s ≥ 0, t ≥ 1")),
+        },
+        false => None,
+    };
+    Ok(Bdpt {
+        max_depth,
+        rr_threshold,
+        heuristic,
+        strategy,
+        strategy_weighted: p.bool_or("strategy_weighted", false)?,
+    })
 }
 
 /// A point light's flux; the error names the flux key itself.

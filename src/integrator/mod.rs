@@ -6,19 +6,23 @@
 //! Adding an integrator: one file with its parameters and its pass, one arm here
 //! (and one in [`Integrator::render_pass`]), one in the scene reader.
 
+pub mod bdpt;
 pub mod intersection_test;
 pub mod normals;
 pub mod pass;
 pub mod path;
 pub mod photon;
+pub mod ptracer;
 pub mod rdr171;
 pub mod sppm;
 
+pub use bdpt::Bdpt;
 pub use intersection_test::IntersectionTest;
 pub use normals::Normals;
 pub use pass::{camera_pass, CameraSample, PassContext, PassResult, RayCounts, StopToken};
 pub use path::{PathProfile, PathTracer};
 pub use photon::PhotonMapper;
+pub use ptracer::Ptracer;
 pub use sppm::Sppm;
 
 use crate::film::Film;
@@ -34,6 +38,10 @@ use rdr171::Rdr171Columns;
 pub enum Integrator {
     IntersectionTest(IntersectionTest),
     Path(PathTracer),
+    /// Bidirectional path tracing.
+    Bdpt(Bdpt),
+    /// Light tracing (particle tracing) alone.
+    Ptracer(Ptracer),
     Normals(Normals),
     /// Photon mapping: direct light by light sampling, the rest from k-NN photon maps.
     Photon(PhotonMapper),
@@ -49,6 +57,8 @@ impl Integrator {
         match self {
             Integrator::IntersectionTest(_) => "intersection_test",
             Integrator::Path(_) => "path",
+            Integrator::Bdpt(_) => "bdpt",
+            Integrator::Ptracer(_) => "ptracer",
             Integrator::Normals(_) => "normals",
             Integrator::Photon(_) => "photon",
             Integrator::Sppm(_) => "sppm",
@@ -82,6 +92,8 @@ impl Integrator {
         match self {
             Integrator::IntersectionTest(i) => camera_pass(ctx, pass, film, |s| i.li(scene, s.ray, s.diff, s.sampler, s.counts)),
             Integrator::Path(p) => camera_pass(ctx, pass, film, |s| p.li(scene, s.ray, s.diff, s.sampler, s.counts)),
+            Integrator::Bdpt(b) => camera_pass(ctx, pass, film, |s| b.li(scene, ctx.camera, s)),
+            Integrator::Ptracer(p) => camera_pass(ctx, pass, film, |s| p.li(scene, ctx.camera, s)),
             Integrator::Normals(n) => camera_pass(ctx, pass, film, |s| n.li(scene, s.ray, s.counts)),
             Integrator::Photon(p) => p.render_pass(ctx, pass, film),
             Integrator::Sppm(p) => p.render_pass(ctx, pass, film),

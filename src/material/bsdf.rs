@@ -20,6 +20,19 @@ pub enum BsdfKind {
     Conductor { tint: Vec3, eta: Vec3, k: Vec3, mf: Microfacet },
 }
 
+/// Which quantity a path carries: radiance (camera subpaths) or importance
+/// (light subpaths, the adjoint BSDF). They differ only at specular refraction:
+/// `glass` scales radiance by (η_o/η_i)² and importance not at all; `refraction`
+/// (radiance weight 1) has the adjoint weight (η_o/η_i)², η_o being the index on
+/// the side of `wo`. (The shading-normal correction of the adjoint lives with the
+/// integrator, which knows the geometric normal.)
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum TransportMode {
+    #[default]
+    Radiance,
+    Importance,
+}
+
 #[derive(Clone, Copy, Debug)]
 pub struct Bsdf {
     pub frame: Frame,
@@ -95,6 +108,12 @@ impl Bsdf {
 
     /// `u` drives the direction, `uc` the choice between lobes.
     pub fn sample(&self, wo: Vec3, u: Vec2, uc: f32) -> Option<BsdfSample> {
+        self.sample_mode(wo, u, uc, TransportMode::Radiance)
+    }
+
+    /// [`Bsdf::sample`] for radiance or importance transport (see [`TransportMode`]).
+    pub fn sample_mode(&self, wo: Vec3, u: Vec2, uc: f32, mode: TransportMode) -> Option<BsdfSample> {
+        let radiance = mode == TransportMode::Radiance;
         let o = self.frame.to_local(wo);
         let world = |l: Vec3| self.frame.to_world(l);
         match self.kind {
@@ -116,10 +135,13 @@ impl Bsdf {
             }
             BsdfKind::PerfectRefraction { eta } => {
                 let (n, ratio) = if o.z > 0.0 { (Vec3::Z, 1.0 / eta) } else { (-Vec3::Z, eta) };
-                let i = crate::math::refract(o, n, ratio).unwrap_or_else(|| crate::math::reflect(o, n));
+                let refracted = crate::math::refract(o, n, ratio);
+                let i = refracted.unwrap_or_else(|| crate::math::reflect(o, n));
+                // the adjoint of a weight-1 refraction carries (η_o/η_i)² = ratio²
+                let w = if radiance || refracted.is_none() { 1.0 } else { ratio * ratio };
                 Some(BsdfSample {
                     wi: world(i),
-                    weight: Vec3::ONE,
+                    weight: Vec3::splat(w),
                     pdf: 1.0,
                     delta: true,
                     eta: 1.0,
@@ -140,7 +162,8 @@ impl Bsdf {
                     let i = Vec3::new(-eta_ti * o.x, -eta_ti * o.y, cos_t).normalize();
                     Some(BsdfSample {
                         wi: world(i),
-                        weight: t * (eta_ti * eta_ti),
+                        // radiance is scaled by (η_o/η_i)², importance is not
+                        weight: if radiance { t * (eta_ti * eta_ti) } else { t },
                         pdf: 1.0 - f,
                         delta: true,
                         eta: 1.0 / eta_ti,

@@ -6,7 +6,7 @@ pub mod bsdf;
 pub mod fresnel;
 pub mod microfacet;
 
-pub use bsdf::{Bsdf, BsdfKind, BsdfSample};
+pub use bsdf::{Bsdf, BsdfKind, BsdfSample, TransportMode};
 pub use microfacet::Distribution;
 
 use crate::math::{Frame, Vec3};

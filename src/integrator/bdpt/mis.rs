@@ -1,0 +1,127 @@
+//! Multiple importance sampling over the strategies of one path (Veach 1997 §10.2).
+//!
+//! A path of n vertices x₀ (on a light) … x_{n−1} (the camera) is made by strategy
+//! s (s light vertices, t = n − s camera vertices) with density
+//! P_s = Π_{i<s} p_L(x_i) · Π_{i≥s} p_E(x_i), where p_L is the density of x_i when
+//! the light subpath samples it and p_E when the camera subpath does. Strategy s
+//! is possible unless one of its two connection vertices x_{s−1}, x_s is specular
+//! (or, for s = 0, the light has a delta position). Ratios P_j/P_s telescope over
+//! the vertices between, so a weight costs O(n); delta vertices carry density 0,
+//! read as 1 (their Dirac factors cancel in every ratio).
+
+/// How strategies are weighted against each other.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Heuristic {
+    /// w_s = P_s² / Σ_j P_j² (the default).
+    #[default]
+    Power,
+    /// w_s = P_s / Σ_j P_j.
+    Balance,
+}
+
+/// The densities of a whole path, index 0 at the light.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct PathDensities {
+    /// p_L: density of each vertex sampled from the light side.
+    pub light: Vec<f32>,
+    /// p_E: density of each vertex sampled from the camera side.
+    pub camera: Vec<f32>,
+    /// Specular vertices.
+    pub delta: Vec<bool>,
+    /// x₀ is a point light (no camera subpath can hit it).
+    pub delta_light: bool,
+}
+
+impl PathDensities {
+    pub fn len(&self) -> usize {
+        self.light.len()
+    }
+    pub fn is_empty(&self) -> bool {
+        self.light.is_empty()
+    }
+    pub fn clear(&mut self) {
+        self.light.clear();
+        self.camera.clear();
+        self.delta.clear();
+    }
+    pub fn push(&mut self, p_light: f32, p_camera: f32, delta: bool) {
+        self.light.push(p_light);
+        self.camera.push(p_camera);
+        self.delta.push(delta);
+    }
+
+    /// Whether strategy `s` can produce this path. Paths of one segment are
+    /// left to s = 0 (the emitter seen directly) alone.
+    pub fn possible(&self, s: usize) -> bool {
+        let n = self.len();
+        if n == 2 {
+            return s == 0 && !self.delta_light;
+        }
+        s < n && !self.delta[s] && if s == 0 { !self.delta_light } else { !self.delta[s - 1] }
+    }
+
+    /// The MIS weight of strategy `s` for this path.
+    pub fn weight(&self, s: usize, heuristic: Heuristic) -> f32 {
+        let n = self.len();
+        if n == 2 {
+            return 1.0;
+        }
+        let remap = |p: f32| if p != 0.0 { p } else { 1.0 };
+        let h = |r: f32| match heuristic {
+            Heuristic::Power => r * r,
+            Heuristic::Balance => r,
+        };
+        let mut sum = 0.0f32;
+        // more light vertices: x_s, x_{s+1}, … move to the light side
+        let mut r = 1.0f32;
+        for i in s..n - 1 {
+            r *= remap(self.light[i]) / remap(self.camera[i]);
+            if self.possible(i + 1) {
+                sum += h(r);
+            }
+        }
+        // fewer light vertices: x_{s−1}, x_{s−2}, … move to the camera side
+        let mut r = 1.0f32;
+        for i in (0..s).rev() {
+            r *= remap(self.camera[i]) / remap(self.light[i]);
+            if self.possible(i) {
+                sum += h(r);
+            }
+        }
+        let w = 1.0 / (1.0 + sum);
+        if w.is_finite() {
+            w
+        } else {
+            0.0
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sampling::SplitMix64;
+
+    #[test]
+    fn weights_of_the_possible_strategies_sum_to_one() {
+        let mut rng = SplitMix64(3);
+        for _ in 0..2000 {
+            let n = 3 + rng.below(8);
+            let mut d = PathDensities {
+                delta_light: rng.unit_f32() < 0.2,
+                ..Default::default()
+            };
+            for i in 0..n {
+                let delta = i > 0 && i < n - 1 && rng.unit_f32() < 0.2;
+                let p = |rng: &mut SplitMix64| if delta { 0.0 } else { (8.0 * rng.unit_f32() - 4.0).exp() };
+                let (a, b) = (p(&mut rng), p(&mut rng));
+                d.push(a, b, delta);
+            }
+            for heuristic in [Heuristic::Power, Heuristic::Balance] {
+                let sum: f32 = (0..n).filter(|&s| d.possible(s)).map(|s| d.weight(s, heuristic)).sum();
+                let any = (0..n).any(|s| d.possible(s));
+                assert!(!any || (sum - 1.0).abs() < 1e-4, "{d:?}: {sum}");
+            }
+        }
+    }
+}

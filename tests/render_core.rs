@@ -200,26 +200,11 @@ fn normals_integrator_shows_the_shading_normal_of_a_sphere() {
 
 #[test]
 fn cli_images_are_byte_identical_for_one_two_and_three_threads() {
-    let dir = common::temp_dir("rdr-threads");
-    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell.json");
-    let render = |threads: u32| {
-        let out = dir.path().join(format!("t{threads}.exr"));
-        let status = std::process::Command::new(env!("CARGO_BIN_EXE_rdr"))
-            .arg("render")
-            .arg(&scene)
-            .args(["--spp", "3", "-q", "--threads", &threads.to_string(), "-o"])
-            .arg(&out)
-            .args([
-                "--override",
-                r#"{"film": {"resolution": [40, 30], "block_side_length": 7, "filter": {"type": "mitchell", "radius": 2}},
-                    "integrator": {"type": "path", "max_depth": 6}}"#,
-            ])
-            .status()
-            .unwrap();
-        assert!(status.success());
-        std::fs::read(out).unwrap()
-    };
-    let one = render(1);
-    assert_eq!(one, render(2), "2 threads");
-    assert_eq!(one, render(3), "3 threads");
+    common::assert_same_image_for_1_2_3_threads(
+        &Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell.json"),
+        3,
+        r#"{"film": {"resolution": [40, 30], "block_side_length": 7, "filter": {"type": "mitchell", "radius": 2}},
+            "integrator": {"type": "path", "max_depth": 6}}"#,
+        "path, mitchell filter",
+    );
 }

@@ -73,3 +73,34 @@ pub fn temp_dir(prefix: &str) -> tempfile::TempDir {
         .tempdir()
         .unwrap_or_else(|e| panic!("cannot create a temp folder for {prefix}: {e}"))
 }
+
+/// Renders `scene` through the binary with `--threads` 1, 2 and 3 (at `spp`, with the
+/// `--override` JSON `overrides`) and asserts that the three EXR files are byte-identical.
+pub fn assert_same_image_for_1_2_3_threads(scene: &Path, spp: u32, overrides: &str, what: &str) {
+    let dir = temp_dir("rdr-threads");
+    let render = |threads: u32| {
+        let out = dir.path().join(format!("t{threads}.exr"));
+        let status = std::process::Command::new(env!("CARGO_BIN_EXE_rdr"))
+            .arg("render")
+            .arg(scene)
+            .args([
+                "--spp",
+                &spp.to_string(),
+                "-q",
+                "--threads",
+                &threads.to_string(),
+                "--override",
+                overrides,
+                "-o",
+            ])
+            .arg(&out)
+            .stdout(std::process::Stdio::null())
+            .status()
+            .unwrap();
+        assert!(status.success(), "{what}: render with {threads} threads failed");
+        std::fs::read(out).unwrap()
+    };
+    let one = render(1);
+    assert!(one == render(2), "{what}: 2 threads give another image than 1");
+    assert!(one == render(3), "{what}: 3 threads give another image than 1");
+}

@@ -33,6 +33,14 @@ pub struct PathDensities {
 }
 
 impl PathDensities {
+    pub const fn new() -> PathDensities {
+        PathDensities {
+            light: Vec::new(),
+            camera: Vec::new(),
+            delta: Vec::new(),
+            delta_light: false,
+        }
+    }
     pub fn len(&self) -> usize {
         self.light.len()
     }

@@ -127,6 +127,11 @@ enum Select {
     LightTracing,
 }
 
+thread_local! {
+    /// Per-thread camera subpath, light subpath and MIS scratch, reused across samples.
+    static BUFFERS: std::cell::Cell<(Vec<Vertex>, Vec<Vertex>, PathDensities)> = const { std::cell::Cell::new((Vec::new(), Vec::new(), PathDensities::new())) };
+}
+
 struct Engine<'a> {
     ctx: Ctx<'a>,
     max_depth: usize,
@@ -136,9 +141,19 @@ struct Engine<'a> {
 
 impl Engine<'_> {
     fn sample(&self, cs: &mut CameraSample) -> Vec3 {
+        // the subpaths and the MIS scratch reuse this thread's buffers (taken, so a
+        // nested sample would only start with empty ones)
+        let (mut cam, mut light, mut scratch) = BUFFERS.take();
+        cam.clear();
+        light.clear();
+        let l = self.sample_with(cs, &mut cam, &mut light, &mut scratch);
+        BUFFERS.set((cam, light, scratch));
+        l
+    }
+
+    fn sample_with(&self, cs: &mut CameraSample, cam: &mut Vec<Vertex>, light: &mut Vec<Vertex>, scratch: &mut PathDensities) -> Vec3 {
         let ctx = &self.ctx;
         let light_tracing = self.select == Select::LightTracing;
-        let mut cam = Vec::with_capacity(self.max_depth.min(16) + 1);
         let mut camera_vertex = Vertex::new(Kind::Camera, ctx.camera.position, Vec3::ZERO, Vec3::ONE);
         camera_vertex.pdf_fwd = 1.0;
         cam.push(camera_vertex);
@@ -152,14 +167,12 @@ impl Engine<'_> {
             pdf_dir,
             TransportMode::Radiance,
             cam_max,
-            &mut cam,
+            cam,
             cs.sampler,
             cs.counts,
         );
-        let mut light = Vec::with_capacity(self.max_depth.min(16));
-        self.light_subpath(&mut light, cs.sampler, cs.counts);
+        self.light_subpath(light, cs.sampler, cs.counts);
 
-        let mut scratch = PathDensities::default();
         let mut l = Vec3::ZERO;
         for t in 1..=cam.len() {
             for s in 0..=light.len() {
@@ -183,7 +196,7 @@ impl Engine<'_> {
                 if (s, t) == (1, 1) && weighted {
                     continue;
                 }
-                let Some((c, pos)) = self.connect(&light, &cam, s, t, cs.sampler, cs.counts, weighted.then_some(&mut scratch)) else {
+                let Some((c, pos)) = self.connect(light, cam, s, t, cs.sampler, cs.counts, weighted.then_some(&mut *scratch)) else {
                     continue;
                 };
                 match pos {

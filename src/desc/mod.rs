@@ -239,16 +239,12 @@ impl SceneDesc {
 
 fn parse_integrator(p: &Props) -> Result<IntegratorDesc> {
     let ty = p.string_or("type", "path")?;
-    let kind = match ty.as_str() {
-        "intersection_test" | "normals" | "photon" | "sppm" | "bdpt" | "ptracer" => ty.as_str(),
-        "path" => "path",
-        _ => {
-            return Err(p.error(
-                "type",
-                format!("unknown integrator '{ty}' (available: path, bdpt, ptracer, intersection_test, photon, sppm, normals)"),
-            ))
-        }
-    };
+    const TYPES: [&str; 7] = ["path", "bdpt", "ptracer", "intersection_test", "photon", "sppm", "normals"];
+    // the type first, so an unknown one is reported before any of its keys
+    let kind = ty.as_str();
+    if !TYPES.contains(&kind) {
+        return Err(p.error("type", format!("unknown integrator '{ty}' (available: {})", TYPES.join(", "))));
+    }
     let (integrator, spp) = match kind {
         "path" | "bdpt" => {
             let profile = match p.string_or("profile", "MIS")?.as_str() {

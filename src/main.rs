@@ -104,6 +104,13 @@ struct FlowArgs {
     /// N outputs with `rdr merge`.
     #[arg(long, value_name = "K/N")]
     shard: Option<String>,
+    /// Keep `<output>.preview.png` (sRGB) and the output itself up to date while
+    /// rendering, every SECONDS (2 when not given), written atomically.
+    #[arg(long, value_name = "SECONDS", num_args = 0..=1, default_missing_value = "2")]
+    preview: Option<f64>,
+    /// Stream the image to a running tev viewer (`tev`, default port 14158).
+    #[arg(long, value_name = "HOST:PORT")]
+    tev: Option<String>,
 }
 
 #[derive(Subcommand)]
@@ -408,8 +415,10 @@ fn render(args: &SceneArgs, output: Option<PathBuf>, quiet: bool, time_limit: Op
     if let Some(t) = time_limit {
         anyhow::ensure!(t.is_finite() && t > 0.0, "--time-limit must be a positive number of seconds");
     }
-    if let Some(t) = flow.checkpoint {
-        anyhow::ensure!(t.is_finite() && t > 0.0, "--checkpoint must be a positive number of seconds");
+    for (name, t) in [("--checkpoint", flow.checkpoint), ("--preview", flow.preview)] {
+        if let Some(t) = t {
+            anyhow::ensure!(t.is_finite() && t > 0.0, "{name} must be a positive number of seconds");
+        }
     }
     let shard = flow.shard.as_deref().map(parse_shard).transpose()?;
     setup_threads(args.threads)?;
@@ -521,6 +530,47 @@ fn render(args: &SceneArgs, output: Option<PathBuf>, quiet: bool, time_limit: Op
             }),
         });
     }
+    if let Some(every) = flow.preview {
+        let (encode, output) = (encode.clone(), output.clone());
+        let png = preview_path(&output);
+        periodic.push(Periodic {
+            every,
+            call: Arc::new(move |snap: &Snapshot| {
+                let written = rdr::imageio::write_png(&png, snap.width, snap.height, snap.pixels)
+                    .and_then(|_| encode(snap.width, snap.height, snap.pixels, snap.state))
+                    .and_then(|b| write_atomically(&output, &b));
+                if let Err(e) = written {
+                    note!("warning: preview: {e:#}");
+                }
+            }),
+        });
+    }
+    let tev = match &flow.tev {
+        Some(addr) => {
+            let name = output.file_name().map_or("rdr".into(), |n| n.to_string_lossy().into_owned());
+            let t = rdr::render::tev::Tev::connect(addr, &name, job.film.width, job.film.height)
+                .map_err(|e| anyhow::anyhow!("--tev {addr}: cannot connect to tev: {e}"))?;
+            Some(Arc::new(std::sync::Mutex::new(Some(t))))
+        }
+        None => None,
+    };
+    // a failed send ends the stream (tev closed), with one warning
+    let send_tev = |tev: &Arc<std::sync::Mutex<Option<rdr::render::tev::Tev>>>, w: u32, h: u32, px: &[rdr::math::Vec3]| {
+        let mut guard = tev.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some(t) = guard.as_mut() {
+            if let Err(e) = t.update(w, h, px) {
+                note!("warning: --tev: {e}; no more updates");
+                *guard = None;
+            }
+        }
+    };
+    if let Some(tev) = &tev {
+        let tev = tev.clone();
+        periodic.push(Periodic {
+            every: 0.5,
+            call: Arc::new(move |snap: &Snapshot| send_tev(&tev, snap.width, snap.height, snap.pixels)),
+        });
+    }
     let samples_left = job.film.width as u64 * job.film.height as u64 * job.integrator.spp_done(job.spp, passes_left) as u64;
     let bar = if !quiet && std::io::stderr().is_terminal() {
         let b = ProgressBar::with_draw_target(Some(samples_left), ProgressDrawTarget::stderr());
@@ -548,6 +598,14 @@ fn render(args: &SceneArgs, output: Option<PathBuf>, quiet: bool, time_limit: Op
             "warning: {} ray(s) were NaN or infinite and were counted as misses",
             out.invalid_rays
         );
+    }
+    if let Some(tev) = &tev {
+        send_tev(tev, out.width, out.height, &out.pixels);
+    }
+    if flow.preview.is_some() {
+        if let Err(e) = rdr::imageio::write_png(&preview_path(&output), out.width, out.height, &out.pixels) {
+            note!("warning: preview: {e:#}");
+        }
     }
     let bytes = encode(out.width, out.height, &out.pixels, &out.state)?;
     if let Err(e) = write_atomically(&output, &bytes) {
@@ -579,6 +637,11 @@ fn render(args: &SceneArgs, output: Option<PathBuf>, quiet: bool, time_limit: Op
         }
     }
     Ok(if out.interrupted { ExitCode::from(130) } else { ExitCode::SUCCESS })
+}
+
+/// `out.exr` → `out.preview.png`.
+fn preview_path(output: &Path) -> PathBuf {
+    output.with_extension("preview.png")
 }
 
 /// `rdr merge`.

@@ -7,6 +7,7 @@ pub mod blocks;
 pub mod identity;
 pub mod job;
 pub mod statefile;
+pub mod tev;
 
 pub use blocks::{FilmState, Piece, BLOCK_PASSES};
 pub use job::{load, Loaded, RenderJob};

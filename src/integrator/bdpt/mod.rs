@@ -483,23 +483,21 @@ impl Engine<'_> {
         let pt_minus = (t > 1).then(|| cv(t - 2));
         let qs = (s > 0).then(|| lv(s - 1));
         let qs_minus = (s > 1).then(|| lv(s - 2));
-        d.light[s] = match qs {
-            Some(q) => ctx.pdf(q, qs_minus, pt),
-            None => ctx.pdf_light_origin(pt),
-        };
-        d.delta[s] = false;
-        if let Some(pm) = pt_minus {
-            d.light[s + 1] = match qs {
-                Some(q) => ctx.pdf(pt, Some(q), pm),
-                None => ctx.pdf_light(pt, pm),
-            };
+        // the four densities the connection changes, two at each connection vertex
+        match (qs, qs_minus) {
+            (Some(q), Some(qm)) => (d.light[s], d.camera[s - 2]) = ctx.pdf_pair(q, qm, pt),
+            (Some(q), None) => d.light[s] = ctx.pdf(q, None, pt),
+            (None, _) => d.light[s] = ctx.pdf_light_origin(pt),
         }
-        if let Some(q) = qs {
-            d.camera[s - 1] = ctx.pdf(pt, pt_minus, q);
+        d.delta[s] = false;
+        match (qs, pt_minus) {
+            (Some(q), Some(pm)) => (d.camera[s - 1], d.light[s + 1]) = ctx.pdf_pair(pt, pm, q),
+            (Some(q), None) => d.camera[s - 1] = ctx.pdf(pt, None, q),
+            (None, Some(pm)) => d.light[s + 1] = ctx.pdf_light(pt, pm),
+            (None, None) => {}
+        }
+        if s > 0 {
             d.delta[s - 1] = false;
-            if let Some(qm) = qs_minus {
-                d.camera[s - 2] = ctx.pdf(q, Some(pt), qm);
-            }
         }
         let x0 = if s > 0 { lv(0) } else { pt };
         d.delta_light = x0.light().is_some_and(|i| ctx.scene.lights[i as usize].is_delta_position());

@@ -60,7 +60,7 @@ pub fn load_mesh(path: &Path) -> Result<Vec<Prim>> {
     .map_err(anyhow::Error::msg)?;
     let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
     let data = match ext.as_str() {
-        "obj" => obj::parse(&String::from_utf8_lossy(&bytes)).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?,
+        "obj" => obj::parse_bytes(&bytes).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?,
         "ply" => ply::parse_ply(&bytes).with_context(|| format!("{}", path.display()))?,
         _ => bail!("'{}': the mesh benchmark reads .obj and .ply files", path.display()),
     };

@@ -123,6 +123,18 @@ pub fn parse_bytes(bytes: &[u8]) -> Result<ObjData, ObjError> {
 /// Words of a statement.
 trait Words<'a> {
     fn word(&mut self) -> Option<&'a [u8]>;
+    /// The next word if it is a plain decimal ([`scan_plain_f64`]) finite as an f32,
+    /// read in the same pass; otherwise None and nothing consumed.
+    #[inline]
+    fn plain_number(&mut self) -> Option<f32> {
+        None
+    }
+    /// The next word if it is a plain corner ([`scan_corner`]), read in the same pass; otherwise
+    /// None and nothing consumed.
+    #[inline]
+    fn plain_corner(&mut self, _lens: [usize; 3]) -> Option<Corner> {
+        None
+    }
     /// The line has a word this reader cannot split (the statement must be reread).
     fn bailed(&self) -> bool;
 }
@@ -193,6 +205,37 @@ impl<'a> Words<'a> for AsciiWords<'a> {
     fn bailed(&self) -> bool {
         self.bailed
     }
+    #[inline]
+    fn plain_number(&mut self) -> Option<f32> {
+        let s = self.s;
+        let mut i = self.pos;
+        while i < s.len() && CLASS[s[i] as usize] == 1 {
+            i += 1;
+        }
+        let (v, end) = scan_plain_f64(s, i)?;
+        let v = v as f32;
+        // the word must end with the number (else the general path reads it)
+        if (end < s.len() && CLASS[s[end] as usize] != 1 && CLASS[s[end] as usize] != 2) || !v.is_finite() {
+            return None;
+        }
+        self.pos = end;
+        Some(v)
+    }
+    #[inline]
+    fn plain_corner(&mut self, lens: [usize; 3]) -> Option<Corner> {
+        let s = self.s;
+        let mut i = self.pos;
+        while i < s.len() && CLASS[s[i] as usize] == 1 {
+            i += 1;
+        }
+        let (c, end) = scan_corner(s, i, lens)?;
+        // the word must end with the corner (else the general path reads it)
+        if end < s.len() && CLASS[s[end] as usize] != 1 && CLASS[s[end] as usize] != 2 {
+            return None;
+        }
+        self.pos = end;
+        Some(c)
+    }
 }
 
 /// `text` of an ASCII or UTF-8 word, for messages.
@@ -205,36 +248,54 @@ fn show(word: &[u8]) -> std::borrow::Cow<'_, str> {
 /// division or multiplication rounds correctly), anything else through `str::parse`.
 #[inline]
 fn parse_f64(w: &[u8]) -> Option<f64> {
+    match scan_plain_f64(w, 0) {
+        Some((v, end)) if end == w.len() => Some(v),
+        _ => slow_f64(w),
+    }
+}
+
+/// The plain decimal starting at `s[i]` (sign, digits, point, exponent: what
+/// [`parse_f64`] reads exactly) and the position after it; None if it is not one.
+#[inline(always)]
+fn scan_plain_f64(s: &[u8], mut i: usize) -> Option<(f64, usize)> {
     const POW10: [f64; 23] = [
         1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15, 1e16, 1e17, 1e18, 1e19, 1e20, 1e21, 1e22,
     ];
-    let (neg, body) = match w.first() {
-        Some(b'-') => (true, &w[1..]),
-        Some(b'+') => (false, &w[1..]),
-        _ => (false, w),
+    let neg = match s.get(i) {
+        Some(b'-') => {
+            i += 1;
+            true
+        }
+        Some(b'+') => {
+            i += 1;
+            false
+        }
+        _ => false,
     };
     let mut m: u64 = 0;
     let mut digits = 0usize;
     let mut frac = 0i32;
-    let mut i = 0;
-    while i < body.len() && body[i].is_ascii_digit() {
-        m = m.wrapping_mul(10).wrapping_add((body[i] - b'0') as u64);
+    while i < s.len() && s[i].is_ascii_digit() {
+        m = m.wrapping_mul(10).wrapping_add((s[i] - b'0') as u64);
         digits += 1;
         i += 1;
     }
-    if i < body.len() && body[i] == b'.' {
+    if i < s.len() && s[i] == b'.' {
         i += 1;
-        while i < body.len() && body[i].is_ascii_digit() {
-            m = m.wrapping_mul(10).wrapping_add((body[i] - b'0') as u64);
+        while i < s.len() && s[i].is_ascii_digit() {
+            m = m.wrapping_mul(10).wrapping_add((s[i] - b'0') as u64);
             digits += 1;
             frac += 1;
             i += 1;
         }
     }
+    if digits == 0 || digits > 19 || m > (1u64 << 53) {
+        return None;
+    }
     let mut exp = 0i32;
-    if digits > 0 && i < body.len() && (body[i] == b'e' || body[i] == b'E') {
+    if i < s.len() && (s[i] == b'e' || s[i] == b'E') {
         let mut j = i + 1;
-        let eneg = match body.get(j) {
+        let eneg = match s.get(j) {
             Some(b'-') => {
                 j += 1;
                 true
@@ -246,20 +307,17 @@ fn parse_f64(w: &[u8]) -> Option<f64> {
             _ => false,
         };
         let start = j;
-        while j < body.len() && body[j].is_ascii_digit() && j - start < 4 {
-            exp = exp * 10 + (body[j] - b'0') as i32;
+        while j < s.len() && s[j].is_ascii_digit() && j - start < 4 {
+            exp = exp * 10 + (s[j] - b'0') as i32;
             j += 1;
         }
         if j == start {
-            return slow_f64(w);
+            return None;
         }
         if eneg {
             exp = -exp;
         }
         i = j;
-    }
-    if digits == 0 || digits > 19 || i != body.len() || m > (1u64 << 53) {
-        return slow_f64(w);
     }
     let e = exp - frac;
     let v = if e == 0 {
@@ -269,9 +327,9 @@ fn parse_f64(w: &[u8]) -> Option<f64> {
     } else if (-22..0).contains(&e) {
         m as f64 / POW10[(-e) as usize]
     } else {
-        return slow_f64(w);
+        return None;
     };
-    Some(if neg { -v } else { v })
+    Some((if neg { -v } else { v }, i))
 }
 
 #[cold]
@@ -305,6 +363,10 @@ fn parse_i64(w: &[u8]) -> Option<i64> {
 fn floats_of<'a, const N: usize>(words: &mut impl Words<'a>, line: usize, what: &str) -> Result<Option<[f32; N]>, ObjError> {
     let mut out = [0.0f32; N];
     for (i, o) in out.iter_mut().enumerate() {
+        if let Some(v) = words.plain_number() {
+            *o = v;
+            continue;
+        }
         let Some(w) = words.word() else {
             if words.bailed() {
                 return Ok(None);
@@ -338,16 +400,16 @@ fn index_of(word: &[u8], len: usize, line: usize, what: &str) -> Result<u32, Obj
 }
 
 /// A corner `p`, `p/t`, `p//n` or `p/t/n` of positive indices of up to 9 digits, all
-/// in range, in one pass; None for anything else (read by the general path).
-#[inline]
-fn plain_corner(w: &[u8], lens: [usize; 3]) -> Option<Corner> {
+/// in range, starting at `s[i]`, and the position after it; None for anything else
+/// (read by the general path). The caller checks that the word ends there.
+#[inline(always)]
+fn scan_corner(s: &[u8], mut i: usize, lens: [usize; 3]) -> Option<(Corner, usize)> {
     let mut out = [None; 3];
-    let mut i = 0;
     for (k, slot) in out.iter_mut().enumerate() {
         let start = i;
         let mut v = 0u32;
-        while i < w.len() && w[i].is_ascii_digit() && i - start < 9 {
-            v = v * 10 + (w[i] - b'0') as u32;
+        while i < s.len() && s[i].is_ascii_digit() && i - start < 9 {
+            v = v * 10 + (s[i] - b'0') as u32;
             i += 1;
         }
         if i > start {
@@ -358,15 +420,12 @@ fn plain_corner(w: &[u8], lens: [usize; 3]) -> Option<Corner> {
         } else if k == 0 {
             return None;
         }
-        if i == w.len() {
-            return Some((out[0]?, out[1], out[2]));
-        }
-        if w[i] != b'/' || k == 2 {
-            return None;
+        if k == 2 || i == s.len() || s[i] != b'/' {
+            break;
         }
         i += 1;
     }
-    None
+    Some(((out[0]?, out[1], out[2]), i))
 }
 
 /// The fast reader's state between lines.
@@ -408,11 +467,12 @@ impl Reader {
                 let corners = &mut self.corners;
                 corners.clear();
                 let lens = [d.positions.len(), d.uvs.len(), d.normals.len()];
-                while let Some(w) = words.word() {
-                    if let Some(c) = plain_corner(w, lens) {
+                loop {
+                    if let Some(c) = words.plain_corner(lens) {
                         corners.push(c);
                         continue;
                     }
+                    let Some(w) = words.word() else { break };
                     let mut parts = w.split(|&b| b == b'/');
                     let p = index_of(parts.next().unwrap_or(b""), d.positions.len(), line, "vertex")?;
                     let t = match parts.next() {

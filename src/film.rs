@@ -212,6 +212,53 @@ impl Splats {
     }
 }
 
+/// The film's accumulated state: per-pixel f64 sums of filter-weighted radiance,
+/// their weights and the splat buffer (film rows, `y` up). Adding two of them is
+/// elementwise, so the render loop can keep sums of blocks of passes apart and add
+/// them in a fixed order ([`crate::render::blocks`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Sums {
+    pub sum: Vec<[f64; 3]>,
+    pub weight: Vec<f64>,
+    /// `None` until a splat lands (most integrators never splat).
+    pub splat: Option<Vec<[f64; 3]>>,
+}
+
+impl Sums {
+    pub fn zero(pixels: usize) -> Sums {
+        Sums {
+            sum: vec![[0.0; 3]; pixels],
+            weight: vec![0.0; pixels],
+            splat: None,
+        }
+    }
+
+    /// `self += other`, pixel by pixel (a missing splat buffer counts as absent, not
+    /// as zeros, so an empty one never changes a bit of the other).
+    pub fn add(&mut self, other: &Sums) {
+        assert_eq!(self.sum.len(), other.sum.len(), "sums of different films");
+        for (a, b) in self.sum.iter_mut().zip(&other.sum) {
+            for c in 0..3 {
+                a[c] += b[c];
+            }
+        }
+        for (a, b) in self.weight.iter_mut().zip(&other.weight) {
+            *a += *b;
+        }
+        match (&mut self.splat, &other.splat) {
+            (_, None) => {}
+            (None, Some(b)) => self.splat = Some(b.clone()),
+            (Some(a), Some(b)) => {
+                for (a, b) in a.iter_mut().zip(b) {
+                    for c in 0..3 {
+                        a[c] += b[c];
+                    }
+                }
+            }
+        }
+    }
+}
+
 /// The whole film: f64 sums of tiles, merged in a deterministic order, and the
 /// splat buffer. Integrators whose pixel value is not an average of samples
 /// (SPPM) keep their own state beside it ([`Film::aux_mut`]) and write their
@@ -221,10 +268,7 @@ pub struct Film {
     pub width: u32,
     pub height: u32,
     pub filter: Filter,
-    sum: Vec<[f64; 3]>,
-    weight: Vec<f64>,
-    splat: Vec<[f64; 3]>,
-    has_splats: bool,
+    sums: Sums,
     /// 1 / ∫∫ filter, so a splat spreads exactly its value over the pixels.
     splat_norm: f64,
     /// State an integrator keeps across passes (photon maps, SPPM's pixel statistics).
@@ -241,10 +285,7 @@ impl Film {
             width,
             height,
             filter,
-            sum: vec![[0.0; 3]; n],
-            weight: vec![0.0; n],
-            splat: Vec::new(),
-            has_splats: false,
+            sums: Sums::zero(n),
             splat_norm: 1.0 / filter_integral(&filter),
             aux: None,
             estimate: None,
@@ -275,7 +316,7 @@ impl Film {
     /// Sets the pixel values (film rows, `y` up, `width·height` of them) that
     /// replace the weighted average of samples from now on.
     pub fn set_estimate(&mut self, pixels: Vec<Vec3>) {
-        assert_eq!(pixels.len(), self.sum.len(), "estimate size");
+        assert_eq!(pixels.len(), self.sums.sum.len(), "estimate size");
         self.estimate = Some(pixels);
     }
 
@@ -285,10 +326,8 @@ impl Film {
         if splats.is_empty() {
             return;
         }
-        if !self.has_splats {
-            self.splat = vec![[0.0; 3]; self.sum.len()];
-            self.has_splats = true;
-        }
+        let n = self.sums.sum.len();
+        let buffer = self.sums.splat.get_or_insert_with(|| vec![[0.0; 3]; n]);
         let (w, h) = (self.width as i32, self.height as i32);
         let k = self.filter.reach();
         for &(pos, l) in &splats.items {
@@ -301,7 +340,7 @@ impl Film {
                 for x in (px - k).max(0)..=(px + k).min(w - 1) {
                     let wt = self.filter.eval(pos.x - (x as f32 + 0.5), pos.y - (y as f32 + 0.5)) as f64 * self.splat_norm;
                     if wt != 0.0 {
-                        let s = &mut self.splat[(y * w + x) as usize];
+                        let s = &mut buffer[(y * w + x) as usize];
                         s[0] += l.x as f64 * wt;
                         s[1] += l.y as f64 * wt;
                         s[2] += l.z as f64 * wt;
@@ -317,44 +356,75 @@ impl Film {
                 let i = (ly * t.w + lx) as usize;
                 let j = ((t.y0 + ly) * self.width as i32 + t.x0 + lx) as usize;
                 for c in 0..3 {
-                    self.sum[j][c] += t.sum[i][c] as f64;
+                    self.sums.sum[j][c] += t.sum[i][c] as f64;
                 }
-                self.weight[j] += t.weight[i];
+                self.sums.weight[j] += t.weight[i];
             }
         }
     }
 
     /// The splat buffer as summed (film rows, `y` up; empty without splats).
     pub fn splat_sums(&self) -> &[[f64; 3]] {
-        &self.splat
+        self.sums.splat.as_deref().unwrap_or(&[])
+    }
+
+    /// The sums accumulated so far.
+    pub fn sums(&self) -> &Sums {
+        &self.sums
+    }
+
+    /// Takes the sums out, leaving the film's at zero (the render loop keeps blocks
+    /// of passes apart this way).
+    pub fn take_sums(&mut self) -> Sums {
+        let n = self.sums.sum.len();
+        std::mem::replace(&mut self.sums, Sums::zero(n))
+    }
+
+    /// Replaces the sums (a resumed render's unfinished block).
+    pub fn set_sums(&mut self, sums: Sums) {
+        assert_eq!(sums.sum.len(), self.sums.sum.len(), "sums of another film");
+        self.sums = sums;
     }
 
     /// Pixel values, row 0 = top of the picture. A pixel without weight is black.
     /// The division is `f32(sum) / f32(weight)` as in the original (spec §5.2).
     /// Splats, if any, are added times `splat_scale` (1 / samples per pixel).
     pub fn to_rgb_rows(&self, splat_scale: f64) -> Vec<Vec3> {
-        let (w, h) = (self.width as usize, self.height as usize);
-        let mut out = vec![Vec3::ZERO; w * h];
-        for r in 0..h {
-            let y = h - 1 - r;
-            for x in 0..w {
-                let j = y * w + x;
-                let wt = self.weight[j];
-                if let Some(e) = &self.estimate {
-                    out[r * w + x] = e[j];
-                } else if wt != 0.0 {
-                    let s = self.sum[j];
-                    let wf = wt as f32;
-                    out[r * w + x] = Vec3::new(s[0] as f32 / wf, s[1] as f32 / wf, s[2] as f32 / wf);
-                }
-                if self.has_splats {
-                    let s = self.splat[j];
-                    out[r * w + x] += Vec3::new(s[0] as f32, s[1] as f32, s[2] as f32) * splat_scale as f32;
-                }
+        self.rgb_rows_of(&self.sums, splat_scale)
+    }
+
+    /// [`Film::to_rgb_rows`] of other sums of this film (an integrator's own
+    /// estimate, if set, still replaces the weighted average).
+    pub fn rgb_rows_of(&self, sums: &Sums, splat_scale: f64) -> Vec<Vec3> {
+        rgb_rows(self.width, self.height, sums, self.estimate.as_deref(), splat_scale)
+    }
+}
+
+/// Pixel values of `sums` on a `width × height` film, row 0 = top: `f32(sum) /
+/// f32(weight)` (black without weight), or `estimate` where given, plus splats times
+/// `splat_scale`.
+pub fn rgb_rows(width: u32, height: u32, sums: &Sums, estimate: Option<&[Vec3]>, splat_scale: f64) -> Vec<Vec3> {
+    let (w, h) = (width as usize, height as usize);
+    let mut out = vec![Vec3::ZERO; w * h];
+    for r in 0..h {
+        let y = h - 1 - r;
+        for x in 0..w {
+            let j = y * w + x;
+            let wt = sums.weight[j];
+            if let Some(e) = estimate {
+                out[r * w + x] = e[j];
+            } else if wt != 0.0 {
+                let s = sums.sum[j];
+                let wf = wt as f32;
+                out[r * w + x] = Vec3::new(s[0] as f32 / wf, s[1] as f32 / wf, s[2] as f32 / wf);
+            }
+            if let Some(splat) = &sums.splat {
+                let s = splat[j];
+                out[r * w + x] += Vec3::new(s[0] as f32, s[1] as f32, s[2] as f32) * splat_scale as f32;
             }
         }
-        out
     }
+    out
 }
 
 /// ∫∫ of the filter over its support: exact for the box, otherwise from the

@@ -115,6 +115,258 @@ pub fn encode_exr(width: u32, height: u32, rgb: &[Vec3], pixels: ExrPixels) -> V
     out
 }
 
+/// One channel of an EXR written by [`encode_exr_channels`]: a name and `width·height`
+/// values, rows top-down.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ExrChannel {
+    pub name: String,
+    pub data: ChannelData,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub enum ChannelData {
+    F32(Vec<f32>),
+    /// Raw 32-bit words (the film state keeps f64 sums as two of them).
+    U32(Vec<u32>),
+}
+
+impl ChannelData {
+    fn len(&self) -> usize {
+        match self {
+            ChannelData::F32(v) => v.len(),
+            ChannelData::U32(v) => v.len(),
+        }
+    }
+}
+
+/// An extra header attribute: name, EXR type name and its value's bytes.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ExrAttribute {
+    pub name: String,
+    pub kind: String,
+    pub value: Vec<u8>,
+}
+
+impl ExrAttribute {
+    /// A `string` attribute.
+    pub fn text(name: &str, value: &str) -> ExrAttribute {
+        ExrAttribute {
+            name: name.into(),
+            kind: "string".into(),
+            value: value.as_bytes().to_vec(),
+        }
+    }
+
+    /// The standard `chromaticities` of linear sRGB (Rec. 709 primaries, D65 white).
+    pub fn chromaticities_srgb() -> ExrAttribute {
+        let xy: [f32; 8] = [0.64, 0.33, 0.30, 0.60, 0.15, 0.06, 0.3127, 0.3290];
+        ExrAttribute {
+            name: "chromaticities".into(),
+            kind: "chromaticities".into(),
+            value: xy.iter().flat_map(|v| v.to_le_bytes()).collect(),
+        }
+    }
+}
+
+/// An uncompressed single-part scanline EXR of any float32 and uint channels (sorted
+/// by name as the format requires; `B`, `G`, `R` come before lower-case layer names)
+/// and extra attributes after the required ones. With channels `B`, `G`, `R` and no
+/// attributes it is byte for byte the file [`encode_exr`] writes for float pixels.
+pub fn encode_exr_channels(width: u32, height: u32, channels: &[ExrChannel], attributes: &[ExrAttribute]) -> Vec<u8> {
+    let (w, h) = (width as usize, height as usize);
+    let mut order: Vec<&ExrChannel> = channels.iter().collect();
+    order.sort_by(|a, b| a.name.cmp(&b.name));
+    for c in &order {
+        assert_eq!(c.data.len(), w * h, "channel {} size", c.name);
+    }
+    let mut hd: Vec<u8> = Vec::new();
+    hd.extend_from_slice(&[0x76, 0x2f, 0x31, 0x01, 2, 0, 0, 0]);
+    let mut attr = |name: &str, ty: &str, value: &[u8]| {
+        hd.extend_from_slice(name.as_bytes());
+        hd.push(0);
+        hd.extend_from_slice(ty.as_bytes());
+        hd.push(0);
+        hd.extend_from_slice(&(value.len() as i32).to_le_bytes());
+        hd.extend_from_slice(value);
+    };
+    let mut ch = Vec::new();
+    for c in &order {
+        let ptype = match c.data {
+            ChannelData::U32(_) => 0i32,
+            ChannelData::F32(_) => 2i32,
+        };
+        ch.extend_from_slice(c.name.as_bytes());
+        ch.push(0);
+        ch.extend_from_slice(&ptype.to_le_bytes());
+        ch.extend_from_slice(&[0, 0, 0, 0]);
+        ch.extend_from_slice(&1i32.to_le_bytes());
+        ch.extend_from_slice(&1i32.to_le_bytes());
+    }
+    ch.push(0);
+    let window: Vec<u8> = [0i32, 0, w as i32 - 1, h as i32 - 1].iter().flat_map(|v| v.to_le_bytes()).collect();
+    attr("channels", "chlist", &ch);
+    attr("compression", "compression", &[0]);
+    attr("dataWindow", "box2i", &window);
+    attr("displayWindow", "box2i", &window);
+    attr("lineOrder", "lineOrder", &[0]);
+    attr("pixelAspectRatio", "float", &1.0f32.to_le_bytes());
+    attr("screenWindowCenter", "v2f", &[0u8; 8]);
+    attr("screenWindowWidth", "float", &1.0f32.to_le_bytes());
+    for a in attributes {
+        attr(&a.name, &a.kind, &a.value);
+    }
+    hd.push(0);
+
+    let line_bytes = 4 * order.len() * w;
+    let mut out = Vec::with_capacity(hd.len() + 8 * h + h * (8 + line_bytes));
+    out.extend_from_slice(&hd);
+    let first = (hd.len() + 8 * h) as u64;
+    for y in 0..h as u64 {
+        out.extend_from_slice(&(first + y * (8 + line_bytes) as u64).to_le_bytes());
+    }
+    for y in 0..h {
+        out.extend_from_slice(&(y as i32).to_le_bytes());
+        out.extend_from_slice(&(line_bytes as i32).to_le_bytes());
+        for c in &order {
+            match &c.data {
+                ChannelData::F32(v) => v[y * w..(y + 1) * w].iter().for_each(|x| out.extend_from_slice(&x.to_le_bytes())),
+                ChannelData::U32(v) => v[y * w..(y + 1) * w].iter().for_each(|x| out.extend_from_slice(&x.to_le_bytes())),
+            }
+        }
+    }
+    out
+}
+
+/// The B, G, R float channels of an image (rows top-down).
+pub fn rgb_channels(prefix: &str, rgb: &[Vec3]) -> Vec<ExrChannel> {
+    ["R", "G", "B"]
+        .iter()
+        .enumerate()
+        .map(|(c, n)| ExrChannel {
+            name: format!("{prefix}{n}"),
+            data: ChannelData::F32(rgb.iter().map(|p| p[c]).collect()),
+        })
+        .collect()
+}
+
+/// An EXR as [`encode_exr_channels`] writes it, read back: its size, attributes and
+/// channels (float channels as their bit patterns).
+#[derive(Clone, Debug)]
+pub struct RawExr {
+    pub width: u32,
+    pub height: u32,
+    pub attributes: Vec<ExrAttribute>,
+    pub channels: Vec<ExrChannel>,
+}
+
+impl RawExr {
+    pub fn attribute(&self, name: &str) -> Option<&ExrAttribute> {
+        self.attributes.iter().find(|a| a.name == name)
+    }
+
+    /// A `string` attribute's text.
+    pub fn text(&self, name: &str) -> Option<String> {
+        let a = self.attribute(name)?;
+        (a.kind == "string").then(|| String::from_utf8_lossy(&a.value).into_owned())
+    }
+
+    pub fn channel(&self, name: &str) -> Option<&ChannelData> {
+        self.channels.iter().find(|c| c.name == name).map(|c| &c.data)
+    }
+}
+
+/// Reads an EXR that [`encode_exr_channels`] wrote (uncompressed single-part
+/// scanlines, float and uint channels); anything else is an error naming the file.
+pub fn read_exr_channels(path: &Path) -> Result<RawExr> {
+    let bytes = read_input(path)?;
+    decode_exr_channels(&bytes).map_err(|m| anyhow::anyhow!("{}: {m}", path.display()))
+}
+
+fn decode_exr_channels(b: &[u8]) -> std::result::Result<RawExr, String> {
+    let bad = || "not an uncompressed single-part EXR as rdr writes it".to_string();
+    if b.len() < 8 || b[..4] != [0x76, 0x2f, 0x31, 0x01] || b[4] != 2 || b[5..8] != [0, 0, 0] {
+        return Err(bad());
+    }
+    let mut at = 8usize;
+    let cstr = |at: &mut usize| -> std::result::Result<String, String> {
+        let end = b[*at..].iter().position(|&c| c == 0).ok_or_else(bad)? + *at;
+        let s = String::from_utf8_lossy(&b[*at..end]).into_owned();
+        *at = end + 1;
+        Ok(s)
+    };
+    let mut attributes = Vec::new();
+    loop {
+        if *b.get(at).ok_or_else(bad)? == 0 {
+            at += 1;
+            break;
+        }
+        let name = cstr(&mut at)?;
+        let kind = cstr(&mut at)?;
+        let size = i32::from_le_bytes(b.get(at..at + 4).ok_or_else(bad)?.try_into().unwrap());
+        at += 4;
+        let size = usize::try_from(size).map_err(|_| bad())?;
+        let value = b.get(at..at + size).ok_or_else(bad)?.to_vec();
+        at += size;
+        attributes.push(ExrAttribute { name, kind, value });
+    }
+    let get = |n: &str| attributes.iter().find(|a| a.name == n).map(|a| a.value.clone());
+    if get("compression").as_deref() != Some(&[0u8][..]) {
+        return Err(bad());
+    }
+    let window = get("dataWindow").filter(|v| v.len() == 16).ok_or_else(bad)?;
+    let wi = |i: usize| i32::from_le_bytes(window[4 * i..4 * i + 4].try_into().unwrap());
+    if wi(0) != 0 || wi(1) != 0 || wi(2) < 0 || wi(3) < 0 {
+        return Err(bad());
+    }
+    let (w, h) = (wi(2) as usize + 1, wi(3) as usize + 1);
+    let chlist = get("channels").ok_or_else(bad)?;
+    let mut names = Vec::new();
+    let mut c = 0usize;
+    while c < chlist.len() && chlist[c] != 0 {
+        let end = chlist[c..].iter().position(|&x| x == 0).ok_or_else(bad)? + c;
+        let name = String::from_utf8_lossy(&chlist[c..end]).into_owned();
+        let ptype = i32::from_le_bytes(chlist.get(end + 1..end + 5).ok_or_else(bad)?.try_into().unwrap());
+        if ptype != 0 && ptype != 2 {
+            return Err(bad());
+        }
+        names.push((name, ptype));
+        c = end + 17;
+    }
+    let line = 4 * names.len() * w;
+    // offsets, then per line its number, size and data: all must be in the file
+    let need = (h as u64) * (8 + 8 + line as u64) + at as u64;
+    if need > b.len() as u64 {
+        return Err(format!("the header claims {w}x{h} pixels but the file is too short"));
+    }
+    let mut words: Vec<Vec<u32>> = vec![Vec::with_capacity(w * h); names.len()];
+    for y in 0..h {
+        let off = u64::from_le_bytes(b[at + 8 * y..at + 8 * y + 8].try_into().unwrap()) as usize;
+        let row = b.get(off + 8..off + 8 + line).ok_or_else(bad)?;
+        for (k, ws) in words.iter_mut().enumerate() {
+            let part = &row[4 * k * w..4 * (k + 1) * w];
+            ws.extend(part.chunks_exact(4).map(|q| u32::from_le_bytes(q.try_into().unwrap())));
+        }
+    }
+    let channels = names
+        .into_iter()
+        .zip(words)
+        .map(|((name, ptype), ws)| ExrChannel {
+            name,
+            data: if ptype == 2 {
+                ChannelData::F32(ws.into_iter().map(f32::from_bits).collect())
+            } else {
+                ChannelData::U32(ws)
+            },
+        })
+        .collect();
+    Ok(RawExr {
+        width: w as u32,
+        height: h as u32,
+        attributes,
+        channels,
+    })
+}
+
 /// The folder a file is written into (`.` for a bare file name).
 fn folder_of(path: &Path) -> &Path {
     path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."))
@@ -463,6 +715,27 @@ mod tests {
         let size = std::fs::metadata(dir.join("h.exr")).unwrap().len();
         assert_eq!(size, 313 + 2 * 8 + 2 * (8 + 6 * 3));
         std::fs::remove_dir_all(&dir).ok();
+    }
+
+    #[test]
+    fn channel_writer_matches_the_rgb_writer_and_reads_back() {
+        let px: Vec<Vec3> = (0..6).map(|i| Vec3::new(i as f32, 0.5 * i as f32, 0.25)).collect();
+        let plain = encode_exr(3, 2, &px, ExrPixels::Float);
+        assert_eq!(encode_exr_channels(3, 2, &rgb_channels("", &px), &[]), plain);
+        let mut ch = rgb_channels("", &px);
+        ch.push(ExrChannel {
+            name: "rdr.x".into(),
+            data: ChannelData::U32(vec![1, 2, 3, u32::MAX, 5, 6]),
+        });
+        let attrs = [ExrAttribute::text("rdr:seed", "7"), ExrAttribute::chromaticities_srgb()];
+        let bytes = encode_exr_channels(3, 2, &ch, &attrs);
+        let raw = decode_exr_channels(&bytes).unwrap();
+        assert_eq!(raw.text("rdr:seed").as_deref(), Some("7"));
+        assert_eq!(raw.channel("rdr.x"), Some(&ChannelData::U32(vec![1, 2, 3, u32::MAX, 5, 6])));
+        assert!(decode_exr_channels(&bytes[..bytes.len() - 1]).is_err());
+        // the exr crate reads the RGB of such a file
+        let img = decode_exr(&bytes, Path::new("x.exr"), 12).unwrap();
+        assert_eq!(img.pixels, px);
     }
 
     #[test]

@@ -6,6 +6,9 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use rdr::imageio::{check_output_path, encode_image, save_elsewhere, write_atomically, ExrPixels};
 use rdr::integrator::StopToken;
 use rdr::limits::sanitize;
+use rdr::render::identity::RenderIdentity;
+use rdr::render::statefile::{self, StateHeader};
+use rdr::render::{FilmState, Periodic, Snapshot};
 use rdr::{Loaded, Profile, RenderControl};
 use std::io::IsTerminal;
 use std::io::Write;
@@ -86,6 +89,30 @@ struct SceneArgs {
     seed: u32,
 }
 
+/// Options of `rdr render` for long renders: resume, checkpoints, shards, previews.
+#[derive(clap::Args, Default)]
+struct FlowArgs {
+    /// Continue from the passes the output (.exr) already holds, after an interruption
+    /// or to add passes up to a higher --spp; starts afresh when it does not exist yet.
+    #[arg(long)]
+    resume: bool,
+    /// Rewrite the output (atomically) every this many seconds while rendering, so a
+    /// killed render can --resume from it.
+    #[arg(long, value_name = "SECONDS")]
+    checkpoint: Option<f64>,
+    /// Render only the K-th (0-based) of N disjoint runs of pass blocks; combine the
+    /// N outputs with `rdr merge`.
+    #[arg(long, value_name = "K/N")]
+    shard: Option<String>,
+    /// Keep `<output>.preview.png` (sRGB) and the output itself up to date while
+    /// rendering, every SECONDS (2 when not given), written atomically.
+    #[arg(long, value_name = "SECONDS", num_args = 0..=1, default_missing_value = "2")]
+    preview: Option<f64>,
+    /// Stream the image to a running tev viewer (`tev`, default port 14158).
+    #[arg(long, value_name = "HOST:PORT")]
+    tev: Option<String>,
+}
+
 #[derive(Subcommand)]
 enum Command {
     /// Render a scene to an image.
@@ -103,6 +130,25 @@ enum Command {
         /// write the image with the samples so far.
         #[arg(long, value_name = "SECONDS")]
         time_limit: Option<f64>,
+        #[command(flatten)]
+        flow: FlowArgs,
+    },
+    /// Merge the parts of a render (`render --shard K/N` outputs) into one image,
+    /// identical to rendering it on one machine.
+    Merge {
+        /// The parts (.exr files written by `rdr render`).
+        #[arg(required = true)]
+        parts: Vec<PathBuf>,
+        /// The merged image (.exr).
+        #[arg(short, long)]
+        output: PathBuf,
+        /// Merge even when passes are missing (says which); the result can be merged
+        /// again with the missing parts later.
+        #[arg(long)]
+        partial: bool,
+        /// Print only errors.
+        #[arg(short, long)]
+        quiet: bool,
     },
     /// Compare an image with a reference: mean RGB and relative MSE,
     /// mean((x − r)² / (r² + 0.01)), the metric of shared/refs/README.md.
@@ -173,7 +219,14 @@ fn main() -> ExitCode {
             output,
             quiet,
             time_limit,
-        } => render(&args, output, quiet, time_limit),
+            flow,
+        } => render(&args, output, quiet, time_limit, &flow),
+        Command::Merge {
+            parts,
+            output,
+            partial,
+            quiet,
+        } => merge(&parts, &output, partial, quiet),
         Command::Compare {
             image,
             reference,
@@ -216,7 +269,7 @@ fn parse_error(e: clap::Error) -> ExitCode {
             ExitCode::SUCCESS
         }
         ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand | ErrorKind::MissingSubcommand => {
-            note!("error: a subcommand is needed: render, compare or bench (see rdr --help)");
+            note!("error: a subcommand is needed: render, merge, compare or bench (see rdr --help)");
             ExitCode::from(1)
         }
         _ => {
@@ -262,7 +315,13 @@ fn setup_threads(threads: Option<usize>) -> Result<()> {
 /// Loads the scene and the job it describes, with the command line's `--spp` and
 /// `--seed` applied.
 fn load(args: &SceneArgs, quiet: bool) -> Result<Loaded> {
-    let mut loaded = rdr::load(&args.scene, &args.overrides, profile(args)).map_err(anyhow::Error::msg)?;
+    Ok(load_desc(args, quiet)?.0)
+}
+
+/// [`load`], also returning the scene's description.
+fn load_desc(args: &SceneArgs, quiet: bool) -> Result<(Loaded, rdr::desc::SceneDesc)> {
+    let desc = rdr::desc::SceneDesc::load(&args.scene, &args.overrides).map_err(anyhow::Error::msg)?;
+    let mut loaded = Loaded::build(&desc, profile(args)).map_err(anyhow::Error::msg)?;
     if !quiet {
         for w in &loaded.scene.warnings {
             note!("warning: {}", sanitize(w));
@@ -273,7 +332,7 @@ fn load(args: &SceneArgs, quiet: bool) -> Result<Loaded> {
         loaded.job.spp = spp;
     }
     loaded.job.seed = args.seed;
-    Ok(loaded)
+    Ok((loaded, desc))
 }
 
 /// Whether two paths name the same existing file (links and spellings resolved).
@@ -289,13 +348,87 @@ fn default_output(scene: &Path) -> PathBuf {
     scene.with_file_name(Path::new(&stem).with_extension("exr"))
 }
 
+/// `K/N` of `--shard`, checked.
+fn parse_shard(text: &str) -> Result<(u32, u32)> {
+    let bad = || anyhow::anyhow!("--shard '{text}': expected K/N with 0 <= K < N (such as 0/4)");
+    let (k, n) = text.split_once('/').ok_or_else(bad)?;
+    let (k, n): (u32, u32) = (k.trim().parse().map_err(|_| bad())?, n.trim().parse().map_err(|_| bad())?);
+    anyhow::ensure!(n > 0 && k < n, bad());
+    Ok((k, n))
+}
+
+fn state_header(identity: &rdr::render::identity::RenderIdentity, spp: u32, shard: Option<(u32, u32)>) -> StateHeader {
+    StateHeader {
+        identity: identity.clone(),
+        spp,
+        shard,
+        version: env!("CARGO_PKG_VERSION").into(),
+        commit: env!("RDR_COMMIT").into(),
+    }
+}
+
+/// Where a resumed render starts: the state `output` holds, checked against the job.
+/// `Ok(None)` when there is no file yet.
+fn resume_state(
+    output: &Path,
+    identity: &rdr::render::identity::RenderIdentity,
+    shard: Option<(u32, u32)>,
+    total: u32,
+    range: &std::ops::Range<u32>,
+) -> Result<Option<FilmState>> {
+    if !output.exists() {
+        return Ok(None);
+    }
+    let name = output.display();
+    let Some(file) = statefile::read(output)? else {
+        anyhow::bail!("{name}: cannot resume: it holds no rdr film state (written by another program, or with --compat rdr171)");
+    };
+    if let Some(why) = statefile::mismatch(identity, &file.header.identity) {
+        anyhow::bail!("{name}: cannot resume: {why}");
+    }
+    if file.header.shard != shard {
+        let say = |s: Option<(u32, u32)>| s.map_or("the whole render".to_string(), |(k, n)| format!("shard {k}/{n}"));
+        anyhow::bail!("{name}: cannot resume: it holds {}, not {}", say(file.header.shard), say(shard));
+    }
+    if shard.is_some() && file.header.spp != total {
+        anyhow::bail!(
+            "{name}: cannot resume: it is a shard of a render of {} passes, not {total} (shards split the passes of one --spp)",
+            file.header.spp
+        );
+    }
+    let ranges = file.state.ranges();
+    let held = ranges.first().cloned().unwrap_or(range.start..range.start);
+    if ranges.len() > 1 || held.start != range.start {
+        anyhow::bail!(
+            "{name}: cannot resume: it holds passes {}, not one run from pass {}",
+            rdr::render::blocks::format_ranges(&ranges),
+            range.start
+        );
+    }
+    if held.end > range.end {
+        anyhow::bail!(
+            "{name}: cannot resume: it holds {} passes, more than the {} asked (give --spp {} or more)",
+            held.end - held.start,
+            range.end - range.start,
+            held.end
+        );
+    }
+    Ok(Some(file.state))
+}
+
 /// `rdr render`.
-fn render(args: &SceneArgs, output: Option<PathBuf>, quiet: bool, time_limit: Option<f64>) -> Result<ExitCode> {
+fn render(args: &SceneArgs, output: Option<PathBuf>, quiet: bool, time_limit: Option<f64>, flow: &FlowArgs) -> Result<ExitCode> {
     if let Some(t) = time_limit {
         anyhow::ensure!(t.is_finite() && t > 0.0, "--time-limit must be a positive number of seconds");
     }
+    for (name, t) in [("--checkpoint", flow.checkpoint), ("--preview", flow.preview)] {
+        if let Some(t) = t {
+            anyhow::ensure!(t.is_finite() && t > 0.0, "{name} must be a positive number of seconds");
+        }
+    }
+    let shard = flow.shard.as_deref().map(parse_shard).transpose()?;
     setup_threads(args.threads)?;
-    let Loaded { scene, mut job } = load(args, quiet)?;
+    let (Loaded { scene, mut job }, desc) = load_desc(args, quiet)?;
     job.time_limit = time_limit;
     let output = output.unwrap_or_else(|| default_output(&args.scene));
     // Fail before the render, not after it.
@@ -306,6 +439,62 @@ fn render(args: &SceneArgs, output: Option<PathBuf>, quiet: bool, time_limit: Op
         );
     }
     check_output_path(&output)?;
+    let is_exr = output.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr"));
+    let physical = matches!(profile(args), Profile::Physical);
+    let asked = |what: &str| {
+        (what == "--resume" && flow.resume)
+            || (what == "--shard" && shard.is_some())
+            || (what == "--checkpoint" && flow.checkpoint.is_some())
+    };
+    for what in ["--resume", "--shard", "--checkpoint"] {
+        if !asked(what) {
+            continue;
+        }
+        anyhow::ensure!(
+            physical,
+            "{what}: --compat rdr171 renders in one pass of columns, which cannot be resumed, checkpointed or split"
+        );
+        anyhow::ensure!(
+            job.integrator.passes_independent() || what == "--checkpoint",
+            "{what}: the {} integrator's passes depend on earlier ones (or on the total spp), so they cannot be {}; render it in one go",
+            job.integrator.name(),
+            if what == "--shard" { "split over machines" } else { "continued" }
+        );
+        anyhow::ensure!(
+            is_exr || what == "--checkpoint",
+            "{what}: needs an .exr output ({} cannot hold the film state)",
+            output.display()
+        );
+    }
+    let identity = if physical && is_exr {
+        Some(RenderIdentity::of(&args.scene, &args.overrides, &desc, job.seed)?)
+    } else {
+        None
+    };
+    let total = job.integrator.pass_count(job.spp);
+    let range = match shard {
+        Some((k, n)) => rdr::render::blocks::shard_range(k, n, total),
+        None => 0..total,
+    };
+    job.passes = Some(range.clone());
+    let start = match (&identity, flow.resume) {
+        (Some(id), true) => resume_state(&output, id, shard, total, &range)?.unwrap_or_default(),
+        _ => FilmState::default(),
+    };
+    let header = identity.as_ref().map(|id| state_header(id, total, shard));
+    let resumable = job.integrator.passes_independent();
+    if flow.resume && start.passes_done() == range.end - range.start && range.end > range.start {
+        say(output.display())?;
+        if !quiet {
+            note!(
+                "{}: already holds all {} passes: nothing to render",
+                output.display(),
+                start.passes_done()
+            );
+        }
+        return Ok(ExitCode::SUCCESS);
+    }
+    let passes_left = range.end - start.passes_done().min(range.end - range.start) - range.start;
 
     let stop = Arc::new(StopToken::new());
     {
@@ -318,9 +507,79 @@ fn render(args: &SceneArgs, output: Option<PathBuf>, quiet: bool, time_limit: Op
         })
         .context("cannot install the Ctrl-C handler")?;
     }
-    let total = job.film.width as u64 * job.film.height as u64 * job.spp as u64;
+    let exr = match profile(args) {
+        Profile::Physical => ExrPixels::Float,
+        Profile::Rdr171 => ExrPixels::HalfTinyexr,
+    };
+    // the bytes of the output file for an image and its state
+    let encode = {
+        let output = output.clone();
+        let header = header.clone();
+        move |w: u32, h: u32, pixels: &[rdr::math::Vec3], state: &FilmState| -> Result<Vec<u8>> {
+            match &header {
+                Some(hd) => Ok(statefile::encode(w, h, pixels, state, resumable, hd, Vec::new())),
+                None => encode_image(&output, w, h, pixels, exr),
+            }
+        }
+    };
+    let encode = Arc::new(encode);
+    let mut periodic = Vec::new();
+    if let Some(every) = flow.checkpoint {
+        let (encode, output) = (encode.clone(), output.clone());
+        periodic.push(Periodic {
+            every,
+            call: Arc::new(move |snap: &Snapshot| {
+                let written = encode(snap.width, snap.height, snap.pixels, snap.state).and_then(|b| write_atomically(&output, &b));
+                if let Err(e) = written {
+                    note!("warning: checkpoint: {e:#}");
+                }
+            }),
+        });
+    }
+    if let Some(every) = flow.preview {
+        let (encode, output) = (encode.clone(), output.clone());
+        let png = preview_path(&output);
+        periodic.push(Periodic {
+            every,
+            call: Arc::new(move |snap: &Snapshot| {
+                let written = rdr::imageio::write_png(&png, snap.width, snap.height, snap.pixels)
+                    .and_then(|_| encode(snap.width, snap.height, snap.pixels, snap.state))
+                    .and_then(|b| write_atomically(&output, &b));
+                if let Err(e) = written {
+                    note!("warning: preview: {e:#}");
+                }
+            }),
+        });
+    }
+    let tev = match &flow.tev {
+        Some(addr) => {
+            let name = output.file_name().map_or("rdr".into(), |n| n.to_string_lossy().into_owned());
+            let t = rdr::render::tev::Tev::connect(addr, &name, job.film.width, job.film.height)
+                .map_err(|e| anyhow::anyhow!("--tev {addr}: cannot connect to tev: {e}"))?;
+            Some(Arc::new(std::sync::Mutex::new(Some(t))))
+        }
+        None => None,
+    };
+    // a failed send ends the stream (tev closed), with one warning
+    let send_tev = |tev: &Arc<std::sync::Mutex<Option<rdr::render::tev::Tev>>>, w: u32, h: u32, px: &[rdr::math::Vec3]| {
+        let mut guard = tev.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some(t) = guard.as_mut() {
+            if let Err(e) = t.update(w, h, px) {
+                note!("warning: --tev: {e}; no more updates");
+                *guard = None;
+            }
+        }
+    };
+    if let Some(tev) = &tev {
+        let tev = tev.clone();
+        periodic.push(Periodic {
+            every: 0.5,
+            call: Arc::new(move |snap: &Snapshot| send_tev(&tev, snap.width, snap.height, snap.pixels)),
+        });
+    }
+    let samples_left = job.film.width as u64 * job.film.height as u64 * job.integrator.spp_done(job.spp, passes_left) as u64;
     let bar = if !quiet && std::io::stderr().is_terminal() {
-        let b = ProgressBar::with_draw_target(Some(total), ProgressDrawTarget::stderr());
+        let b = ProgressBar::with_draw_target(Some(samples_left), ProgressDrawTarget::stderr());
         b.set_style(ProgressStyle::with_template("{bar:40} {percent:>3}%  {elapsed_precise} elapsed, ETA {eta}").expect("valid template"));
         Some(b)
     } else {
@@ -331,15 +590,12 @@ fn render(args: &SceneArgs, output: Option<PathBuf>, quiet: bool, time_limit: Op
         progress: bar
             .clone()
             .map(|b| Arc::new(move |n: u64| b.inc(n)) as Arc<dyn Fn(u64) + Send + Sync>),
+        periodic,
     };
-    let out = rdr::render(&scene, &job, &control);
+    let out = rdr::render::render_from(&scene, &job, &control, start);
     if let Some(b) = bar {
         b.finish_and_clear();
     }
-    let exr = match profile(args) {
-        Profile::Physical => ExrPixels::Float,
-        Profile::Rdr171 => ExrPixels::HalfTinyexr,
-    };
     if out.invalid_samples > 0 {
         note!("warning: {} sample(s) were NaN or infinite and were left out", out.invalid_samples);
     }
@@ -349,7 +605,15 @@ fn render(args: &SceneArgs, output: Option<PathBuf>, quiet: bool, time_limit: Op
             out.invalid_rays
         );
     }
-    let bytes = encode_image(&output, out.width, out.height, &out.pixels, exr)?;
+    if let Some(tev) = &tev {
+        send_tev(tev, out.width, out.height, &out.pixels);
+    }
+    if flow.preview.is_some() {
+        if let Err(e) = rdr::imageio::write_png(&preview_path(&output), out.width, out.height, &out.pixels) {
+            note!("warning: preview: {e:#}");
+        }
+    }
+    let bytes = encode(out.width, out.height, &out.pixels, &out.state)?;
     if let Err(e) = write_atomically(&output, &bytes) {
         // the render is not lost: keep it where it can be written
         match save_elsewhere(&output, &bytes) {
@@ -379,6 +643,58 @@ fn render(args: &SceneArgs, output: Option<PathBuf>, quiet: bool, time_limit: Op
         }
     }
     Ok(if out.interrupted { ExitCode::from(130) } else { ExitCode::SUCCESS })
+}
+
+/// `out.exr` → `out.preview.png`.
+fn preview_path(output: &Path) -> PathBuf {
+    output.with_extension("preview.png")
+}
+
+/// `rdr merge`.
+fn merge(parts: &[PathBuf], output: &Path, partial: bool, quiet: bool) -> Result<ExitCode> {
+    anyhow::ensure!(
+        output.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr")),
+        "{}: merge writes an .exr (the merged film state goes in it)",
+        output.display()
+    );
+    check_output_path(output)?;
+    let mut read = Vec::new();
+    for p in parts {
+        let Some(f) = statefile::read(p)? else {
+            anyhow::bail!(
+                "{}: holds no rdr film state (not written by rdr render, or with --compat rdr171)",
+                p.display()
+            );
+        };
+        read.push((p.clone(), f));
+    }
+    let (merged, missing) = statefile::merge(read, partial)?;
+    let pixels = statefile::image(merged.width, merged.height, &merged.state);
+    let bytes = statefile::encode(
+        merged.width,
+        merged.height,
+        &pixels,
+        &merged.state,
+        true,
+        &merged.header,
+        Vec::new(),
+    );
+    write_atomically(output, &bytes)?;
+    say(output.display())?;
+    if !quiet {
+        if missing.is_empty() {
+            note!("merged {} part(s): {} passes", parts.len(), merged.state.passes_done());
+        } else {
+            note!(
+                "warning: merged {} part(s) with passes {} of {} missing: the image has {} passes",
+                parts.len(),
+                rdr::render::blocks::format_ranges(&missing),
+                merged.header.spp,
+                merged.state.passes_done()
+            );
+        }
+    }
+    Ok(ExitCode::SUCCESS)
 }
 
 /// `rdr bench MESH`: the BVH benchmark.

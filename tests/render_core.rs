@@ -86,6 +86,7 @@ fn splatting_pass(loaded: &Loaded, film_settings: &FilmSettings, passes: u32) ->
         camera: &loaded.job.camera,
         film: film_settings,
         spp: passes,
+        target_spp: passes,
         seed: 3,
         stop: &stop,
         progress: &|_| {},

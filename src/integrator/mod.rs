@@ -78,6 +78,24 @@ impl Integrator {
         }
     }
 
+    /// Whether pass `p` depends only on the scene, the seed, the declared target spp and
+    /// `p` itself: not on earlier passes (SPPM's radii, a photon map per iteration of
+    /// `spp` passes) nor on the render's total spp. Only then can a render be resumed
+    /// (`--resume`) or split into shards (`--shard`) and give the same bits as one
+    /// render; the others refuse both. An integrator opting in must also keep its
+    /// pass's film contributions in the film's sums and splats (no
+    /// [`Film::set_estimate`], no [`Film::set_aux`] that later passes read).
+    pub fn passes_independent(&self) -> bool {
+        match self {
+            Integrator::IntersectionTest(_)
+            | Integrator::Path(_)
+            | Integrator::Bdpt(_)
+            | Integrator::Ptracer(_)
+            | Integrator::Normals(_) => true,
+            Integrator::Photon(_) | Integrator::Sppm(_) | Integrator::Rdr171(_) => false,
+        }
+    }
+
     /// Samples per pixel that `passes` finished passes stand for.
     pub fn spp_done(&self, spp: u32, passes: u32) -> u32 {
         match self {

@@ -57,7 +57,13 @@ pub struct PassContext<'a> {
     pub camera: &'a Camera,
     pub film: &'a FilmSettings,
     /// Samples per pixel of the whole render (the pass count of camera-ray integrators).
+    /// A pass must not depend on it if the integrator's passes are independent
+    /// ([`crate::integrator::Integrator::passes_independent`]): a resumed render or a
+    /// shard would then differ from one render of all passes.
     pub spp: u32,
+    /// The samples per pixel the scene declares: what a pass may use for a sampling
+    /// density (the texture footprint) without depending on the render's length.
+    pub target_spp: u32,
     pub seed: u32,
     pub stop: &'a StopToken,
     /// Called with the number of samples finished since the last call.
@@ -93,7 +99,7 @@ where
     F: Fn(&mut CameraSample) -> Vec3 + Sync,
 {
     let scene = ctx.scene;
-    let diff_scale = differential_scale(ctx.spp);
+    let diff_scale = differential_scale(ctx.target_spp);
     let tiles = tile_grid(ctx.film);
     let (w, h) = (ctx.film.width as i32, ctx.film.height as i32);
     let filter = &ctx.film.filter;
@@ -159,7 +165,8 @@ where
     result
 }
 
-/// Camera-ray differentials span one pixel; with `spp` samples per pixel each sample
+/// Camera-ray differentials span one pixel; with `spp` samples per pixel (the scene's
+/// declared count, not `--spp`: see [`PassContext::target_spp`]) each sample
 /// stands for a smaller footprint, so they are scaled by `max(1/8, 1/√spp)` (pbrt-v4).
 /// Textures are then filtered over about one sample's share of the pixel: a 1-spp
 /// image is antialiased by the MIP pyramid, and many samples converge to the

@@ -19,6 +19,12 @@ pub struct RenderJob {
     pub integrator: Integrator,
     /// Samples per pixel (the scene's `integrator.spp` unless overridden).
     pub spp: u32,
+    /// The samples per pixel the scene declares (`integrator.spp`, whatever `--spp`
+    /// says): passes that depend on a sample count (the texture footprint) use this,
+    /// so a pass is the same in a render of any length, resumed or not.
+    pub target_spp: u32,
+    /// The passes to render (a shard's share), all of them when `None`.
+    pub passes: Option<std::ops::Range<u32>>,
     /// Seed of the sampler; different seeds give independent images.
     pub seed: u32,
     /// Wall-clock budget in seconds: no pass starts that would end after it.
@@ -83,6 +89,8 @@ impl RenderJob {
             film,
             integrator,
             spp: desc.integrator.spp,
+            target_spp: desc.integrator.spp,
+            passes: None,
             seed: 0,
             time_limit: None,
         })

@@ -46,10 +46,12 @@ pub fn load_scene(path: &Path, overrides: &[&str], profile: Profile) -> Loaded {
     rdr::load(path, &o, profile).unwrap_or_else(|e| panic!("{e}"))
 }
 
-/// Renders a loaded scene's job with `spp` samples per pixel and `seed`.
+/// Renders a loaded scene's job with `spp` samples per pixel and `seed`, as if the
+/// scene declared that spp (the texture footprint follows it, see `target_spp`).
 pub fn render(loaded: &Loaded, spp: u32, seed: u32) -> Image {
     let job = rdr::RenderJob {
         spp,
+        target_spp: spp,
         seed,
         ..loaded.job.clone()
     };

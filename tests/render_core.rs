@@ -87,6 +87,7 @@ fn splatting_pass(loaded: &Loaded, film_settings: &FilmSettings, passes: u32) ->
         film: film_settings,
         spp: passes,
         seed: 3,
+        time_limit: None,
         stop: &stop,
         progress: &|_| {},
     };

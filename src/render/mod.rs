@@ -63,6 +63,7 @@ pub fn render(scene: &Scene, job: &RenderJob, control: &RenderControl) -> Render
         film: &job.film,
         spp: job.spp,
         seed: job.seed,
+        time_limit: job.time_limit,
         stop: &control.stop,
         progress: &report,
     };

@@ -48,8 +48,7 @@ pub struct SceneDesc {
 }
 
 use crate::integrator::{
-    bdpt::Heuristic, guided, Bdpt, Guided, Integrator, IntersectionTest, Normals, PathProfile, PathTracer, PhotonMapper,
-    Ptracer, Sppm,
+    bdpt::Heuristic, guided, Bdpt, Guided, Integrator, IntersectionTest, Normals, PathProfile, PathTracer, PhotonMapper, Ptracer, Sppm,
 };
 
 /// `integrator`:
@@ -242,7 +241,16 @@ impl SceneDesc {
 
 fn parse_integrator(p: &Props) -> Result<IntegratorDesc> {
     let ty = p.string_or("type", "path")?;
-    const TYPES: [&str; 8] = ["path", "bdpt", "guided", "ptracer", "intersection_test", "photon", "sppm", "normals"];
+    const TYPES: [&str; 8] = [
+        "path",
+        "bdpt",
+        "guided",
+        "ptracer",
+        "intersection_test",
+        "photon",
+        "sppm",
+        "normals",
+    ];
     // the type first, so an unknown one is reported before any of its keys
     let kind = ty.as_str();
     if !TYPES.contains(&kind) {

@@ -167,10 +167,7 @@ impl Guided {
         let schedule = match (ctx.time_limit, self.training_iterations) {
             (_, Some(k)) => format!("{k} training iterations (given)"),
             (Some(t), None) => format!("time budget of {t} s (training stops when the predicted final variance rises)"),
-            (None, None) => format!(
-                "spp budget: {} training iterations",
-                Self::auto_training_iterations(ctx.spp)
-            ),
+            (None, None) => format!("spp budget: {} training iterations", Self::auto_training_iterations(ctx.spp)),
         };
         let mut s = State {
             tree: SdTree::new(ctx.scene.center, ctx.scene.radius, DTree::initial(RHO)),
@@ -361,7 +358,11 @@ impl Guided {
                     i.tree.spatial_leaves,
                     i.tree.bytes as f64 / 1e6,
                     i.build_seconds * 1e3,
-                    if i.variance > 0.0 { format!(", variance {:.2e}", i.variance) } else { String::new() }
+                    if i.variance > 0.0 {
+                        format!(", variance {:.2e}", i.variance)
+                    } else {
+                        String::new()
+                    }
                 )
             })
             .collect();

@@ -52,8 +52,10 @@ impl Mixture<'_> {
                 ..bs
             })
         } else {
-            let (wi, pg) = guide.sample(u)?;
-            let pdf = a * bsdf.pdf(wo, wi) + (1.0 - a) * pg;
+            let (wi, _) = guide.sample(u)?;
+            // the density evaluated as MIS evaluates it (the map's round trip may
+            // move a point on a cell's edge to its neighbour)
+            let pdf = self.pdf(bsdf, wo, wi);
             if pdf <= 0.0 || !pdf.is_finite() {
                 return None;
             }

@@ -105,7 +105,13 @@ impl DTree {
     /// Depth of the deepest leaf cell (1: the root's four quadrants).
     pub fn depth(&self) -> u32 {
         fn d(t: &DTree, n: usize) -> u32 {
-            1 + t.nodes[n].child.iter().filter(|c| **c != 0).map(|c| d(t, *c as usize)).max().unwrap_or(0)
+            1 + t.nodes[n]
+                .child
+                .iter()
+                .filter(|c| **c != 0)
+                .map(|c| d(t, *c as usize))
+                .max()
+                .unwrap_or(0)
         }
         d(self, 0)
     }
@@ -218,7 +224,10 @@ impl DTree {
             size *= 0.5;
             origin += Vec2::new(bx as u32 as f32, by as u32 as f32) * size;
             if node.child[c] == 0 {
-                let p = (origin + Vec2::new(ux, uy) * size).min(Vec2::splat(ONE_BELOW));
+                // inside the cell also after rounding (its density is the one returned)
+                let below = |x: f32| f32::from_bits(x.to_bits() - 1);
+                let p = origin + Vec2::new(ux, uy) * size;
+                let p = Vec2::new(p.x.min(below(origin.x + size)), p.y.min(below(origin.y + size)));
                 return Some((p, pdf));
             }
             n = node.child[c] as usize;

@@ -497,3 +497,15 @@ fn an_interrupted_render_is_the_shorter_render_and_time_budgets_are_followed() {
         "mean {m} vs {reference}"
     );
 }
+
+#[test]
+fn white_furnace_is_one() {
+    let Some(shared) = shared() else { return };
+    // (the mean of 100² pixels at 256 spp has a standard error of 1.6e-4)
+    let o = r#"{"integrator": {"type": "guided", "spatial_threshold": 200}, "film": {"resolution": [100, 100]}}"#;
+    let s = load_scene(&shared.join("refs/scenes/sphere_furnace.json"), &[o], Profile::Physical);
+    let img = render(&s, 256, 3);
+    let m = img.mean();
+    eprintln!("guided furnace: mean {m}");
+    assert!((m - Vec3::ONE).abs().max_element() < 8e-4, "{m}");
+}

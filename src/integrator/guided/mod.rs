@@ -44,7 +44,7 @@ use super::pass::{differential_scale, tile_grid};
 use super::{PassContext, PassResult, RayCounts};
 use crate::film::{Film, FilmTile};
 use crate::math::{Vec2, Vec3};
-use crate::sampler::PixelSampler;
+use crate::sampler::{hash_combine, PixelSampler};
 use crate::scene::Scene;
 use rayon::prelude::*;
 use std::time::Instant;
@@ -221,7 +221,14 @@ impl Guided {
             record: !state.last,
             max_depth: self.max_depth,
         };
-        let tiles = render_tiles(ctx, pass, &guiding);
+        // each iteration draws from its own scrambling of the sampler, starting at
+        // sample 0: its samples are then independent of the ones the tree it samples
+        // from was learned from (the same pixel's Sobol points are correlated, and an
+        // adaptive density that depends on them would be biased)
+        let iteration = state.history.len() as u32 - 1;
+        let seed = hash_combine(ctx.seed, 0x5eed_0000 + iteration);
+        let tiles = render_tiles(ctx, state.passes, seed, &guiding);
+        let _ = pass;
         let mut result = PassResult {
             complete: tiles.iter().all(Option::is_some),
             counts: RayCounts::default(),
@@ -387,9 +394,9 @@ pub fn learned_tree(film: &Film) -> Option<&SdTree> {
     film.aux::<State>().map(|s| &s.tree)
 }
 
-/// Renders sample `pass` of every pixel, tiles in parallel, each with its
+/// Renders sample `sample` (of the sampler seeded by `seed`) of every pixel, tiles in parallel, each with its
 /// records and moments; `None` for tiles skipped after a stop.
-fn render_tiles(ctx: &PassContext, pass: u32, guiding: &Guiding) -> Vec<Option<TileOut>> {
+fn render_tiles(ctx: &PassContext, sample: u32, seed: u32, guiding: &Guiding) -> Vec<Option<TileOut>> {
     let scene: &Scene = ctx.scene;
     let diff_scale = differential_scale(ctx.spp);
     let (w, h) = (ctx.film.width as i32, ctx.film.height as i32);
@@ -407,7 +414,7 @@ fn render_tiles(ctx: &PassContext, pass: u32, guiding: &Guiding) -> Vec<Option<T
             let mut moments = vec![[0.0f64; 3]; ((x1 - x0) * (y1 - y0)) as usize];
             for y in y0..y1 {
                 for x in x0..x1 {
-                    let mut sampler = PixelSampler::new(x as u32, y as u32, pass, ctx.seed);
+                    let mut sampler = PixelSampler::new(x as u32, y as u32, sample, seed);
                     let (u, v) = sampler.next_2d();
                     let pos = Vec2::new(x as f32 + u, y as f32 + v);
                     let (ray, diff) = if scene.uses_footprints {

@@ -58,7 +58,7 @@ use crate::integrator::{
 ///   [`PathTracer`] (`spp` 32, `max_depth` 12, `profile`, `rr_threshold`),
 ///   [`Bdpt`] (as `path`, and `mis`, `strategy`, `strategy_weighted`), [`Guided`] (`spp` 64,
 ///   `max_depth` 12, `rr_threshold`, `bsdf_fraction` 0.5, `training_iterations`, `combine`,
-///   `spatial_threshold`), [`Ptracer`]
+///   `spatial_threshold`, `learn_direct`), [`Ptracer`]
 ///   (`spp` 32, `max_depth` 12, `rr_threshold`),
 ///   [`PhotonMapper`] (`spp` 16, `n_photons`, `n_iterations`, `n_near_photons`, …),
 ///   [`Sppm`] (`spp` 64 iterations, `photons_per_iteration`, `initial_radius`, …),
@@ -409,7 +409,9 @@ fn parse_guided(p: &Props) -> Result<Guided> {
     if !(spatial_threshold > 0.0 && spatial_threshold.is_finite()) {
         return Err(p.error("spatial_threshold", "spatial_threshold must be a positive number"));
     }
+    let learn_direct = p.bool_or("learn_direct", d.learn_direct)?;
     Ok(Guided {
+        learn_direct,
         max_depth,
         rr_threshold,
         bsdf_fraction,

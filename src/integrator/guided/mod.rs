@@ -72,7 +72,10 @@ pub enum Combine {
 ///   module docs) — doubling iterations before the final one;
 /// * `combine` (`"inverse_variance"` | `"last"`, `"inverse_variance"`);
 /// * `spatial_threshold` (number > 0, 12000) — the paper's c: a spatial leaf is
-///   split when an iteration of n spp records more than c·√n vertices in it.
+///   split when an iteration of n spp records more than c·√n vertices in it;
+/// * `learn_direct` (bool, true) — the tree learns all radiance arriving at a
+///   vertex, direct light included (the paper); `false`: only what arrives by way
+///   of other surfaces or specular chains, leaving direct light to light sampling.
 ///
 /// ```json
 /// {"type": "guided", "spp": 256, "bsdf_fraction": 0.5, "combine": "inverse_variance"}
@@ -85,6 +88,7 @@ pub struct Guided {
     pub training_iterations: Option<u32>,
     pub combine: Combine,
     pub spatial_threshold: f32,
+    pub learn_direct: bool,
 }
 
 impl Default for Guided {
@@ -96,6 +100,7 @@ impl Default for Guided {
             training_iterations: None,
             combine: Combine::InverseVariance,
             spatial_threshold: 12000.0,
+            learn_direct: true,
         }
     }
 }
@@ -220,6 +225,7 @@ impl Guided {
             bsdf_fraction: self.bsdf_fraction,
             record: !state.last,
             max_depth: self.max_depth,
+            record_direct: self.learn_direct,
         };
         // each iteration draws from its own scrambling of the sampler, starting at
         // sample 0: its samples are then independent of the ones the tree it samples

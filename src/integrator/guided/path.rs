@@ -103,6 +103,21 @@ pub struct Guiding<'a> {
     /// Record what paths find (training iterations).
     pub record: bool,
     pub max_depth: u32,
+    /// Record direct light too (what light sampling finds, and emitters hit
+    /// straight from a vertex); otherwise a vertex learns only the light that
+    /// reaches it by way of other surfaces or specular chains.
+    pub record_direct: bool,
+}
+
+/// How many of the waiting vertices receive emission found now: all, or all but
+/// the last when it sampled this direction itself and direct light is not recorded.
+#[inline]
+fn direct_skip(len: usize, after_delta: bool, record_direct: bool) -> usize {
+    if record_direct || after_delta {
+        len
+    } else {
+        len.saturating_sub(1)
+    }
 }
 
 /// Adds contribution `c` to the estimate and to the radiance of every waiting vertex.
@@ -155,7 +170,8 @@ impl Guiding<'_> {
                             let pl = scene.light_sampler.pmf(env as usize) * scene.lights[env as usize].pdf(prev_p, ray.d, None, mode);
                             power_heuristic(mix_pdf, pl)
                         };
-                        add(&mut l, verts, beta * le * w);
+                        let n = direct_skip(verts.len(), after_delta, self.record_direct);
+                        add(&mut l, &mut verts[..n], beta * le * w);
                     }
                 }
                 break;
@@ -174,7 +190,8 @@ impl Guiding<'_> {
                             * scene.lights[index as usize].pdf(prev_p, ray.d, Some((it.p, it.ng)), mode);
                         power_heuristic(mix_pdf, pl)
                     };
-                    add(&mut l, verts, beta * le * w);
+                    let n = direct_skip(verts.len(), after_delta, self.record_direct);
+                    add(&mut l, &mut verts[..n], beta * le * w);
                 }
             }
             if segment >= self.max_depth {
@@ -207,7 +224,7 @@ impl Guiding<'_> {
                             };
                             add(&mut l, verts, beta * f * ls.radiance * (cos * w / light_pdf));
                             // a point light is no direction a guided sample can find
-                            if self.record && !ls.delta {
+                            if self.record && self.record_direct && !ls.delta {
                                 records.push(Record {
                                     leaf,
                                     cell: self.tree.record_cell(leaf, ls.wi),

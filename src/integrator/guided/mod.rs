@@ -36,7 +36,7 @@ pub mod path;
 pub mod quadtree;
 pub mod sdtree;
 
-pub use path::{Guiding, Mixture, Record};
+pub use path::{Guiding, Mixture, Record, Scratch};
 pub use quadtree::{sphere_to_square, square_to_sphere, DTree};
 pub use sdtree::{SdTree, TreeStats};
 
@@ -415,8 +415,7 @@ fn render_tiles(ctx: &PassContext, sample: u32, seed: u32, guiding: &Guiding) ->
             }
             let mut tile = FilmTile::new(x0, y0, x1, y1, filter.reach(), w, h);
             let mut counts = RayCounts::default();
-            let mut records = Vec::new();
-            let mut verts = Vec::new();
+            let mut scratch = Scratch::default();
             let mut moments = vec![[0.0f64; 3]; ((x1 - x0) * (y1 - y0)) as usize];
             for y in y0..y1 {
                 for x in x0..x1 {
@@ -429,8 +428,8 @@ fn render_tiles(ctx: &PassContext, sample: u32, seed: u32, guiding: &Guiding) ->
                     } else {
                         (ctx.camera.ray(pos.x, pos.y), None)
                     };
-                    let mark = records.len();
-                    let l = guiding.li(scene, ray, diff, &mut sampler, &mut counts, &mut records, &mut verts);
+                    let mark = scratch.records.len();
+                    let l = guiding.li(scene, ray, diff, &mut sampler, &mut counts, &mut scratch);
                     if l.is_finite() {
                         tile.add(pos, l, filter, w, h);
                         let yv = ((l.x + l.y + l.z) / 3.0) as f64;
@@ -440,14 +439,14 @@ fn render_tiles(ctx: &PassContext, sample: u32, seed: u32, guiding: &Guiding) ->
                         m[2] += 1.0;
                     } else {
                         counts.invalid += 1;
-                        records.truncate(mark);
+                        scratch.records.truncate(mark);
                     }
                 }
             }
             (ctx.progress)(((x1 - x0) * (y1 - y0)) as u64);
             Some(TileOut {
                 tile,
-                records,
+                records: scratch.records,
                 moments,
                 rect: (x0, y0, x1, y1),
                 counts,
@@ -461,8 +460,8 @@ fn merge_tile(sum: &mut [[f64; 3]], weight: &mut [f64], width: i32, t: &FilmTile
         for lx in 0..t.w {
             let i = (ly * t.w + lx) as usize;
             let j = ((t.y0 + ly) * width + t.x0 + lx) as usize;
-            for c in 0..3 {
-                sum[j][c] += t.sum[i][c] as f64;
+            for (s, v) in sum[j].iter_mut().zip(t.sum[i]) {
+                *s += v as f64;
             }
             weight[j] += t.weight[i];
         }
@@ -498,8 +497,9 @@ pub fn variance(moments: &[[f64; 3]], width: usize) -> f64 {
             ((m[1] - m[0] * mean) / (count - 1.0)).max(0.0) / count
         } else {
             let x = i % width;
-            let j = if x % 2 == 0 { i + 1 } else { i - 1 };
-            if (x % 2 == 0 && x + 1 >= width) || j >= moments.len() || moments[j][2] <= 0.0 {
+            let even = x.is_multiple_of(2);
+            let j = if even { i + 1 } else { i - 1 };
+            if (even && x + 1 >= width) || j >= moments.len() || moments[j][2] <= 0.0 {
                 continue;
             }
             let other = moments[j][0] / moments[j][2];

@@ -96,6 +96,13 @@ pub struct Vertex {
     radiance: Vec3,
 }
 
+/// Per-thread buffers: the records of a tile, and the current path's vertices.
+#[derive(Debug, Default)]
+pub struct Scratch {
+    pub records: Vec<Record>,
+    verts: Vec<Vertex>,
+}
+
 /// What the sampler needs besides the scene.
 pub struct Guiding<'a> {
     pub tree: &'a SdTree,
@@ -140,7 +147,7 @@ fn mean(v: Vec3) -> f32 {
 }
 
 impl Guiding<'_> {
-    /// Radiance along a camera ray; records go to `records` (`verts` is scratch).
+    /// Radiance along a camera ray; records go to `scratch.records`.
     pub fn li(
         &self,
         scene: &Scene,
@@ -148,9 +155,9 @@ impl Guiding<'_> {
         diff: Option<RayDifferential>,
         sampler: &mut PixelSampler,
         counts: &mut RayCounts,
-        records: &mut Vec<Record>,
-        verts: &mut Vec<Vertex>,
+        scratch: &mut Scratch,
     ) -> Vec3 {
+        let Scratch { records, verts } = scratch;
         verts.clear();
         let mode = scene.light_sampling;
         let mut l = Vec3::ZERO;

@@ -332,8 +332,9 @@ fn radiance_shares(loaded: &rdr::Loaded, p: Vec3, n: u32, objects: [u32; 2]) -> 
 #[test]
 fn learned_distribution_in_caustic_cbox_points_at_the_light_and_the_glass_sphere() {
     let Some(shared) = shared() else { return };
-    // a small image trains few vertices: a lower split threshold gives the tree its cells
-    let o = r#"{"integrator": {"type": "guided", "spatial_threshold": 300}, "film": {"resolution": [64, 64]}}"#;
+    // the paper's mode (direct light learned too); a small image trains few vertices:
+    // a lower split threshold gives the tree its cells
+    let o = r#"{"integrator": {"type": "guided", "learn_direct": true, "spatial_threshold": 300}, "film": {"resolution": [64, 64]}}"#;
     let loaded = load_scene(&shared.join("refs/scenes/caustic_cbox.json"), &[o], Profile::Physical);
     let (light, sphere) = (0u32, 6u32); // objects[0] is the ceiling light, objects[6] the glass sphere
     let film = train(&loaded, 64);

@@ -323,8 +323,9 @@ mod tests {
         t.deposit(cell, 1.0);
         t.finish_recording();
         let r = t.refined(0.01);
-        // all energy in one cell: a chain of single splits down to the last level
-        assert_eq!(r.depth(), MAX_DEPTH);
-        assert_eq!(r.node_count(), MAX_DEPTH as usize);
+        // all energy in one level-4 cell: the chain down to it (4 nodes), then the cell's
+        // energy spread evenly, shares 1, 1/4, 1/16, 1/64 split (1 + 4 + 16 + 64 nodes)
+        assert_eq!(r.depth(), 8);
+        assert_eq!(r.node_count(), 4 + 1 + 4 + 16 + 64);
     }
 }

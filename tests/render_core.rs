@@ -88,6 +88,7 @@ fn splatting_pass(loaded: &Loaded, film_settings: &FilmSettings, passes: u32) ->
         spp: passes,
         target_spp: passes,
         seed: 3,
+        time_limit: None,
         stop: &stop,
         progress: &|_| {},
     };

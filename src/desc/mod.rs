@@ -48,15 +48,17 @@ pub struct SceneDesc {
 }
 
 use crate::integrator::{
-    bdpt::Heuristic, Bdpt, Integrator, IntersectionTest, Normals, PathProfile, PathTracer, PhotonMapper, Ptracer, Sppm,
+    bdpt::Heuristic, guided, Bdpt, Guided, Integrator, IntersectionTest, Normals, PathProfile, PathTracer, PhotonMapper, Ptracer, Sppm,
 };
 
 /// `integrator`:
-/// * `type` (`"path"`) — `"path"`, `"bdpt"`, `"ptracer"`, `"intersection_test"`, `"photon"`,
+/// * `type` (`"path"`) — `"path"`, `"bdpt"`, `"guided"`, `"ptracer"`, `"intersection_test"`, `"photon"`,
 ///   `"sppm"` or `"normals"` (a debug view: shading normals as colours). The keys of each
 ///   are documented on its type:
 ///   [`PathTracer`] (`spp` 32, `max_depth` 12, `profile`, `rr_threshold`),
-///   [`Bdpt`] (as `path`, and `mis`, `strategy`, `strategy_weighted`), [`Ptracer`]
+///   [`Bdpt`] (as `path`, and `mis`, `strategy`, `strategy_weighted`), [`Guided`] (`spp` 64,
+///   `max_depth` 12, `rr_threshold`, `bsdf_fraction` 0.5, `training_iterations`, `combine`,
+///   `spatial_threshold`, `learn_direct`), [`Ptracer`]
 ///   (`spp` 32, `max_depth` 12, `rr_threshold`),
 ///   [`PhotonMapper`] (`spp` 16, `n_photons`, `n_iterations`, `n_near_photons`, …),
 ///   [`Sppm`] (`spp` 64 iterations, `photons_per_iteration`, `initial_radius`, …),
@@ -239,7 +241,16 @@ impl SceneDesc {
 
 fn parse_integrator(p: &Props) -> Result<IntegratorDesc> {
     let ty = p.string_or("type", "path")?;
-    const TYPES: [&str; 7] = ["path", "bdpt", "ptracer", "intersection_test", "photon", "sppm", "normals"];
+    const TYPES: [&str; 8] = [
+        "path",
+        "bdpt",
+        "guided",
+        "ptracer",
+        "intersection_test",
+        "photon",
+        "sppm",
+        "normals",
+    ];
     // the type first, so an unknown one is reported before any of its keys
     let kind = ty.as_str();
     if !TYPES.contains(&kind) {
@@ -269,6 +280,7 @@ fn parse_integrator(p: &Props) -> Result<IntegratorDesc> {
                 (Integrator::Bdpt(parse_bdpt(p, max_depth, rr_threshold)?), spp)
             }
         }
+        "guided" => (Integrator::Guided(parse_guided(p)?), p.int_at_least("spp", 64, 1)?),
         "ptracer" => {
             let rr_threshold = p.f32_or("rr_threshold", 0.1)?;
             let spp = p.int_at_least("spp", 32, 1)?;
@@ -369,6 +381,43 @@ fn parse_integrator(p: &Props) -> Result<IntegratorDesc> {
         spp,
         point_lights,
         light_sampling,
+    })
+}
+
+/// The keys of [`Guided`] (documented there).
+fn parse_guided(p: &Props) -> Result<Guided> {
+    let d = Guided::default();
+    let rr_threshold = p.f32_or("rr_threshold", d.rr_threshold)?;
+    let max_depth = capped(p, "max_depth", p.int_at_least("max_depth", d.max_depth as i32, 1)?, MAX_DEPTH);
+    let bsdf_fraction = p.f32_or("bsdf_fraction", d.bsdf_fraction)?;
+    if !(bsdf_fraction > 0.0 && bsdf_fraction <= 1.0) {
+        return Err(p.error(
+            "bsdf_fraction",
+            "bsdf_fraction must lie in (0, 1] (without BSDF sampling directions the tree never learned would be missed)",
+        ));
+    }
+    let training_iterations = match p.contains("training_iterations") {
+        true => Some(capped(p, "training_iterations", p.int_at_least("training_iterations", 0, 0)?, 30)),
+        false => None,
+    };
+    let combine = match p.string_or("combine", "inverse_variance")?.as_str() {
+        "inverse_variance" => guided::Combine::InverseVariance,
+        "last" => guided::Combine::Last,
+        other => return Err(p.error("combine", format!("unknown combine '{other}' (available: inverse_variance, last)"))),
+    };
+    let spatial_threshold = p.f32_or("spatial_threshold", d.spatial_threshold)?;
+    if !(spatial_threshold > 0.0 && spatial_threshold.is_finite()) {
+        return Err(p.error("spatial_threshold", "spatial_threshold must be a positive number"));
+    }
+    let learn_direct = p.bool_or("learn_direct", d.learn_direct)?;
+    Ok(Guided {
+        learn_direct,
+        max_depth,
+        rr_threshold,
+        bsdf_fraction,
+        training_iterations,
+        combine,
+        spatial_threshold,
     })
 }
 

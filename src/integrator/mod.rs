@@ -7,6 +7,7 @@
 //! (and one in [`Integrator::render_pass`]), one in the scene reader.
 
 pub mod bdpt;
+pub mod guided;
 pub mod intersection_test;
 pub mod normals;
 pub mod pass;
@@ -17,6 +18,7 @@ pub mod rdr171;
 pub mod sppm;
 
 pub use bdpt::Bdpt;
+pub use guided::Guided;
 pub use intersection_test::IntersectionTest;
 pub use normals::Normals;
 pub use pass::{camera_pass, CameraSample, PassContext, PassResult, RayCounts, StopToken};
@@ -40,6 +42,8 @@ pub enum Integrator {
     Path(PathTracer),
     /// Bidirectional path tracing.
     Bdpt(Bdpt),
+    /// Path guiding (Müller et al. 2017): a path tracer sampling a learned SD-tree.
+    Guided(Guided),
     /// Light tracing (particle tracing) alone.
     Ptracer(Ptracer),
     Normals(Normals),
@@ -58,6 +62,7 @@ impl Integrator {
             Integrator::IntersectionTest(_) => "intersection_test",
             Integrator::Path(_) => "path",
             Integrator::Bdpt(_) => "bdpt",
+            Integrator::Guided(_) => "guided",
             Integrator::Ptracer(_) => "ptracer",
             Integrator::Normals(_) => "normals",
             Integrator::Photon(_) => "photon",
@@ -114,6 +119,7 @@ impl Integrator {
             Integrator::Ptracer(p) => camera_pass(ctx, pass, film, |s| p.li(scene, ctx.camera, s)),
             Integrator::Normals(n) => camera_pass(ctx, pass, film, |s| n.li(scene, s.ray, s.counts)),
             Integrator::Photon(p) => p.render_pass(ctx, pass, film),
+            Integrator::Guided(g) => g.render_pass(ctx, pass, film),
             Integrator::Sppm(p) => p.render_pass(ctx, pass, film),
             Integrator::Rdr171(c) => c.render(ctx, film),
         }
@@ -124,6 +130,7 @@ impl Integrator {
         match self {
             Integrator::Photon(p) => p.summary(film),
             Integrator::Sppm(p) => p.summary(film),
+            Integrator::Guided(g) => g.summary(film),
             _ => None,
         }
     }

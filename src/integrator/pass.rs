@@ -65,6 +65,8 @@ pub struct PassContext<'a> {
     /// density (the texture footprint) without depending on the render's length.
     pub target_spp: u32,
     pub seed: u32,
+    /// `--time-limit` in seconds (the render loop enforces it; `guided` plans by it).
+    pub time_limit: Option<f64>,
     pub stop: &'a StopToken,
     /// Called with the number of samples finished since the last call.
     pub progress: &'a (dyn Fn(u64) + Sync),

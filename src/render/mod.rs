@@ -101,6 +101,7 @@ pub fn render_from(scene: &Scene, job: &RenderJob, control: &RenderControl, star
         spp: job.spp,
         target_spp: job.target_spp,
         seed: job.seed,
+        time_limit: job.time_limit,
         stop: &control.stop,
         progress: &report,
     };

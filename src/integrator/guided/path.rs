@@ -1,0 +1,291 @@
+//! The guided path tracer's samples: the `path` integrator's MIS estimator with
+//! directions drawn from a mixture of the BSDF and the learned distribution at
+//! non-specular vertices, and the radiance each such vertex receives recorded
+//! for the next iteration's distribution.
+
+use super::quadtree::DTree;
+use super::sdtree::SdTree;
+use crate::geometry::{Ray, RayDifferential};
+use crate::integrator::{shadow_ray, spawn_ray, RayCounts};
+use crate::material::{Bsdf, BsdfSample};
+use crate::math::{Vec2, Vec3};
+use crate::sampler::PixelSampler;
+use crate::sampling::power_heuristic;
+use crate::scene::Scene;
+
+/// Segment from which Russian roulette may end paths (as `path`).
+const RR_DEPTH: u32 = 5;
+
+/// Sampling at a vertex: the BSDF alone (`guide` None, or a specular BSDF), or
+/// with probability `bsdf_fraction` the BSDF and otherwise the learned tree.
+#[derive(Clone, Copy, Debug)]
+pub struct Mixture<'a> {
+    pub guide: Option<&'a DTree>,
+    pub bsdf_fraction: f32,
+}
+
+impl Mixture<'_> {
+    /// Solid-angle density of sampling `wi` (what MIS weighs against light sampling).
+    #[inline]
+    pub fn pdf(&self, bsdf: &Bsdf, wo: Vec3, wi: Vec3) -> f32 {
+        let pb = bsdf.pdf(wo, wi);
+        match self.guide {
+            Some(g) if !bsdf.is_delta() => self.bsdf_fraction * pb + (1.0 - self.bsdf_fraction) * g.pdf(wi),
+            _ => pb,
+        }
+    }
+
+    /// A direction with weight f·|cos|/pdf and the mixture's density; `u_choice`
+    /// picks the strategy, `u` and `uc` drive it as in [`Bsdf::sample`].
+    pub fn sample(&self, bsdf: &Bsdf, wo: Vec3, u_choice: f32, u: Vec2, uc: f32) -> Option<BsdfSample> {
+        let guide = match self.guide {
+            Some(g) if !bsdf.is_delta() => g,
+            _ => return bsdf.sample(wo, u, uc),
+        };
+        let a = self.bsdf_fraction;
+        if u_choice < a {
+            let bs = bsdf.sample(wo, u, uc)?;
+            let pdf = a * bs.pdf + (1.0 - a) * guide.pdf(bs.wi);
+            Some(BsdfSample {
+                weight: bs.weight * (bs.pdf / pdf),
+                pdf,
+                ..bs
+            })
+        } else {
+            let (wi, _) = guide.sample(u)?;
+            // the density evaluated as MIS evaluates it (the map's round trip may
+            // move a point on a cell's edge to its neighbour)
+            let pdf = self.pdf(bsdf, wo, wi);
+            if pdf <= 0.0 || !pdf.is_finite() {
+                return None;
+            }
+            let cos = bsdf.frame.n.dot(wi).abs();
+            Some(BsdfSample {
+                wi,
+                weight: bsdf.eval(wo, wi) * (cos / pdf),
+                pdf,
+                delta: false,
+                eta: 1.0,
+            })
+        }
+    }
+}
+
+/// Radiance arriving at a spatial leaf from a directional cell of its recording
+/// tree, divided by the density it was sampled with (an estimate of the cell's
+/// integral of incident radiance). `counted` marks the vertex's own sampled
+/// direction (one per vertex, for the spatial split); light samples are not.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Record {
+    pub leaf: u32,
+    pub cell: u32,
+    pub value: f32,
+    pub counted: bool,
+}
+
+/// A non-specular vertex of the current path waiting for the radiance that
+/// arrives along its sampled direction.
+#[derive(Clone, Copy, Debug)]
+pub struct Vertex {
+    leaf: u32,
+    cell: u32,
+    pdf: f32,
+    /// Throughput from the camera up to and including this vertex's scattering
+    /// (before roulette): a later contribution C arrived here as C / beta.
+    beta: Vec3,
+    radiance: Vec3,
+}
+
+/// Per-thread buffers: the records of a tile, and the current path's vertices.
+#[derive(Debug, Default)]
+pub struct Scratch {
+    pub records: Vec<Record>,
+    verts: Vec<Vertex>,
+}
+
+/// What the sampler needs besides the scene.
+pub struct Guiding<'a> {
+    pub tree: &'a SdTree,
+    pub bsdf_fraction: f32,
+    /// Record what paths find (training iterations).
+    pub record: bool,
+    pub max_depth: u32,
+    /// Record direct light too (what light sampling finds, and emitters hit
+    /// straight from a vertex); otherwise a vertex learns only the light that
+    /// reaches it by way of other surfaces or specular chains.
+    pub record_direct: bool,
+}
+
+/// How many of the waiting vertices receive emission found now: all, or all but
+/// the last when it sampled this direction itself and direct light is not recorded.
+#[inline]
+fn direct_skip(len: usize, after_delta: bool, record_direct: bool) -> usize {
+    if record_direct || after_delta {
+        len
+    } else {
+        len.saturating_sub(1)
+    }
+}
+
+/// Adds contribution `c` to the estimate and to the radiance of every waiting vertex.
+#[inline]
+fn add(l: &mut Vec3, verts: &mut [Vertex], c: Vec3) {
+    *l += c;
+    for v in verts {
+        let d = Vec3::new(
+            if v.beta.x > 0.0 { c.x / v.beta.x } else { 0.0 },
+            if v.beta.y > 0.0 { c.y / v.beta.y } else { 0.0 },
+            if v.beta.z > 0.0 { c.z / v.beta.z } else { 0.0 },
+        );
+        v.radiance += d;
+    }
+}
+
+#[inline]
+fn mean(v: Vec3) -> f32 {
+    (v.x + v.y + v.z) * (1.0 / 3.0)
+}
+
+impl Guiding<'_> {
+    /// Radiance along a camera ray; records go to `scratch.records`.
+    pub fn li(
+        &self,
+        scene: &Scene,
+        mut ray: Ray,
+        diff: Option<RayDifferential>,
+        sampler: &mut PixelSampler,
+        counts: &mut RayCounts,
+        scratch: &mut Scratch,
+    ) -> Vec3 {
+        let Scratch { records, verts } = scratch;
+        verts.clear();
+        let mode = scene.light_sampling;
+        let mut l = Vec3::ZERO;
+        let mut beta = Vec3::ONE;
+        let mut eta_scale = 1.0f32;
+        let (mut after_delta, mut mix_pdf, mut prev_p) = (true, 0.0f32, ray.o);
+        let mut segment = 1u32;
+        loop {
+            counts.rays += 1;
+            let Some(hit) = scene.intersect(&ray) else {
+                if let Some(env) = scene.environment {
+                    let le = scene.environment_radiance(ray.d);
+                    if le != Vec3::ZERO {
+                        let w = if after_delta {
+                            1.0
+                        } else {
+                            let pl = scene.light_sampler.pmf(env as usize) * scene.lights[env as usize].pdf(prev_p, ray.d, None, mode);
+                            power_heuristic(mix_pdf, pl)
+                        };
+                        let n = direct_skip(verts.len(), after_delta, self.record_direct);
+                        add(&mut l, &mut verts[..n], beta * le * w);
+                    }
+                }
+                break;
+            };
+            let mut it = scene.interaction(&ray, &hit);
+            if let (1, Some(d)) = (segment, &diff) {
+                it.compute_uv_derivatives(d);
+            }
+            if let Some((index, area)) = scene.area_light_of(&it) {
+                let le = area.emitted(it.ng, it.wo);
+                if le != Vec3::ZERO {
+                    let w = if after_delta {
+                        1.0
+                    } else {
+                        let pl = scene.light_sampler.pmf(index as usize)
+                            * scene.lights[index as usize].pdf(prev_p, ray.d, Some((it.p, it.ng)), mode);
+                        power_heuristic(mix_pdf, pl)
+                    };
+                    let n = direct_skip(verts.len(), after_delta, self.record_direct);
+                    add(&mut l, &mut verts[..n], beta * le * w);
+                }
+            }
+            if segment >= self.max_depth {
+                break;
+            }
+            let Some(material) = scene.material_of(&it) else { break };
+            let tc = it.tex_coord();
+            let bsdf = material.bsdf(it.ns, it.wo, |t| scene.textures[t as usize].eval(tc));
+            let delta = bsdf.is_delta();
+            let leaf = if delta { 0 } else { self.tree.leaf_of(it.p) };
+            let mixture = Mixture {
+                guide: if delta { None } else { self.tree.guide(leaf) },
+                bsdf_fraction: self.bsdf_fraction,
+            };
+
+            if !delta && !scene.lights.is_empty() {
+                let (index, pmf, _) = scene.light_sampler.sample(sampler.next_1d());
+                let light = &scene.lights[index];
+                if let Some(ls) = light.sample(it.p, Vec2::from(sampler.next_2d()), mode) {
+                    let f = bsdf.eval(it.wo, ls.wi);
+                    let cos = it.ns.dot(ls.wi).abs();
+                    if f != Vec3::ZERO && ls.pdf > 0.0 && ls.radiance != Vec3::ZERO && pmf > 0.0 {
+                        counts.rays += 1;
+                        if !scene.occluded(&shadow_ray(&it, &ls)) {
+                            let light_pdf = pmf * ls.pdf;
+                            let w = if ls.delta {
+                                1.0
+                            } else {
+                                power_heuristic(light_pdf, mixture.pdf(&bsdf, it.wo, ls.wi))
+                            };
+                            add(&mut l, verts, beta * f * ls.radiance * (cos * w / light_pdf));
+                            // a point light is no direction a guided sample can find
+                            if self.record && self.record_direct && !ls.delta {
+                                records.push(Record {
+                                    leaf,
+                                    cell: self.tree.record_cell(leaf, ls.wi),
+                                    value: mean(ls.radiance) * w / light_pdf,
+                                    counted: false,
+                                });
+                            }
+                        }
+                    }
+                }
+            }
+
+            let u_choice = sampler.next_1d();
+            let uc = sampler.next_1d();
+            let Some(bs) = mixture.sample(&bsdf, it.wo, u_choice, Vec2::from(sampler.next_2d()), uc) else {
+                break;
+            };
+            beta *= bs.weight;
+            eta_scale *= bs.eta * bs.eta;
+            if beta == Vec3::ZERO || !beta.is_finite() {
+                break;
+            }
+            if self.record && !bs.delta {
+                verts.push(Vertex {
+                    leaf,
+                    cell: self.tree.record_cell(leaf, bs.wi),
+                    pdf: bs.pdf,
+                    beta,
+                    radiance: Vec3::ZERO,
+                });
+            }
+            after_delta = bs.delta;
+            mix_pdf = bs.pdf;
+            prev_p = it.p;
+            if segment >= RR_DEPTH {
+                let q = (beta.max_element() * eta_scale).min(0.95);
+                if sampler.next_1d() >= q {
+                    break;
+                }
+                beta /= q;
+            }
+            ray = spawn_ray(&it, bs.wi);
+            segment += 1;
+        }
+        if self.record {
+            for v in verts.iter() {
+                records.push(Record {
+                    leaf: v.leaf,
+                    cell: v.cell,
+                    value: mean(v.radiance) / v.pdf,
+                    counted: true,
+                });
+            }
+        }
+        l
+    }
+}

@@ -1,0 +1,331 @@
+//! The directional part of the SD-tree: a quadtree over the unit square, which
+//! the cylindrical equal-area map ([`sphere_to_square`]) spreads over the sphere
+//! of directions, so a cell's area is its share of the 4π steradians.
+//!
+//! A node holds the energy of its four children (child `c` is the quadrant
+//! `x ≥ ½` for bit 0, `y ≥ ½` for bit 1) and their indices (0: a leaf). The
+//! density is piecewise constant: sampling descends by energy, and the density
+//! of a point on the square is the product of `4·share` along its path.
+
+use crate::math::{Vec2, Vec3, PI};
+
+/// Deepest level a cell may reach (2⁻²⁰ of the square's side).
+pub const MAX_DEPTH: u32 = 20;
+
+/// Direction ↔ square: `x = (cos θ + 1)/2`, `y = φ/2π` about world `z`. Area
+/// preserving: a region of area A on the square covers 4π·A steradians.
+#[inline]
+pub fn sphere_to_square(d: Vec3) -> Vec2 {
+    let x = ((d.z.clamp(-1.0, 1.0) + 1.0) * 0.5).min(ONE_BELOW);
+    let mut phi = d.y.atan2(d.x);
+    if phi < 0.0 {
+        phi += 2.0 * PI;
+    }
+    let y = (phi * (0.5 / PI)).clamp(0.0, ONE_BELOW);
+    Vec2::new(x, y)
+}
+
+/// The inverse of [`sphere_to_square`].
+#[inline]
+pub fn square_to_sphere(p: Vec2) -> Vec3 {
+    let cos = 2.0 * p.x - 1.0;
+    let sin = (1.0 - cos * cos).max(0.0).sqrt();
+    let (s, c) = (2.0 * PI * p.y).sin_cos();
+    Vec3::new(sin * c, sin * s, cos)
+}
+
+/// Largest f32 below 1.
+const ONE_BELOW: f32 = 1.0 - f32::EPSILON / 2.0;
+
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+struct Node {
+    energy: [f32; 4],
+    child: [u32; 4],
+}
+
+/// A directional quadtree: energies (recorded, or learned from recordings) and
+/// the density they define.
+#[derive(Clone, Debug, PartialEq)]
+pub struct DTree {
+    nodes: Vec<Node>,
+    /// Sum of the root's energies (0: nothing learned, the tree cannot sample).
+    total: f32,
+}
+
+impl Default for DTree {
+    fn default() -> Self {
+        DTree {
+            nodes: vec![Node::default()],
+            total: 0.0,
+        }
+    }
+}
+
+impl DTree {
+    /// A tree of `levels` full levels (4^levels leaves), energy 0.
+    pub fn uniform(levels: u32) -> DTree {
+        let mut t = DTree::default();
+        fn grow(t: &mut DTree, node: usize, levels: u32) {
+            if levels <= 1 {
+                return;
+            }
+            for c in 0..4 {
+                let i = t.nodes.len();
+                t.nodes.push(Node::default());
+                t.nodes[node].child[c] = i as u32;
+                grow(t, i, levels - 1);
+            }
+        }
+        grow(&mut t, 0, levels.clamp(1, MAX_DEPTH));
+        t
+    }
+
+    /// Whether the tree holds energy to sample from.
+    pub fn can_sample(&self) -> bool {
+        self.total > 0.0 && self.total.is_finite()
+    }
+
+    pub fn total(&self) -> f32 {
+        self.total
+    }
+
+    pub fn node_count(&self) -> usize {
+        self.nodes.len()
+    }
+
+    /// Leaf cells (4 per node, minus the ones that are nodes themselves).
+    pub fn leaf_count(&self) -> usize {
+        3 * self.nodes.len() + 1
+    }
+
+    pub fn bytes(&self) -> usize {
+        self.nodes.len() * std::mem::size_of::<Node>()
+    }
+
+    /// Depth of the deepest leaf cell (1: the root's four quadrants).
+    pub fn depth(&self) -> u32 {
+        fn d(t: &DTree, n: usize) -> u32 {
+            1 + t.nodes[n]
+                .child
+                .iter()
+                .filter(|c| **c != 0)
+                .map(|c| d(t, *c as usize))
+                .max()
+                .unwrap_or(0)
+        }
+        d(self, 0)
+    }
+
+    /// The leaf cell holding point `p` of the square, as `node·4 + child`.
+    #[inline]
+    pub fn cell_of(&self, p: Vec2) -> u32 {
+        let (mut x, mut y) = (p.x, p.y);
+        let mut n = 0usize;
+        loop {
+            let (bx, by) = (x >= 0.5, y >= 0.5);
+            let c = bx as usize | ((by as usize) << 1);
+            x = 2.0 * x - bx as u32 as f32;
+            y = 2.0 * y - by as u32 as f32;
+            let next = self.nodes[n].child[c];
+            if next == 0 {
+                return (n * 4 + c) as u32;
+            }
+            n = next as usize;
+        }
+    }
+
+    /// Adds recorded energy to a leaf cell from [`DTree::cell_of`].
+    #[inline]
+    pub fn deposit(&mut self, cell: u32, energy: f32) {
+        self.nodes[(cell / 4) as usize].energy[(cell % 4) as usize] += energy;
+    }
+
+    /// Makes the recorded leaf energies a distribution: inner energies become the
+    /// sums of their subtrees (in a fixed order), and the total is set.
+    pub fn finish_recording(&mut self) {
+        fn sum(t: &mut DTree, n: usize) -> f32 {
+            let mut s = 0.0f32;
+            for c in 0..4 {
+                let ch = t.nodes[n].child[c];
+                if ch != 0 {
+                    t.nodes[n].energy[c] = sum(t, ch as usize);
+                }
+                s += t.nodes[n].energy[c];
+            }
+            s
+        }
+        let total = sum(self, 0);
+        self.total = if total.is_finite() { total } else { 0.0 };
+    }
+
+    /// Density on the unit square at `p` (integrates to 1 over it; 0 when the
+    /// tree cannot sample).
+    pub fn pdf_square(&self, p: Vec2) -> f32 {
+        if !self.can_sample() {
+            return 0.0;
+        }
+        let (mut x, mut y) = (p.x, p.y);
+        let mut n = 0usize;
+        let mut pdf = 1.0f32;
+        loop {
+            let node = &self.nodes[n];
+            let sum = node.energy[0] + node.energy[1] + node.energy[2] + node.energy[3];
+            if sum <= 0.0 {
+                return 0.0;
+            }
+            let (bx, by) = (x >= 0.5, y >= 0.5);
+            let c = bx as usize | ((by as usize) << 1);
+            pdf *= 4.0 * node.energy[c] / sum;
+            if pdf == 0.0 {
+                return 0.0;
+            }
+            x = 2.0 * x - bx as u32 as f32;
+            y = 2.0 * y - by as u32 as f32;
+            if node.child[c] == 0 {
+                return pdf;
+            }
+            n = node.child[c] as usize;
+        }
+    }
+
+    /// Solid-angle density of direction `d`.
+    #[inline]
+    pub fn pdf(&self, d: Vec3) -> f32 {
+        self.pdf_square(sphere_to_square(d)) * (0.25 / PI)
+    }
+
+    /// A point of the square drawn from the tree's density by `u`, with that
+    /// density (`None` when the tree cannot sample).
+    pub fn sample_square(&self, u: Vec2) -> Option<(Vec2, f32)> {
+        if !self.can_sample() {
+            return None;
+        }
+        let (mut ux, mut uy) = (u.x, u.y);
+        let (mut origin, mut size) = (Vec2::ZERO, 1.0f32);
+        let mut n = 0usize;
+        let mut pdf = 1.0f32;
+        loop {
+            let node = &self.nodes[n];
+            let e = node.energy;
+            let sum = e[0] + e[1] + e[2] + e[3];
+            if sum <= 0.0 {
+                return None;
+            }
+            // left or right half by the columns' energies, then bottom or top within it
+            let p_left = (e[0] + e[2]) / sum;
+            let bx = pick(&mut ux, p_left);
+            let (lo, hi) = if bx { (e[1], e[3]) } else { (e[0], e[2]) };
+            let by = pick(&mut uy, lo / (lo + hi));
+            let c = bx as usize | ((by as usize) << 1);
+            if e[c] <= 0.0 {
+                return None; // only by rounding at a share's edge
+            }
+            pdf *= 4.0 * e[c] / sum;
+            size *= 0.5;
+            origin += Vec2::new(bx as u32 as f32, by as u32 as f32) * size;
+            if node.child[c] == 0 {
+                // inside the cell also after rounding (its density is the one returned)
+                let below = |x: f32| f32::from_bits(x.to_bits() - 1);
+                let p = origin + Vec2::new(ux, uy) * size;
+                let p = Vec2::new(p.x.min(below(origin.x + size)), p.y.min(below(origin.y + size)));
+                return Some((p, pdf));
+            }
+            n = node.child[c] as usize;
+        }
+    }
+
+    /// A direction drawn from the tree, with its solid-angle density.
+    pub fn sample(&self, u: Vec2) -> Option<(Vec3, f32)> {
+        let (p, pdf) = self.sample_square(u)?;
+        Some((square_to_sphere(p), pdf * (0.25 / PI)))
+    }
+
+    /// The structure the next iteration records into, energies 0: a cell is split
+    /// while its share of this tree's energy exceeds `rho` (a leaf's energy spread
+    /// evenly over its quadrants), and subtrees whose share is at most `rho` are
+    /// merged into one cell. A tree without energy keeps its structure.
+    pub fn refined(&self, rho: f32) -> DTree {
+        let mut out = DTree::default();
+        if !self.can_sample() {
+            out.nodes = self.nodes.clone();
+            for n in &mut out.nodes {
+                n.energy = [0.0; 4];
+            }
+            return out;
+        }
+        let total = self.total;
+        // (node in out, node in self or None with the energy of its cell, depth)
+        let mut stack = vec![(0usize, Some(0usize), total, 1u32)];
+        while let Some((dst, src, energy, depth)) = stack.pop() {
+            for c in 0..4 {
+                let (child_energy, child_src) = match src {
+                    Some(s) => {
+                        let ch = self.nodes[s].child[c];
+                        (self.nodes[s].energy[c], (ch != 0).then_some(ch as usize))
+                    }
+                    None => (energy * 0.25, None),
+                };
+                if depth < MAX_DEPTH && child_energy / total > rho {
+                    let i = out.nodes.len();
+                    out.nodes.push(Node::default());
+                    out.nodes[dst].child[c] = i as u32;
+                    stack.push((i, child_src, child_energy, depth + 1));
+                }
+            }
+        }
+        out
+    }
+
+    /// [`DTree::refined`] of an even distribution: the first structure.
+    pub fn initial(rho: f32) -> DTree {
+        let mut t = DTree::uniform(1);
+        t.nodes[0].energy = [1.0; 4];
+        t.total = 4.0;
+        t.refined(rho)
+    }
+}
+
+/// Chooses the lower part (false) with probability `p` and rescales `u` to [0, 1).
+#[inline]
+fn pick(u: &mut f32, p: f32) -> bool {
+    if *u < p {
+        *u = (*u / p).min(ONE_BELOW);
+        false
+    } else {
+        *u = ((*u - p) / (1.0 - p)).clamp(0.0, ONE_BELOW);
+        true
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn map_round_trips() {
+        for i in 0..50 {
+            for j in 0..50 {
+                let p = Vec2::new((i as f32 + 0.5) / 50.0, (j as f32 + 0.5) / 50.0);
+                let q = sphere_to_square(square_to_sphere(p));
+                assert!((p - q).abs().max_element() < 1e-5, "{p} {q}");
+            }
+        }
+    }
+
+    #[test]
+    fn refinement_splits_by_share() {
+        let t = DTree::initial(0.01);
+        // 1/4^3 = 0.0156 > 0.01 is split once more, 1/4^4 is not: 4 full levels
+        assert_eq!(t.depth(), 4);
+        assert_eq!(t.leaf_count(), 256);
+        let mut t = t;
+        let cell = t.cell_of(Vec2::new(0.01, 0.01));
+        t.deposit(cell, 1.0);
+        t.finish_recording();
+        let r = t.refined(0.01);
+        // all energy in one level-4 cell: the chain down to it (4 nodes), then the cell's
+        // energy spread evenly, shares 1, 1/4, 1/16, 1/64 split (1 + 4 + 16 + 64 nodes)
+        assert_eq!(r.depth(), 8);
+        assert_eq!(r.node_count(), 4 + 1 + 4 + 16 + 64);
+    }
+}

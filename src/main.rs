@@ -26,6 +26,13 @@ struct Cli {
     max_memory: Option<u64>,
 }
 
+fn parse_define(s: &str) -> Result<(String, String), String> {
+    match s.split_once('=') {
+        Some((k, v)) if !k.is_empty() && k.chars().all(|c| c.is_alphanumeric() || c == '_') => Ok((k.to_string(), v.to_string())),
+        _ => Err(format!("expected NAME=VALUE (a name of letters, digits and _), found '{s}'")),
+    }
+}
+
 fn parse_size(s: &str) -> Result<u64, String> {
     rdr::limits::parse_bytes(s)
 }
@@ -67,11 +74,14 @@ enum Compat {
 
 #[derive(clap::Args)]
 struct SceneArgs {
-    /// Scene file (RDR171 JSON).
+    /// Scene file (RDR171 JSON, or Mitsuba XML when it ends in .xml).
     scene: PathBuf,
     /// JSON object merged into the scene before it is read; may be repeated.
     #[arg(long = "override", value_name = "JSON")]
     overrides: Vec<String>,
+    /// Mitsuba XML scenes: sets the parameter `$NAME` (as Mitsuba's -D); may be repeated.
+    #[arg(short = 'D', long = "define", value_name = "NAME=VALUE", value_parser = parse_define)]
+    defines: Vec<(String, String)>,
     /// Emulate another renderer's conventions.
     #[arg(long, value_enum)]
     compat: Option<Compat>,
@@ -256,7 +266,7 @@ fn setup_threads(threads: Option<usize>) -> Result<()> {
 /// Loads the scene and the job it describes, with the command line's `--spp` and
 /// `--seed` applied.
 fn load(args: &SceneArgs, quiet: bool) -> Result<Loaded> {
-    let mut loaded = rdr::load(&args.scene, &args.overrides, profile(args)).map_err(anyhow::Error::msg)?;
+    let mut loaded = rdr::load_with_defines(&args.scene, &args.overrides, &args.defines, profile(args)).map_err(anyhow::Error::msg)?;
     if !quiet {
         for w in &loaded.scene.warnings {
             note!("warning: {}", sanitize(w));

@@ -5,7 +5,7 @@
 
 pub mod job;
 
-pub use job::{load, Loaded, RenderJob};
+pub use job::{load, load_with_defines, Loaded, RenderJob};
 
 use crate::film::Film;
 use crate::integrator::{PassContext, StopToken};

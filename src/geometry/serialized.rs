@@ -32,6 +32,7 @@ const BYTES_PER_VERTEX: u64 = 64;
 const BYTES_PER_TRIANGLE: u64 = 160;
 
 /// A decoded mesh and its flags.
+#[derive(Debug)]
 pub struct SerializedMesh {
     pub data: ObjData,
     pub name: String,
@@ -82,7 +83,7 @@ pub fn parse(bytes: &[u8], index: u32) -> Result<SerializedMesh> {
     } else {
         table as u64
     };
-    if !(start + 4 <= end && end <= table as u64) {
+    if !(start.checked_add(4).is_some_and(|s| s <= end) && end <= table as u64) {
         bail!("mesh {index}'s offsets {start}..{end} lie outside the file (truncated?)");
     }
     let (start, end) = (start as usize, end as usize);

@@ -163,8 +163,17 @@ fn read_file(
     let bytes = crate::limits::read_input_file(file, crate::limits::max_input_file())
         .map_err(|e| fail(format!("cannot read '{}': {e}", file.display())))?;
     let text = String::from_utf8(bytes).map_err(|_| fail(format!("'{}' is not valid UTF-8", file.display())))?;
+    read_text(&text, file, params, stack, outer)
+}
+
+/// Reads scene text as if it were the file `file` (whose folder anchors includes).
+pub fn read_str(text: &str, file: &Path, params: &mut Params) -> Result<Element> {
+    read_text(text, file, params, &mut Vec::new(), &Rc::new(Vec::new()))
+}
+
+fn read_text(text: &str, file: &Path, params: &mut Params, stack: &mut Vec<PathBuf>, outer: &Rc<Vec<PathBuf>>) -> Result<Element> {
     let doc = roxmltree::Document::parse_with_options(
-        &text,
+        text,
         roxmltree::ParsingOptions {
             allow_dtd: false,
             nodes_limit: 4_000_000,
@@ -180,7 +189,7 @@ fn read_file(
     })?;
     let root = doc.root_element();
     let at = |n: roxmltree::Node| {
-        let (l, c) = line_column(&text, n.range().start);
+        let (l, c) = line_column(text, n.range().start);
         position(file, l, c)
     };
     let version = root.attribute("version").ok_or_else(|| {
@@ -208,7 +217,7 @@ fn read_file(
     folders.retain(|d| *d != dir);
     folders.push(dir);
     let mut ctx = Reader {
-        text: &text,
+        text,
         file,
         legacy,
         search: Rc::new(folders),

@@ -763,7 +763,7 @@ impl<'a> Reader<'a> {
                 let mut eta = p.rgb("eta", Vec3::ZERO)?;
                 let mut k = p.rgb("k", Vec3::ONE)?;
                 if let Some(ext) = p.float_opt("ext_eta")? {
-                    if !(ext > 0.0) {
+                    if ext.is_nan() || ext <= 0.0 {
                         return Err(p.value_error("ext_eta", "must be positive"));
                     }
                     // Mitsuba 3 has no ext_eta: η and k are relative to the outside
@@ -918,7 +918,7 @@ impl<'a> Reader<'a> {
                 p.ignore(k);
             }
             let s = p.float("scale", 1.0)?;
-            if !(s >= 0.0) {
+            if s.is_nan() || s < 0.0 {
                 return Err(p.value_error("scale", "must not be negative"));
             }
             (name, s)

@@ -134,7 +134,7 @@ pub fn look_at(origin: Vec3, target: Vec3, up: Vec3) -> Result<Mat4, String> {
         up
     };
     let left = up.normalize().cross(dir);
-    if !(left.length_squared() > 1e-12) {
+    if left.length_squared().is_nan() || left.length_squared() <= 1e-12 {
         return Err("invalid lookat transformation (up is parallel to the viewing direction)".into());
     }
     let left = left.normalize();

@@ -490,3 +490,236 @@ fn structure_defaults_defines_includes_paths_refs_and_aliases() {
         format!("{:?}", rdr::film::Filter::gaussian(2.0, 2.0))
     );
 }
+
+/// A small bumpy grid: (positions, normals, uvs, triangles).
+fn grid() -> (Vec<[f32; 3]>, Vec<[f32; 3]>, Vec<[f32; 2]>, Vec<[u32; 3]>) {
+    let (mut p, mut n, mut uv, mut t) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    for j in 0..4 {
+        for i in 0..4 {
+            let (x, y) = (i as f32 / 3.0, j as f32 / 3.0);
+            p.push([x, y, 0.1 * ((3 * i + 5 * j) % 7) as f32]);
+            let nn = rdr::math::Vec3::new(0.1 * i as f32, -0.2, 1.0).normalize();
+            n.push(nn.to_array());
+            uv.push([x, y * 0.5]);
+        }
+    }
+    for j in 0..3u32 {
+        for i in 0..3u32 {
+            let a = 4 * j + i;
+            t.push([a, a + 1, a + 5]);
+            t.push([a, a + 5, a + 4]);
+        }
+    }
+    (p, n, uv, t)
+}
+
+fn obj_text(normals: bool, uvs: bool) -> String {
+    let (p, n, uv, t) = grid();
+    let mut s = String::new();
+    for v in &p {
+        s += &format!("v {} {} {}\n", v[0], v[1], v[2]);
+    }
+    if normals {
+        for v in &n {
+            s += &format!("vn {} {} {}\n", v[0], v[1], v[2]);
+        }
+    }
+    if uvs {
+        for v in &uv {
+            s += &format!("vt {} {}\n", v[0], v[1]);
+        }
+    }
+    for f in &t {
+        let c = |i: u32| match (uvs, normals) {
+            (false, false) => format!("{}", i + 1),
+            (true, false) => format!("{0}/{0}", i + 1),
+            (false, true) => format!("{0}//{0}", i + 1),
+            (true, true) => format!("{0}/{0}/{0}", i + 1),
+        };
+        s += &format!("f {} {} {}\n", c(f[0]), c(f[1]), c(f[2]));
+    }
+    s
+}
+
+/// The grid as PLY: `format` ascii, binary_little_endian or binary_big_endian.
+fn ply_bytes(format: &str, normals: bool, uvs: bool) -> Vec<u8> {
+    let (p, n, uv, t) = grid();
+    let mut h = format!(
+        "ply\nformat {format} 1.0\ncomment made by rdr's tests\nelement vertex {}\nproperty float x\nproperty float y\nproperty float z\n",
+        p.len()
+    );
+    if normals {
+        h += "property float nx\nproperty float ny\nproperty float nz\n";
+    }
+    if uvs {
+        h += "property float u\nproperty float v\n";
+    }
+    h += &format!("element face {}\nproperty list uchar int vertex_indices\nend_header\n", t.len());
+    let mut out = h.into_bytes();
+    let big = format == "binary_big_endian";
+    let mut put = |out: &mut Vec<u8>, x: f32| {
+        if format == "ascii" {
+            out.extend_from_slice(format!("{x} ").as_bytes());
+        } else if big {
+            out.extend_from_slice(&x.to_be_bytes());
+        } else {
+            out.extend_from_slice(&x.to_le_bytes());
+        }
+    };
+    for i in 0..p.len() {
+        let mut vals: Vec<f32> = p[i].to_vec();
+        if normals {
+            vals.extend(n[i]);
+        }
+        if uvs {
+            vals.extend(uv[i]);
+        }
+        for v in vals {
+            put(&mut out, v);
+        }
+        if format == "ascii" {
+            out.push(b'\n');
+        }
+    }
+    for f in &t {
+        if format == "ascii" {
+            out.extend_from_slice(format!("3 {} {} {}\n", f[0], f[1], f[2]).as_bytes());
+        } else {
+            out.push(3);
+            for i in f {
+                out.extend_from_slice(&if big {
+                    (*i as i32).to_be_bytes()
+                } else {
+                    (*i as i32).to_le_bytes()
+                });
+            }
+        }
+    }
+    out
+}
+
+/// A one-shape scene of `shape` (its inner XML given) in `dir`.
+fn mesh_scene(dir: &Path, name: &str, shape: &str) -> PathBuf {
+    let p = dir.join(format!("{name}.xml"));
+    std::fs::write(&p, scene(&format!("  <shape {shape}</shape>"))).unwrap();
+    p
+}
+
+/// Triangles of the one object of a scene, with their uvs.
+fn mesh_of(path: &Path) -> Result<(Vec<[f32; 18]>, Vec<[f32; 6]>), String> {
+    let loaded = rdr::load_with_defines(path, &[], &[], Profile::Physical).map_err(|e| e.to_string())?;
+    let tris = objects(&loaded.scene).remove(0).0;
+    let rdr::scene::Shape::Mesh(m) = &loaded.scene.objects[0].shape else {
+        panic!()
+    };
+    let uvs = m
+        .triangles
+        .iter()
+        .map(|t| {
+            let mut a = [0.0; 6];
+            if let Some(uv) = t.uv {
+                for c in 0..3 {
+                    a[2 * c..2 * c + 2].copy_from_slice(&m.uvs[uv[c] as usize].to_array());
+                }
+            }
+            a
+        })
+        .collect();
+    Ok((tris, uvs))
+}
+
+#[test]
+fn ply_and_serialized_meshes_give_the_triangles_of_the_same_obj() {
+    let dir = temp_dir("rdr-xml-meshes");
+    let d = dir.path();
+    for (normals, uvs) in [(false, false), (true, false), (false, true), (true, true)] {
+        let tag = format!("n{}uv{}", normals as u8, uvs as u8);
+        std::fs::write(d.join(format!("{tag}.obj")), obj_text(normals, uvs)).unwrap();
+        let obj = mesh_of(&mesh_scene(
+            d,
+            &format!("{tag}_obj"),
+            &format!(r#"type="obj"><string name="filename" value="{tag}.obj"/>"#),
+        ))
+        .unwrap();
+        assert_eq!(obj.0.len(), 18);
+        for format in ["ascii", "binary_little_endian", "binary_big_endian"] {
+            let file = format!("{tag}_{format}.ply");
+            std::fs::write(d.join(&file), ply_bytes(format, normals, uvs)).unwrap();
+            // flip_tex_coords as the OBJ reader does by default
+            let shape = format!(r#"type="ply"><string name="filename" value="{file}"/><boolean name="flip_tex_coords" value="true"/>"#);
+            let ply = mesh_of(&mesh_scene(d, &format!("{tag}_{format}"), &shape)).unwrap();
+            assert!(same_triangles(&ply.0, &obj.0), "{file}: other triangles or normals than the OBJ");
+            assert_eq!(ply.1, obj.1, "{file}: other texture coordinates than the OBJ");
+        }
+    }
+    // face_normals drops the file's normals: flat like the OBJ without them
+    let flat = mesh_of(&mesh_scene(
+        d,
+        "flat",
+        r#"type="obj"><string name="filename" value="n1uv0.obj"/><boolean name="face_normals" value="true"/>"#,
+    ))
+    .unwrap();
+    let flat_ply = mesh_of(&mesh_scene(
+        d,
+        "flat_ply",
+        r#"type="ply"><string name="filename" value="n1uv0_ascii.ply"/><boolean name="face_normals" value="true"/>"#,
+    ))
+    .unwrap();
+    assert!(same_triangles(&flat.0, &flat_ply.0));
+    let smooth = mesh_of(&mesh_scene(
+        d,
+        "smooth",
+        r#"type="obj"><string name="filename" value="n0uv0.obj"/>"#,
+    ))
+    .unwrap();
+    assert!(
+        !same_triangles(&flat.0, &smooth.0),
+        "without face_normals a mesh without normals is smoothed"
+    );
+
+    // serialized, by rdr's own encoder: mesh 1 of 2
+    let obj = rdr::geometry::obj::parse(&obj_text(true, true)).unwrap();
+    let other = rdr::geometry::obj::parse("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
+    let bytes = rdr::geometry::serialized::write(&[("other", &other), ("grid", &obj)]);
+    std::fs::write(d.join("grid.serialized"), &bytes).unwrap();
+    let shape = r#"type="serialized"><string name="filename" value="grid.serialized"/><integer name="shape_index" value="1"/>"#;
+    let ser = mesh_of(&mesh_scene(d, "ser", shape)).unwrap();
+    let reference = mesh_of(&mesh_scene(
+        d,
+        "ref",
+        r#"type="ply"><string name="filename" value="n1uv1_ascii.ply"/>"#,
+    ))
+    .unwrap();
+    // both keep Mitsuba's v, which rdr turns around
+    assert!(same_triangles(&ser.0, &reference.0));
+    assert_eq!(ser.1, reference.1);
+
+    // broken files: one line naming the shape's line and column and the file
+    std::fs::write(d.join("short.ply"), &ply_bytes("binary_little_endian", true, true)[..400]).unwrap();
+    let mut lying = ply_bytes("ascii", false, false);
+    let text = String::from_utf8(lying.clone())
+        .unwrap()
+        .replace("element vertex 16", "element vertex 1600000");
+    lying = text.into_bytes();
+    std::fs::write(d.join("lying.ply"), lying).unwrap();
+    std::fs::write(d.join("headless.ply"), b"ply\nformat ascii 1.0\nelement vertex 3\n").unwrap();
+    std::fs::write(d.join("cut.serialized"), &bytes[..bytes.len() * 2 / 3]).unwrap();
+    for (file, kind, words) in [
+        ("short.ply", "ply", "more than the 113 bytes of the body"),
+        ("lying.ply", "ply", "claims 1600000 records"),
+        ("headless.ply", "ply", "end_header"),
+        ("cut.serialized", "serialized", "truncated"),
+    ] {
+        let p = mesh_scene(
+            d,
+            &format!("bad_{file}"),
+            &format!(r#"type="{kind}"><string name="filename" value="{file}"/>"#),
+        );
+        let e = mesh_of(&p).unwrap_err();
+        eprintln!("{e}");
+        assert!(
+            !e.contains('\n') && e.contains("line 6, column 3") && e.contains(file) && e.contains(words),
+            "{e}"
+        );
+    }
+}

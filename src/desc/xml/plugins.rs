@@ -8,7 +8,7 @@
 //! | `<film>` | `hdrfilm`: `width` 768, `height` 576, `rfilter` (default `gaussian`); `pixel_format`, `component_format`, `file_format`, `banner` noted. |
 //! | `<rfilter>` | `box` (`radius` 0.5), `tent` (`radius` 1), `gaussian` (`stddev` 0.5, radius 4·stddev), `mitchell` (`B`, `C` 1/3, radius 2) |
 //! | `<sampler>` | any type: `sample_count` (4) → spp; the type is noted, rdr uses its own sampler. |
-//! | `<shape>` | `obj`, `ply` (`filename`, `face_normals` false: else smooth vertex normals when the file has none; `flip_normals`; `flip_tex_coords`, true for OBJ), `serialized` (`filename`, `shape_index` 0), `rectangle`, `cube`, `disk` (generated meshes), `sphere` (`center` 0, `radius` 1); all take `to_world`, one `<bsdf>` and one `area` `<emitter>`. A shape with neither gets Mitsuba's default, a diffuse 0.5. |
+//! | `<shape>` | `obj`, `ply` (`filename`, `face_normals` false: else smooth vertex normals when the file has none; `flip_normals`; `flip_tex_coords`, true for OBJ, false for PLY), `serialized` (`filename`, `shape_index` 0), `rectangle`, `cube`, `disk` (generated meshes), `sphere` (`center` 0, `radius` 1); all take `to_world`, one `<bsdf>` and one `area` `<emitter>`. A shape with neither gets Mitsuba's default, a diffuse 0.5. |
 //! | `<bsdf>` | `diffuse` (`reflectance` 0.5, a colour or texture), `dielectric` (`int_ior` "bk7", `ext_ior` "air": numbers or names; `specular_reflectance`, `specular_transmittance` 1), `roughconductor` (`alpha` 0.1 or `alpha_u`+`alpha_v`, `distribution` beckmann \| ggx, `eta` 0 / `k` 1 (a perfect mirror), `specular_reflectance` 1; the 0.6 `ext_eta` folded into η and k), `twosided` (around one `diffuse`: rdr's two-sided diffuse; around others: the inner material, one-sided). |
 //! | `<emitter>` | `area` (in a shape: `radiance` 1), `point` (`position` or `to_world`; `intensity` I (1) → flux 4πI), `constant` (`radiance` 1), `envmap` (`filename`, `scale` 1, `to_world`) |
 //! | `<texture>` | `bitmap` (`filename`, `to_uv`; `filter_type`, `wrap_mode`, `raw` noted), `checkerboard` (`color0` 0.4, `color1` 0.2, `to_uv`); the 0.6 `uoffset`, `voffset`, `uscale`, `vscale` become `to_uv` |
@@ -548,7 +548,8 @@ impl<'a> Reader<'a> {
             }
             "ply" => {
                 let path = self.file(el, &p, "filename")?;
-                let flip = p.boolean("flip_tex_coords", false)?;
+                // Mitsuba's PLY reader keeps v as it is (v = 0 is an image's top row)
+                let flip = !p.boolean("flip_tex_coords", false)?;
                 mesh(MeshFormat::Ply, path, flip, normals(&p)?)
             }
             "serialized" => {
@@ -556,7 +557,7 @@ impl<'a> Reader<'a> {
                 let index = p.integer_in("shape_index", 0, 0, u32::MAX as i64)? as u32;
                 let n = normals(&p)?;
                 p.ignore("max_smooth_angle");
-                mesh(MeshFormat::Serialized { shape_index: index }, path, false, n)
+                mesh(MeshFormat::Serialized { shape_index: index }, path, true, n)
             }
             "rectangle" => mesh(MeshFormat::Rectangle, none, false, MeshNormals::AsInFile),
             "cube" => mesh(MeshFormat::Cube, none, false, MeshNormals::AsInFile),

@@ -114,6 +114,24 @@ enum Command {
         #[arg(long, value_name = "SECONDS")]
         time_limit: Option<f64>,
     },
+    /// Convert a scene between RDR171 JSON and Mitsuba 3 XML (by the extensions; meshes
+    /// JSON cannot name as they are are written as OBJ files beside the output).
+    Convert {
+        /// Scene to read (.json or .xml).
+        input: PathBuf,
+        /// Scene to write (.json or .xml).
+        #[arg(short, long)]
+        output: PathBuf,
+        /// JSON object merged into a JSON input before it is read; may be repeated.
+        #[arg(long = "override", value_name = "JSON")]
+        overrides: Vec<String>,
+        /// Parameter `$NAME` of an XML input; may be repeated.
+        #[arg(short = 'D', long = "define", value_name = "NAME=VALUE", value_parser = parse_define)]
+        defines: Vec<(String, String)>,
+        /// Print only errors.
+        #[arg(short, long)]
+        quiet: bool,
+    },
     /// Compare an image with a reference: mean RGB and relative MSE,
     /// mean((x − r)² / (r² + 0.01)), the metric of shared/refs/README.md.
     Compare {
@@ -184,6 +202,13 @@ fn main() -> ExitCode {
             reference,
             variance,
         } => compare(&image, &reference, variance.as_deref()),
+        Command::Convert {
+            input,
+            output,
+            overrides,
+            defines,
+            quiet,
+        } => convert(&input, &output, &overrides, &defines, quiet),
         Command::Bench {
             args,
             repeat,
@@ -412,6 +437,42 @@ fn bench_mesh(args: &SceneArgs, repeat: usize, isa: Option<&str>, rays: Vec<Stri
     };
     let report = rdr::bench::run(&args.scene, &opts)?;
     say(report.trim_end_matches('\n'))?;
+    Ok(ExitCode::SUCCESS)
+}
+
+/// `rdr convert IN -o OUT`: JSON ↔ Mitsuba XML.
+fn convert(input: &Path, output: &Path, overrides: &[String], defines: &[(String, String)], quiet: bool) -> Result<ExitCode> {
+    use rdr::desc::convert;
+    let xml_out = match output.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref() {
+        Some("xml") => true,
+        Some("json") => false,
+        _ => anyhow::bail!("{}: the output must end in .json or .xml", output.display()),
+    };
+    anyhow::ensure!(
+        !same_file(output, input),
+        "{}: refusing to write the conversion over its input",
+        output.display()
+    );
+    let desc = rdr::desc::SceneDesc::load_with_defines(input, overrides, defines).map_err(anyhow::Error::msg)?;
+    let c = if xml_out {
+        convert::to_xml(&desc, output)
+    } else {
+        convert::to_json(&desc, output)
+    }
+    .map_err(anyhow::Error::msg)?;
+    if !quiet {
+        for w in desc.warnings.iter().chain(&c.warnings) {
+            eprintln!("warning: {}", w.replace('\n', " "));
+        }
+    }
+    for (path, bytes) in &c.files {
+        if let Some(dir) = path.parent() {
+            std::fs::create_dir_all(dir).with_context(|| format!("{}: cannot create the folder", dir.display()))?;
+        }
+        std::fs::write(path, bytes).with_context(|| format!("{}: cannot write", path.display()))?;
+    }
+    std::fs::write(output, &c.text).with_context(|| format!("{}: cannot write", output.display()))?;
+    say(output.display())?;
     Ok(ExitCode::SUCCESS)
 }
 

@@ -492,7 +492,10 @@ fn structure_defaults_defines_includes_paths_refs_and_aliases() {
 }
 
 /// A small bumpy grid: (positions, normals, uvs, triangles).
-fn grid() -> (Vec<[f32; 3]>, Vec<[f32; 3]>, Vec<[f32; 2]>, Vec<[u32; 3]>) {
+/// Positions, normals, uvs, triangles.
+type Grid = (Vec<[f32; 3]>, Vec<[f32; 3]>, Vec<[f32; 2]>, Vec<[u32; 3]>);
+
+fn grid() -> Grid {
     let (mut p, mut n, mut uv, mut t) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
     for j in 0..4 {
         for i in 0..4 {
@@ -557,7 +560,7 @@ fn ply_bytes(format: &str, normals: bool, uvs: bool) -> Vec<u8> {
     h += &format!("element face {}\nproperty list uchar int vertex_indices\nend_header\n", t.len());
     let mut out = h.into_bytes();
     let big = format == "binary_big_endian";
-    let mut put = |out: &mut Vec<u8>, x: f32| {
+    let put = |out: &mut Vec<u8>, x: f32| {
         if format == "ascii" {
             out.extend_from_slice(format!("{x} ").as_bytes());
         } else if big {
@@ -606,7 +609,10 @@ fn mesh_scene(dir: &Path, name: &str, shape: &str) -> PathBuf {
 }
 
 /// Triangles of the one object of a scene, with their uvs.
-fn mesh_of(path: &Path) -> Result<(Vec<[f32; 18]>, Vec<[f32; 6]>), String> {
+/// Triangles (corners and normals) and their uvs.
+type MeshOf = (Vec<[f32; 18]>, Vec<[f32; 6]>);
+
+fn mesh_of(path: &Path) -> Result<MeshOf, String> {
     let loaded = rdr::load_with_defines(path, &[], &[], Profile::Physical).map_err(|e| e.to_string())?;
     let tris = objects(&loaded.scene).remove(0).0;
     let rdr::scene::Shape::Mesh(m) = &loaded.scene.objects[0].shape else {
@@ -722,4 +728,158 @@ fn ply_and_serialized_meshes_give_the_triangles_of_the_same_obj() {
             "{e}"
         );
     }
+}
+
+/// `a` and `b` with every number compared to a relative 1e-4 (the rest exactly).
+fn approx_eq(a: &str, b: &str) -> bool {
+    let split = |s: &str| -> Vec<String> {
+        let mut out = Vec::new();
+        let mut cur = String::new();
+        let mut in_num = false;
+        for ch in s.chars() {
+            let numeric = ch.is_ascii_digit() || ch == '.' || ch == '-' || ch == 'e' && in_num;
+            if numeric != in_num && !cur.is_empty() {
+                out.push(std::mem::take(&mut cur));
+            }
+            in_num = numeric;
+            cur.push(ch);
+        }
+        out.push(cur);
+        out
+    };
+    let (x, y) = (split(a), split(b));
+    x.len() == y.len()
+        && x.iter().zip(&y).all(|(p, q)| match (p.parse::<f64>(), q.parse::<f64>()) {
+            (Ok(u), Ok(v)) => (u - v).abs() <= 1e-4 * u.abs().max(v.abs()) + 1e-5,
+            _ => p == q,
+        })
+}
+
+/// The two descriptions build the same world and camera (within rounding).
+fn assert_same_scene(label: &str, a: &SceneDesc, b: &SceneDesc) {
+    let (la, lb) = (
+        Loaded::build(a, Profile::Physical).unwrap_or_else(|e| panic!("{label}: {e}")),
+        Loaded::build(b, Profile::Physical).unwrap_or_else(|e| panic!("{label}: {e}")),
+    );
+    let close = |x: &[[f32; 18]], y: &[[f32; 18]]| {
+        x.len() == y.len()
+            && x.iter()
+                .zip(y)
+                .all(|(p, q)| p.iter().zip(q).all(|(u, v)| (u - v).abs() <= 1e-5 * (1.0 + u.abs())))
+    };
+    let (oa, mut ob) = (objects(&la.scene), objects(&lb.scene));
+    assert_eq!(oa.len(), ob.len(), "{label}: object count");
+    for (g, m, l) in &oa {
+        let i = ob
+            .iter()
+            .position(|(h, n, k)| close(g, h) && approx_eq(m, n) && approx_eq(l, k))
+            .unwrap_or_else(|| panic!("{label}: an object ({} triangles, {m}, light {l}) has no twin", g.len()));
+        ob.remove(i);
+    }
+    let lights = |s: &rdr::Scene| {
+        s.lights
+            .iter()
+            .filter_map(|l| match l {
+                rdr::light::Light::Point { position, flux } => Some(format!("{position:?} {flux:?}")),
+                _ => None,
+            })
+            .collect::<Vec<_>>()
+            .join(";")
+    };
+    assert!(
+        approx_eq(&lights(&la.scene), &lights(&lb.scene)),
+        "{label}: point lights {} vs {}",
+        lights(&la.scene),
+        lights(&lb.scene)
+    );
+    let env = |d: &SceneDesc| {
+        d.environment_map.as_ref().map(|e| {
+            let t = &d.textures.iter().find(|t| t.name == e.texture.value).unwrap().texture;
+            match t {
+                rdr::texture::Texture::Constant(c) => format!("constant {:?} {:?}", *c * e.scale, e.transform),
+                rdr::texture::Texture::Image(i) => {
+                    let p = d.base_dir.join(&i.path.value).canonicalize().unwrap();
+                    format!("image {} {} {:?}", p.display(), e.scale, e.transform)
+                }
+                other => format!("{other:?}"),
+            }
+        })
+    };
+    assert_eq!(env(a).is_some(), env(b).is_some(), "{label}: environment");
+    if let (Some(x), Some(y)) = (env(a), env(b)) {
+        assert!(approx_eq(&x, &y), "{label}: environment {x} vs {y}");
+    }
+    let (ca, cb) = (&a.camera, &b.camera);
+    let dir = |c: &rdr::camera::CameraParams| (c.look_at - c.position).normalize();
+    assert!(
+        (ca.position - cb.position).length() < 1e-4 && (dir(ca) - dir(cb)).length() < 1e-5 && (ca.fov - cb.fov).abs() < 1e-4,
+        "{label}: camera"
+    );
+    assert_eq!(
+        (a.film.width, a.film.height, a.integrator.spp),
+        (b.film.width, b.film.height, b.integrator.spp),
+        "{label}: film, spp"
+    );
+    assert!(
+        approx_eq(&format!("{:?}", a.film.filter), &format!("{:?}", b.film.filter)),
+        "{label}: filter"
+    );
+    let (ia, ib) = (format!("{:?}", la.job.integrator), format!("{:?}", lb.job.integrator));
+    use rdr::integrator::Integrator::{IntersectionTest, Path as P};
+    let direct =
+        matches!((la.job.integrator, lb.job.integrator), (IntersectionTest(_), P(p)) | (P(p), IntersectionTest(_)) if p.max_depth == 2);
+    assert!(approx_eq(&ia, &ib) || direct, "{label}: integrator {ia} vs {ib}");
+}
+
+fn convert(input: &Path, output: &Path) {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_rdr"))
+        .args(["convert", "-q"])
+        .arg(input)
+        .arg("-o")
+        .arg(output)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "convert {}: {}",
+        input.display(),
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+#[test]
+fn convert_round_trips_json_xml_json_and_xml_json_xml() {
+    let Some(shared) = shared() else { return };
+    let dir = temp_dir("rdr-convert");
+    let d = dir.path();
+    for c in &CASES {
+        // JSON → XML → JSON
+        let json = shared.join(format!("refs/scenes/{}.json", c.xml));
+        let (x, y) = (d.join(format!("{}_a.xml", c.xml)), d.join(format!("{}_b.json", c.xml)));
+        convert(&json, &x);
+        convert(&x, &y);
+        let original = SceneDesc::load(&json, &[]).unwrap();
+        // a JSON without point light keys has the format's default light; the XML says it explicitly
+        assert_same_scene(&format!("{} JSON → XML", c.xml), &original, &xml_desc(&x, &[]));
+        assert_same_scene(
+            &format!("{} JSON → XML → JSON", c.xml),
+            &original,
+            &SceneDesc::load(&y, &[]).unwrap(),
+        );
+        // XML → JSON → XML
+        let xml = shared.join(format!("refs/mitsuba/{}.xml", c.xml));
+        let (j, z) = (d.join(format!("{}_c.json", c.xml)), d.join(format!("{}_d.xml", c.xml)));
+        convert(&xml, &j);
+        convert(&j, &z);
+        let original = xml_desc(&xml, &[]);
+        assert_same_scene(&format!("{} XML → JSON", c.xml), &original, &SceneDesc::load(&j, &[]).unwrap());
+        assert_same_scene(&format!("{} XML → JSON → XML", c.xml), &original, &xml_desc(&z, &[]));
+    }
+    // the point light's flux 4πI in JSON is Mitsuba's intensity I
+    let text = std::fs::read_to_string(d.join("cbox_point_c.json")).unwrap();
+    let v: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let flux = v["integrator"]["lights"][0]["flux"][0].as_f64().unwrap();
+    assert!((flux - 17.0 * 4.0 * std::f64::consts::PI).abs() < 1e-3, "{flux}");
+    let text = std::fs::read_to_string(d.join("cbox_point_a.xml")).unwrap();
+    assert!(text.contains(&format!("value=\"{}, ", 17.0f32 / (4.0 * PI))), "{text}");
 }

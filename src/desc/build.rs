@@ -54,13 +54,10 @@ fn lookup(names: &HashMap<&str, u32>, name: &str, what: &str, desc: &SceneDesc, 
     })
 }
 
-fn load_mesh(desc: &SceneDesc, file: &MeshFile, opts: BuildOptions) -> Result<(Mesh, Vec<String>)> {
-    let MeshFile {
-        path,
-        transform,
-        translate,
-        options,
-    } = file;
+/// A mesh's triangles as read (in its own frame, before `transform`), with the
+/// description's normal and orientation options applied.
+pub fn mesh_data(desc: &SceneDesc, file: &MeshFile) -> Result<obj::ObjData> {
+    let MeshFile { path, options, .. } = file;
     let full = desc.base_dir.join(&path.value);
     let err = |msg: String| path.source.error(&desc.file, msg);
     let read = || -> Result<Vec<u8>> {
@@ -106,6 +103,19 @@ fn load_mesh(desc: &SceneDesc, file: &MeshFile, opts: BuildOptions) -> Result<(M
     if options.flip_uv {
         shapes::flip_uv(&mut data);
     }
+    Ok(data)
+}
+
+fn load_mesh(desc: &SceneDesc, file: &MeshFile, opts: BuildOptions) -> Result<(Mesh, Vec<String>)> {
+    let MeshFile {
+        path,
+        transform,
+        translate,
+        ..
+    } = file;
+    let full = desc.base_dir.join(&path.value);
+    let err = |msg: String| path.source.error(&desc.file, msg);
+    let data = mesh_data(desc, file)?;
     let mut warnings: Vec<String> = data.warnings.iter().map(|w| format!("{}: {w}", full.display())).collect();
     if data.triangles.is_empty() {
         return Err(err(format!("mesh '{}' has no faces", full.display())));

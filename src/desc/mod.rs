@@ -12,6 +12,7 @@
 //! their defaults; values that later steps may report on keep their [`Source`].
 
 pub mod build;
+pub mod convert;
 pub mod json;
 pub mod source;
 pub mod xml;

@@ -2,8 +2,9 @@
 //! they came from ([`Source`]), and [`build`](mod@build), the separate step that turns
 //! them into the render-ready [`crate::scene::Scene`] (the job's camera, film and
 //! integrator become a [`crate::render::RenderJob`]). The RDR171 JSON (spec §3–§12)
-//! is read by [`json`]. Nothing here touches the file system except reading the scene
-//! itself; meshes and textures are loaded when the scene is built.
+//! is read by [`json`], Mitsuba XML by [`xml`] (which also reads `<include>`d files and
+//! looks up where named files are); [`convert`] writes a description in either format.
+//! Meshes and textures are loaded when the scene is built.
 //!
 //! The variant families are the render layer's own types with their unresolved
 //! parts as parameters: [`Material<TextureRef>`](Material), [`Texture<ImageFile>`](Texture),

@@ -70,6 +70,9 @@ impl Element {
 #[derive(Clone, Debug, Default)]
 pub struct Params {
     list: Vec<(String, String)>,
+    /// Names given on the command line, and those that were substituted somewhere.
+    defined: Vec<String>,
+    used: std::cell::RefCell<Vec<String>>,
 }
 
 impl Params {
@@ -77,6 +80,7 @@ impl Params {
         let mut p = Params::default();
         for (k, v) in defines {
             p.set(k, v);
+            p.defined.push(k.clone());
         }
         p
     }
@@ -85,6 +89,12 @@ impl Params {
         self.list.retain(|(k, _)| k != name);
         self.list.push((name.to_string(), value.to_string()));
         self.list.sort_by(|a, b| b.0.len().cmp(&a.0.len()).then(a.0.cmp(&b.0)));
+    }
+
+    /// Command-line parameters that no attribute used (Mitsuba warns about them too).
+    pub fn unused(&self) -> Vec<String> {
+        let used = self.used.borrow();
+        self.defined.iter().filter(|d| !used.contains(d)).cloned().collect()
     }
 
     fn has(&self, name: &str) -> bool {
@@ -108,6 +118,7 @@ impl Params {
             if b[i] == b'$' {
                 let rest = &value[i + 1..];
                 if let Some((k, v)) = self.list.iter().find(|(k, _)| rest.starts_with(k.as_str())) {
+                    self.used.borrow_mut().push(k.clone());
                     out.push_str(v);
                     i += 1 + k.len();
                     continue;

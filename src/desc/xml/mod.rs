@@ -31,7 +31,12 @@ use std::path::Path;
 pub fn load(file: &Path, defines: &[(String, String)]) -> Result<SceneDesc> {
     let mut params = document::Params::new(defines);
     let root = document::read(file, &mut params)?;
-    plugins::scene(&root, file)
+    let mut desc = plugins::scene(&root, file)?;
+    for name in params.unused() {
+        desc.warnings
+            .push(format!("{}: -D {name}=… is not used by the scene", file.display()));
+    }
+    Ok(desc)
 }
 
 /// Whether a scene file is Mitsuba XML (by its extension).

@@ -183,6 +183,19 @@ impl Ctx<'_> {
         }
     }
 
+    /// [`Ctx::pdf`] both ways at a surface or end vertex `cur` between `prev` and
+    /// `next`: (density of `next` reached from `prev`, of `prev` reached from `next`),
+    /// sharing the directions and the BSDF's frame (bit-identical to two calls).
+    pub fn pdf_pair(&self, cur: &Vertex, prev: &Vertex, next: &Vertex) -> (f32, f32) {
+        match (cur.kind, &cur.bsdf) {
+            (Kind::Surface, Some(bsdf)) => {
+                let (to_next, to_prev) = bsdf.pdf_pair(cur.dir_to(prev), cur.dir_to(next));
+                (self.convert(to_next, cur, next), self.convert(to_prev, cur, prev))
+            }
+            _ => (self.pdf(cur, Some(prev), next), self.pdf(cur, Some(next), prev)),
+        }
+    }
+
     /// Density with which light emission from `light` (a light vertex or an emitting
     /// surface) reaches `next`: the direction part, or the disk for the environment.
     pub fn pdf_light(&self, light: &Vertex, next: &Vertex) -> f32 {

@@ -883,3 +883,24 @@ fn convert_round_trips_json_xml_json_and_xml_json_xml() {
     let text = std::fs::read_to_string(d.join("cbox_point_a.xml")).unwrap();
     assert!(text.contains(&format!("value=\"{}, ", 17.0f32 / (4.0 * PI))), "{text}");
 }
+
+#[test]
+fn tent_filter_from_xml_and_json() {
+    let f = rdr::film::Filter::Tent { radius: 1.0 };
+    assert_eq!(f.eval(0.0, 0.0), 1.0);
+    assert_eq!(f.eval(0.5, 0.0), 0.5);
+    assert_eq!(f.eval(0.5, -0.5), 0.25);
+    assert_eq!(f.eval(1.0, 0.0), 0.0);
+    assert_eq!(f.eval(1.5, 0.0), 0.0);
+    let v = serde_json::json!({
+        "integrator": {"type": "path", "spp": 1, "lights": []},
+        "film": {"resolution": [4, 4], "filter": {"type": "tent", "radius": 1.5}},
+        "camera": {"position": [0, 0, 5], "look_at": [0, 0, 0]},
+        "objects": []
+    });
+    let d = SceneDesc::from_value(&v, Path::new("t.json"), Path::new(".")).unwrap();
+    assert_eq!(
+        format!("{:?}", d.film.filter),
+        format!("{:?}", rdr::film::Filter::Tent { radius: 1.5 })
+    );
+}

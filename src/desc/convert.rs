@@ -210,6 +210,9 @@ pub fn to_json(desc: &SceneDesc, out: &Path) -> Result<Converted> {
         Filter::Mitchell { radius, b, c } => json!({"type": "mitchell", "radius": num(radius), "B": num(b), "C": num(c)}),
     };
     let c = &desc.camera;
+    if c.projection != crate::camera::Projection::Pinhole || c.near_clip != 0.0 || c.far_clip != f32::INFINITY {
+        warnings.push("the camera's projection and clipping are left out (a pinhole is written)".into());
+    }
     let mut textures = Map::new();
     let mapping = |m: &UvMapping| json!({"type": "uvmapping2d", "scale": vec2(m.scale), "delta": vec2(m.delta)});
     for t in &desc.textures {
@@ -423,6 +426,15 @@ pub fn to_xml(desc: &SceneDesc, out: &Path) -> Result<Converted> {
     };
     let c = &desc.camera;
     let f = &desc.film;
+    if c.projection != crate::camera::Projection::Pinhole {
+        w.push(format!(
+            "the camera's {:?} projection is written as a pinhole (perspective)",
+            c.projection
+        ));
+    }
+    if c.near_clip != 0.0 || c.far_clip != f32::INFINITY {
+        w.push("the camera's near_clip and far_clip are left out".into());
+    }
     let filter = match f.filter {
         Filter::Box { radius } => format!("<rfilter type=\"box\"><float name=\"radius\" value=\"{radius}\"/></rfilter>"),
         Filter::Tent { radius } => format!("<rfilter type=\"tent\"><float name=\"radius\" value=\"{radius}\"/></rfilter>"),

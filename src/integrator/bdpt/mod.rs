@@ -154,12 +154,13 @@ impl Engine<'_> {
     fn sample_with(&self, cs: &mut CameraSample, cam: &mut Vec<Vertex>, light: &mut Vec<Vertex>) -> Vec3 {
         let ctx = &self.ctx;
         let light_tracing = self.select == Select::LightTracing;
-        let mut camera_vertex = Vertex::new(Kind::Camera, ctx.camera.position, Vec3::ZERO, Vec3::ONE);
+        // the pinhole, or the lens point the camera ray leaves
+        let mut camera_vertex = Vertex::new(Kind::Camera, cs.ray.o, Vec3::ZERO, Vec3::ONE);
         camera_vertex.pdf_fwd = 1.0;
         cam.push(camera_vertex);
         // the light tracer only looks for the environment behind its first segment
         let cam_max = if light_tracing { 2 } else { self.max_depth + 1 };
-        let pdf_dir = ctx.camera.pdf_dir(cs.ray.d);
+        let pdf_dir = ctx.camera.pdf_dir_from(cs.ray.o, cs.ray.d);
         self.walk(
             cs.ray,
             cs.diff,
@@ -370,11 +371,26 @@ impl Engine<'_> {
             if !qs.connectible() || qs.infinite || (s == 1 && scene.lights[qs.light()? as usize].is_delta_position()) {
                 return None;
             }
-            let (p, cos_cam) = ctx.camera.project(qs.p)?;
-            let v = ctx.camera.position - qs.p;
+            // a thin lens: a point on it, drawn uniformly (its area density cancels
+            // against the lens area in the importance)
+            let lens = if ctx.camera.has_lens() {
+                let mut c = Vertex::new(
+                    Kind::Camera,
+                    ctx.camera.lens_point(Vec2::from(sampler.next_2d())),
+                    Vec3::ZERO,
+                    Vec3::ONE,
+                );
+                c.pdf_fwd = 1.0 / ctx.camera.lens_area();
+                c
+            } else {
+                cam[0]
+            };
+            let (p, cos_cam) = ctx.camera.project_from(lens.p, qs.p)?;
+            let v = lens.p - qs.p;
             let d2 = v.length_squared();
             let w = v / d2.sqrt();
-            // We·cos_cam = 1/(A cos³θ): the pinhole's importance (1/(A cos⁴θ)) times its cosine
+            // We·cos_cam = 1/(A cos³θ): the pinhole's importance (1/(A cos⁴θ)) times its
+            // cosine; a lens's 1/(A·lens_area·cos⁴θ) times cos over its density 1/lens_area
             let we = 1.0 / (ctx.camera.image_plane_area() * cos_cam * cos_cam * cos_cam);
             let f = if s == 1 {
                 ctx.emitted(qs, w)
@@ -382,10 +398,10 @@ impl Engine<'_> {
                 qs.f(w, TransportMode::Importance)
             };
             l = qs.beta * f * (qs.cos(w) * we / d2);
-            if l == Vec3::ZERO || !self.visible(qs, &cam[0], counts) {
+            if l == Vec3::ZERO || !self.visible(qs, &lens, counts) {
                 return None;
             }
-            sampled = Some(cam[0]);
+            sampled = Some(lens);
             pos = Some(p);
         } else if s == 1 {
             let pt = &cam[t - 1];

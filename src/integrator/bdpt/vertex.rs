@@ -174,7 +174,7 @@ impl Ctx<'_> {
     /// Density with which `cur` (reached from `prev`) samples `next`.
     pub fn pdf(&self, cur: &Vertex, prev: Option<&Vertex>, next: &Vertex) -> f32 {
         match cur.kind {
-            Kind::Camera => self.convert(self.camera.pdf_dir(cur.dir_to(next)), cur, next),
+            Kind::Camera => self.convert(self.camera.pdf_dir_from(cur.p, cur.dir_to(next)), cur, next),
             Kind::Light(_) => self.pdf_light(cur, next),
             Kind::Surface => {
                 let (Some(bsdf), Some(prev)) = (&cur.bsdf, prev) else { return 0.0 };

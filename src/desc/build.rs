@@ -74,11 +74,7 @@ pub fn mesh_data(desc: &SceneDesc, file: &MeshFile) -> Result<obj::ObjData> {
         Ok(bytes)
     };
     let mut data = match &options.format {
-        MeshFormat::Obj => {
-            let text = read()?;
-            let text = String::from_utf8_lossy(&text);
-            obj::parse(&text).map_err(|e| err(format!("{}: {e}", full.display())))?
-        }
+        MeshFormat::Obj => obj::parse_bytes(&read()?).map_err(|e| err(format!("{}: {e}", full.display())))?,
         MeshFormat::Ply => ply::parse_ply(&read()?).map_err(|e| err(format!("{}: {e:#}", full.display())))?,
         MeshFormat::Serialized { shape_index } => {
             let m = serialized::parse(&read()?, *shape_index).map_err(|e| err(format!("{}: {e:#}", full.display())))?;

@@ -34,6 +34,10 @@ pub enum Filter {
         b: f32,
         c: f32,
     },
+    /// `(1 − |dx|/r)·(1 − |dy|/r)`: Mitsuba's tent.
+    Tent {
+        radius: f32,
+    },
 }
 
 impl Filter {
@@ -48,7 +52,7 @@ impl Filter {
 
     pub fn radius(&self) -> f32 {
         match *self {
-            Filter::Box { radius } | Filter::Gaussian { radius, .. } | Filter::Mitchell { radius, .. } => radius,
+            Filter::Box { radius } | Filter::Gaussian { radius, .. } | Filter::Mitchell { radius, .. } | Filter::Tent { radius } => radius,
         }
     }
 
@@ -65,6 +69,7 @@ impl Filter {
         }
         match *self {
             Filter::Box { .. } => 1.0,
+            Filter::Tent { radius } => (1.0 - dx.abs() / radius) * (1.0 - dy.abs() / radius),
             Filter::Gaussian { alpha, tail, .. } => {
                 let g = |d: f32| ((-alpha * d * d).exp() - tail).max(0.0);
                 g(dx) * g(dy)

@@ -24,5 +24,5 @@ pub mod texture;
 
 pub use compat::Profile;
 pub use error::SceneError;
-pub use render::{load, render, Loaded, RenderControl, RenderJob, RenderOutput};
+pub use render::{load, load_with_defines, render, Loaded, RenderControl, RenderJob, RenderOutput};
 pub use scene::Scene;

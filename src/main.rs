@@ -29,6 +29,13 @@ struct Cli {
     max_memory: Option<u64>,
 }
 
+fn parse_define(s: &str) -> Result<(String, String), String> {
+    match s.split_once('=') {
+        Some((k, v)) if !k.is_empty() && k.chars().all(|c| c.is_alphanumeric() || c == '_') => Ok((k.to_string(), v.to_string())),
+        _ => Err(format!("expected NAME=VALUE (a name of letters, digits and _), found '{s}'")),
+    }
+}
+
 fn parse_size(s: &str) -> Result<u64, String> {
     rdr::limits::parse_bytes(s)
 }
@@ -70,11 +77,14 @@ enum Compat {
 
 #[derive(clap::Args)]
 struct SceneArgs {
-    /// Scene file (RDR171 JSON).
+    /// Scene file (RDR171 JSON, or Mitsuba XML when it ends in .xml).
     scene: PathBuf,
     /// JSON object merged into the scene before it is read; may be repeated.
     #[arg(long = "override", value_name = "JSON")]
     overrides: Vec<String>,
+    /// Mitsuba XML scenes: sets the parameter `$NAME` (as Mitsuba's -D); may be repeated.
+    #[arg(short = 'D', long = "define", value_name = "NAME=VALUE", value_parser = parse_define)]
+    defines: Vec<(String, String)>,
     /// Emulate another renderer's conventions.
     #[arg(long, value_enum)]
     compat: Option<Compat>,
@@ -146,6 +156,24 @@ enum Command {
         /// again with the missing parts later.
         #[arg(long)]
         partial: bool,
+        /// Print only errors.
+        #[arg(short, long)]
+        quiet: bool,
+    },
+    /// Convert a scene between RDR171 JSON and Mitsuba 3 XML (by the extensions; meshes
+    /// JSON cannot name as they are are written as OBJ files beside the output).
+    Convert {
+        /// Scene to read (.json or .xml).
+        input: PathBuf,
+        /// Scene to write (.json or .xml).
+        #[arg(short, long)]
+        output: PathBuf,
+        /// JSON object merged into a JSON input before it is read; may be repeated.
+        #[arg(long = "override", value_name = "JSON")]
+        overrides: Vec<String>,
+        /// Parameter `$NAME` of an XML input; may be repeated.
+        #[arg(short = 'D', long = "define", value_name = "NAME=VALUE", value_parser = parse_define)]
+        defines: Vec<(String, String)>,
         /// Print only errors.
         #[arg(short, long)]
         quiet: bool,
@@ -232,6 +260,13 @@ fn main() -> ExitCode {
             reference,
             variance,
         } => compare(&image, &reference, variance.as_deref()),
+        Command::Convert {
+            input,
+            output,
+            overrides,
+            defines,
+            quiet,
+        } => convert(&input, &output, &overrides, &defines, quiet),
         Command::Bench {
             args,
             repeat,
@@ -320,7 +355,7 @@ fn load(args: &SceneArgs, quiet: bool) -> Result<Loaded> {
 
 /// [`load`], also returning the scene's description.
 fn load_desc(args: &SceneArgs, quiet: bool) -> Result<(Loaded, rdr::desc::SceneDesc)> {
-    let desc = rdr::desc::SceneDesc::load(&args.scene, &args.overrides).map_err(anyhow::Error::msg)?;
+    let desc = rdr::desc::SceneDesc::load_with_defines(&args.scene, &args.overrides, &args.defines).map_err(anyhow::Error::msg)?;
     let mut loaded = Loaded::build(&desc, profile(args)).map_err(anyhow::Error::msg)?;
     if !quiet {
         for w in &loaded.scene.warnings {
@@ -736,6 +771,42 @@ fn bench_mesh(
         report.agrees,
         "closest-hit distances disagree with a distances file beyond the tolerance (see above)"
     );
+    Ok(ExitCode::SUCCESS)
+}
+
+/// `rdr convert IN -o OUT`: JSON ↔ Mitsuba XML.
+fn convert(input: &Path, output: &Path, overrides: &[String], defines: &[(String, String)], quiet: bool) -> Result<ExitCode> {
+    use rdr::desc::convert;
+    let xml_out = match output.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref() {
+        Some("xml") => true,
+        Some("json") => false,
+        _ => anyhow::bail!("{}: the output must end in .json or .xml", output.display()),
+    };
+    anyhow::ensure!(
+        !same_file(output, input),
+        "{}: refusing to write the conversion over its input",
+        output.display()
+    );
+    let desc = rdr::desc::SceneDesc::load_with_defines(input, overrides, defines).map_err(anyhow::Error::msg)?;
+    let c = if xml_out {
+        convert::to_xml(&desc, output)
+    } else {
+        convert::to_json(&desc, output)
+    }
+    .map_err(anyhow::Error::msg)?;
+    if !quiet {
+        for w in desc.warnings.iter().chain(&c.warnings) {
+            eprintln!("warning: {}", w.replace('\n', " "));
+        }
+    }
+    for (path, bytes) in &c.files {
+        if let Some(dir) = path.parent() {
+            std::fs::create_dir_all(dir).with_context(|| format!("{}: cannot create the folder", dir.display()))?;
+        }
+        std::fs::write(path, bytes).with_context(|| format!("{}: cannot write", path.display()))?;
+    }
+    std::fs::write(output, &c.text).with_context(|| format!("{}: cannot write", output.display()))?;
+    say(output.display())?;
     Ok(ExitCode::SUCCESS)
 }
 

@@ -10,12 +10,14 @@ use crate::texture::TextureConvention;
 use std::path::Path;
 
 /// The corpus folders and fuzz targets, by name.
-pub const TARGETS: [&str; 4] = ["scene_json", "obj", "ply", "texture_image"];
+pub const TARGETS: [&str; 6] = ["scene_json", "scene_xml", "obj", "ply", "serialized", "texture_image"];
 
 /// Runs target `name` on `data`; `Ok` when the input was accepted.
 pub fn run(name: &str, data: &[u8]) -> Result<(), String> {
     match name {
         "scene_json" => scene_json(data),
+        "scene_xml" => scene_xml(data),
+        "serialized" => serialized_mesh(data),
         "obj" => obj_mesh(data),
         "ply" => ply_mesh(data),
         "texture_image" => texture_image(data),
@@ -33,6 +35,28 @@ pub fn scene_json(data: &[u8]) -> Result<(), String> {
     let desc = crate::desc::SceneDesc::from_value(&value, file, Path::new(".")).map_err(|e| e.to_string())?;
     // the job (camera basis, film memory estimate) needs no file either
     crate::render::RenderJob::from_desc(&desc, crate::Profile::Physical).map_err(|e| e.to_string())?;
+    Ok(())
+}
+
+/// The Mitsuba XML reader (structure, values and plugins; `<include>`s resolve in a
+/// folder that does not exist, and no mesh or image is read).
+pub fn scene_xml(data: &[u8]) -> Result<(), String> {
+    let text = String::from_utf8_lossy(data);
+    let file = Path::new("fuzz-nonexistent-folder/fuzz.xml");
+    let mut params = crate::desc::xml::document::Params::new(&[]);
+    let root = crate::desc::xml::document::read_str(&text, file, &mut params).map_err(|e| e.to_string())?;
+    let desc = crate::desc::xml::plugins::scene(&root, file).map_err(|e| e.to_string())?;
+    crate::render::RenderJob::from_desc(&desc, crate::Profile::Physical).map_err(|e| e.to_string())?;
+    Ok(())
+}
+
+/// The `.serialized` mesh reader (the first byte picks the mesh) and the mesh built from it.
+pub fn serialized_mesh(data: &[u8]) -> Result<(), String> {
+    let Some((&pick, bytes)) = data.split_first() else {
+        return Err("empty".into());
+    };
+    let m = crate::geometry::serialized::parse(bytes, (pick % 4) as u32).map_err(|e| format!("{e:#}"))?;
+    let _ = Mesh::from_obj(m.data, &Mat4::IDENTITY, Vec3::ZERO, true);
     Ok(())
 }
 

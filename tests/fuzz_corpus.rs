@@ -68,6 +68,10 @@ fn every_corpus_file_goes_through_its_target() {
     for (target, file) in [
         ("scene_json", "base.json"),
         ("scene_json", "cornell.json"),
+        ("scene_xml", "structure.xml"),
+        ("scene_xml", "legacy.xml"),
+        ("scene_xml", "veach_primitives.xml"),
+        ("serialized", "two_meshes.bin"),
         ("obj", "faces.obj"),
         ("ply", "binary.ply"),
         ("texture_image", "float3x2.exr"),
@@ -83,6 +87,8 @@ fn every_corpus_file_goes_through_its_target() {
         ("texture_image", "lying100000.exr", "100000x100000"),
         ("texture_image", "lying23170.png", "memory"),
         ("ply", "huge_count.ply", "no properties"),
+        ("scene_xml", "syntax_error.xml", "line 3, column 55"),
+        ("serialized", "truncated.bin", "truncated"),
     ] {
         let data = std::fs::read(Path::new(env!("CARGO_MANIFEST_DIR")).join("fuzz/corpus").join(target).join(file)).unwrap();
         let e = rdr::robustness::run(target, &data).unwrap_err();

@@ -1,13 +1,13 @@
 //! Description → render-ready scene: loads meshes, resolves names, builds the BVH.
 
 use super::source::Source;
-use super::{MeshFile, SceneDesc, TextureRef};
+use super::{MeshFile, MeshFormat, MeshNormals, SceneDesc, TextureRef};
 use crate::accel::WideBvh;
 use crate::error::{Result, SceneError};
 use crate::geometry::mesh::Mesh;
-use crate::geometry::obj;
 /// Moved to the geometry layer; re-exported for existing callers.
 pub use crate::geometry::prim::prim_bounds;
+use crate::geometry::{obj, ply, serialized, shapes};
 use crate::light::environment::EnvImage;
 use crate::light::{AreaLight, EnvironmentLight, Light, LightSampler};
 use crate::math::Vec3;
@@ -54,23 +54,64 @@ fn lookup(names: &HashMap<&str, u32>, name: &str, what: &str, desc: &SceneDesc, 
     })
 }
 
+/// A mesh's triangles as read (in its own frame, before `transform`), with the
+/// description's normal and orientation options applied.
+pub fn mesh_data(desc: &SceneDesc, file: &MeshFile) -> Result<obj::ObjData> {
+    let MeshFile { path, options, .. } = file;
+    let full = desc.base_dir.join(&path.value);
+    let err = |msg: String| path.source.error(&desc.file, msg);
+    let read = || -> Result<Vec<u8>> {
+        // a regular file of a sane size (a FIFO would block, /dev/zero never end), whose
+        // parsed form fits the memory budget
+        let bytes = crate::limits::read_input_file(&full, crate::limits::max_input_file())
+            .map_err(|e| err(format!("cannot read mesh '{}': {e}", full.display())))?;
+        if !matches!(options.format, MeshFormat::Serialized { .. }) {
+            crate::limits::check_memory((bytes.len() as u64).checked_mul(obj::MEMORY_PER_BYTE), || {
+                format!("mesh '{}'", full.display())
+            })
+            .map_err(err)?;
+        }
+        Ok(bytes)
+    };
+    let mut data = match &options.format {
+        MeshFormat::Obj => obj::parse_bytes(&read()?).map_err(|e| err(format!("{}: {e}", full.display())))?,
+        MeshFormat::Ply => ply::parse_ply(&read()?).map_err(|e| err(format!("{}: {e:#}", full.display())))?,
+        MeshFormat::Serialized { shape_index } => {
+            let m = serialized::parse(&read()?, *shape_index).map_err(|e| err(format!("{}: {e:#}", full.display())))?;
+            let mut d = m.data;
+            if m.flags & serialized::FACE_NORMALS != 0 {
+                shapes::drop_normals(&mut d);
+            }
+            d
+        }
+        MeshFormat::Rectangle => shapes::rectangle(),
+        MeshFormat::Cube => shapes::cube(),
+        MeshFormat::Disk => shapes::disk(super::DISK_SEGMENTS),
+    };
+    match options.normals {
+        MeshNormals::AsInFile => {}
+        MeshNormals::Face => shapes::drop_normals(&mut data),
+        MeshNormals::SmoothWhenMissing => shapes::add_smooth_normals(&mut data),
+    }
+    if options.flip_normals {
+        shapes::flip_normals(&mut data);
+    }
+    if options.flip_uv {
+        shapes::flip_uv(&mut data);
+    }
+    Ok(data)
+}
+
 fn load_mesh(desc: &SceneDesc, file: &MeshFile, opts: BuildOptions) -> Result<(Mesh, Vec<String>)> {
     let MeshFile {
         path,
         transform,
         translate,
+        ..
     } = file;
     let full = desc.base_dir.join(&path.value);
     let err = |msg: String| path.source.error(&desc.file, msg);
-    // a regular file of a sane size (a FIFO would block, /dev/zero never end), whose
-    // parsed form fits the memory budget
-    let text = crate::limits::read_input_file(&full, crate::limits::max_input_file())
-        .map_err(|e| err(format!("cannot read mesh '{}': {e}", full.display())))?;
-    crate::limits::check_memory((text.len() as u64).checked_mul(obj::MEMORY_PER_BYTE), || {
-        format!("mesh '{}'", full.display())
-    })
-    .map_err(err)?;
-    let data = obj::parse_bytes(&text).map_err(|e| err(format!("{}: {e}", full.display())))?;
+    let data = mesh_data(desc, file)?;
     let mut warnings: Vec<String> = data.warnings.iter().map(|w| format!("{}: {w}", full.display())).collect();
     if data.triangles.is_empty() {
         return Err(err(format!("mesh '{}' has no faces", full.display())));

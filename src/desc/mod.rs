@@ -2,8 +2,9 @@
 //! they came from ([`Source`]), and [`build`](mod@build), the separate step that turns
 //! them into the render-ready [`crate::scene::Scene`] (the job's camera, film and
 //! integrator become a [`crate::render::RenderJob`]). The RDR171 JSON (spec §3–§12)
-//! is read by [`json`]. Nothing here touches the file system except reading the scene
-//! itself; meshes and textures are loaded when the scene is built.
+//! is read by [`json`], Mitsuba XML by [`xml`] (which also reads `<include>`d files and
+//! looks up where named files are); [`convert`] writes a description in either format.
+//! Meshes and textures are loaded when the scene is built.
 //!
 //! The variant families are the render layer's own types with their unresolved
 //! parts as parameters: [`Material<TextureRef>`](Material), [`Texture<ImageFile>`](Texture),
@@ -12,8 +13,10 @@
 //! their defaults; values that later steps may report on keep their [`Source`].
 
 pub mod build;
+pub mod convert;
 pub mod json;
 pub mod source;
+pub mod xml;
 
 pub use build::{build, BuildOptions};
 pub use source::{Located, Source};
@@ -165,6 +168,57 @@ pub struct MeshFile {
     pub path: Located<String>,
     pub transform: Mat4,
     pub translate: Vec3,
+    /// How the file is read and its normals made (JSON meshes: the default, an OBJ
+    /// with the normals it has).
+    pub options: MeshOptions,
+}
+
+/// A mesh's file format and treatment, for what other scene formats say about
+/// meshes (the Mitsuba reader, [`xml`]).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct MeshOptions {
+    pub format: MeshFormat,
+    pub normals: MeshNormals,
+    /// Reverse the winding and the normals (the emitting side of an area light too).
+    pub flip_normals: bool,
+    /// `v → 1 − v` for the texture coordinates.
+    pub flip_uv: bool,
+}
+
+/// Where a mesh's triangles come from.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub enum MeshFormat {
+    /// Wavefront OBJ (`path`).
+    #[default]
+    Obj,
+    /// PLY, ASCII or binary (`path`).
+    Ply,
+    /// Mitsuba's zlib-compressed `.serialized` format: mesh `shape_index` of the file.
+    Serialized {
+        shape_index: u32,
+    },
+    /// Generated, no file: Mitsuba's `rectangle` ([−1, 1]² at z = 0, normal +z),
+    /// `cube` ([−1, 1]³, outward face normals) and `disk` (unit radius at z = 0,
+    /// normal +z, tessellated into [`DISK_SEGMENTS`] triangles).
+    Rectangle,
+    Cube,
+    Disk,
+}
+
+/// Triangles a generated `disk` is made of.
+pub const DISK_SEGMENTS: u32 = 256;
+
+/// Which normals a mesh gets.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum MeshNormals {
+    /// The file's vertex normals, if any (flat shading otherwise).
+    #[default]
+    AsInFile,
+    /// None: flat shading even when the file has normals (Mitsuba's `face_normals`).
+    Face,
+    /// The file's, or when it has none, area-weighted averages of the faces around
+    /// each vertex (Mitsuba's default for OBJ and PLY).
+    SmoothWhenMissing,
 }
 
 /// `objects[i].light`: `type` (`"area"`), `radiance` ((1,1,1)); one-sided emission.
@@ -186,6 +240,30 @@ pub struct EnvMapDesc {
 impl SceneDesc {
     /// Reads a scene file, applies `--override` patches (spec §1), and parses it.
     pub fn load(file: &Path, overrides: &[String]) -> Result<SceneDesc> {
+        Self::load_with_defines(file, overrides, &[])
+    }
+
+    /// [`SceneDesc::load`] for either format: a `.xml` file is Mitsuba XML read with
+    /// the `-D name=value` parameters `defines` (and no `--override`, which is JSON's);
+    /// anything else is RDR171 JSON (and takes no parameters).
+    pub fn load_with_defines(file: &Path, overrides: &[String], defines: &[(String, String)]) -> Result<SceneDesc> {
+        if xml::is_xml(file) {
+            if !overrides.is_empty() {
+                return Err(crate::error::SceneError::new(
+                    file,
+                    None,
+                    "--override patches JSON scenes; for a Mitsuba XML scene use -D name=value",
+                ));
+            }
+            return xml::load(file, defines);
+        }
+        if let Some((k, _)) = defines.first() {
+            return Err(crate::error::SceneError::new(
+                file,
+                None,
+                format!("-D {k}=… sets a parameter of a Mitsuba XML scene; for a JSON scene use --override"),
+            ));
+        }
         let ctx = Context::new(file);
         // a regular file of a sane size: a FIFO would block, /dev/zero never end
         let bytes = crate::limits::read_input_file(file, crate::limits::max_input_file())
@@ -545,12 +623,13 @@ fn parse_film(p: &Props) -> Result<FilmDesc> {
                     }
                     g
                 }
+                "tent" => Filter::Tent { radius },
                 "mitchell" => Filter::Mitchell {
                     radius,
                     b: f.f32_or("B", 1.0 / 3.0)?,
                     c: f.f32_or("C", 1.0 / 3.0)?,
                 },
-                _ => return Err(f.error("type", format!("unknown filter '{ty}' (available: box, gaussian, mitchell)"))),
+                _ => return Err(f.error("type", format!("unknown filter '{ty}' (available: box, tent, gaussian, mitchell)"))),
             };
             f.finish();
             d
@@ -788,6 +867,7 @@ fn parse_object(p: &Props) -> Result<ObjectDesc> {
             path: p.located("path", p.string("path")?),
             transform: p.mat4_or("transform", Mat4::IDENTITY)?,
             translate: point(p, "translate", p.vec3_or("translate", Vec3::ZERO)?)?,
+            options: MeshOptions::default(),
         }),
         "sphere" => {
             let radius = p.f32_or("radius", 1.0)?;

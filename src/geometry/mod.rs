@@ -1,5 +1,5 @@
 //! Geometry: rays, boxes, the triangle and sphere kernels, primitives and their
-//! surface interactions, meshes and OBJ/PLY loading.
+//! surface interactions, meshes and OBJ/PLY/serialized loading, generated meshes.
 
 pub mod aabb;
 pub mod interaction;
@@ -8,6 +8,8 @@ pub mod obj;
 pub mod ply;
 pub mod prim;
 pub mod ray;
+pub mod serialized;
+pub mod shapes;
 pub mod sphere;
 pub mod triangle;
 

@@ -1,13 +1,18 @@
-//! PLY meshes (as read by `rdr bench`), into the same [`ObjData`] the OBJ reader gives.
+//! PLY meshes (for scenes and `rdr bench`), into the same [`ObjData`] the OBJ reader gives.
 
 use super::obj::{ObjData, ObjTriangle};
-use crate::math::Vec3;
+use crate::math::{Vec2, Vec3};
 use anyhow::{bail, Context, Result};
 
-/// A minimal PLY reader: `ascii` or `binary_little_endian`, vertex `x y z`
-/// (any scalar types; other properties skipped), faces as a list property
-/// (fans for polygons). Other elements must come after the faces or be empty.
+/// A PLY reader: `ascii`, `binary_little_endian` or `binary_big_endian`; vertex
+/// `x y z`, optional normals `nx ny nz` and texture coordinates (`u v`, `s t`,
+/// `texture_u texture_v` or `texture_s texture_t`), any scalar types, other
+/// properties skipped; faces as a list property (fans for polygons). Counts the body
+/// cannot hold, a body that ends early and face indices out of range are errors.
 pub fn parse_ply(bytes: &[u8]) -> Result<ObjData> {
+    if !bytes.starts_with(b"ply") {
+        bail!("not a PLY file (it does not start with 'ply')");
+    }
     let header_end = bytes
         .windows(10)
         .position(|w| w == b"end_header")
@@ -22,31 +27,36 @@ pub fn parse_ply(bytes: &[u8]) -> Result<ObjData> {
     // (name, count, properties); a property is (type, Some(count type) for lists, name)
     type Prop = (String, Option<String>, String);
     let mut elements: Vec<(String, usize, Vec<Prop>)> = Vec::new();
-    for line in header.lines() {
+    for (i, line) in header.lines().enumerate() {
         let w: Vec<&str> = line.split_whitespace().collect();
+        let n = i + 1;
         match w.as_slice() {
             ["format", f, ..] => format = f,
-            ["element", name, n] => elements.push((name.to_string(), n.parse().context("bad element count")?, Vec::new())),
-            ["property", "list", ct, t, name] => {
-                elements
-                    .last_mut()
-                    .context("property before element")?
-                    .2
-                    .push((t.to_string(), Some(ct.to_string()), name.to_string()))
-            }
-            ["property", t, name] => {
-                elements
-                    .last_mut()
-                    .context("property before element")?
-                    .2
-                    .push((t.to_string(), None, name.to_string()))
-            }
+            ["element", name, count] => elements.push((
+                name.to_string(),
+                count
+                    .parse()
+                    .with_context(|| format!("header line {n}: bad element count '{count}'"))?,
+                Vec::new(),
+            )),
+            ["property", "list", ct, t, name] => elements
+                .last_mut()
+                .with_context(|| format!("header line {n}: property before any element"))?
+                .2
+                .push((t.to_string(), Some(ct.to_string()), name.to_string())),
+            ["property", t, name] => elements
+                .last_mut()
+                .with_context(|| format!("header line {n}: property before any element"))?
+                .2
+                .push((t.to_string(), None, name.to_string())),
+            ["element", ..] | ["property", ..] => bail!("header line {n}: malformed '{line}'"),
             _ => {}
         }
     }
-    let binary = match format {
-        "ascii" => false,
-        "binary_little_endian" => true,
+    let (binary, big) = match format {
+        "ascii" => (false, false),
+        "binary_little_endian" => (true, false),
+        "binary_big_endian" => (true, true),
         f => bail!("unsupported PLY format '{f}'"),
     };
     let size = |t: &str| -> Result<usize> {
@@ -58,6 +68,14 @@ pub fn parse_ply(bytes: &[u8]) -> Result<ObjData> {
             _ => bail!("unknown PLY type '{t}'"),
         })
     };
+    for (_, _, props) in &elements {
+        for (t, list, _) in props {
+            size(t)?;
+            if let Some(ct) = list {
+                size(ct)?;
+            }
+        }
+    }
     let mut pos = body;
     let mut words = if binary {
         None
@@ -70,20 +88,26 @@ pub fn parse_ply(bytes: &[u8]) -> Result<ObjData> {
     };
     let mut read = |t: &str| -> Result<f64> {
         if let Some(words) = words.as_mut() {
-            return words.next().context("PLY body ends early")?.parse::<f64>().context("bad number");
+            let w = words.next().context("PLY body ends early")?;
+            return w.parse::<f64>().with_context(|| format!("bad number '{w}' in the PLY body"));
         }
         let n = size(t)?;
         let b = bytes.get(pos..pos + n).context("PLY body ends early")?;
         pos += n;
+        let mut a = [0u8; 8];
+        a[..n].copy_from_slice(b);
+        if big {
+            a[..n].reverse();
+        }
         Ok(match t {
-            "char" | "int8" => b[0] as i8 as f64,
-            "uchar" | "uint8" => b[0] as f64,
-            "short" | "int16" => i16::from_le_bytes([b[0], b[1]]) as f64,
-            "ushort" | "uint16" => u16::from_le_bytes([b[0], b[1]]) as f64,
-            "int" | "int32" => i32::from_le_bytes(b.try_into()?) as f64,
-            "uint" | "uint32" => u32::from_le_bytes(b.try_into()?) as f64,
-            "float" | "float32" => f32::from_le_bytes(b.try_into()?) as f64,
-            _ => f64::from_le_bytes(b.try_into()?),
+            "char" | "int8" => a[0] as i8 as f64,
+            "uchar" | "uint8" => a[0] as f64,
+            "short" | "int16" => i16::from_le_bytes([a[0], a[1]]) as f64,
+            "ushort" | "uint16" => u16::from_le_bytes([a[0], a[1]]) as f64,
+            "int" | "int32" => i32::from_le_bytes([a[0], a[1], a[2], a[3]]) as f64,
+            "uint" | "uint32" => u32::from_le_bytes([a[0], a[1], a[2], a[3]]) as f64,
+            "float" | "float32" => f32::from_le_bytes([a[0], a[1], a[2], a[3]]) as f64,
+            _ => f64::from_le_bytes(a),
         })
     };
     // Every record takes some bytes of the body (binary: its scalars and list counts;
@@ -113,29 +137,49 @@ pub fn parse_ply(bytes: &[u8]) -> Result<ObjData> {
             .with_context(|| format!("element '{name}' claims {count} records, more than the {body_len} bytes of the body can hold"))?;
     }
     let mut data = ObjData::default();
+    let vertex_props: &[Prop] = elements.iter().find(|e| e.0 == "vertex").map_or(&[], |e| &e.2);
+    let has = |n: &str| vertex_props.iter().any(|p| p.2 == n && p.1.is_none());
+    let has_normals = has("nx") && has("ny") && has("nz");
+    let uv_names = [("u", "v"), ("s", "t"), ("texture_u", "texture_v"), ("texture_s", "texture_t")]
+        .into_iter()
+        .find(|(a, b)| has(a) && has(b));
+    if vertex_props.iter().all(|p| p.2 != "x") && elements.iter().any(|e| e.0 == "vertex" && e.1 > 0) {
+        bail!("element 'vertex' has no property 'x'");
+    }
     for (name, count, props) in &elements {
         if props.is_empty() {
             continue; // records of nothing
         }
         for _ in 0..*count {
-            let mut xyz = [0.0f32; 3];
+            let (mut xyz, mut n, mut uv) = ([0.0f32; 3], [0.0f32; 3], [0.0f32; 2]);
             let mut face: Vec<u32> = Vec::new();
             for (t, list, pname) in props {
                 match list {
                     None => {
-                        let v = read(t)?;
+                        let v = read(t)? as f32;
                         match pname.as_str() {
-                            "x" => xyz[0] = v as f32,
-                            "y" => xyz[1] = v as f32,
-                            "z" => xyz[2] = v as f32,
+                            "x" => xyz[0] = v,
+                            "y" => xyz[1] = v,
+                            "z" => xyz[2] = v,
+                            "nx" => n[0] = v,
+                            "ny" => n[1] = v,
+                            "nz" => n[2] = v,
+                            p if uv_names.is_some_and(|(a, _)| a == p) => uv[0] = v,
+                            p if uv_names.is_some_and(|(_, b)| b == p) => uv[1] = v,
                             _ => {}
                         }
                     }
                     Some(ct) => {
-                        let n = read(ct)? as usize;
-                        for _ in 0..n {
+                        let k = read(ct)?;
+                        if !(0.0..=1e6).contains(&k) {
+                            bail!("a list of {k} entries in element '{name}'");
+                        }
+                        for _ in 0..k as usize {
                             let v = read(t)?;
-                            if name == "face" {
+                            if name == "face" && (pname == "vertex_indices" || pname == "vertex_index") {
+                                if !(v >= 0.0 && v < data.positions.len() as f64) {
+                                    bail!("face index {v} out of range (the file has {} vertices)", data.positions.len());
+                                }
                                 face.push(v as u32);
                             }
                         }
@@ -143,16 +187,23 @@ pub fn parse_ply(bytes: &[u8]) -> Result<ObjData> {
                 }
             }
             if name == "vertex" {
-                data.positions.push(Vec3::from_array(xyz));
-            } else if name == "face" {
-                if face.iter().any(|&i| i as usize >= data.positions.len()) {
-                    bail!("face index out of range");
+                if !(xyz.iter().all(|c| c.is_finite()) && n.iter().all(|c| c.is_finite()) && uv.iter().all(|c| c.is_finite())) {
+                    bail!("vertex {} is not finite", data.positions.len());
                 }
+                data.positions.push(Vec3::from_array(xyz));
+                if has_normals {
+                    data.normals.push(Vec3::from_array(n));
+                }
+                if uv_names.is_some() {
+                    data.uvs.push(Vec2::from_array(uv));
+                }
+            } else if name == "face" {
                 for k in 2..face.len() {
+                    let idx = [face[0], face[k - 1], face[k]];
                     data.triangles.push(ObjTriangle {
-                        p: [face[0], face[k - 1], face[k]],
-                        n: None,
-                        uv: None,
+                        p: idx,
+                        n: has_normals.then_some(idx),
+                        uv: uv_names.is_some().then_some(idx),
                         line: 0,
                     });
                 }
@@ -188,7 +239,7 @@ element face 1\nproperty list uchar uint vertex_indices\nend_header\n"
         let d = parse_ply(&bin).unwrap();
         assert_eq!(d.positions[2], Vec3::new(0.0, 2.0, 0.5));
         assert_eq!(d.triangles[0].p, [0, 1, 2]);
-        assert!(parse_ply(b"ply\nformat binary_big_endian 1.0\nend_header\n").is_err());
+        assert!(parse_ply(b"ply\nformat binary_middle_endian 1.0\nend_header\n").is_err());
         let mut short = bin.clone();
         short.truncate(bin.len() - 2);
         assert!(parse_ply(&short).is_err());

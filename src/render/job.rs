@@ -122,3 +122,8 @@ impl Loaded {
 pub fn load(file: &Path, overrides: &[String], profile: Profile) -> Result<Loaded> {
     Loaded::build(&SceneDesc::load(file, overrides)?, profile)
 }
+
+/// [`load`] of a JSON or Mitsuba XML scene, with the XML's `-D name=value` parameters.
+pub fn load_with_defines(file: &Path, overrides: &[String], defines: &[(String, String)], profile: Profile) -> Result<Loaded> {
+    Loaded::build(&SceneDesc::load_with_defines(file, overrides, defines)?, profile)
+}

@@ -10,7 +10,7 @@ pub mod statefile;
 pub mod tev;
 
 pub use blocks::{FilmState, Piece, BLOCK_PASSES};
-pub use job::{load, Loaded, RenderJob};
+pub use job::{load, load_with_defines, Loaded, RenderJob};
 
 use crate::film::Film;
 use crate::integrator::{PassContext, StopToken};

@@ -1,0 +1,737 @@
+//! `rdr convert`: a scene description written as RDR171 JSON or Mitsuba 3 XML, for
+//! everything both can say, with a warning for what the target cannot. Point lights:
+//! Mitsuba's intensity I is rdr's flux 4πI. Paths are rewritten relative to the output
+//! file. JSON can only name OBJ files, so meshes it cannot say as they are (PLY,
+//! serialized, generated rectangles and cubes, Mitsuba's smoothed normals) are
+//! written as OBJ files beside the output (`<stem>_meshes/`).
+
+use super::{MeshFile, MeshFormat, MeshNormals, MeshOptions, SceneDesc, TextureRef};
+use crate::error::{Result, SceneError};
+use crate::film::Filter;
+use crate::geometry::obj::ObjData;
+use crate::integrator::{bdpt::Heuristic, Integrator, PathProfile};
+use crate::material::{Distribution, Material};
+use crate::math::{Mat4, Vec2, Vec3};
+use crate::scene::Shape;
+use crate::texture::{Texture, UvMapping};
+use serde_json::{json, Map, Value};
+use std::fmt::Write as _;
+use std::path::{Component, Path, PathBuf};
+
+/// A converted scene: its text, the extra files it refers to, and what could not be said.
+pub struct Converted {
+    pub text: String,
+    pub files: Vec<(PathBuf, Vec<u8>)>,
+    pub warnings: Vec<String>,
+}
+
+fn absolute(p: &Path) -> PathBuf {
+    let p = if p.is_absolute() {
+        p.to_path_buf()
+    } else {
+        std::env::current_dir().unwrap_or_default().join(p)
+    };
+    let mut out = PathBuf::new();
+    for c in p.components() {
+        match c {
+            Component::ParentDir => {
+                out.pop();
+            }
+            Component::CurDir => {}
+            c => out.push(c),
+        }
+    }
+    out
+}
+
+/// `target` relative to the folder `from` (both made absolute), with `/` separators.
+pub fn relative(target: &Path, from: &Path) -> String {
+    let (t, f) = (absolute(target), absolute(from));
+    let (tc, fc): (Vec<_>, Vec<_>) = (t.components().collect(), f.components().collect());
+    let common = tc.iter().zip(&fc).take_while(|(a, b)| a == b).count();
+    if common == 0 {
+        return t.display().to_string();
+    }
+    let mut parts: Vec<String> = vec!["..".into(); fc.len() - common];
+    parts.extend(tc[common..].iter().map(|c| c.as_os_str().to_string_lossy().into_owned()));
+    parts.join("/")
+}
+
+fn out_dir(out: &Path) -> PathBuf {
+    out.parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(Path::new("."))
+        .to_path_buf()
+}
+
+/// A file named in the description, relative to the output's folder.
+fn rebase(desc: &SceneDesc, path: &str, out: &Path) -> String {
+    relative(&desc.base_dir.join(path), &out_dir(out))
+}
+
+fn obj_has_normals(desc: &SceneDesc, file: &MeshFile) -> Result<bool> {
+    let full = desc.base_dir.join(&file.path.value);
+    let bytes = crate::limits::read_input_file(&full, crate::limits::max_input_file()).map_err(|e| {
+        file.path
+            .source
+            .error(&desc.file, format!("cannot read mesh '{}': {e}", full.display()))
+    })?;
+    Ok(String::from_utf8_lossy(&bytes).lines().any(|l| l.trim_start().starts_with("vn ")))
+}
+
+fn num(x: f32) -> Value {
+    // the shortest decimal that reads back as the same f32
+    serde_json::from_str(&format!("{x}")).unwrap_or(Value::Null)
+}
+
+fn vec3(v: Vec3) -> Value {
+    Value::Array(v.to_array().into_iter().map(num).collect())
+}
+
+fn vec2(v: Vec2) -> Value {
+    Value::Array(v.to_array().into_iter().map(num).collect())
+}
+
+fn row_major(m: &Mat4) -> [f32; 16] {
+    m.transpose().to_cols_array()
+}
+
+/// An OBJ file of a mesh's data (1-based indices, uv and normal per corner).
+pub fn obj_text(d: &ObjData) -> String {
+    let mut s = String::from("# written by rdr convert\n");
+    for p in &d.positions {
+        let _ = writeln!(s, "v {} {} {}", p.x, p.y, p.z);
+    }
+    for t in &d.uvs {
+        let _ = writeln!(s, "vt {} {}", t.x, t.y);
+    }
+    for n in &d.normals {
+        let _ = writeln!(s, "vn {} {} {}", n.x, n.y, n.z);
+    }
+    for t in &d.triangles {
+        s += "f";
+        for c in 0..3 {
+            let _ = match (t.uv, t.n) {
+                (None, None) => write!(s, " {}", t.p[c] + 1),
+                (Some(uv), None) => write!(s, " {}/{}", t.p[c] + 1, uv[c] + 1),
+                (None, Some(n)) => write!(s, " {}//{}", t.p[c] + 1, n[c] + 1),
+                (Some(uv), Some(n)) => write!(s, " {}/{}/{}", t.p[c] + 1, uv[c] + 1, n[c] + 1),
+            };
+        }
+        s += "\n";
+    }
+    s
+}
+
+// ---------------------------------------------------------------------------
+// → RDR171 JSON
+// ---------------------------------------------------------------------------
+
+/// The description as RDR171 JSON, for the file `out`.
+pub fn to_json(desc: &SceneDesc, out: &Path) -> Result<Converted> {
+    let mut warnings = Vec::new();
+    let mut files = Vec::new();
+    let d = &desc.integrator;
+    let mut integ = Map::new();
+    match d.integrator {
+        Integrator::Path(p) => {
+            integ.insert("type".into(), "path".into());
+            integ.insert("max_depth".into(), p.max_depth.into());
+            let profile = match p.profile {
+                PathProfile::Mis => "MIS",
+                PathProfile::NextEvent => "NEE",
+                PathProfile::RandomWalk => "RW",
+            };
+            integ.insert("profile".into(), profile.into());
+            integ.insert("rr_threshold".into(), num(p.rr_threshold));
+        }
+        Integrator::Bdpt(b) => {
+            integ.insert("type".into(), "bdpt".into());
+            integ.insert("max_depth".into(), b.max_depth.into());
+            integ.insert("rr_threshold".into(), num(b.rr_threshold));
+            integ.insert(
+                "mis".into(),
+                if b.heuristic == Heuristic::Balance { "balance" } else { "power" }.into(),
+            );
+            if let Some((s, t)) = b.strategy {
+                integ.insert("strategy".into(), json!([s, t]));
+                integ.insert("strategy_weighted".into(), b.strategy_weighted.into());
+            }
+        }
+        Integrator::Ptracer(p) => {
+            integ.insert("type".into(), "ptracer".into());
+            integ.insert("max_depth".into(), p.max_depth.into());
+            integ.insert("rr_threshold".into(), num(p.rr_threshold));
+        }
+        Integrator::IntersectionTest(t) => {
+            integ.insert("type".into(), "intersection_test".into());
+            integ.insert("max_depth".into(), t.max_depth.into());
+            integ.insert("light_samples".into(), t.light_samples.into());
+        }
+        Integrator::Photon(p) => {
+            integ.insert("type".into(), "photon".into());
+            integ.insert("n_photons".into(), p.n_photons.into());
+            integ.insert("n_iterations".into(), p.n_iterations.into());
+            integ.insert("n_near_photons".into(), p.n_near_photons.into());
+            integ.insert("max_depth".into(), p.max_depth.into());
+            integ.insert("rr_threshold".into(), num(p.rr_threshold));
+        }
+        Integrator::Sppm(p) => {
+            integ.insert("type".into(), "sppm".into());
+            integ.insert("photons_per_iteration".into(), p.photons_per_iteration.into());
+            if let Some(r) = p.initial_radius {
+                integ.insert("initial_radius".into(), num(r));
+            }
+            integ.insert("alpha".into(), num(p.alpha));
+            integ.insert("max_depth".into(), p.max_depth.into());
+            integ.insert("rr_threshold".into(), num(p.rr_threshold));
+        }
+        Integrator::Normals(_) => {
+            integ.insert("type".into(), "normals".into());
+        }
+        Integrator::Rdr171(_) => unreachable!("a description never holds the compat integrator"),
+    }
+    integ.insert("spp".into(), d.spp.into());
+    // an explicit list, so the format's default point light is not added
+    let lights: Vec<Value> = d
+        .point_lights
+        .iter()
+        .map(|l| json!({"type": "point", "position": vec3(l.position), "flux": vec3(l.flux)}))
+        .collect();
+    integ.insert("lights".into(), Value::Array(lights));
+    if d.light_sampling == crate::light::LightSampling::Uniform {
+        integ.insert("light_sampling".into(), "uniform".into());
+    }
+    let f = &desc.film;
+    let filter = match f.filter {
+        Filter::Box { radius } => json!({"type": "box", "radius": num(radius)}),
+        Filter::Tent { radius } => json!({"type": "tent", "radius": num(radius)}),
+        Filter::Gaussian { radius, alpha, .. } => json!({"type": "gaussian", "radius": num(radius), "alpha": num(alpha)}),
+        Filter::Mitchell { radius, b, c } => json!({"type": "mitchell", "radius": num(radius), "B": num(b), "C": num(c)}),
+    };
+    let c = &desc.camera;
+    if c.projection != crate::camera::Projection::Pinhole || c.near_clip != 0.0 || c.far_clip != f32::INFINITY {
+        warnings.push("the camera's projection and clipping are left out (a pinhole is written)".into());
+    }
+    let mut textures = Map::new();
+    let mapping = |m: &UvMapping| json!({"type": "uvmapping2d", "scale": vec2(m.scale), "delta": vec2(m.delta)});
+    for t in &desc.textures {
+        let v = match &t.texture {
+            Texture::Constant(c) => json!({"type": "constant", "color": vec3(*c)}),
+            Texture::Checkerboard {
+                color0,
+                color1,
+                mapping: m,
+            } => {
+                json!({"type": "checkerboard", "color0": vec3(*color0), "color1": vec3(*color1), "tex_coordinate_generator": mapping(m)})
+            }
+            Texture::Image(img) => {
+                json!({"type": "image", "path": rebase(desc, &img.path.value, out), "tex_coordinate_generator": mapping(&img.mapping)})
+            }
+        };
+        textures.insert(t.name.clone(), v);
+    }
+    let texture_name = |r: &TextureRef, owner: &str, textures: &mut Map<String, Value>| -> String {
+        match r {
+            TextureRef::Named(n) => n.value.clone(),
+            TextureRef::Color(c) => {
+                let name = (0..)
+                    .map(|i| {
+                        if i == 0 {
+                            format!("{owner}_color")
+                        } else {
+                            format!("{owner}_color_{i}")
+                        }
+                    })
+                    .find(|n| !textures.contains_key(n))
+                    .expect("a free name");
+                textures.insert(name.clone(), json!({"type": "constant", "color": vec3(*c)}));
+                name
+            }
+        }
+    };
+    let mut materials = Map::new();
+    for m in &desc.materials {
+        let v = match &m.material {
+            Material::Diffuse { texture, twosided } => {
+                json!({"type": "diffuse", "texture_name": texture_name(texture, &m.name, &mut textures), "twosided": twosided})
+            }
+            Material::Refraction { eta } => json!({"type": "refraction", "eta": num(*eta)}),
+            Material::Glass { reflect, transmit, eta } => {
+                json!({"type": "glass", "R": vec3(*reflect), "T": vec3(*transmit), "eta": num(*eta)})
+            }
+            Material::RoughConductor {
+                texture,
+                eta_i,
+                eta_t,
+                k,
+                alpha_x,
+                alpha_y,
+                distribution,
+            } => json!({
+                "type": "roughconductor",
+                "texture_name": texture_name(texture, &m.name, &mut textures),
+                "etaI": vec3(*eta_i), "etaT": vec3(*eta_t), "k": vec3(*k),
+                "alpha_x": num(*alpha_x), "alpha_y": num(*alpha_y),
+                "distribution": if *distribution == Distribution::Ggx { "ggx" } else { "beckmann" },
+            }),
+        };
+        materials.insert(m.name.clone(), v);
+    }
+    let stem = out
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "scene".into());
+    let mut objects = Vec::new();
+    for (i, o) in desc.objects.iter().enumerate() {
+        let mut v = match &o.shape {
+            Shape::Sphere(s) => json!({"type": "sphere", "center": vec3(s.center), "radius": num(s.radius)}),
+            Shape::Mesh(m) => {
+                let as_is = match (&m.options.format, m.options.normals, m.options.flip_normals, m.options.flip_uv) {
+                    (MeshFormat::Obj, MeshNormals::AsInFile, false, false) => true,
+                    (MeshFormat::Obj, MeshNormals::Face, false, false) => !obj_has_normals(desc, m)?,
+                    (MeshFormat::Obj, MeshNormals::SmoothWhenMissing, false, false) => obj_has_normals(desc, m)?,
+                    _ => false,
+                };
+                let path = if as_is {
+                    rebase(desc, &m.path.value, out)
+                } else {
+                    let data = super::build::mesh_data(desc, m)?;
+                    let name = format!("{stem}_meshes/{i}.obj");
+                    files.push((out_dir(out).join(&name), obj_text(&data).into_bytes()));
+                    name
+                };
+                let mut v = json!({"type": "mesh", "path": path});
+                if m.transform != Mat4::IDENTITY {
+                    v["transform"] = Value::Array(row_major(&m.transform).into_iter().map(num).collect());
+                }
+                if m.translate != Vec3::ZERO {
+                    v["translate"] = vec3(m.translate);
+                }
+                v
+            }
+        };
+        if let Some(mat) = &o.material {
+            v["material_name"] = mat.value.clone().into();
+        }
+        if let Some(l) = &o.light {
+            v["light"] = json!({"type": "area", "radiance": vec3(l.radiance)});
+        }
+        objects.push(v);
+    }
+    let mut root = json!({
+        "integrator": Value::Object(integ),
+        "film": {"resolution": [f.width, f.height], "block_side_length": f.block_size, "filter": filter},
+        "camera": {"position": vec3(c.position), "look_at": vec3(c.look_at), "ref_up": vec3(c.ref_up), "fov": num(c.fov), "focal_length": num(c.focal_length)},
+        "textures": Value::Object(textures),
+        "materials": Value::Object(materials),
+        "objects": objects,
+    });
+    if let Some(e) = &desc.environment_map {
+        let mut env = json!({"texture_name": e.texture.value.clone(), "scale": num(e.scale)});
+        if e.transform != Mat4::IDENTITY {
+            env["transform"] = Value::Array(row_major(&e.transform).into_iter().map(num).collect());
+        }
+        root["environment_map"] = env;
+    }
+    if desc.materials.iter().any(|m| m.name == "__default_diffuse") {
+        warnings.push("a shape without a material got Mitsuba's default diffuse 0.5 ('__default_diffuse')".into());
+    }
+    let text = serde_json::to_string_pretty(&root).expect("a JSON value prints") + "\n";
+    Ok(Converted { text, files, warnings })
+}
+
+// ---------------------------------------------------------------------------
+// → Mitsuba 3 XML
+// ---------------------------------------------------------------------------
+
+fn esc(s: &str) -> String {
+    s.replace('&', "&amp;")
+        .replace('"', "&quot;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+}
+
+fn v3(v: Vec3) -> String {
+    format!("{}, {}, {}", v.x, v.y, v.z)
+}
+
+fn matrix(m: &Mat4) -> String {
+    row_major(m).iter().map(|x| format!("{x}")).collect::<Vec<_>>().join(" ")
+}
+
+/// The description as Mitsuba 3 XML, for the file `out`.
+pub fn to_xml(desc: &SceneDesc, out: &Path) -> Result<Converted> {
+    let mut w = Vec::new();
+    let mut s = String::new();
+    let _ = writeln!(s, "<?xml version=\"1.0\" encoding=\"utf-8\"?>");
+    let _ = writeln!(
+        s,
+        "<!-- converted by rdr from {} -->",
+        esc(&desc.file.display().to_string()).replace("--", "- -")
+    );
+    s += "<scene version=\"3.0.0\">\n";
+    let has_glass = desc
+        .materials
+        .iter()
+        .any(|m| matches!(m.material, Material::Glass { .. } | Material::Refraction { .. }));
+    let depth = |d: u32| format!("    <integer name=\"max_depth\" value=\"{d}\"/>\n");
+    s += &match desc.integrator.integrator {
+        Integrator::Path(p) => {
+            if p.profile != PathProfile::Mis {
+                w.push("the path profile (NEE/RW) has no Mitsuba counterpart: written as path (the same converged image)".into());
+            }
+            format!("  <integrator type=\"path\">\n{}  </integrator>\n", depth(p.max_depth))
+        }
+        Integrator::IntersectionTest(t) => {
+            if has_glass {
+                w.push("intersection_test follows perfect refraction to the first diffuse surface; Mitsuba's direct does not".into());
+            }
+            if t.max_depth < 2 {
+                w.push("intersection_test with max_depth 1 written as direct".into());
+            }
+            let n = t.light_samples;
+            format!("  <integrator type=\"direct\">\n    <integer name=\"emitter_samples\" value=\"{n}\"/>\n    <integer name=\"bsdf_samples\" value=\"{n}\"/>\n  </integrator>\n")
+        }
+        Integrator::Bdpt(b) => {
+            if b.strategy.is_some() || b.heuristic != Heuristic::Power {
+                w.push("bdpt's mis/strategy options have no Mitsuba counterpart".into());
+            }
+            format!("  <integrator type=\"bdpt\">\n{}  </integrator>\n", depth(b.max_depth))
+        }
+        Integrator::Ptracer(p) => format!("  <integrator type=\"ptracer\">\n{}  </integrator>\n", depth(p.max_depth)),
+        Integrator::Photon(p) => {
+            w.push("Mitsuba 3 has no photon mapper: written as Mitsuba 0.6's photonmapper".into());
+            format!(
+                "  <integrator type=\"photonmapper\">\n{}    <integer name=\"global_photons\" value=\"{}\"/>\n    <integer name=\"lookup_size\" value=\"{}\"/>\n  </integrator>\n",
+                depth(p.max_depth),
+                p.n_photons,
+                p.n_near_photons
+            )
+        }
+        Integrator::Sppm(p) => {
+            w.push("Mitsuba 3 has no sppm: written as Mitsuba 0.6's sppm".into());
+            format!(
+                "  <integrator type=\"sppm\">\n{}    <integer name=\"photon_count\" value=\"{}\"/>\n    <float name=\"alpha\" value=\"{}\"/>\n  </integrator>\n",
+                depth(p.max_depth),
+                p.photons_per_iteration,
+                p.alpha
+            )
+        }
+        Integrator::Normals(_) => {
+            w.push("the normals view has no Mitsuba counterpart: written as path".into());
+            "  <integrator type=\"path\"/>\n".to_string()
+        }
+        Integrator::Rdr171(_) => unreachable!("a description never holds the compat integrator"),
+    };
+    let c = &desc.camera;
+    let f = &desc.film;
+    if c.projection != crate::camera::Projection::Pinhole {
+        w.push(format!(
+            "the camera's {:?} projection is written as a pinhole (perspective)",
+            c.projection
+        ));
+    }
+    if c.near_clip != 0.0 || c.far_clip != f32::INFINITY {
+        w.push("the camera's near_clip and far_clip are left out".into());
+    }
+    let filter = match f.filter {
+        Filter::Box { radius } => format!("<rfilter type=\"box\"><float name=\"radius\" value=\"{radius}\"/></rfilter>"),
+        Filter::Tent { radius } => format!("<rfilter type=\"tent\"><float name=\"radius\" value=\"{radius}\"/></rfilter>"),
+        Filter::Gaussian { radius, alpha, .. } => {
+            let sd = (1.0 / (2.0 * alpha)).sqrt();
+            if (radius - 4.0 * sd).abs() > 1e-3 * radius {
+                w.push(format!(
+                    "Mitsuba cuts its gaussian at 4 standard deviations ({}), not at the radius {radius}",
+                    4.0 * sd
+                ));
+            }
+            format!("<rfilter type=\"gaussian\"><float name=\"stddev\" value=\"{sd}\"/></rfilter>")
+        }
+        Filter::Mitchell { radius, b, c } => {
+            if radius != 2.0 {
+                w.push(format!("Mitsuba's mitchell filter has radius 2, not {radius}"));
+            }
+            format!("<rfilter type=\"mitchell\"><float name=\"B\" value=\"{b}\"/><float name=\"C\" value=\"{c}\"/></rfilter>")
+        }
+    };
+    let _ = write!(
+        s,
+        "  <sensor type=\"perspective\">\n    <float name=\"fov\" value=\"{}\"/>\n    <string name=\"fov_axis\" value=\"y\"/>\n    <transform name=\"to_world\">\n      <lookat origin=\"{}\" target=\"{}\" up=\"{}\"/>\n    </transform>\n    <film type=\"hdrfilm\">\n      <integer name=\"width\" value=\"{}\"/>\n      <integer name=\"height\" value=\"{}\"/>\n      <string name=\"pixel_format\" value=\"rgb\"/>\n      {filter}\n    </film>\n    <sampler type=\"independent\">\n      <integer name=\"sample_count\" value=\"{}\"/>\n    </sampler>\n  </sensor>\n",
+        c.fov,
+        v3(c.position),
+        v3(c.look_at),
+        v3(c.ref_up),
+        f.width,
+        f.height,
+        desc.integrator.spp
+    );
+    // ids are shared by textures and materials in XML
+    let mut ids: Vec<String> = Vec::new();
+    let mut id_for = |name: &str, prefix: &str| -> String {
+        let id = if ids.iter().any(|i| i == name) {
+            format!("{prefix}{name}")
+        } else {
+            name.to_string()
+        };
+        ids.push(id.clone());
+        id
+    };
+    let mut texture_ids = std::collections::HashMap::new();
+    // Mitsuba's v runs the other way (see the XML reader): inverse of its to_uv rewrite
+    let to_uv = |scale: Vec2, delta: Vec2| {
+        format!(
+            "<transform name=\"to_uv\"><scale x=\"{}\" y=\"{}\"/><translate x=\"{}\" y=\"{}\"/></transform>",
+            scale.x, scale.y, delta.x, delta.y
+        )
+    };
+    for t in &desc.textures {
+        match &t.texture {
+            Texture::Constant(_) => {}
+            Texture::Checkerboard { color0, color1, mapping } => {
+                let id = id_for(&t.name, "texture-");
+                let (sm, om) = (
+                    Vec2::new(mapping.scale.x, -mapping.scale.y),
+                    Vec2::new(mapping.delta.x, mapping.delta.y + mapping.scale.y),
+                );
+                let _ = writeln!(
+                    s,
+                    "  <texture type=\"checkerboard\" id=\"{}\">\n    <rgb name=\"color0\" value=\"{}\"/>\n    <rgb name=\"color1\" value=\"{}\"/>\n    {}\n  </texture>",
+                    esc(&id),
+                    v3(*color0),
+                    v3(*color1),
+                    to_uv(sm, om)
+                );
+                texture_ids.insert(t.name.clone(), id);
+            }
+            Texture::Image(img) => {
+                if desc.environment_map.as_ref().is_some_and(|e| e.texture.value == t.name) {
+                    continue; // written as the envmap's own file
+                }
+                let id = id_for(&t.name, "texture-");
+                let m = img.mapping;
+                let (sm, om) = (m.scale, Vec2::new(m.delta.x, 1.0 - m.scale.y - m.delta.y));
+                let _ = writeln!(
+                    s,
+                    "  <texture type=\"bitmap\" id=\"{}\">\n    <string name=\"filename\" value=\"{}\"/>\n    {}\n  </texture>",
+                    esc(&id),
+                    esc(&rebase(desc, &img.path.value, out)),
+                    to_uv(sm, om)
+                );
+                texture_ids.insert(t.name.clone(), id);
+            }
+        }
+    }
+    let colour = |name: &str, r: &TextureRef| -> String {
+        match r {
+            TextureRef::Color(c) => format!("<rgb name=\"{name}\" value=\"{}\"/>", v3(*c)),
+            TextureRef::Named(n) => match texture_ids.get(&n.value) {
+                Some(id) => format!("<ref name=\"{name}\" id=\"{}\"/>", esc(id)),
+                None => match desc.textures.iter().find(|t| t.name == n.value).map(|t| &t.texture) {
+                    Some(Texture::Constant(c)) => format!("<rgb name=\"{name}\" value=\"{}\"/>", v3(*c)),
+                    _ => format!("<!-- texture '{}' cannot be said here -->", esc(&n.value)),
+                },
+            },
+        }
+    };
+    let mut material_ids = std::collections::HashMap::new();
+    for m in &desc.materials {
+        let id = id_for(&m.name, "bsdf-");
+        let body = match &m.material {
+            Material::Diffuse { texture, twosided } => {
+                let inner = format!("<bsdf type=\"diffuse\">{}</bsdf>", colour("reflectance", texture));
+                if *twosided {
+                    format!("  <bsdf type=\"twosided\" id=\"{}\">{inner}</bsdf>", esc(&id))
+                } else {
+                    inner.replacen(
+                        "<bsdf type=\"diffuse\">",
+                        &format!("  <bsdf type=\"diffuse\" id=\"{}\">", esc(&id)),
+                        1,
+                    )
+                }
+            }
+            Material::Refraction { eta } => {
+                w.push(format!(
+                    "material '{}': perfect refraction without Fresnel has no Mitsuba counterpart: written as a dielectric",
+                    m.name
+                ));
+                format!("  <bsdf type=\"dielectric\" id=\"{}\"><float name=\"int_ior\" value=\"{eta}\"/><float name=\"ext_ior\" value=\"1\"/></bsdf>", esc(&id))
+            }
+            Material::Glass { reflect, transmit, eta } => {
+                let mut b = format!(
+                    "  <bsdf type=\"dielectric\" id=\"{}\"><float name=\"int_ior\" value=\"{eta}\"/><float name=\"ext_ior\" value=\"1\"/>",
+                    esc(&id)
+                );
+                if *reflect != Vec3::ONE {
+                    let _ = write!(b, "<rgb name=\"specular_reflectance\" value=\"{}\"/>", v3(*reflect));
+                }
+                if *transmit != Vec3::ONE {
+                    let _ = write!(b, "<rgb name=\"specular_transmittance\" value=\"{}\"/>", v3(*transmit));
+                }
+                b + "</bsdf>"
+            }
+            Material::RoughConductor {
+                texture,
+                eta_i,
+                eta_t,
+                k,
+                alpha_x,
+                alpha_y,
+                distribution,
+            } => {
+                let alpha = if alpha_x == alpha_y {
+                    format!("<float name=\"alpha\" value=\"{alpha_x}\"/>")
+                } else {
+                    format!("<float name=\"alpha_u\" value=\"{alpha_x}\"/><float name=\"alpha_v\" value=\"{alpha_y}\"/>")
+                };
+                let d = if *distribution == Distribution::Ggx { "ggx" } else { "beckmann" };
+                format!(
+                    "  <bsdf type=\"roughconductor\" id=\"{}\">{alpha}<string name=\"distribution\" value=\"{d}\"/><rgb name=\"eta\" value=\"{}\"/><rgb name=\"k\" value=\"{}\"/>{}</bsdf>",
+                    esc(&id),
+                    v3(*eta_t / *eta_i),
+                    v3(*k / *eta_i),
+                    colour("specular_reflectance", texture)
+                )
+            }
+        };
+        s += &body;
+        s += "\n";
+        material_ids.insert(m.name.clone(), id);
+    }
+    for o in &desc.objects {
+        let mut inner = String::new();
+        let head = match &o.shape {
+            Shape::Sphere(sp) => format!(
+                "  <shape type=\"sphere\">\n    <point name=\"center\" value=\"{}\"/>\n    <float name=\"radius\" value=\"{}\"/>\n",
+                v3(sp.center),
+                sp.radius
+            ),
+            Shape::Mesh(m) => {
+                let MeshOptions {
+                    format,
+                    normals,
+                    flip_normals,
+                    flip_uv,
+                } = &m.options;
+                let (ty, file) = match format {
+                    MeshFormat::Obj => ("obj", true),
+                    MeshFormat::Ply => ("ply", true),
+                    MeshFormat::Serialized { .. } => ("serialized", true),
+                    MeshFormat::Rectangle => ("rectangle", false),
+                    MeshFormat::Cube => ("cube", false),
+                    MeshFormat::Disk => ("disk", false),
+                };
+                let mut h = format!("  <shape type=\"{ty}\">\n");
+                if file {
+                    let _ = writeln!(
+                        h,
+                        "    <string name=\"filename\" value=\"{}\"/>",
+                        esc(&rebase(desc, &m.path.value, out))
+                    );
+                }
+                if let MeshFormat::Serialized { shape_index } = format {
+                    let _ = writeln!(h, "    <integer name=\"shape_index\" value=\"{shape_index}\"/>");
+                }
+                let face = match (format, normals) {
+                    (MeshFormat::Obj, MeshNormals::AsInFile) => !obj_has_normals(desc, m)?,
+                    (_, MeshNormals::Face) => true,
+                    _ => false,
+                };
+                if face && file {
+                    h += "    <boolean name=\"face_normals\" value=\"true\"/>\n";
+                }
+                if *flip_normals {
+                    h += "    <boolean name=\"flip_normals\" value=\"true\"/>\n";
+                }
+                // rdr's uv = Mitsuba's flipped for PLY and serialized; OBJ's flip is the default
+                let mitsuba_flip = match format {
+                    MeshFormat::Obj => !*flip_uv,
+                    MeshFormat::Ply => !*flip_uv,
+                    _ => false,
+                };
+                if (ty == "obj" && !mitsuba_flip) || (ty == "ply" && mitsuba_flip) {
+                    let _ = writeln!(h, "    <boolean name=\"flip_tex_coords\" value=\"{mitsuba_flip}\"/>");
+                }
+                let t = Mat4::from_translation(m.translate) * m.transform;
+                if t != Mat4::IDENTITY {
+                    let _ = writeln!(h, "    <transform name=\"to_world\"><matrix value=\"{}\"/></transform>", matrix(&t));
+                }
+                h
+            }
+        };
+        if let Some(mat) = &o.material {
+            match material_ids.get(&mat.value) {
+                Some(id) => {
+                    let _ = writeln!(inner, "    <ref id=\"{}\"/>", esc(id));
+                }
+                None => return Err(mat.source.error(&desc.file, format!("no material named '{}'", mat.value))),
+            }
+        }
+        if let Some(l) = &o.light {
+            let _ = writeln!(
+                inner,
+                "    <emitter type=\"area\"><rgb name=\"radiance\" value=\"{}\"/></emitter>",
+                v3(l.radiance)
+            );
+        }
+        s += &head;
+        s += &inner;
+        s += "  </shape>\n";
+    }
+    for l in &desc.integrator.point_lights {
+        // rdr's flux Φ is Mitsuba's intensity Φ/4π
+        let _ = writeln!(
+            s,
+            "  <emitter type=\"point\">\n    <point name=\"position\" value=\"{}\"/>\n    <rgb name=\"intensity\" value=\"{}\"/>\n  </emitter>",
+            v3(l.position),
+            v3(l.flux / (4.0 * std::f32::consts::PI))
+        );
+    }
+    if desc.integrator.light_sampling == crate::light::LightSampling::Uniform {
+        w.push("light_sampling uniform has no Mitsuba counterpart (the same converged image)".into());
+    }
+    if let Some(e) = &desc.environment_map {
+        let tex = desc.textures.iter().find(|t| t.name == e.texture.value).map(|t| &t.texture);
+        let to_world = if e.transform != Mat4::IDENTITY {
+            format!(
+                "    <transform name=\"to_world\"><matrix value=\"{}\"/></transform>\n",
+                matrix(&e.transform)
+            )
+        } else {
+            String::new()
+        };
+        match tex {
+            Some(Texture::Constant(c)) => {
+                let _ = writeln!(
+                    s,
+                    "  <emitter type=\"constant\">\n    <rgb name=\"radiance\" value=\"{}\"/>\n  </emitter>",
+                    v3(*c * e.scale)
+                );
+            }
+            Some(Texture::Image(img)) => {
+                if img.mapping.scale != Vec2::ONE || img.mapping.delta != Vec2::ZERO {
+                    w.push("the environment texture's tex_coordinate_generator has no Mitsuba counterpart: left out".into());
+                }
+                let _ = writeln!(
+                    s,
+                    "  <emitter type=\"envmap\">\n    <string name=\"filename\" value=\"{}\"/>\n    <float name=\"scale\" value=\"{}\"/>\n{to_world}  </emitter>",
+                    esc(&rebase(desc, &img.path.value, out)),
+                    e.scale
+                );
+            }
+            _ => {
+                return Err(SceneError::new(
+                    &desc.file,
+                    Some("environment_map.texture_name"),
+                    "the environment needs an image or constant texture",
+                ))
+            }
+        }
+    }
+    s += "</scene>\n";
+    Ok(Converted {
+        text: s,
+        files: Vec::new(),
+        warnings: w,
+    })
+}

@@ -1,0 +1,376 @@
+//! The structure of a Mitsuba XML file, before any plugin is interpreted: the
+//! elements with their attributes after `$name` substitution, `<include>`d files
+//! spliced in, `<default>` and `<path>` consumed, and the pre-2.0 dialect upgraded
+//! (property names camelCase → snake_case, `<lookAt>` → `<lookat>`), each element
+//! remembering its file, line and column.
+//!
+//! * `<default name="spp" value="64"/>` defines `$spp` unless the command line did
+//!   (`-D spp=256`); a `$name` that nothing defines is an error (`\$` escapes a dollar).
+//! * `<include filename="part.xml"/>` reads another file (looked up like any file, see
+//!   below); a `<scene>` root is spliced in child by child. Including a file that is
+//!   being included already is an error, as is nesting deeper than 15 files.
+//! * `<path value="folder"/>` (a child of the root only) adds a folder where file names
+//!   are looked up, before the others; relative file names are looked up in those
+//!   folders and then in the folder of the file that names them (as Mitsuba's file
+//!   resolver does).
+
+use super::values::camel_to_snake;
+use crate::desc::source::Source;
+use crate::error::{Result, SceneError};
+use std::path::{Path, PathBuf};
+use std::rc::Rc;
+
+/// Deepest `<include>` nesting.
+pub const MAX_INCLUDE_DEPTH: usize = 15;
+
+/// One XML element.
+#[derive(Clone, Debug)]
+pub struct Element {
+    pub tag: String,
+    /// Attributes in document order, after `$` substitution (and, in pre-2.0 files,
+    /// with `name` upgraded to snake_case).
+    pub attrs: Vec<(String, String)>,
+    pub children: Vec<Element>,
+    pub source: Source,
+    /// The `version` of the file the element is in is below 2.0 (the 0.6 dialect).
+    pub legacy: bool,
+    /// Folders where file names given in this element are looked up, first first.
+    pub search: Rc<Vec<PathBuf>>,
+}
+
+impl Element {
+    pub fn attr(&self, name: &str) -> Option<&str> {
+        self.attrs.iter().find(|(k, _)| k == name).map(|(_, v)| v.as_str())
+    }
+
+    pub fn error(&self, msg: impl Into<String>) -> SceneError {
+        self.source.error(Path::new(""), msg)
+    }
+
+    /// Where a file name given in this element is: the first folder of the search
+    /// list that has it; a name found nowhere is returned relative to the element's
+    /// own file's folder, so the error that it is missing names that place.
+    pub fn resolve(&self, name: &str) -> PathBuf {
+        let p = Path::new(name);
+        if p.is_absolute() {
+            return p.to_path_buf();
+        }
+        for dir in self.search.iter() {
+            let c = dir.join(p);
+            if c.exists() {
+                return c;
+            }
+        }
+        self.search.last().map(|d| d.join(p)).unwrap_or_else(|| p.to_path_buf())
+    }
+}
+
+/// The values of `-D name=value` and `<default>`s, longest name first (so `$spp2`
+/// is not read as `$spp` followed by `2`).
+#[derive(Clone, Debug, Default)]
+pub struct Params {
+    list: Vec<(String, String)>,
+    /// Names given on the command line, and those that were substituted somewhere.
+    defined: Vec<String>,
+    used: std::cell::RefCell<Vec<String>>,
+}
+
+impl Params {
+    pub fn new(defines: &[(String, String)]) -> Params {
+        let mut p = Params::default();
+        for (k, v) in defines {
+            p.set(k, v);
+            p.defined.push(k.clone());
+        }
+        p
+    }
+
+    fn set(&mut self, name: &str, value: &str) {
+        self.list.retain(|(k, _)| k != name);
+        self.list.push((name.to_string(), value.to_string()));
+        self.list.sort_by(|a, b| b.0.len().cmp(&a.0.len()).then(a.0.cmp(&b.0)));
+    }
+
+    /// Command-line parameters that no attribute used (Mitsuba warns about them too).
+    pub fn unused(&self) -> Vec<String> {
+        let used = self.used.borrow();
+        self.defined.iter().filter(|d| !used.contains(d)).cloned().collect()
+    }
+
+    fn has(&self, name: &str) -> bool {
+        self.list.iter().any(|(k, _)| k == name)
+    }
+
+    /// `value` with every `$name` replaced; an undefined one is an error naming it.
+    pub fn substitute(&self, value: &str) -> std::result::Result<String, String> {
+        if !value.contains('$') {
+            return Ok(value.to_string());
+        }
+        let b = value.as_bytes();
+        let mut out = String::with_capacity(value.len());
+        let mut i = 0;
+        while i < value.len() {
+            if b[i] == b'\\' && b.get(i + 1) == Some(&b'$') {
+                out.push('$');
+                i += 2;
+                continue;
+            }
+            if b[i] == b'$' {
+                let rest = &value[i + 1..];
+                if let Some((k, v)) = self.list.iter().find(|(k, _)| rest.starts_with(k.as_str())) {
+                    self.used.borrow_mut().push(k.clone());
+                    out.push_str(v);
+                    i += 1 + k.len();
+                    continue;
+                }
+                let name: String = rest.chars().take_while(|c| c.is_alphanumeric() || *c == '_').collect();
+                return Err(format!(
+                    "undefined parameter ${name} (define it with -D {name}=VALUE or a <default>)"
+                ));
+            }
+            let ch = value[i..].chars().next().unwrap_or(' ');
+            out.push(ch);
+            i += ch.len_utf8();
+        }
+        Ok(out)
+    }
+}
+
+/// 1-based line and column of byte `pos` of `text`.
+pub fn line_column(text: &str, pos: usize) -> (u32, u32) {
+    let pos = pos.min(text.len());
+    let before = &text[..pos];
+    let line = before.matches('\n').count() + 1;
+    let start = before.rfind('\n').map_or(0, |i| i + 1);
+    (line as u32, (before[start..].chars().count() + 1) as u32)
+}
+
+/// Reads a scene file (and what it includes) into its root element.
+pub fn read(file: &Path, params: &mut Params) -> Result<Element> {
+    let mut stack = Vec::new();
+    let search = Rc::new(Vec::new());
+    read_file(file, params, &mut stack, &search, None)
+}
+
+fn position(file: &Path, line: u32, column: u32) -> Source {
+    Source::Position {
+        file: file.to_path_buf(),
+        line,
+        column,
+    }
+}
+
+fn read_file(
+    file: &Path,
+    params: &mut Params,
+    stack: &mut Vec<PathBuf>,
+    outer: &Rc<Vec<PathBuf>>,
+    from: Option<&Source>,
+) -> Result<Element> {
+    let fail = |msg: String| match from {
+        Some(s) => s.error(Path::new(""), msg),
+        None => SceneError::new(file, None, msg),
+    };
+    let bytes = crate::limits::read_input_file(file, crate::limits::max_input_file())
+        .map_err(|e| fail(format!("cannot read '{}': {e}", file.display())))?;
+    let text = String::from_utf8(bytes).map_err(|_| fail(format!("'{}' is not valid UTF-8", file.display())))?;
+    read_text(&text, file, params, stack, outer)
+}
+
+/// Reads scene text as if it were the file `file` (whose folder anchors includes).
+pub fn read_str(text: &str, file: &Path, params: &mut Params) -> Result<Element> {
+    read_text(text, file, params, &mut Vec::new(), &Rc::new(Vec::new()))
+}
+
+fn read_text(text: &str, file: &Path, params: &mut Params, stack: &mut Vec<PathBuf>, outer: &Rc<Vec<PathBuf>>) -> Result<Element> {
+    let doc = roxmltree::Document::parse_with_options(
+        text,
+        roxmltree::ParsingOptions {
+            allow_dtd: false,
+            nodes_limit: 4_000_000,
+        },
+    )
+    .map_err(|e| {
+        let p = e.pos();
+        SceneError::new(
+            file,
+            Some(&format!("line {}, column {}", p.row, p.col)),
+            format!("invalid XML: {}", strip_position(&e.to_string())),
+        )
+    })?;
+    let root = doc.root_element();
+    let at = |n: roxmltree::Node| {
+        let (l, c) = line_column(text, n.range().start);
+        position(file, l, c)
+    };
+    let version = root.attribute("version").ok_or_else(|| {
+        at(root).error(
+            Path::new(""),
+            format!("missing version attribute in root element <{}>", root.tag_name().name()),
+        )
+    })?;
+    let major: u32 = version
+        .split('.')
+        .next()
+        .and_then(|m| m.trim().parse().ok())
+        .filter(|_| version.split('.').all(|p| p.trim().parse::<u32>().is_ok()))
+        .ok_or_else(|| at(root).error(Path::new(""), format!("invalid version number \"{version}\"")))?;
+    let legacy = major < 2;
+    let canonical = file.canonicalize().unwrap_or_else(|_| file.to_path_buf());
+    stack.push(canonical);
+    let dir = file
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(Path::new("."))
+        .to_path_buf();
+    // this file's names are looked up in its own folder after the includer's folders
+    let mut folders: Vec<PathBuf> = outer.iter().cloned().collect();
+    folders.retain(|d| *d != dir);
+    folders.push(dir);
+    let mut ctx = Reader {
+        text,
+        file,
+        legacy,
+        search: Rc::new(folders),
+        params,
+        stack,
+    };
+    let result = ctx.element(root, true);
+    stack.pop();
+    result
+}
+
+struct Reader<'a> {
+    text: &'a str,
+    file: &'a Path,
+    legacy: bool,
+    search: Rc<Vec<PathBuf>>,
+    params: &'a mut Params,
+    stack: &'a mut Vec<PathBuf>,
+}
+
+impl Reader<'_> {
+    fn source(&self, n: roxmltree::Node) -> Source {
+        let (l, c) = line_column(self.text, n.range().start);
+        position(self.file, l, c)
+    }
+
+    fn element(&mut self, node: roxmltree::Node, is_root: bool) -> Result<Element> {
+        let source = self.source(node);
+        let err = |msg: String| source.error(Path::new(""), msg);
+        let mut tag = node.tag_name().name().to_string();
+        if self.legacy && tag == "lookAt" {
+            tag = "lookat".into();
+        }
+        let mut attrs = Vec::new();
+        for a in node.attributes() {
+            let mut v = self.params.substitute(a.value()).map_err(&err)?;
+            if self.legacy && a.name() == "name" && tag != "default" {
+                v = camel_to_snake(&v);
+            }
+            attrs.push((a.name().to_string(), v));
+        }
+        let mut el = Element {
+            tag,
+            attrs,
+            children: Vec::new(),
+            source: source.clone(),
+            legacy: self.legacy,
+            search: self.search.clone(),
+        };
+        for child in node.children() {
+            if child.is_text() && !child.text().unwrap_or("").trim().is_empty() {
+                return Err(self
+                    .source(child)
+                    .error(Path::new(""), format!("unexpected text inside <{}>", el.tag)));
+            }
+            if !child.is_element() {
+                continue;
+            }
+            match child.tag_name().name() {
+                "default" => {
+                    let c = self.element(child, false)?;
+                    let (Some(name), Some(value)) = (c.attr("name"), c.attr("value")) else {
+                        return Err(c.error("<default> needs the attributes \"name\" and \"value\""));
+                    };
+                    if name.is_empty() {
+                        return Err(c.error("<default>: name must be non-empty"));
+                    }
+                    if !self.params.has(name) {
+                        let (n, v) = (name.to_string(), value.to_string());
+                        self.params.set(&n, &v);
+                    }
+                }
+                "path" => {
+                    let c = self.element(child, false)?;
+                    if !is_root {
+                        return Err(c.error("<path> can only be a child of the root element"));
+                    }
+                    let value = c.attr("value").ok_or_else(|| c.error("<path> needs the attribute \"value\""))?;
+                    let folder = c.resolve(value);
+                    if !folder.is_dir() {
+                        return Err(c.error(format!("<path>: folder \"{}\" not found", folder.display())));
+                    }
+                    let mut s: Vec<PathBuf> = vec![folder];
+                    s.extend(self.search.iter().cloned());
+                    self.search = Rc::new(s);
+                }
+                "include" => {
+                    let c = self.element(child, false)?;
+                    let name = c
+                        .attr("filename")
+                        .ok_or_else(|| c.error("<include> needs the attribute \"filename\""))?;
+                    let path = c.resolve(name);
+                    if !path.is_file() {
+                        return Err(c.error(format!("included file \"{}\" not found", path.display())));
+                    }
+                    let canonical = path.canonicalize().unwrap_or_else(|_| path.clone());
+                    if self.stack.contains(&canonical) {
+                        return Err(c.error(format!("recursive <include> of \"{}\"", path.display())));
+                    }
+                    if self.stack.len() >= MAX_INCLUDE_DEPTH {
+                        return Err(c.error(format!("<include> nested deeper than {MAX_INCLUDE_DEPTH} files")));
+                    }
+                    let search = self.search.clone();
+                    let inc = read_file(&path, self.params, self.stack, &search, Some(&c.source))?;
+                    if inc.tag == "scene" {
+                        el.children.extend(inc.children);
+                    } else {
+                        el.children.push(inc);
+                    }
+                }
+                _ => {
+                    let c = self.element(child, false)?;
+                    el.children.push(c);
+                }
+            }
+        }
+        Ok(el)
+    }
+}
+
+fn strip_position(s: &str) -> String {
+    match s.rfind(" at ") {
+        Some(i) if s[i..].contains(':') => s[..i].to_string(),
+        _ => s.to_string(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn substitution_takes_the_longest_name_and_reports_undefined_ones() {
+        let p = Params::new(&[("spp".into(), "4".into()), ("spp2".into(), "8".into())]);
+        assert_eq!(p.substitute("$spp2 $spp x").unwrap(), "8 4 x");
+        assert_eq!(p.substitute("\\$spp").unwrap(), "$spp");
+        assert!(p.substitute("$res").unwrap_err().contains("$res"));
+    }
+
+    #[test]
+    fn line_and_column_of_a_byte() {
+        assert_eq!(line_column("ab\ncd", 0), (1, 1));
+        assert_eq!(line_column("ab\ncd", 4), (2, 2));
+    }
+}

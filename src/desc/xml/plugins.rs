@@ -1,0 +1,943 @@
+//! Mitsuba plugins → the scene description. What is read, with Mitsuba's defaults
+//! (which differ from RDR171's in places):
+//!
+//! | element | plugins and properties (defaults) |
+//! |---|---|
+//! | `<integrator>` | `path` (`max_depth` −1 = unbounded, capped at [`MAX_DEPTH`]; `rr_depth` 5, read and checked: rdr's Russian roulette is its own and unbiased; `hide_emitters` false, only false), `direct` (= `path` with `max_depth` 2: light at the first surface by emitter and BSDF sampling; `emitter_samples`, `bsdf_samples` noted), `ptracer`, `bdpt` (`max_depth`), `photonmapper`/`photon` (`global_photons` 100000, `lookup_size` 64 … rdr's `photon`), `sppm` (`photon_count`, `initial_radius`, `alpha` 0.7). No integrator: `path`. |
+//! | `<sensor>` | `perspective`: `fov` (or `focal_length`, "50mm" on the 36×24 mm diagonal), `fov_axis` (`x` \| `y` \| `diagonal` \| `smaller` \| `larger`, `x`), `to_world` (a rigid transform, no mirroring); `near_clip`, `far_clip`, `focus_distance` are read and not applied (rdr's pinhole clips nothing). One sensor; more are ignored with a warning. |
+//! | `<film>` | `hdrfilm`: `width` 768, `height` 576, `rfilter` (default `gaussian`); `pixel_format`, `component_format`, `file_format`, `banner` noted. |
+//! | `<rfilter>` | `box` (`radius` 0.5), `tent` (`radius` 1), `gaussian` (`stddev` 0.5, radius 4·stddev), `mitchell` (`B`, `C` 1/3, radius 2) |
+//! | `<sampler>` | any type: `sample_count` (4) → spp; the type is noted, rdr uses its own sampler. |
+//! | `<shape>` | `obj`, `ply` (`filename`, `face_normals` false: else smooth vertex normals when the file has none; `flip_normals`; `flip_tex_coords`, true for OBJ, false for PLY), `serialized` (`filename`, `shape_index` 0), `rectangle`, `cube`, `disk` (generated meshes), `sphere` (`center` 0, `radius` 1); all take `to_world`, one `<bsdf>` and one `area` `<emitter>`. A shape with neither gets Mitsuba's default, a diffuse 0.5. |
+//! | `<bsdf>` | `diffuse` (`reflectance` 0.5, a colour or texture), `dielectric` (`int_ior` "bk7", `ext_ior` "air": numbers or names; `specular_reflectance`, `specular_transmittance` 1), `roughconductor` (`alpha` 0.1 or `alpha_u`+`alpha_v`, `distribution` beckmann \| ggx, `eta` 0 / `k` 1 (a perfect mirror), `specular_reflectance` 1; the 0.6 `ext_eta` folded into η and k), `twosided` (around one `diffuse`: rdr's two-sided diffuse; around others: the inner material, one-sided). |
+//! | `<emitter>` | `area` (in a shape: `radiance` 1), `point` (`position` or `to_world`; `intensity` I (1) → flux 4πI), `constant` (`radiance` 1), `envmap` (`filename`, `scale` 1, `to_world`) |
+//! | `<texture>` | `bitmap` (`filename`, `to_uv`; `filter_type`, `wrap_mode`, `raw` noted), `checkerboard` (`color0` 0.4, `color1` 0.2, `to_uv`); the 0.6 `uoffset`, `voffset`, `uscale`, `vscale` become `to_uv` |
+//!
+//! Anything else is an error naming the plugin and what is supported. Colours are
+//! `<rgb>`, `<spectrum>` (a constant or wavelength:value pairs, see
+//! [`values::spectrum_to_rgb`]) or numbers.
+//!
+//! Texture coordinates: rdr's images put `v = 0` at the bottom row; Mitsuba's bitmap at
+//! the top and its OBJ reader flips `v` (`flip_tex_coords`), so an OBJ's coordinates
+//! are used as they are and `to_uv` is rewritten for rdr's orientation.
+
+use super::document::Element;
+use super::props::{where_is, Colour, Ids, Plugin};
+use super::values;
+use crate::camera::CameraParams;
+use crate::desc::{
+    AreaLightDesc, EnvMapDesc, FilmDesc, ImageFile, IntegratorDesc, Located, MaterialDesc, MeshFile, MeshFormat, MeshNormals, MeshOptions,
+    ObjectDesc, PointLightDesc, SceneDesc, Source, TextureDesc, TextureRef, MAX_DEPTH, MAX_FILTER_RADIUS,
+};
+use crate::error::Result;
+use crate::film::Filter;
+use crate::geometry::sphere::Sphere;
+use crate::integrator::{bdpt::Heuristic, Bdpt, Integrator, PathProfile, PathTracer, PhotonMapper, Ptracer, Sppm};
+use crate::material::{Distribution, Material};
+use crate::math::{Mat4, Vec2, Vec3};
+use crate::scene::Shape;
+use crate::texture::{Texture, UvMapping};
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+
+const SHAPES: &str = "obj, ply, serialized, rectangle, cube, disk, sphere";
+const BSDFS: &str = "diffuse, dielectric, roughconductor, twosided";
+const EMITTERS: &str = "point, constant, envmap (and area inside a <shape>)";
+const TEXTURES: &str = "bitmap, checkerboard";
+const INTEGRATORS: &str = "path, direct, ptracer, bdpt, photonmapper, sppm";
+const FILTERS: &str = "box, tent, gaussian, mitchell";
+
+/// Nesting of materials and textures before a reference is taken to be circular.
+const MAX_NESTING: usize = 32;
+
+/// The scene of a document's root element.
+pub fn scene(root: &Element, file: &Path) -> Result<SceneDesc> {
+    if root.tag != "scene" {
+        return Err(root.error(format!("the root element must be <scene>, found <{}>", root.tag)));
+    }
+    let ids = Ids::collect(root)?;
+    let base_dir = file
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(Path::new("."))
+        .to_path_buf();
+    let mut r = Reader {
+        ids: &ids,
+        base_dir,
+        textures: Vec::new(),
+        materials: Vec::new(),
+        material_of: HashMap::new(),
+        texture_of: HashMap::new(),
+        depth: 0,
+    };
+    let top = Plugin::new(root, &ids)?;
+    let integrators = top.objects("integrator");
+    if let Some((_, second)) = integrators.get(1) {
+        return Err(second.error("more than one <integrator>"));
+    }
+    let (integrator, max_depth_note) = match integrators.first() {
+        Some((el, _)) => r.integrator(el)?,
+        None => (
+            Integrator::Path(PathTracer {
+                max_depth: MAX_DEPTH,
+                profile: PathProfile::Mis,
+                rr_threshold: 0.1,
+            }),
+            None,
+        ),
+    };
+    let sensors = top.objects("sensor");
+    let Some((sensor, _)) = sensors.first() else {
+        return Err(root.error("the scene has no <sensor> (rdr needs a perspective camera)"));
+    };
+    for (s, at) in sensors.iter().skip(1) {
+        ids.warn(
+            at,
+            format!("only the first <sensor> is rendered; this one ({}) is ignored", where_is(s)),
+        );
+    }
+    let (camera, film, spp) = r.sensor(sensor)?;
+    for (el, _) in top.objects("bsdf") {
+        r.material(el)?;
+    }
+    for (el, _) in top.objects("texture") {
+        r.texture(el)?;
+    }
+    let mut objects = Vec::new();
+    for (el, _) in top.objects("shape") {
+        objects.push(r.shape(el)?);
+    }
+    let mut point_lights = Vec::new();
+    let mut environment_map: Option<EnvMapDesc> = None;
+    for (el, at) in top.objects("emitter") {
+        let p = Plugin::new(el, &ids)?;
+        match p.ty.as_str() {
+            "point" => {
+                let mut position = p.point_opt("position")?.unwrap_or(Vec3::ZERO);
+                if let Some(m) = p.transform_opt("to_world")? {
+                    position = m.transform_point3(position);
+                }
+                let intensity = p.rgb("intensity", Vec3::ONE)?;
+                if intensity.min_element() < 0.0 {
+                    return Err(p.value_error("intensity", "must not be negative"));
+                }
+                check_point(&p, "position", position)?;
+                // Mitsuba's intensity I is radiant intensity; rdr's flux Φ = 4πI
+                point_lights.push(PointLightDesc {
+                    position,
+                    flux: intensity * (4.0 * std::f32::consts::PI),
+                    key: where_is(el),
+                });
+                p.finish(&[])?;
+            }
+            "constant" | "envmap" => {
+                if environment_map.is_some() {
+                    return Err(at.error("more than one environment emitter (rdr has one environment)"));
+                }
+                environment_map = Some(r.environment(&p)?);
+            }
+            "area" => return Err(at.error("an area emitter must be inside a <shape>")),
+            other => return Err(at.error(format!("unsupported emitter \"{other}\" (supported: {EMITTERS})"))),
+        }
+    }
+    top.finish(&["integrator", "sensor", "bsdf", "texture", "shape", "emitter"])?;
+    if let Some((el, msg)) = max_depth_note {
+        ids.warn(el, msg);
+    }
+    let warnings = ids.warnings.borrow().clone();
+    Ok(SceneDesc {
+        file: file.to_path_buf(),
+        base_dir: r.base_dir.clone(),
+        integrator: IntegratorDesc {
+            integrator,
+            spp,
+            point_lights,
+            light_sampling: crate::light::LightSampling::Importance,
+        },
+        film,
+        camera,
+        textures: r.textures,
+        materials: r.materials,
+        objects,
+        environment_map,
+        warnings,
+    })
+}
+
+fn source(el: &Element) -> Source {
+    el.source.clone()
+}
+
+fn check_point(p: &Plugin, name: &str, v: Vec3) -> Result<()> {
+    if v.abs().max_element() > crate::limits::MAX_COORD {
+        return Err(p.value_error(
+            name,
+            format!("{v} is out of range (coordinates must be within ±{:e})", crate::limits::MAX_COORD),
+        ));
+    }
+    Ok(())
+}
+
+struct Reader<'a> {
+    ids: &'a Ids<'a>,
+    base_dir: PathBuf,
+    textures: Vec<TextureDesc>,
+    materials: Vec<MaterialDesc>,
+    material_of: HashMap<*const Element, String>,
+    texture_of: HashMap<*const Element, String>,
+    depth: usize,
+}
+
+impl<'a> Reader<'a> {
+    /// A file named in `el`, found as [`Element::resolve`] does, relative to the
+    /// scene's folder when it is there and absolute otherwise.
+    fn file(&self, el: &Element, p: &Plugin, name: &str) -> Result<Located<String>> {
+        let given = p.required_string(name)?;
+        let found = el.resolve(&given);
+        let value = if found == self.base_dir.join(&given) {
+            given
+        } else if found.is_absolute() {
+            found.display().to_string()
+        } else {
+            std::env::current_dir()
+                .map(|d| d.join(&found))
+                .unwrap_or(found)
+                .display()
+                .to_string()
+        };
+        Ok(Located { value, source: source(el) })
+    }
+
+    fn unique(&self, wanted: Option<&str>, prefix: &str) -> String {
+        let taken = |n: &str| self.materials.iter().any(|m| m.name == n) || self.textures.iter().any(|t| t.name == n);
+        if let Some(w) = wanted {
+            if !taken(w) {
+                return w.to_string();
+            }
+        }
+        let base = wanted.unwrap_or(prefix);
+        (1..).map(|i| format!("{base}_{i}")).find(|n| !taken(n)).expect("some name is free")
+    }
+
+    fn integrator(&self, el: &'a Element) -> Result<(Integrator, Option<(&'a Element, String)>)> {
+        let p = Plugin::new(el, self.ids)?;
+        let mut note = None;
+        let mut depth = |default: i64| -> Result<u32> {
+            let d = p.integer("max_depth", default)?;
+            if d == -1 || d > MAX_DEPTH as i64 {
+                if d != -1 || default == -1 {
+                    note = Some((
+                        el,
+                        format!("max_depth {d} is more than the {MAX_DEPTH} supported; using {MAX_DEPTH}"),
+                    ));
+                }
+                return Ok(MAX_DEPTH);
+            }
+            if d < 1 {
+                return Err(p.value_error("max_depth", format!("must be −1 (unbounded) or at least 1, found {d}")));
+            }
+            Ok(d as u32)
+        };
+        let integrator = match p.ty.as_str() {
+            "path" => {
+                let max_depth = depth(-1)?;
+                p.integer_in("rr_depth", 5, 1, i32::MAX as i64)?;
+                Integrator::Path(PathTracer {
+                    max_depth,
+                    profile: PathProfile::Mis,
+                    rr_threshold: 0.1,
+                })
+            }
+            "direct" => {
+                for k in ["emitter_samples", "bsdf_samples", "shading_samples"] {
+                    if let Some(n) = p.integer_opt(k)? {
+                        if n != 1 {
+                            self.ids
+                                .warn(el, format!("{k} {n} noted: rdr takes one emitter and one BSDF sample per pass"));
+                        }
+                    }
+                }
+                Integrator::Path(PathTracer {
+                    max_depth: 2,
+                    profile: PathProfile::Mis,
+                    rr_threshold: 0.1,
+                })
+            }
+            "ptracer" => {
+                let max_depth = depth(-1)?;
+                p.integer_in("rr_depth", 5, 1, i32::MAX as i64)?;
+                p.ignore("samples_per_pass");
+                Integrator::Ptracer(Ptracer {
+                    max_depth,
+                    rr_threshold: 0.1,
+                })
+            }
+            "bdpt" => {
+                let max_depth = depth(-1)?;
+                p.integer_in("rr_depth", 5, 1, i32::MAX as i64)?;
+                for k in ["light_image", "sample_direct", "strict_normals"] {
+                    p.ignore(k);
+                }
+                Integrator::Bdpt(Bdpt {
+                    max_depth,
+                    rr_threshold: 0.1,
+                    heuristic: Heuristic::Power,
+                    strategy: None,
+                    strategy_weighted: false,
+                })
+            }
+            "photonmapper" | "photon" => {
+                let max_depth = depth(-1)?;
+                Integrator::Photon(PhotonMapper {
+                    n_photons: p.integer_in("global_photons", 100_000, 1, i32::MAX as i64)? as u32,
+                    n_iterations: 1,
+                    n_near_photons: p.integer_in("lookup_size", 64, 1, 1 << 20)? as u32,
+                    max_depth,
+                    rr_threshold: 0.1,
+                })
+            }
+            "sppm" => {
+                let max_depth = depth(-1)?;
+                let alpha = p.float("alpha", 0.7)?;
+                if !(alpha > 0.0 && alpha <= 1.0) {
+                    return Err(p.value_error("alpha", "must lie in (0, 1]"));
+                }
+                let r = p.float_opt("initial_radius")?.filter(|r| *r > 0.0);
+                Integrator::Sppm(Sppm {
+                    photons_per_iteration: p.integer_in("photon_count", 250_000, 1, i32::MAX as i64)? as u32,
+                    initial_radius: r,
+                    alpha,
+                    max_depth,
+                    rr_threshold: 0.1,
+                })
+            }
+            other => return Err(p.error(format!("unsupported integrator \"{other}\" (supported: {INTEGRATORS})"))),
+        };
+        if p.boolean("hide_emitters", false)? {
+            return Err(p.value_error("hide_emitters", "is not supported (rdr's camera rays always see emitters)"));
+        }
+        p.finish(&[])?;
+        Ok((integrator, note))
+    }
+
+    fn sensor(&self, el: &'a Element) -> Result<(CameraParams, FilmDesc, u32)> {
+        let p = Plugin::new(el, self.ids)?;
+        if p.ty != "perspective" {
+            return Err(p.error(format!("unsupported sensor \"{}\" (supported: perspective)", p.ty)));
+        }
+        let films = p.objects("film");
+        let film = match films.first() {
+            Some((f, _)) => self.film(f)?,
+            None => FilmDesc {
+                width: 768,
+                height: 576,
+                block_size: 16,
+                filter: Filter::gaussian(2.0, 2.0),
+            },
+        };
+        let spp = match p.objects("sampler").first() {
+            Some((s, _)) => {
+                let sp = Plugin::new(s, self.ids)?;
+                if sp.ty != "independent" {
+                    self.ids.warn(
+                        s,
+                        format!("sampler \"{}\" noted: rdr uses its own (Owen-scrambled Sobol) sampler", sp.ty),
+                    );
+                }
+                let n = sp.integer_in("sample_count", 4, 1, u32::MAX as i64)? as u32;
+                for k in ["seed", "jitter", "scramble", "dimension"] {
+                    sp.ignore(k);
+                }
+                sp.finish(&[])?;
+                n
+            }
+            None => 4,
+        };
+        let axis = p.string("fov_axis", "x")?;
+        let fov_deg = match p.float_opt("fov")? {
+            Some(f) => f as f64,
+            None => {
+                // a focal length on a 35 mm film's diagonal (36 × 24 mm)
+                let f = p.string("focal_length", "50mm")?;
+                let mm: f64 = f
+                    .trim()
+                    .trim_end_matches("mm")
+                    .trim()
+                    .parse()
+                    .ok()
+                    .filter(|v: &f64| *v > 0.0)
+                    .ok_or_else(|| p.value_error("focal_length", format!("expected a length such as \"50mm\", found \"{f}\"")))?;
+                if p.has("fov_axis") {
+                    self.ids
+                        .warn(el, "fov_axis is ignored with focal_length (the film's diagonal is used)");
+                }
+                return self.camera(
+                    &p,
+                    2.0 * (36f64.hypot(24.0) / (2.0 * mm)).atan().to_degrees(),
+                    "diagonal",
+                    film,
+                    spp,
+                );
+            }
+        };
+        self.camera(&p, fov_deg, &axis, film, spp)
+    }
+
+    fn camera(&self, p: &Plugin, fov_deg: f64, axis: &str, film: FilmDesc, spp: u32) -> Result<(CameraParams, FilmDesc, u32)> {
+        if !(fov_deg > 0.0 && fov_deg < 180.0) {
+            return Err(p.value_error("fov", format!("must be between 0 and 180 degrees, found {fov_deg}")));
+        }
+        let (w, h) = (film.width as f64, film.height as f64);
+        let t = (fov_deg.to_radians() / 2.0).tan();
+        let axis = match axis {
+            "smaller" if w <= h => "x",
+            "smaller" => "y",
+            "larger" if w >= h => "x",
+            "larger" => "y",
+            a => a,
+        };
+        let vt = match axis {
+            "x" => t * h / w,
+            "y" => t,
+            "diagonal" => t * h / w.hypot(h),
+            other => return Err(p.value_error("fov_axis", format!("unknown axis \"{other}\" (x, y, diagonal, smaller, larger)"))),
+        };
+        for k in ["near_clip", "far_clip", "focus_distance", "aperture_radius"] {
+            p.ignore(k);
+        }
+        for k in ["principal_point_offset_x", "principal_point_offset_y"] {
+            if p.float(k, 0.0)? != 0.0 {
+                return Err(p.value_error(k, "an off-centre principal point is not supported"));
+            }
+        }
+        let m = p.transform_opt("to_world")?.unwrap_or(Mat4::IDENTITY);
+        let origin = m.transform_point3(Vec3::ZERO);
+        let dir = m.transform_vector3(Vec3::Z);
+        let up = m.transform_vector3(Vec3::Y);
+        let left = m.transform_vector3(Vec3::X);
+        if !(dir.length() > 0.0 && up.cross(dir).length() > 0.0) {
+            return Err(p.value_error("to_world", "the camera transform is degenerate"));
+        }
+        if left.dot(up.cross(dir)) < 0.0 {
+            return Err(p.value_error("to_world", "a mirroring camera transform (negative scale) is not supported"));
+        }
+        let camera = CameraParams {
+            position: origin,
+            look_at: origin + dir.normalize(),
+            ref_up: up.normalize(),
+            fov: (2.0 * vt.atan()).to_degrees() as f32,
+            focal_length: 1.0,
+            ..CameraParams::default()
+        };
+        if origin.abs().max_element() > crate::limits::MAX_COORD || !crate::camera::Camera::new(&camera, 1, 1).is_finite() {
+            return Err(p.value_error("to_world", "the camera's view basis is not finite"));
+        }
+        p.finish(&["film", "sampler"])?;
+        Ok((camera, film, spp))
+    }
+
+    fn film(&self, el: &Element) -> Result<FilmDesc> {
+        let p = Plugin::new(el, self.ids)?;
+        if p.ty != "hdrfilm" {
+            return Err(p.error(format!("unsupported film \"{}\" (supported: hdrfilm)", p.ty)));
+        }
+        let w = p.integer_in("width", 768, 1, 1 << 20)?;
+        let h = p.integer_in("height", 576, 1, 1 << 20)?;
+        if w * h > 1 << 28 {
+            return Err(p.error(format!("a film of {w}x{h} pixels is too large")));
+        }
+        for k in [
+            "pixel_format",
+            "component_format",
+            "file_format",
+            "high_quality_edges",
+            "sample_border",
+            "compensate",
+        ] {
+            p.ignore(k);
+        }
+        if p.has("banner") {
+            p.ignore("banner");
+            self.ids.warn(el, "banner noted (Mitsuba 0.6): rdr writes no banner");
+        }
+        for k in ["crop_offset_x", "crop_offset_y", "crop_width", "crop_height"] {
+            if p.has(k) {
+                return Err(p.value_error(k, "cropped films are not supported"));
+            }
+        }
+        let filter = match p.objects("rfilter").first() {
+            None => Filter::gaussian(2.0, 2.0),
+            Some((f, _)) => self.filter(f)?,
+        };
+        p.finish(&["rfilter"])?;
+        Ok(FilmDesc {
+            width: w as u32,
+            height: h as u32,
+            block_size: 16,
+            filter,
+        })
+    }
+
+    fn filter(&self, el: &Element) -> Result<Filter> {
+        let p = Plugin::new(el, self.ids)?;
+        let radius = |default: f32| -> Result<f32> {
+            let r = p.float("radius", default)?;
+            if !(r > 0.0 && r <= MAX_FILTER_RADIUS) {
+                return Err(p.value_error("radius", format!("must be in (0, {MAX_FILTER_RADIUS}], found {r}")));
+            }
+            Ok(r)
+        };
+        let f = match p.ty.as_str() {
+            "box" => Filter::Box { radius: radius(0.5)? },
+            "tent" => Filter::Tent { radius: radius(1.0)? },
+            "gaussian" => {
+                let s = p.float("stddev", 0.5)?;
+                if !(s >= 0.05 && 4.0 * s <= MAX_FILTER_RADIUS) {
+                    return Err(p.value_error("stddev", format!("must be between 0.05 and {}, found {s}", MAX_FILTER_RADIUS / 4.0)));
+                }
+                // exp(−x²/2σ²), cut off at 4σ as Mitsuba does
+                Filter::gaussian(4.0 * s, 1.0 / (2.0 * s * s))
+            }
+            "mitchell" => Filter::Mitchell {
+                radius: 2.0,
+                b: p.float("B", 1.0 / 3.0)?,
+                c: p.float("C", 1.0 / 3.0)?,
+            },
+            other => return Err(p.error(format!("unsupported rfilter \"{other}\" (supported: {FILTERS})"))),
+        };
+        p.finish(&[])?;
+        Ok(f)
+    }
+
+    fn shape(&mut self, el: &'a Element) -> Result<ObjectDesc> {
+        let p = Plugin::new(el, self.ids)?;
+        let to_world = p.transform_opt("to_world")?.unwrap_or(Mat4::IDENTITY);
+        if to_world.determinant() == 0.0 {
+            return Err(p.value_error("to_world", "the transform is singular"));
+        }
+        let flip_normals = p.boolean("flip_normals", false)?;
+        let mesh = |format: MeshFormat, path: Located<String>, flip_uv: bool, normals: MeshNormals| {
+            Shape::Mesh(MeshFile {
+                path,
+                transform: to_world,
+                translate: Vec3::ZERO,
+                options: MeshOptions {
+                    format,
+                    normals,
+                    flip_normals,
+                    flip_uv,
+                },
+            })
+        };
+        let normals = |p: &Plugin| -> Result<MeshNormals> {
+            Ok(if p.boolean("face_normals", false)? {
+                MeshNormals::Face
+            } else {
+                MeshNormals::SmoothWhenMissing
+            })
+        };
+        let none = Located {
+            value: String::new(),
+            source: source(el),
+        };
+        let shape = match p.ty.as_str() {
+            "obj" => {
+                let path = self.file(el, &p, "filename")?;
+                // Mitsuba flips OBJ's v by default, which is rdr's orientation already
+                let flip = !p.boolean("flip_tex_coords", true)?;
+                mesh(MeshFormat::Obj, path, flip, normals(&p)?)
+            }
+            "ply" => {
+                let path = self.file(el, &p, "filename")?;
+                // Mitsuba's PLY reader keeps v as it is (v = 0 is an image's top row)
+                let flip = !p.boolean("flip_tex_coords", false)?;
+                mesh(MeshFormat::Ply, path, flip, normals(&p)?)
+            }
+            "serialized" => {
+                let path = self.file(el, &p, "filename")?;
+                let index = p.integer_in("shape_index", 0, 0, u32::MAX as i64)? as u32;
+                let n = normals(&p)?;
+                p.ignore("max_smooth_angle");
+                mesh(MeshFormat::Serialized { shape_index: index }, path, true, n)
+            }
+            "rectangle" => mesh(MeshFormat::Rectangle, none, false, MeshNormals::AsInFile),
+            "cube" => mesh(MeshFormat::Cube, none, false, MeshNormals::AsInFile),
+            "disk" => {
+                self.ids
+                    .warn(el, format!("disk tessellated into {} triangles", crate::desc::DISK_SEGMENTS));
+                mesh(MeshFormat::Disk, none, false, MeshNormals::AsInFile)
+            }
+            "sphere" => {
+                let center = to_world.transform_point3(p.point_opt("center")?.unwrap_or(Vec3::ZERO));
+                let r = p.float("radius", 1.0)?;
+                // the transform's scale must be uniform for the sphere to stay one
+                let axes = [Vec3::X, Vec3::Y, Vec3::Z].map(|a| to_world.transform_vector3(a));
+                let s = axes[0].length();
+                let orthogonal = axes[0].dot(axes[1]).abs() + axes[1].dot(axes[2]).abs() + axes[0].dot(axes[2]).abs() < 1e-4 * s * s;
+                if !orthogonal || axes.iter().any(|a| (a.length() - s).abs() > 1e-4 * s) {
+                    return Err(p.value_error("to_world", "a sphere's transform must be a rotation, translation and uniform scale"));
+                }
+                if flip_normals {
+                    return Err(p.value_error("flip_normals", "is not supported on spheres"));
+                }
+                let radius = r * s;
+                if !(radius > 0.0 && radius <= crate::limits::MAX_COORD) {
+                    return Err(p.value_error("radius", format!("must be positive, found {radius}")));
+                }
+                check_point(&p, "center", center)?;
+                Shape::Sphere(Sphere { center, radius })
+            }
+            other => return Err(p.error(format!("unsupported shape \"{other}\" (supported: {SHAPES})"))),
+        };
+        let bsdfs = p.objects("bsdf");
+        if let Some((_, second)) = bsdfs.get(1) {
+            return Err(second.error("a shape takes one <bsdf>"));
+        }
+        let mut material = match bsdfs.first() {
+            Some((b, at)) => Some(Located {
+                value: self.material(b)?,
+                source: source(at),
+            }),
+            None => None,
+        };
+        let emitters = p.objects("emitter");
+        if let Some((_, second)) = emitters.get(1) {
+            return Err(second.error("a shape takes one <emitter>"));
+        }
+        let light = match emitters.first() {
+            None => None,
+            Some((e, at)) => {
+                let ep = Plugin::new(e, self.ids)?;
+                if ep.ty != "area" {
+                    return Err(at.error(format!("a shape's emitter must be \"area\", found \"{}\"", ep.ty)));
+                }
+                let radiance = ep.rgb("radiance", Vec3::ONE)?;
+                if radiance.min_element() < 0.0 {
+                    return Err(ep.value_error("radiance", "must not be negative"));
+                }
+                if let Some(w) = ep.float_opt("sampling_weight")? {
+                    if w != 1.0 {
+                        self.ids.warn(e, format!("sampling_weight {w} noted: rdr chooses lights by power"));
+                    }
+                }
+                ep.finish(&[])?;
+                Some(AreaLightDesc {
+                    source: source(e),
+                    radiance,
+                })
+            }
+        };
+        if material.is_none() && light.is_none() {
+            // Mitsuba gives a shape without a BSDF a diffuse of reflectance 0.5
+            material = Some(Located {
+                value: self.default_material(),
+                source: source(el),
+            });
+        }
+        p.finish(&["bsdf", "emitter"])?;
+        Ok(ObjectDesc {
+            source: source(el),
+            shape,
+            material,
+            light,
+        })
+    }
+
+    fn default_material(&mut self) -> String {
+        if let Some(m) = self.materials.iter().find(|m| m.name == "__default_diffuse") {
+            return m.name.clone();
+        }
+        self.materials.push(MaterialDesc {
+            name: "__default_diffuse".into(),
+            source: Source::Json(String::new()),
+            material: Material::Diffuse {
+                texture: TextureRef::Color(Vec3::splat(0.5)),
+                twosided: false,
+            },
+        });
+        "__default_diffuse".into()
+    }
+
+    /// The name of the material of a `<bsdf>` (read once however often referenced).
+    fn material(&mut self, el: &'a Element) -> Result<String> {
+        if let Some(n) = self.material_of.get(&(el as *const Element)) {
+            return Ok(n.clone());
+        }
+        let material = self.material_value(el)?;
+        let name = self.unique(el.attr("id"), "bsdf");
+        self.materials.push(MaterialDesc {
+            name: name.clone(),
+            source: source(el),
+            material,
+        });
+        self.material_of.insert(el as *const Element, name.clone());
+        Ok(name)
+    }
+
+    fn nest(&mut self, el: &Element) -> Result<()> {
+        self.depth += 1;
+        if self.depth > MAX_NESTING {
+            return Err(el.error("materials and textures nested too deeply (a circular reference?)"));
+        }
+        Ok(())
+    }
+
+    fn material_value(&mut self, el: &'a Element) -> Result<Material<TextureRef>> {
+        self.nest(el)?;
+        let r = self.material_inner(el);
+        self.depth -= 1;
+        r
+    }
+
+    fn material_inner(&mut self, el: &'a Element) -> Result<Material<TextureRef>> {
+        let p = Plugin::new(el, self.ids)?;
+        let m = match p.ty.as_str() {
+            "diffuse" => {
+                let name = if el.legacy && p.has("diffuse_reflectance") {
+                    "diffuse_reflectance"
+                } else {
+                    "reflectance"
+                };
+                Material::Diffuse {
+                    texture: self.texture_ref(&p, name, Vec3::splat(0.5))?,
+                    twosided: false,
+                }
+            }
+            "twosided" => {
+                let inner = p.objects("bsdf");
+                let Some((b, _)) = inner.first() else {
+                    return Err(p.error("a twosided bsdf needs a nested <bsdf>"));
+                };
+                if let Some((_, at)) = inner.get(1) {
+                    return Err(at.error("a twosided bsdf with different front and back materials is not supported"));
+                }
+                match self.material_value(b)? {
+                    Material::Diffuse { texture, .. } => Material::Diffuse { texture, twosided: true },
+                    m @ (Material::Glass { .. } | Material::Refraction { .. }) => m,
+                    m => {
+                        self.ids
+                            .warn(el, "twosided around a non-diffuse bsdf: rdr's is one-sided (black from behind)");
+                        m
+                    }
+                }
+            }
+            "dielectric" => {
+                let int_ior = p.ior("int_ior", "bk7")?;
+                let ext_ior = p.ior("ext_ior", "air")?;
+                let eta = int_ior / ext_ior;
+                if !(1e-3..=1e3).contains(&eta) {
+                    return Err(p.error(format!("int_ior / ext_ior = {eta} is out of range")));
+                }
+                Material::Glass {
+                    reflect: p.rgb("specular_reflectance", Vec3::ONE)?,
+                    transmit: p.rgb("specular_transmittance", Vec3::ONE)?,
+                    eta,
+                }
+            }
+            "roughconductor" => {
+                let (ax, ay) = if p.has("alpha_u") || p.has("alpha_v") {
+                    if !(p.has("alpha_u") && p.has("alpha_v")) || p.has("alpha") {
+                        return Err(p.error("give either alpha, or both alpha_u and alpha_v"));
+                    }
+                    (p.float("alpha_u", 0.1)?, p.float("alpha_v", 0.1)?)
+                } else {
+                    let a = p.float("alpha", 0.1)?;
+                    (a, a)
+                };
+                for (k, a) in [("alpha", ax), ("alpha_v", ay)] {
+                    if !(0.0..=10.0).contains(&a) {
+                        return Err(p.value_error(k, format!("must be between 0 and 10, found {a}")));
+                    }
+                }
+                let distribution = match p.string("distribution", "beckmann")?.to_ascii_lowercase().as_str() {
+                    "beckmann" => Distribution::Beckmann,
+                    "ggx" => Distribution::Ggx,
+                    other => return Err(p.value_error("distribution", format!("unknown distribution \"{other}\" (beckmann, ggx)"))),
+                };
+                if let Some(m) = p.string_opt("material")? {
+                    if m != "none" {
+                        return Err(p.value_error(
+                            "material",
+                            format!("named conductor \"{m}\" is not supported yet: give eta and k as <rgb>"),
+                        ));
+                    }
+                }
+                let mut eta = p.rgb("eta", Vec3::ZERO)?;
+                let mut k = p.rgb("k", Vec3::ONE)?;
+                if let Some(ext) = p.float_opt("ext_eta")? {
+                    if ext.is_nan() || ext <= 0.0 {
+                        return Err(p.value_error("ext_eta", "must be positive"));
+                    }
+                    // Mitsuba 3 has no ext_eta: η and k are relative to the outside
+                    eta /= ext;
+                    k /= ext;
+                    if ext != 1.0 {
+                        self.ids.warn(el, format!("ext_eta {ext} (Mitsuba 0.6) folded into eta and k"));
+                    }
+                }
+                p.ignore("sample_visible");
+                Material::RoughConductor {
+                    texture: self.texture_ref(&p, "specular_reflectance", Vec3::ONE)?,
+                    eta_i: Vec3::ONE,
+                    eta_t: eta.max(Vec3::splat(1e-4)),
+                    k,
+                    alpha_x: ax,
+                    alpha_y: ay,
+                    distribution,
+                }
+            }
+            other => return Err(p.error(format!("unsupported bsdf \"{other}\" (supported: {BSDFS})"))),
+        };
+        p.finish(&["bsdf", "texture"])?;
+        Ok(m)
+    }
+
+    fn texture_ref(&mut self, p: &Plugin<'a>, name: &str, default: Vec3) -> Result<TextureRef> {
+        Ok(match p.colour(name, default)? {
+            Colour::Constant(c) => {
+                if c.min_element() < 0.0 || !c.is_finite() {
+                    return Err(p.value_error(name, "a colour must not be negative"));
+                }
+                TextureRef::Color(c)
+            }
+            Colour::Texture(t) => TextureRef::Named(Located {
+                value: self.texture(t)?,
+                source: source(t),
+            }),
+        })
+    }
+
+    /// The name of the texture of a `<texture>` (read once however often referenced).
+    fn texture(&mut self, el: &'a Element) -> Result<String> {
+        if let Some(n) = self.texture_of.get(&(el as *const Element)) {
+            return Ok(n.clone());
+        }
+        self.nest(el)?;
+        let t = self.texture_value(el);
+        self.depth -= 1;
+        let texture = t?;
+        let name = self.unique(el.attr("id"), "texture");
+        self.textures.push(TextureDesc {
+            name: name.clone(),
+            source: source(el),
+            texture,
+        });
+        self.texture_of.insert(el as *const Element, name.clone());
+        Ok(name)
+    }
+
+    fn texture_value(&mut self, el: &'a Element) -> Result<Texture<ImageFile>> {
+        let p = Plugin::new(el, self.ids)?;
+        let to_uv = self.to_uv(&p)?;
+        let t = match p.ty.as_str() {
+            "bitmap" => {
+                let path = self.file(el, &p, "filename")?;
+                if let Some(f) = p.string_opt("filter_type")? {
+                    if f != "bilinear" {
+                        self.ids
+                            .warn(el, format!("filter_type \"{f}\" noted: rdr filters images trilinearly"));
+                    }
+                }
+                if let Some(w) = p.string_opt("wrap_mode")? {
+                    if w != "repeat" {
+                        self.ids.warn(el, format!("wrap_mode \"{w}\" noted: rdr repeats images"));
+                    }
+                }
+                if p.boolean("raw", false)? {
+                    self.ids
+                        .warn(el, "raw noted: rdr decodes PNG and JPEG from sRGB and reads EXR and HDR as linear");
+                }
+                // Mitsuba's row 0 is v = 0, rdr's is v = 1
+                Texture::Image(ImageFile {
+                    path,
+                    mapping: UvMapping {
+                        scale: to_uv.0,
+                        delta: Vec2::new(to_uv.1.x, 1.0 - to_uv.0.y - to_uv.1.y),
+                    },
+                })
+            }
+            "checkerboard" => Texture::Checkerboard {
+                color0: p.rgb("color0", Vec3::splat(0.4))?,
+                color1: p.rgb("color1", Vec3::splat(0.2))?,
+                // the same cells as Mitsuba's in its v, which runs the other way
+                mapping: UvMapping {
+                    scale: Vec2::new(to_uv.0.x, -to_uv.0.y),
+                    delta: Vec2::new(to_uv.1.x, to_uv.0.y + to_uv.1.y),
+                },
+            },
+            other => return Err(p.error(format!("unsupported texture \"{other}\" (supported: {TEXTURES})"))),
+        };
+        p.finish(&[])?;
+        Ok(t)
+    }
+
+    /// `to_uv` (or the 0.6 `uscale`, `vscale`, `uoffset`, `voffset`) as scale and offset.
+    fn to_uv(&self, p: &Plugin) -> Result<(Vec2, Vec2)> {
+        let legacy = ["uoffset", "voffset", "uscale", "vscale"].iter().any(|k| p.has(k));
+        let m = if legacy {
+            let o = Vec3::new(p.float("uoffset", 0.0)?, p.float("voffset", 0.0)?, 0.0);
+            let s = Vec3::new(p.float("uscale", 1.0)?, p.float("vscale", 1.0)?, 1.0);
+            values::scale(s) * values::translate(o)
+        } else {
+            p.transform_opt("to_uv")?.unwrap_or(Mat4::IDENTITY)
+        };
+        let (s, o) = (Vec2::new(m.x_axis.x, m.y_axis.y), Vec2::new(m.w_axis.x, m.w_axis.y));
+        if m.x_axis.y != 0.0 || m.y_axis.x != 0.0 || s.x == 0.0 || s.y == 0.0 {
+            return Err(p.value_error("to_uv", "only a scale and offset of the texture coordinates are supported"));
+        }
+        Ok((s, o))
+    }
+
+    fn environment(&mut self, p: &Plugin<'a>) -> Result<EnvMapDesc> {
+        let el = p.el;
+        let (texture, scale) = if p.ty == "constant" {
+            let c = p.rgb("radiance", Vec3::ONE)?;
+            if c.min_element() < 0.0 {
+                return Err(p.value_error("radiance", "must not be negative"));
+            }
+            let name = self.unique(el.attr("id").or(Some("environment")), "environment");
+            self.textures.push(TextureDesc {
+                name: name.clone(),
+                source: source(el),
+                texture: Texture::Constant(c),
+            });
+            (name, 1.0)
+        } else {
+            let path = self.file(el, p, "filename")?;
+            let name = self.unique(el.attr("id").or(Some("environment")), "environment");
+            self.textures.push(TextureDesc {
+                name: name.clone(),
+                source: source(el),
+                texture: Texture::Image(ImageFile {
+                    path,
+                    mapping: UvMapping {
+                        scale: Vec2::ONE,
+                        delta: Vec2::ZERO,
+                    },
+                }),
+            });
+            for k in ["filter_type", "mis_compensation"] {
+                p.ignore(k);
+            }
+            let s = p.float("scale", 1.0)?;
+            if s.is_nan() || s < 0.0 {
+                return Err(p.value_error("scale", "must not be negative"));
+            }
+            (name, s)
+        };
+        let transform = p.transform_opt("to_world")?.unwrap_or(Mat4::IDENTITY);
+        if transform.determinant() == 0.0 {
+            return Err(p.value_error("to_world", "the transform is singular"));
+        }
+        p.finish(&[])?;
+        Ok(EnvMapDesc {
+            source: source(el),
+            texture: Located {
+                value: texture,
+                source: source(el),
+            },
+            scale,
+            transform,
+        })
+    }
+}

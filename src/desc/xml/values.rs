@@ -1,0 +1,343 @@
+//! Mitsuba's value syntax: number lists, vectors, colours, spectra (constant,
+//! `wavelength:value` pairs, or the 0.6 dialect's three RGB values), named indices of
+//! refraction and conductors, transforms, and the camelCase → snake_case rule of
+//! Mitsuba's upgrade of pre-2.0 files.
+
+use crate::math::{Mat4, Vec3, Vec4};
+
+/// Splits a value list at commas and whitespace (Mitsuba accepts either).
+pub fn tokens(s: &str) -> Vec<&str> {
+    s.split(|c: char| c == ',' || c.is_whitespace()).filter(|t| !t.is_empty()).collect()
+}
+
+/// One finite number (parsed as f64, which must fit an f32).
+pub fn number(s: &str) -> Result<f64, String> {
+    let t = s.trim();
+    let v: f64 = t.parse().map_err(|_| format!("could not parse floating point value \"{t}\""))?;
+    if !v.is_finite() || v.abs() > f32::MAX as f64 {
+        return Err(format!("\"{t}\" is not a finite 32-bit number"));
+    }
+    Ok(v)
+}
+
+/// `n` numbers, or one number repeated when `one_repeats`.
+pub fn numbers(s: &str, n: usize, one_repeats: bool) -> Result<Vec<f64>, String> {
+    let t = tokens(s);
+    if t.len() == 1 && one_repeats {
+        return Ok(vec![number(t[0])?; n]);
+    }
+    if t.len() != n {
+        let one = if one_repeats { "1 or " } else { "" };
+        return Err(format!("expected {one}{n} values, found {} in \"{s}\"", t.len()));
+    }
+    t.iter().map(|x| number(x)).collect()
+}
+
+pub fn integer(s: &str) -> Result<i64, String> {
+    let t = s.trim();
+    t.parse::<i64>().map_err(|_| format!("could not parse integer value \"{t}\""))
+}
+
+pub fn boolean(s: &str) -> Result<bool, String> {
+    match s.trim().to_ascii_lowercase().as_str() {
+        "true" => Ok(true),
+        "false" => Ok(false),
+        _ => Err(format!("could not parse boolean value \"{s}\" (must be \"true\" or \"false\")")),
+    }
+}
+
+pub fn vec3(v: &[f64]) -> Vec3 {
+    Vec3::new(v[0] as f32, v[1] as f32, v[2] as f32)
+}
+
+/// Mitsuba's rule for names in files older than 2.0: an uppercase letter after a
+/// lowercase one starts a `_`-separated lowercase word, and the uppercase letters
+/// right after it join that word (`toWorld` → `to_world`, `intIOR` → `int_ior`).
+pub fn camel_to_snake(s: &str) -> String {
+    let c: Vec<char> = s.chars().collect();
+    let mut out = String::with_capacity(s.len() + 4);
+    let mut i = 0;
+    while i < c.len() {
+        if i > 0 && c[i - 1].is_ascii_lowercase() && c[i].is_ascii_uppercase() {
+            out.push('_');
+            out.push(c[i].to_ascii_lowercase());
+            while i + 1 < c.len() && c[i + 1].is_ascii_uppercase() {
+                i += 1;
+                out.push(c[i].to_ascii_lowercase());
+            }
+        } else {
+            out.push(c[i]);
+        }
+        i += 1;
+    }
+    out
+}
+
+// ---------------------------------------------------------------------------
+// Transforms
+// ---------------------------------------------------------------------------
+
+/// `<translate>`.
+pub fn translate(v: Vec3) -> Mat4 {
+    Mat4::from_translation(v)
+}
+
+/// `<scale>`.
+pub fn scale(v: Vec3) -> Mat4 {
+    Mat4::from_scale(v)
+}
+
+/// `<rotate>`: `angle` degrees counter-clockwise about `axis` (right-handed).
+pub fn rotate(axis: Vec3, degrees: f64) -> Result<Mat4, String> {
+    if axis == Vec3::ZERO {
+        return Err("rotation axis cannot be zero".into());
+    }
+    Ok(Mat4::from_axis_angle(axis.normalize(), (degrees as f32).to_radians()))
+}
+
+/// `<matrix>`: 16 (4×4) or 9 (3×3) values, row-major.
+pub fn matrix(s: &str) -> Result<Mat4, String> {
+    let t = tokens(s);
+    let n = match t.len() {
+        16 => 4,
+        9 => 3,
+        k => return Err(format!("matrix must have 9 or 16 values, got {k}")),
+    };
+    let mut m = [[0.0f32; 4]; 4];
+    for (r, row) in m.iter_mut().enumerate() {
+        row[r] = 1.0;
+    }
+    for i in 0..n {
+        for j in 0..n {
+            m[i][j] = number(t[i * n + j])? as f32;
+        }
+    }
+    // glam is column-major: column j holds m[·][j]
+    Ok(Mat4::from_cols(
+        Vec4::new(m[0][0], m[1][0], m[2][0], m[3][0]),
+        Vec4::new(m[0][1], m[1][1], m[2][1], m[3][1]),
+        Vec4::new(m[0][2], m[1][2], m[2][2], m[3][2]),
+        Vec4::new(m[0][3], m[1][3], m[2][3], m[3][3]),
+    ))
+}
+
+/// `<lookat>`: local +z towards `target`, +y close to `up`, +x = up × dir ("left"),
+/// origin at `origin`. A zero `up` is replaced by any perpendicular (as Mitsuba does).
+pub fn look_at(origin: Vec3, target: Vec3, up: Vec3) -> Result<Mat4, String> {
+    let dir = (target - origin).normalize();
+    if !dir.is_finite() {
+        return Err("invalid lookat transformation (origin equals target)".into());
+    }
+    let up = if up == Vec3::ZERO {
+        crate::math::coordinate_system(dir).0
+    } else {
+        up
+    };
+    let left = up.normalize().cross(dir);
+    if left.length_squared().is_nan() || left.length_squared() <= 1e-12 {
+        return Err("invalid lookat transformation (up is parallel to the viewing direction)".into());
+    }
+    let left = left.normalize();
+    let new_up = dir.cross(left);
+    Ok(Mat4::from_cols(
+        left.extend(0.0),
+        new_up.extend(0.0),
+        dir.extend(0.0),
+        origin.extend(1.0),
+    ))
+}
+
+/// A matrix as 16 row-major numbers (the JSON and `<matrix>` order).
+pub fn row_major(m: &Mat4) -> [f32; 16] {
+    m.transpose().to_cols_array()
+}
+
+// ---------------------------------------------------------------------------
+// Spectra
+// ---------------------------------------------------------------------------
+
+/// CIE 1931 2° colour matching functions, the multi-lobe fit of Wyman, Sloan and
+/// Shirley, "Simple Analytic Approximations to the CIE XYZ Color Matching Functions"
+/// (JCGT 2(2), 2013), within about 1 % of the tabulated curves.
+fn cie_xyz(lambda: f64) -> [f64; 3] {
+    let g = |x: f64, mu: f64, s1: f64, s2: f64| {
+        let t = (x - mu) / if x < mu { s1 } else { s2 };
+        (-0.5 * t * t).exp()
+    };
+    let x = 1.056 * g(lambda, 599.8, 37.9, 31.0) + 0.362 * g(lambda, 442.0, 16.0, 26.7) - 0.065 * g(lambda, 501.1, 20.4, 26.2);
+    let y = 0.821 * g(lambda, 568.8, 46.9, 40.5) + 0.286 * g(lambda, 530.9, 16.3, 31.1);
+    let z = 1.217 * g(lambda, 437.0, 11.8, 36.0) + 0.681 * g(lambda, 459.0, 26.0, 13.8);
+    [x, y, z]
+}
+
+/// Linear sRGB (Rec. 709 primaries, D65 white) from CIE XYZ.
+fn xyz_to_srgb([x, y, z]: [f64; 3]) -> [f64; 3] {
+    [
+        3.240479 * x - 1.537150 * y - 0.498535 * z,
+        -0.969256 * x + 1.875991 * y + 0.041556 * z,
+        0.055648 * x - 0.204043 * y + 1.057311 * z,
+    ]
+}
+
+/// The RGB of a spectrum given as `(wavelength nm, value)` pairs (increasing
+/// wavelengths), as Mitsuba's RGB variants compute it: the piecewise-linear spectrum
+/// integrated against the colour matching functions over 360–830 nm (zero outside the
+/// given range), normalised so that a constant 1 has Y = 1, converted to linear sRGB,
+/// negative components clamped to 0.
+pub fn spectrum_to_rgb(pairs: &[(f64, f64)]) -> Vec3 {
+    const STEPS: usize = 1000;
+    let (lo, hi) = (360.0, 830.0);
+    let (mut xyz, mut y_norm) = ([0.0f64; 3], 0.0f64);
+    for i in 0..STEPS {
+        let w = lo + (hi - lo) * i as f64 / (STEPS - 1) as f64;
+        let cmf = cie_xyz(w);
+        y_norm += cmf[1];
+        let Some(k) = pairs.windows(2).position(|p| p[0].0 <= w && w <= p[1].0) else {
+            continue;
+        };
+        let ((w0, v0), (w1, v1)) = (pairs[k], pairs[k + 1]);
+        let v = if w1 > w0 { v0 + (v1 - v0) * (w - w0) / (w1 - w0) } else { v0 };
+        for c in 0..3 {
+            xyz[c] += cmf[c] * v;
+        }
+    }
+    let rgb = xyz_to_srgb(xyz.map(|c| c / y_norm));
+    Vec3::new(rgb[0].max(0.0) as f32, rgb[1].max(0.0) as f32, rgb[2].max(0.0) as f32)
+}
+
+/// What a `<spectrum value="…">` says.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum SpectrumValue {
+    /// One number: the same at every wavelength.
+    Constant(f32),
+    /// Three numbers, which the 0.6 dialect read as RGB.
+    Rgb(Vec3),
+    /// `wavelength:value` pairs, converted to RGB.
+    Sampled(Vec3),
+}
+
+pub fn spectrum(s: &str) -> Result<SpectrumValue, String> {
+    let t = tokens(s);
+    if t.iter().any(|x| x.contains(':')) {
+        let mut pairs = Vec::with_capacity(t.len());
+        for x in &t {
+            let (w, v) = x
+                .split_once(':')
+                .ok_or_else(|| format!("expected wavelength:value pairs, found \"{x}\""))?;
+            pairs.push((number(w)?, number(v)?));
+        }
+        if pairs.len() < 2 || pairs.windows(2).any(|p| p[1].0 <= p[0].0) {
+            return Err("a sampled spectrum needs at least two wavelengths in increasing order".into());
+        }
+        return Ok(SpectrumValue::Sampled(spectrum_to_rgb(&pairs)));
+    }
+    match t.len() {
+        1 => Ok(SpectrumValue::Constant(number(t[0])? as f32)),
+        3 => Ok(SpectrumValue::Rgb(vec3(&numbers(s, 3, false)?))),
+        n => Err(format!("expected one value or wavelength:value pairs, found {n} values")),
+    }
+}
+
+// ---------------------------------------------------------------------------
+// Named materials
+// ---------------------------------------------------------------------------
+
+/// Mitsuba's named indices of refraction (its documentation's table, at 589 nm).
+pub const NAMED_IORS: [(&str, f32); 28] = [
+    ("vacuum", 1.0),
+    ("helium", 1.000036),
+    ("hydrogen", 1.000132),
+    ("air", 1.000277),
+    ("carbon dioxide", 1.00045),
+    ("water", 1.3330),
+    ("acetone", 1.36),
+    ("ethanol", 1.361),
+    ("carbon tetrachloride", 1.461),
+    ("glycerol", 1.4729),
+    ("benzene", 1.501),
+    ("silicone oil", 1.52045),
+    ("bromine", 1.661),
+    ("water ice", 1.31),
+    ("fused quartz", 1.458),
+    ("pyrex", 1.470),
+    ("acrylic glass", 1.49),
+    ("polypropylene", 1.49),
+    ("bk7", 1.5046),
+    ("sodium chloride", 1.544),
+    ("amber", 1.55),
+    ("pet", 1.5750),
+    ("diamond", 2.419),
+    ("polycarbonate", 1.58),
+    ("sapphire", 1.77),
+    ("cubic zirconia", 2.16),
+    ("moissanite", 2.65),
+    ("silicon", 3.48),
+];
+
+/// An index of refraction given as a number or a name from [`NAMED_IORS`].
+pub fn ior(s: &str) -> Result<f32, String> {
+    if let Ok(v) = number(s) {
+        return Ok(v as f32);
+    }
+    let key = s.trim().to_ascii_lowercase();
+    NAMED_IORS.iter().find(|(n, _)| *n == key).map(|(_, v)| *v).ok_or_else(|| {
+        let names: Vec<&str> = NAMED_IORS.iter().map(|(n, _)| *n).collect();
+        format!("unknown index of refraction \"{s}\" (a number, or one of: {})", names.join(", "))
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn camel_case_upgrade_follows_mitsubas_rule() {
+        for (a, b) in [
+            ("toWorld", "to_world"),
+            ("fovAxis", "fov_axis"),
+            ("intIOR", "int_ior"),
+            ("extEta", "ext_eta"),
+            ("sampleCount", "sample_count"),
+            ("specularReflectance", "specular_reflectance"),
+            ("max_depth", "max_depth"),
+            ("Ab", "Ab"),
+        ] {
+            assert_eq!(camel_to_snake(a), b);
+        }
+    }
+
+    #[test]
+    fn transforms() {
+        let m = matrix("1 0 0 2  0 1 0 3  0 0 1 4  0 0 0 1").unwrap();
+        assert_eq!(m.w_axis.truncate(), Vec3::new(2.0, 3.0, 4.0));
+        let r = rotate(Vec3::Z, 90.0).unwrap();
+        assert!((r.transform_vector3(Vec3::X) - Vec3::Y).length() < 1e-6);
+        let l = look_at(Vec3::new(0.0, 1.0, 6.8), Vec3::new(0.0, 1.0, 0.0), Vec3::Y).unwrap();
+        assert!((l.transform_vector3(Vec3::Z) - Vec3::NEG_Z).length() < 1e-6);
+        // +x of a camera looking down −z with +y up is "left" in the image: world −x
+        assert!((l.transform_vector3(Vec3::X) - Vec3::NEG_X).length() < 1e-6);
+        assert!(matrix("1 2 3").is_err());
+        assert!(rotate(Vec3::ZERO, 1.0).is_err());
+    }
+
+    #[test]
+    fn spectra() {
+        assert_eq!(spectrum("0.5").unwrap(), SpectrumValue::Constant(0.5));
+        assert!(matches!(spectrum("0.1, 0.2, 0.3").unwrap(), SpectrumValue::Rgb(_)));
+        // an equal-energy spectrum is nearly white (illuminant E in sRGB is slightly pink)
+        let SpectrumValue::Sampled(e) = spectrum("360:1, 830:1").unwrap() else {
+            panic!()
+        };
+        assert!((e - Vec3::ONE).abs().max_element() < 0.25, "{e}");
+        assert!((0.2126 * e.x + 0.7152 * e.y + 0.0722 * e.z - 1.0).abs() < 0.01, "{e}");
+        // a red-only spectrum is red
+        let SpectrumValue::Sampled(r) = spectrum("600:0, 620:1, 700:1, 720:0").unwrap() else {
+            panic!()
+        };
+        assert!(r.x > 5.0 * r.y && r.z < 0.01, "{r}");
+        assert!(spectrum("500:1, 400:1").is_err());
+        assert_eq!(ior("bk7").unwrap(), 1.5046);
+        assert_eq!(ior("1.33").unwrap(), 1.33);
+        assert!(ior("unobtainium").unwrap_err().contains("bk7"));
+    }
+}

@@ -1,0 +1,906 @@
+//! Mitsuba XML scenes: every reference XML in `shared/refs/mitsuba/` converges to its
+//! Mitsuba image (the noise-aware metric of `tests/path_tracing.rs`); the Cornell
+//! boxes build the same scene from the XML as from their JSON twins; the course's
+//! 0.6-dialect files load or name their missing asset; broken XML gives one-line
+//! errors with file, line and column.
+//!
+//! Renders are made at 1/k of the resolution and compared with the reference averaged
+//! over k×k blocks: with a box filter that is exact in expectation and k² cheaper.
+
+mod common;
+use common::*;
+use rdr::desc::SceneDesc;
+use rdr::metrics::{compare, Comparison, Image};
+use rdr::{Loaded, Profile};
+use std::f32::consts::PI;
+use std::path::{Path, PathBuf};
+
+fn xml_desc(path: &Path, defines: &[(&str, &str)]) -> SceneDesc {
+    let d: Vec<(String, String)> = defines.iter().map(|(k, v)| (k.to_string(), v.to_string())).collect();
+    SceneDesc::load_with_defines(path, &[], &d).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// The scene of `desc` with its film shrunk k times (the camera's vertical field of
+/// view, already read, stays).
+fn shrunk(mut desc: SceneDesc, k: u32) -> Loaded {
+    assert!(desc.film.width.is_multiple_of(k) && desc.film.height.is_multiple_of(k));
+    desc.film.width /= k;
+    desc.film.height /= k;
+    Loaded::build(&desc, Profile::Physical).unwrap_or_else(|e| panic!("{e}"))
+}
+
+struct Case {
+    xml: &'static str,
+    reference: &'static str,
+    k: usize,
+    spp: u32,
+    /// Reference rows left out (veach's glossy band), multiples of k.
+    mask: Option<(usize, usize)>,
+    /// The reference times this is the image of the XML.
+    scale: f32,
+    /// Allowed bias beyond 5σ (veach's variance is a lower bound: heavy tails).
+    slack: f64,
+}
+
+const CASES: [Case; 8] = [
+    Case {
+        xml: "cbox_path",
+        reference: "cbox",
+        k: 2,
+        spp: 24,
+        mask: None,
+        scale: 1.0,
+        slack: 2e-4,
+    },
+    Case {
+        xml: "caustic_cbox",
+        reference: "caustic_cbox",
+        k: 4,
+        spp: 64,
+        mask: None,
+        scale: 1.0,
+        slack: 2e-4,
+    },
+    // intensity I = (17, 12, 5) is flux 4πI; the reference is the image for flux I
+    Case {
+        xml: "cbox_point",
+        reference: "cbox_point_hq",
+        k: 4,
+        spp: 8,
+        mask: None,
+        scale: 4.0 * PI,
+        slack: 2e-4,
+    },
+    Case {
+        xml: "env_sphere",
+        reference: "env_sphere",
+        k: 2,
+        spp: 12,
+        mask: None,
+        scale: 1.0,
+        slack: 2e-4,
+    },
+    Case {
+        xml: "glass_sphere",
+        reference: "glass_sphere",
+        k: 2,
+        spp: 24,
+        mask: None,
+        scale: 1.0,
+        slack: 2e-4,
+    },
+    Case {
+        xml: "sphere_furnace",
+        reference: "sphere_furnace",
+        k: 2,
+        spp: 16,
+        mask: None,
+        scale: 1.0,
+        slack: 2e-4,
+    },
+    Case {
+        xml: "two_spheres_path",
+        reference: "two_spheres",
+        k: 4,
+        spp: 16,
+        mask: None,
+        scale: 1.0,
+        slack: 2e-4,
+    },
+    Case {
+        xml: "veach_path",
+        reference: "veach",
+        k: 2,
+        spp: 16,
+        mask: Some((194, 222)),
+        scale: 1.0,
+        slack: 3e-3,
+    },
+];
+
+fn reference(shared: &Path, c: &Case) -> (Image, Image) {
+    let mut r = read(&shared.join(format!("refs/{}.exr", c.reference)));
+    let mut vr = read(&shared.join(format!("refs/{}.var.exr", c.reference)));
+    if let Some((a, b)) = c.mask {
+        r = r.without_rows(a, b);
+        vr = vr.without_rows(a, b);
+    }
+    let s = c.scale;
+    (scaled(&r.block_average(c.k, false), s), scaled(&vr.block_average(c.k, true), s * s))
+}
+
+fn check(label: &str, c: &Case, loaded: &Loaded, r: &(Image, Image)) -> Comparison {
+    let mask = |img: Image| match c.mask {
+        Some((a, b)) => img.without_rows(a / c.k, b / c.k),
+        None => img,
+    };
+    let (x1, x2) = (mask(render(loaded, c.spp, 1)), mask(render(loaded, c.spp, 2)));
+    let cmp = compare(&x1, &x2, &r.0, &r.1);
+    eprintln!(
+        "{label:>34}: relMSE corrected {:+.2e} ± {:.1e} (raw {:.2e}, noise {:.2e})",
+        cmp.rel_mse_corrected, cmp.std_error, cmp.rel_mse_raw, cmp.rel_mse_noise
+    );
+    cmp
+}
+
+fn converges(c: &Comparison, slack: f64) -> bool {
+    c.rel_mse_corrected.abs() < 5.0 * c.std_error + slack
+}
+
+fn fails(bad: &Comparison, good: &Comparison) -> bool {
+    bad.rel_mse_corrected > 10.0 * (bad.std_error + good.std_error) + 1e-3
+}
+
+#[test]
+fn every_reference_xml_converges_to_its_mitsuba_image() {
+    let Some(shared) = shared() else { return };
+    let mut bad = Vec::new();
+    for c in &CASES {
+        let path = shared.join(format!("refs/mitsuba/{}.xml", c.xml));
+        let loaded = shrunk(xml_desc(&path, &[]), c.k as u32);
+        let r = reference(&shared, c);
+        let good = check(c.xml, c, &loaded, &r);
+        if !converges(&good, c.slack) {
+            bad.push(format!("{}: {good:?}", c.xml));
+        }
+        // deliberate mistakes the comparison must catch
+        if c.xml == "cbox_point" {
+            // reading intensity as flux (forgetting the 4π)
+            let x1 = scaled(&render(&loaded, c.spp, 1), 1.0 / (4.0 * PI));
+            let x2 = scaled(&render(&loaded, c.spp, 2), 1.0 / (4.0 * PI));
+            let wrong = compare(&x1, &x2, &r.0, &r.1);
+            eprintln!(
+                "{:>34}: relMSE corrected {:+.2e}",
+                "cbox_point, intensity as flux", wrong.rel_mse_corrected
+            );
+            assert!(fails(&wrong, &good), "{wrong:?}");
+        }
+        if c.xml == "veach_path" {
+            // fov 35° along y instead of x (the reader's fov_axis ignored)
+            let dir = temp_dir("rdr-xml-fov");
+            let text = std::fs::read_to_string(&path).unwrap().replace(r#"value="x"/>"#, r#"value="y"/>"#);
+            let p = dir.path().join("veach_y.xml");
+            std::fs::write(&p, text).unwrap();
+            let wrong = check("veach_path, fov_axis y", c, &shrunk(xml_desc(&p, &[]), c.k as u32), &r);
+            assert!(fails(&wrong, &good), "{wrong:?}");
+        }
+    }
+    assert!(bad.is_empty(), "not converged:\n{}", bad.join("\n"));
+}
+
+/// What an object of a built scene is, for comparisons: its triangles (corner
+/// positions and shading normals) or sphere, its material and its light.
+fn objects(s: &rdr::Scene) -> Vec<(Vec<[f32; 18]>, String, String)> {
+    use rdr::scene::Shape;
+    s.objects
+        .iter()
+        .map(|o| {
+            let geometry = match &o.shape {
+                Shape::Mesh(m) => (0..m.triangles.len())
+                    .map(|i| {
+                        let t = &m.triangles[i];
+                        let p = m.vertices(i);
+                        let n = match t.n {
+                            Some(n) => n.map(|k| m.normals[k as usize]),
+                            None => [(p[1] - p[0]).cross(p[2] - p[0]).normalize(); 3],
+                        };
+                        let mut a = [0.0; 18];
+                        for c in 0..3 {
+                            a[3 * c..3 * c + 3].copy_from_slice(&p[c].to_array());
+                            a[9 + 3 * c..12 + 3 * c].copy_from_slice(&n[c].to_array());
+                        }
+                        a
+                    })
+                    .collect(),
+                Shape::Sphere(sp) => vec![{
+                    let mut a = [0.0; 18];
+                    a[..3].copy_from_slice(&sp.center.to_array());
+                    a[3] = sp.radius;
+                    a
+                }],
+            };
+            let material = o.material.map_or("none".to_string(), |m| {
+                let m = s.materials[m as usize]
+                    .try_map_textures(|&t| Ok::<_, ()>(format!("{:?}", s.textures[t as usize])))
+                    .unwrap();
+                format!("{m:?}")
+            });
+            let light = o.light.map_or("none".to_string(), |l| match &s.lights[l as usize] {
+                rdr::light::Light::Area(a) => format!("{:?}", a.radiance),
+                _ => "other".to_string(),
+            });
+            (geometry, material, light)
+        })
+        .collect()
+}
+
+fn same_triangles(a: &[[f32; 18]], b: &[[f32; 18]]) -> bool {
+    a.len() == b.len() && a.iter().zip(b).all(|(x, y)| x.iter().zip(y).all(|(p, q)| (p - q).abs() <= 1e-6))
+}
+
+#[test]
+fn cornell_boxes_build_the_same_scene_from_xml_and_json() {
+    let Some(shared) = shared() else { return };
+    for (xml, json, flux_scale) in [
+        ("cbox_path", "cbox_path", 1.0),
+        ("caustic_cbox", "caustic_cbox", 1.0),
+        ("cbox_point", "cbox_point", 4.0 * PI),
+    ] {
+        let xd = xml_desc(&shared.join(format!("refs/mitsuba/{xml}.xml")), &[]);
+        let jd = SceneDesc::load(&shared.join(format!("refs/scenes/{json}.json")), &[]).unwrap();
+        // camera and film
+        let (xc, jc) = (&xd.camera, &jd.camera);
+        assert!((xc.position - jc.position).length() < 1e-6, "{xml}: camera position");
+        let dir = |c: &rdr::camera::CameraParams| (c.look_at - c.position).normalize();
+        assert!((dir(xc) - dir(jc)).length() < 1e-6, "{xml}: camera direction");
+        assert!((xc.fov - jc.fov).abs() < 1e-4, "{xml}: fov {} vs {}", xc.fov, jc.fov);
+        assert_eq!((xd.film.width, xd.film.height), (jd.film.width, jd.film.height), "{xml}: film");
+        assert_eq!(format!("{:?}", xd.film.filter), format!("{:?}", jd.film.filter), "{xml}: filter");
+        let (xs, js) = (
+            Loaded::build(&xd, Profile::Physical).unwrap().scene,
+            Loaded::build(&jd, Profile::Physical).unwrap().scene,
+        );
+        let (xo, mut jo) = (objects(&xs), objects(&js));
+        assert_eq!(xo.len(), jo.len(), "{xml}: object count");
+        for (g, m, l) in &xo {
+            let i = jo
+                .iter()
+                .position(|(jg, _, _)| same_triangles(g, jg))
+                .unwrap_or_else(|| panic!("{xml}: an XML object ({} triangles) has no JSON twin", g.len()));
+            let (_, jm, jl) = jo.remove(i);
+            assert_eq!(m, &jm, "{xml}: material");
+            assert_eq!(l, &jl, "{xml}: light");
+        }
+        // point lights: Mitsuba's intensity is a 4π smaller number than rdr's flux
+        let points = |s: &rdr::Scene| -> Vec<(rdr::math::Vec3, rdr::math::Vec3)> {
+            s.lights
+                .iter()
+                .filter_map(|l| match l {
+                    rdr::light::Light::Point { position, flux } => Some((*position, *flux)),
+                    _ => None,
+                })
+                .collect()
+        };
+        let (xp, mut jp) = (points(&xs), points(&js));
+        // a JSON scene without any point light key has RDR171's default one (flux 1 at
+        // (0, 5, 0), above these closed boxes); Mitsuba has no such thing
+        let json_text = std::fs::read_to_string(shared.join(format!("refs/scenes/{json}.json"))).unwrap();
+        if !json_text.contains("point_light") && !json_text.contains("\"lights\"") {
+            jp.retain(|&(p, f)| (p, f) != (rdr::math::Vec3::new(0.0, 5.0, 0.0), rdr::math::Vec3::ONE));
+        }
+        assert_eq!(xp.len(), jp.len(), "{xml}: point lights");
+        for ((xpos, xf), (jpos, jf)) in xp.iter().zip(&jp) {
+            assert!((*xpos - *jpos).length() < 1e-6);
+            assert!(
+                (*xf - *jf * flux_scale).abs().max_element() < 1e-4 * xf.max_element(),
+                "{xml}: flux {xf} vs {jf}"
+            );
+        }
+        assert_eq!(xs.environment.is_some(), js.environment.is_some());
+    }
+}
+
+#[test]
+fn every_course_xml_loads_or_names_its_missing_asset() {
+    let Some(shared) = shared() else { return };
+    let dir = shared.join("scenes/rdr171/data/mitsuba");
+    let mut files: Vec<PathBuf> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "xml"))
+        .collect();
+    files.sort();
+    assert!(files.len() >= 10);
+    let (mut loaded, mut missing) = (0, 0);
+    for f in &files {
+        match rdr::load_with_defines(f, &[], &[], Profile::Physical) {
+            Ok(_) => loaded += 1,
+            Err(e) => {
+                let msg = e.to_string();
+                let name = f.file_name().unwrap().to_string_lossy();
+                assert!(!msg.contains('\n'), "{name}: {msg}");
+                // the asset named in the file, and that it is absent
+                let asset = msg
+                    .split(['\'', ' '])
+                    .find(|w| w.contains("/assets/"))
+                    .unwrap_or_else(|| panic!("{name}: the error names no asset: {msg}"));
+                assert!(!Path::new(asset).exists(), "{name}: {asset} exists: {msg}");
+                assert!(msg.contains("No such file") && msg.contains("line "), "{name}: {msg}");
+                eprintln!("{name}: {msg}");
+                missing += 1;
+            }
+        }
+    }
+    eprintln!("{loaded} loaded, {missing} name a missing asset");
+    assert!(loaded >= 5, "the course scenes whose assets exist load");
+}
+
+/// A scene around `body` (the sensor and a sphere are always there).
+fn scene(body: &str) -> String {
+    format!(
+        r#"<scene version="3.0.0">
+  <sensor type="perspective">
+    <float name="fov" value="40"/>
+    <film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="8"/></film>
+  </sensor>
+{body}
+</scene>
+"#
+    )
+}
+
+#[test]
+fn bad_xml_gives_one_line_errors_with_file_line_and_column() {
+    let dir = temp_dir("rdr-xml-bad");
+    let d = dir.path();
+    std::fs::write(
+        d.join("a.xml"),
+        "<scene version=\"3.0.0\">\n  <include filename=\"b.xml\"/>\n</scene>\n",
+    )
+    .unwrap();
+    std::fs::write(
+        d.join("b.xml"),
+        "<scene version=\"3.0.0\">\n  <include filename=\"a.xml\"/>\n</scene>\n",
+    )
+    .unwrap();
+    let sphere = r#"<shape type="sphere"><float name="radius" value="1"/></shape>"#;
+    // (case, file text, expected "line L, column C", expected words)
+    let cases: Vec<(&str, String, &str, &str)> = vec![
+        ("malformed", "<scene version=\"3.0.0\">\n  <shape type=\"obj\">\n</scene>\n".into(), "line 3, column 1", "invalid XML"),
+        ("no version", "<scene>\n</scene>\n".into(), "line 1, column 1", "missing version"),
+        ("unknown bsdf", scene(r#"  <shape type="sphere"><bsdf type="plastic"/></shape>"#), "line 6, column 24", "unsupported bsdf \"plastic\" (supported: diffuse"),
+        ("unknown shape", scene(r#"  <shape type="teapot"/>"#), "line 6, column 3", "unsupported shape \"teapot\" (supported: obj"),
+        ("unknown emitter", scene(r#"  <emitter type="spot"/>"#), "line 6, column 3", "unsupported emitter \"spot\""),
+        ("unknown integrator", scene(r#"  <integrator type="mlt"/>"#), "line 6, column 3", "unsupported integrator \"mlt\""),
+        ("unknown element", scene(r#"  <shape type="sphere"><colour name="x" value="1"/></shape>"#), "line 6, column 24", "unsupported XML element <colour>"),
+        ("missing $param", scene(r#"  <shape type="sphere"><float name="radius" value="$r"/></shape>"#), "line 6, column 24", "undefined parameter $r"),
+        ("recursive include", "<scene version=\"3.0.0\">\n  <include filename=\"a.xml\"/>\n</scene>\n".into(), "line 2, column 3", "recursive <include>"),
+        ("missing include", scene(r#"  <include filename="nowhere.xml"/>"#), "line 6, column 3", "included file"),
+        ("bad rotate", scene(r#"  <shape type="sphere"><transform name="to_world"><rotate angle="90"/></transform></shape>"#), "line 6, column 51", "rotation axis cannot be zero"),
+        ("bad matrix", scene(r#"  <shape type="sphere"><transform name="to_world"><matrix value="1 2 3"/></transform></shape>"#), "line 6, column 51", "9 or 16 values"),
+        ("bad translate", scene(r#"  <shape type="sphere"><transform name="to_world"><translate value="1 2"/></transform></shape>"#), "line 6, column 51", "expected 1 or 3 values"),
+        ("skewed sphere", scene(r#"  <shape type="sphere"><transform name="to_world"><scale x="2"/></transform></shape>"#), "line 6, column 24", "uniform scale"),
+        ("missing mesh", scene(r#"  <shape type="obj"><string name="filename" value="gone.obj"/></shape>"#), "line 6, column 3", "gone.obj"),
+        ("float as text", scene(r#"  <shape type="sphere"><float name="radius" value="big"/></shape>"#), "line 6, column 24", "could not parse floating point value \"big\""),
+        ("string for a float", scene(r#"  <shape type="sphere"><string name="radius" value="1"/></shape>"#), "line 6, column 24", "expected a float, found a string"),
+        ("fractional integer", scene(r#"  <integrator type="path"><integer name="max_depth" value="1.5"/></integrator>"#), "line 6, column 27", "could not parse integer value"),
+        ("bad boolean", scene(r#"  <shape type="obj"><boolean name="face_normals" value="yes"/></shape>"#), "line 6, column 21", "must be \"true\" or \"false\""),
+        ("unknown ref", scene(r#"  <shape type="sphere"><ref id="gold"/></shape>"#), "line 6, column 24", "unknown id \"gold\""),
+        ("duplicate id", scene(&format!("  <bsdf type=\"diffuse\" id=\"a\"/>\n  <bsdf type=\"diffuse\" id=\"a\"/>\n  {sphere}")), "line 7, column 3", "duplicate id \"a\""),
+        ("rgb in a spectrum", scene(r#"  <shape type="sphere"><bsdf type="diffuse"><spectrum name="reflectance" value="0.1 0.2 0.3"/></bsdf></shape>"#), "line 6, column 45", "three values are not a spectrum"),
+        ("named conductor", scene(r#"  <shape type="sphere"><bsdf type="roughconductor"><string name="material" value="Au"/></bsdf></shape>"#), "line 6, column 52", "named conductor"),
+        ("negative radiance", scene(r#"  <emitter type="constant"><rgb name="radiance" value="-1"/></emitter>"#), "line 6, column 28", "must not be negative"),
+        ("mirrored camera", "<scene version=\"3.0.0\">\n  <sensor type=\"perspective\">\n    <transform name=\"to_world\"><scale x=\"-1\"/></transform>\n  </sensor>\n</scene>\n".into(), "line 3, column 5", "mirroring"),
+    ];
+    let mut failures = Vec::new();
+    for (name, text, at, words) in &cases {
+        let file = d.join(format!("{}.xml", name.replace(['$', ' '], "_")));
+        let file = if *name == "recursive include" { d.join("a.xml") } else { file };
+        if *name != "recursive include" {
+            std::fs::write(&file, text).unwrap();
+        }
+        let msg = match rdr::load_with_defines(&file, &[], &[], Profile::Physical) {
+            Ok(_) => {
+                failures.push(format!("{name}: accepted"));
+                continue;
+            }
+            Err(e) => e.to_string(),
+        };
+        let ok = !msg.contains('\n') && msg.contains(&format!(".xml: {at}: ")) && msg.contains(words);
+        eprintln!("{name:>20}: {msg}");
+        if !ok {
+            failures.push(format!("{name}: expected '{at}' and '{words}', got: {msg}"));
+        }
+    }
+    // through the binary: exit status 1 and one `error:` line
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_rdr"))
+        .args(["render", "-q"])
+        .arg(d.join("unknown_bsdf.xml"))
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(err.starts_with("error: ") && err.contains("line 6, column 24"), "{err}");
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+#[test]
+fn structure_defaults_defines_includes_paths_refs_and_aliases() {
+    let dir = temp_dir("rdr-xml-structure");
+    let d = dir.path();
+    std::fs::create_dir(d.join("meshes")).unwrap();
+    std::fs::create_dir(d.join("parts")).unwrap();
+    std::fs::write(d.join("meshes/tri.obj"), "v -1 -1 0\nv 1 -1 0\nv 0 1 0\nf 1 2 3\n").unwrap();
+    std::fs::write(
+        d.join("parts/materials.xml"),
+        r#"<scene version="3.0.0"><bsdf type="diffuse" id="grey"><rgb name="reflectance" value="$albedo"/></bsdf></scene>"#,
+    )
+    .unwrap();
+    let main = r#"<scene version="3.0.0">
+  <path value="meshes"/>
+  <default name="albedo" value="0.25"/>
+  <default name="spp" value="3"/>
+  <include filename="parts/materials.xml"/>
+  <alias id="grey" as="matte"/>
+  <integrator type="direct"/>
+  <sensor type="perspective">
+    <float name="fov" value="90"/>
+    <transform name="to_world"><translate z="-1"/><rotate y="1" angle="180"/><translate z="5"/></transform>
+    <film type="hdrfilm"><integer name="width" value="20"/><integer name="height" value="10"/></film>
+    <sampler type="independent"><integer name="sample_count" value="$spp"/></sampler>
+  </sensor>
+  <shape type="obj"><string name="filename" value="tri.obj"/><ref id="matte"/></shape>
+  <shape type="obj"><string name="filename" value="tri.obj"/><ref name="bsdf" id="grey"/></shape>
+</scene>
+"#;
+    std::fs::write(d.join("main.xml"), main).unwrap();
+    let desc = xml_desc(&d.join("main.xml"), &[("spp", "7")]);
+    assert_eq!(desc.integrator.spp, 7, "-D wins over <default>");
+    assert_eq!(desc.materials.len(), 1, "one material, referenced twice and through an alias");
+    assert_eq!(desc.objects.len(), 2);
+    let rdr::material::Material::Diffuse {
+        texture: rdr::desc::TextureRef::Color(c),
+        ..
+    } = &desc.materials[0].material
+    else {
+        panic!("{:?}", desc.materials[0])
+    };
+    assert_eq!(*c, rdr::math::Vec3::splat(0.25), "the included file sees the includer's <default>");
+    // translate(0,0,−1), then a half turn about y, then translate(0,0,5): the camera
+    // sits at (0,0,6) looking down −z; fov 90 along x on a 2:1 film
+    assert!(
+        (desc.camera.position - rdr::math::Vec3::new(0.0, 0.0, 6.0)).length() < 1e-5,
+        "{:?}",
+        desc.camera.position
+    );
+    assert!((desc.camera.look_at - desc.camera.position - rdr::math::Vec3::NEG_Z).length() < 1e-5);
+    let vfov = 2.0 * (0.5f32).atan().to_degrees();
+    assert!((desc.camera.fov - vfov).abs() < 1e-3, "{} vs {vfov}", desc.camera.fov);
+    // the mesh was found through <path>
+    let loaded = Loaded::build(&desc, Profile::Physical).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(loaded.scene.objects.len(), 2);
+    assert!(
+        matches!(loaded.job.integrator, rdr::integrator::Integrator::Path(p) if p.max_depth == 2),
+        "direct = path with max_depth 2"
+    );
+    // Mitsuba's default filter: a gaussian of stddev 0.5 cut at 2 pixels
+    assert_eq!(
+        format!("{:?}", desc.film.filter),
+        format!("{:?}", rdr::film::Filter::gaussian(2.0, 2.0))
+    );
+}
+
+/// A small bumpy grid: (positions, normals, uvs, triangles).
+/// Positions, normals, uvs, triangles.
+type Grid = (Vec<[f32; 3]>, Vec<[f32; 3]>, Vec<[f32; 2]>, Vec<[u32; 3]>);
+
+fn grid() -> Grid {
+    let (mut p, mut n, mut uv, mut t) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    for j in 0..4 {
+        for i in 0..4 {
+            let (x, y) = (i as f32 / 3.0, j as f32 / 3.0);
+            p.push([x, y, 0.1 * ((3 * i + 5 * j) % 7) as f32]);
+            let nn = rdr::math::Vec3::new(0.1 * i as f32, -0.2, 1.0).normalize();
+            n.push(nn.to_array());
+            uv.push([x, y * 0.5]);
+        }
+    }
+    for j in 0..3u32 {
+        for i in 0..3u32 {
+            let a = 4 * j + i;
+            t.push([a, a + 1, a + 5]);
+            t.push([a, a + 5, a + 4]);
+        }
+    }
+    (p, n, uv, t)
+}
+
+fn obj_text(normals: bool, uvs: bool) -> String {
+    let (p, n, uv, t) = grid();
+    let mut s = String::new();
+    for v in &p {
+        s += &format!("v {} {} {}\n", v[0], v[1], v[2]);
+    }
+    if normals {
+        for v in &n {
+            s += &format!("vn {} {} {}\n", v[0], v[1], v[2]);
+        }
+    }
+    if uvs {
+        for v in &uv {
+            s += &format!("vt {} {}\n", v[0], v[1]);
+        }
+    }
+    for f in &t {
+        let c = |i: u32| match (uvs, normals) {
+            (false, false) => format!("{}", i + 1),
+            (true, false) => format!("{0}/{0}", i + 1),
+            (false, true) => format!("{0}//{0}", i + 1),
+            (true, true) => format!("{0}/{0}/{0}", i + 1),
+        };
+        s += &format!("f {} {} {}\n", c(f[0]), c(f[1]), c(f[2]));
+    }
+    s
+}
+
+/// The grid as PLY: `format` ascii, binary_little_endian or binary_big_endian.
+fn ply_bytes(format: &str, normals: bool, uvs: bool) -> Vec<u8> {
+    let (p, n, uv, t) = grid();
+    let mut h = format!(
+        "ply\nformat {format} 1.0\ncomment made by rdr's tests\nelement vertex {}\nproperty float x\nproperty float y\nproperty float z\n",
+        p.len()
+    );
+    if normals {
+        h += "property float nx\nproperty float ny\nproperty float nz\n";
+    }
+    if uvs {
+        h += "property float u\nproperty float v\n";
+    }
+    h += &format!("element face {}\nproperty list uchar int vertex_indices\nend_header\n", t.len());
+    let mut out = h.into_bytes();
+    let big = format == "binary_big_endian";
+    let put = |out: &mut Vec<u8>, x: f32| {
+        if format == "ascii" {
+            out.extend_from_slice(format!("{x} ").as_bytes());
+        } else if big {
+            out.extend_from_slice(&x.to_be_bytes());
+        } else {
+            out.extend_from_slice(&x.to_le_bytes());
+        }
+    };
+    for i in 0..p.len() {
+        let mut vals: Vec<f32> = p[i].to_vec();
+        if normals {
+            vals.extend(n[i]);
+        }
+        if uvs {
+            vals.extend(uv[i]);
+        }
+        for v in vals {
+            put(&mut out, v);
+        }
+        if format == "ascii" {
+            out.push(b'\n');
+        }
+    }
+    for f in &t {
+        if format == "ascii" {
+            out.extend_from_slice(format!("3 {} {} {}\n", f[0], f[1], f[2]).as_bytes());
+        } else {
+            out.push(3);
+            for i in f {
+                out.extend_from_slice(&if big {
+                    (*i as i32).to_be_bytes()
+                } else {
+                    (*i as i32).to_le_bytes()
+                });
+            }
+        }
+    }
+    out
+}
+
+/// A one-shape scene of `shape` (its inner XML given) in `dir`.
+fn mesh_scene(dir: &Path, name: &str, shape: &str) -> PathBuf {
+    let p = dir.join(format!("{name}.xml"));
+    std::fs::write(&p, scene(&format!("  <shape {shape}</shape>"))).unwrap();
+    p
+}
+
+/// Triangles of the one object of a scene, with their uvs.
+/// Triangles (corners and normals) and their uvs.
+type MeshOf = (Vec<[f32; 18]>, Vec<[f32; 6]>);
+
+fn mesh_of(path: &Path) -> Result<MeshOf, String> {
+    let loaded = rdr::load_with_defines(path, &[], &[], Profile::Physical).map_err(|e| e.to_string())?;
+    let tris = objects(&loaded.scene).remove(0).0;
+    let rdr::scene::Shape::Mesh(m) = &loaded.scene.objects[0].shape else {
+        panic!()
+    };
+    let uvs = m
+        .triangles
+        .iter()
+        .map(|t| {
+            let mut a = [0.0; 6];
+            if let Some(uv) = t.uv {
+                for c in 0..3 {
+                    a[2 * c..2 * c + 2].copy_from_slice(&m.uvs[uv[c] as usize].to_array());
+                }
+            }
+            a
+        })
+        .collect();
+    Ok((tris, uvs))
+}
+
+#[test]
+fn ply_and_serialized_meshes_give_the_triangles_of_the_same_obj() {
+    let dir = temp_dir("rdr-xml-meshes");
+    let d = dir.path();
+    for (normals, uvs) in [(false, false), (true, false), (false, true), (true, true)] {
+        let tag = format!("n{}uv{}", normals as u8, uvs as u8);
+        std::fs::write(d.join(format!("{tag}.obj")), obj_text(normals, uvs)).unwrap();
+        let obj = mesh_of(&mesh_scene(
+            d,
+            &format!("{tag}_obj"),
+            &format!(r#"type="obj"><string name="filename" value="{tag}.obj"/>"#),
+        ))
+        .unwrap();
+        assert_eq!(obj.0.len(), 18);
+        for format in ["ascii", "binary_little_endian", "binary_big_endian"] {
+            let file = format!("{tag}_{format}.ply");
+            std::fs::write(d.join(&file), ply_bytes(format, normals, uvs)).unwrap();
+            // flip_tex_coords as the OBJ reader does by default
+            let shape = format!(r#"type="ply"><string name="filename" value="{file}"/><boolean name="flip_tex_coords" value="true"/>"#);
+            let ply = mesh_of(&mesh_scene(d, &format!("{tag}_{format}"), &shape)).unwrap();
+            assert!(same_triangles(&ply.0, &obj.0), "{file}: other triangles or normals than the OBJ");
+            assert_eq!(ply.1, obj.1, "{file}: other texture coordinates than the OBJ");
+        }
+    }
+    // face_normals drops the file's normals: flat like the OBJ without them
+    let flat = mesh_of(&mesh_scene(
+        d,
+        "flat",
+        r#"type="obj"><string name="filename" value="n1uv0.obj"/><boolean name="face_normals" value="true"/>"#,
+    ))
+    .unwrap();
+    let flat_ply = mesh_of(&mesh_scene(
+        d,
+        "flat_ply",
+        r#"type="ply"><string name="filename" value="n1uv0_ascii.ply"/><boolean name="face_normals" value="true"/>"#,
+    ))
+    .unwrap();
+    assert!(same_triangles(&flat.0, &flat_ply.0));
+    let smooth = mesh_of(&mesh_scene(
+        d,
+        "smooth",
+        r#"type="obj"><string name="filename" value="n0uv0.obj"/>"#,
+    ))
+    .unwrap();
+    assert!(
+        !same_triangles(&flat.0, &smooth.0),
+        "without face_normals a mesh without normals is smoothed"
+    );
+
+    // serialized, by rdr's own encoder: mesh 1 of 2
+    let obj = rdr::geometry::obj::parse(&obj_text(true, true)).unwrap();
+    let other = rdr::geometry::obj::parse("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
+    let bytes = rdr::geometry::serialized::write(&[("other", &other), ("grid", &obj)]);
+    std::fs::write(d.join("grid.serialized"), &bytes).unwrap();
+    let shape = r#"type="serialized"><string name="filename" value="grid.serialized"/><integer name="shape_index" value="1"/>"#;
+    let ser = mesh_of(&mesh_scene(d, "ser", shape)).unwrap();
+    let reference = mesh_of(&mesh_scene(
+        d,
+        "ref",
+        r#"type="ply"><string name="filename" value="n1uv1_ascii.ply"/>"#,
+    ))
+    .unwrap();
+    // both keep Mitsuba's v, which rdr turns around
+    assert!(same_triangles(&ser.0, &reference.0));
+    assert_eq!(ser.1, reference.1);
+
+    // broken files: one line naming the shape's line and column and the file
+    std::fs::write(d.join("short.ply"), &ply_bytes("binary_little_endian", true, true)[..400]).unwrap();
+    let mut lying = ply_bytes("ascii", false, false);
+    let text = String::from_utf8(lying.clone())
+        .unwrap()
+        .replace("element vertex 16", "element vertex 1600000");
+    lying = text.into_bytes();
+    std::fs::write(d.join("lying.ply"), lying).unwrap();
+    std::fs::write(d.join("headless.ply"), b"ply\nformat ascii 1.0\nelement vertex 3\n").unwrap();
+    std::fs::write(d.join("cut.serialized"), &bytes[..bytes.len() * 2 / 3]).unwrap();
+    for (file, kind, words) in [
+        ("short.ply", "ply", "more than the 113 bytes of the body"),
+        ("lying.ply", "ply", "claims 1600000 records"),
+        ("headless.ply", "ply", "end_header"),
+        ("cut.serialized", "serialized", "truncated"),
+    ] {
+        let p = mesh_scene(
+            d,
+            &format!("bad_{file}"),
+            &format!(r#"type="{kind}"><string name="filename" value="{file}"/>"#),
+        );
+        let e = mesh_of(&p).unwrap_err();
+        eprintln!("{e}");
+        assert!(
+            !e.contains('\n') && e.contains("line 6, column 3") && e.contains(file) && e.contains(words),
+            "{e}"
+        );
+    }
+}
+
+/// `a` and `b` with every number compared to a relative 1e-4 (the rest exactly).
+fn approx_eq(a: &str, b: &str) -> bool {
+    let split = |s: &str| -> Vec<String> {
+        let mut out = Vec::new();
+        let mut cur = String::new();
+        let mut in_num = false;
+        for ch in s.chars() {
+            let numeric = ch.is_ascii_digit() || ch == '.' || ch == '-' || ch == 'e' && in_num;
+            if numeric != in_num && !cur.is_empty() {
+                out.push(std::mem::take(&mut cur));
+            }
+            in_num = numeric;
+            cur.push(ch);
+        }
+        out.push(cur);
+        out
+    };
+    let (x, y) = (split(a), split(b));
+    x.len() == y.len()
+        && x.iter().zip(&y).all(|(p, q)| match (p.parse::<f64>(), q.parse::<f64>()) {
+            (Ok(u), Ok(v)) => (u - v).abs() <= 1e-4 * u.abs().max(v.abs()) + 1e-5,
+            _ => p == q,
+        })
+}
+
+/// The two descriptions build the same world and camera (within rounding).
+fn assert_same_scene(label: &str, a: &SceneDesc, b: &SceneDesc) {
+    let (la, lb) = (
+        Loaded::build(a, Profile::Physical).unwrap_or_else(|e| panic!("{label}: {e}")),
+        Loaded::build(b, Profile::Physical).unwrap_or_else(|e| panic!("{label}: {e}")),
+    );
+    let close = |x: &[[f32; 18]], y: &[[f32; 18]]| {
+        x.len() == y.len()
+            && x.iter()
+                .zip(y)
+                .all(|(p, q)| p.iter().zip(q).all(|(u, v)| (u - v).abs() <= 1e-5 * (1.0 + u.abs())))
+    };
+    let (oa, mut ob) = (objects(&la.scene), objects(&lb.scene));
+    assert_eq!(oa.len(), ob.len(), "{label}: object count");
+    for (g, m, l) in &oa {
+        let i = ob
+            .iter()
+            .position(|(h, n, k)| close(g, h) && approx_eq(m, n) && approx_eq(l, k))
+            .unwrap_or_else(|| panic!("{label}: an object ({} triangles, {m}, light {l}) has no twin", g.len()));
+        ob.remove(i);
+    }
+    let lights = |s: &rdr::Scene| {
+        s.lights
+            .iter()
+            .filter_map(|l| match l {
+                rdr::light::Light::Point { position, flux } => Some(format!("{position:?} {flux:?}")),
+                _ => None,
+            })
+            .collect::<Vec<_>>()
+            .join(";")
+    };
+    assert!(
+        approx_eq(&lights(&la.scene), &lights(&lb.scene)),
+        "{label}: point lights {} vs {}",
+        lights(&la.scene),
+        lights(&lb.scene)
+    );
+    let env = |d: &SceneDesc| {
+        d.environment_map.as_ref().map(|e| {
+            let t = &d.textures.iter().find(|t| t.name == e.texture.value).unwrap().texture;
+            match t {
+                rdr::texture::Texture::Constant(c) => format!("constant {:?} {:?}", *c * e.scale, e.transform),
+                rdr::texture::Texture::Image(i) => {
+                    let p = d.base_dir.join(&i.path.value).canonicalize().unwrap();
+                    format!("image {} {} {:?}", p.display(), e.scale, e.transform)
+                }
+                other => format!("{other:?}"),
+            }
+        })
+    };
+    assert_eq!(env(a).is_some(), env(b).is_some(), "{label}: environment");
+    if let (Some(x), Some(y)) = (env(a), env(b)) {
+        assert!(approx_eq(&x, &y), "{label}: environment {x} vs {y}");
+    }
+    let (ca, cb) = (&a.camera, &b.camera);
+    let dir = |c: &rdr::camera::CameraParams| (c.look_at - c.position).normalize();
+    assert!(
+        (ca.position - cb.position).length() < 1e-4 && (dir(ca) - dir(cb)).length() < 1e-5 && (ca.fov - cb.fov).abs() < 1e-4,
+        "{label}: camera"
+    );
+    assert_eq!(
+        (a.film.width, a.film.height, a.integrator.spp),
+        (b.film.width, b.film.height, b.integrator.spp),
+        "{label}: film, spp"
+    );
+    assert!(
+        approx_eq(&format!("{:?}", a.film.filter), &format!("{:?}", b.film.filter)),
+        "{label}: filter"
+    );
+    let (ia, ib) = (format!("{:?}", la.job.integrator), format!("{:?}", lb.job.integrator));
+    use rdr::integrator::Integrator::{IntersectionTest, Path as P};
+    let direct =
+        matches!((la.job.integrator, lb.job.integrator), (IntersectionTest(_), P(p)) | (P(p), IntersectionTest(_)) if p.max_depth == 2);
+    assert!(approx_eq(&ia, &ib) || direct, "{label}: integrator {ia} vs {ib}");
+}
+
+fn convert(input: &Path, output: &Path) {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_rdr"))
+        .args(["convert", "-q"])
+        .arg(input)
+        .arg("-o")
+        .arg(output)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "convert {}: {}",
+        input.display(),
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+#[test]
+fn convert_round_trips_json_xml_json_and_xml_json_xml() {
+    let Some(shared) = shared() else { return };
+    let dir = temp_dir("rdr-convert");
+    let d = dir.path();
+    for c in &CASES {
+        // JSON → XML → JSON
+        let json = shared.join(format!("refs/scenes/{}.json", c.xml));
+        let (x, y) = (d.join(format!("{}_a.xml", c.xml)), d.join(format!("{}_b.json", c.xml)));
+        convert(&json, &x);
+        convert(&x, &y);
+        let original = SceneDesc::load(&json, &[]).unwrap();
+        // a JSON without point light keys has the format's default light; the XML says it explicitly
+        assert_same_scene(&format!("{} JSON → XML", c.xml), &original, &xml_desc(&x, &[]));
+        assert_same_scene(
+            &format!("{} JSON → XML → JSON", c.xml),
+            &original,
+            &SceneDesc::load(&y, &[]).unwrap(),
+        );
+        // XML → JSON → XML
+        let xml = shared.join(format!("refs/mitsuba/{}.xml", c.xml));
+        let (j, z) = (d.join(format!("{}_c.json", c.xml)), d.join(format!("{}_d.xml", c.xml)));
+        convert(&xml, &j);
+        convert(&j, &z);
+        let original = xml_desc(&xml, &[]);
+        assert_same_scene(&format!("{} XML → JSON", c.xml), &original, &SceneDesc::load(&j, &[]).unwrap());
+        assert_same_scene(&format!("{} XML → JSON → XML", c.xml), &original, &xml_desc(&z, &[]));
+    }
+    // the point light's flux 4πI in JSON is Mitsuba's intensity I
+    let text = std::fs::read_to_string(d.join("cbox_point_c.json")).unwrap();
+    let v: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let flux = v["integrator"]["lights"][0]["flux"][0].as_f64().unwrap();
+    assert!((flux - 17.0 * 4.0 * std::f64::consts::PI).abs() < 1e-3, "{flux}");
+    let text = std::fs::read_to_string(d.join("cbox_point_a.xml")).unwrap();
+    assert!(text.contains(&format!("value=\"{}, ", 17.0f32 / (4.0 * PI))), "{text}");
+}
+
+#[test]
+fn tent_filter_from_xml_and_json() {
+    let f = rdr::film::Filter::Tent { radius: 1.0 };
+    assert_eq!(f.eval(0.0, 0.0), 1.0);
+    assert_eq!(f.eval(0.5, 0.0), 0.5);
+    assert_eq!(f.eval(0.5, -0.5), 0.25);
+    assert_eq!(f.eval(1.0, 0.0), 0.0);
+    assert_eq!(f.eval(1.5, 0.0), 0.0);
+    let v = serde_json::json!({
+        "integrator": {"type": "path", "spp": 1, "lights": []},
+        "film": {"resolution": [4, 4], "filter": {"type": "tent", "radius": 1.5}},
+        "camera": {"position": [0, 0, 5], "look_at": [0, 0, 0]},
+        "objects": []
+    });
+    let d = SceneDesc::from_value(&v, Path::new("t.json"), Path::new(".")).unwrap();
+    assert_eq!(
+        format!("{:?}", d.film.filter),
+        format!("{:?}", rdr::film::Filter::Tent { radius: 1.5 })
+    );
+}

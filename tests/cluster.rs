@@ -95,12 +95,13 @@ fn slurm_array_with_preemption_and_animation_merges_to_one_render() {
     let scene = repo().join("scenes/cornell.json");
     let scene = scene.to_str().unwrap();
 
-    // one frame, two shards; shard 0 is pre-empted while it renders
+    // one frame, two shards; shard 0 is pre-empted while it renders (2400 passes a
+    // shard: long enough on a quiet machine that the SIGTERM below finds it running)
     let out = dir.path().join("one");
     let (array, merge) = submit(
         scene,
         &out,
-        &["2", "--", "--spp", "1200", "--threads", "1", "--override", small],
+        &["2", "--", "--spp", "4800", "--threads", "1", "--override", small],
         &[],
     );
     let task0 = format!("{array}_0");
@@ -117,14 +118,14 @@ fn slurm_array_with_preemption_and_animation_merges_to_one_render() {
         .unwrap()
         .expect("the pre-empted shard saved its passes");
     let saved = held.state.passes_done();
-    assert!(saved > 0 && saved < 600, "pre-empted shard holds {saved} of 600 passes");
+    assert!(saved > 0 && saved < 2400, "pre-empted shard holds {saved} of 2400 passes");
     sh(Command::new("scontrol").args(["update", &format!("jobid={task0}"), "StartTime=now"]));
     let merged = out.join("frame_0.exr");
     wait_for("the merge job", deadline, || job_state(&merge).is_empty() && merged.exists());
     let log = std::fs::read_to_string(out.join("render_0.log")).unwrap();
     assert!(log.contains("requeueing") && log.contains("(restart 1)"), "task 0 log:\n{log}");
     let local = dir.path().join("local.exr");
-    local_render(&local, &["--spp", "1200", "--override", small]);
+    local_render(&local, &["--spp", "4800", "--override", small]);
     assert_eq!(
         std::fs::read(&merged).unwrap(),
         std::fs::read(&local).unwrap(),

@@ -189,6 +189,22 @@ pub fn to_json(desc: &SceneDesc, out: &Path) -> Result<Converted> {
         Integrator::Normals(_) => {
             integ.insert("type".into(), "normals".into());
         }
+        Integrator::Guided(g) => {
+            integ.insert("type".into(), "guided".into());
+            integ.insert("max_depth".into(), g.max_depth.into());
+            integ.insert("rr_threshold".into(), num(g.rr_threshold));
+            integ.insert("bsdf_fraction".into(), num(g.bsdf_fraction));
+            if let Some(n) = g.training_iterations {
+                integ.insert("training_iterations".into(), n.into());
+            }
+            let combine = match g.combine {
+                crate::integrator::guided::Combine::InverseVariance => "inverse_variance",
+                crate::integrator::guided::Combine::Last => "last",
+            };
+            integ.insert("combine".into(), combine.into());
+            integ.insert("spatial_threshold".into(), num(g.spatial_threshold));
+            integ.insert("learn_direct".into(), g.learn_direct.into());
+        }
         Integrator::Rdr171(_) => unreachable!("a description never holds the compat integrator"),
     }
     integ.insert("spp".into(), d.spp.into());
@@ -421,6 +437,10 @@ pub fn to_xml(desc: &SceneDesc, out: &Path) -> Result<Converted> {
         Integrator::Normals(_) => {
             w.push("the normals view has no Mitsuba counterpart: written as path".into());
             "  <integrator type=\"path\"/>\n".to_string()
+        }
+        Integrator::Guided(g) => {
+            w.push("Mitsuba 3 has no path guiding: guided written as path (the same converged image)".into());
+            format!("  <integrator type=\"path\">\n{}  </integrator>\n", depth(g.max_depth))
         }
         Integrator::Rdr171(_) => unreachable!("a description never holds the compat integrator"),
     };

@@ -97,7 +97,8 @@ impl Integrator {
             | Integrator::Bdpt(_)
             | Integrator::Ptracer(_)
             | Integrator::Normals(_) => true,
-            Integrator::Photon(_) | Integrator::Sppm(_) | Integrator::Rdr171(_) => false,
+            // the guiding tree learns from the passes before
+            Integrator::Photon(_) | Integrator::Sppm(_) | Integrator::Guided(_) | Integrator::Rdr171(_) => false,
         }
     }
 

@@ -650,7 +650,11 @@ fn parse_materials(root: &Props) -> Result<Vec<MaterialDesc>> {
     let mut slots: Vec<Option<MaterialDesc>> = Vec::with_capacity(entries.len());
     for (name, p) in &entries {
         let ty = p.string_or("type", "diffuse")?;
-        slots.push(if ty == "twosided" { None } else { Some(parse_material(name, p, &ty)?) });
+        slots.push(if ty == "twosided" {
+            None
+        } else {
+            Some(parse_material(name, p, &ty)?)
+        });
     }
     for i in 0..entries.len() {
         if slots[i].is_some() {
@@ -665,10 +669,12 @@ fn parse_materials(root: &Props) -> Result<Vec<MaterialDesc>> {
             };
             match &slots[j] {
                 None => Err(p.error(key, format!("'{target}' is a twosided material itself; twosided cannot nest"))),
-                Some(m) if m.material.transmits() => Err(p.error(
-                    key,
-                    format!("'{target}' transmits light; twosided wraps only reflecting materials"),
-                )),
+                Some(m) if matches!(m.material, Material::TwoSided { .. }) => {
+                    Err(p.error(key, format!("'{target}' is a twosided material itself; twosided cannot nest")))
+                }
+                Some(m) if m.material.transmits() => {
+                    Err(p.error(key, format!("'{target}' transmits light; twosided wraps only reflecting materials")))
+                }
                 Some(m) => Ok(Some(Box::new(m.material.clone()))),
             }
         };

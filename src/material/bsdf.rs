@@ -71,10 +71,7 @@ impl Bsdf {
     pub fn is_delta(&self) -> bool {
         matches!(
             self.kind,
-            BsdfKind::PerfectRefraction { .. }
-                | BsdfKind::Dielectric { .. }
-                | BsdfKind::SmoothConductor(_)
-                | BsdfKind::ThinDielectric(_)
+            BsdfKind::PerfectRefraction { .. } | BsdfKind::Dielectric { .. } | BsdfKind::SmoothConductor(_) | BsdfKind::ThinDielectric(_)
         )
     }
 

@@ -338,7 +338,11 @@ impl Material {
             ),
             Material::Conductor { texture, eta, k } => (
                 ns,
-                BsdfKind::SmoothConductor(conductor::SmoothConductor { tint: tint(texture), eta, k }),
+                BsdfKind::SmoothConductor(conductor::SmoothConductor {
+                    tint: tint(texture),
+                    eta,
+                    k,
+                }),
             ),
             Material::ThinDielectric { reflect, transmit, eta } => (
                 ns,

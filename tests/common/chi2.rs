@@ -99,4 +99,3 @@ pub fn chi2_cap(name: &str, n: usize, frame: Frame, cos_min: f32, mut sample: im
     }
     chi2_bins(name, n, &observed, &mass);
 }
-

@@ -227,7 +227,9 @@ fn fresnel_conductor(cos_i: f64, eta: f64, k: f64) -> f64 {
 }
 
 /// Microfacet D and Smith G1 (isotropic α), Walter et al. 2007 / Mitsuba.
-fn d_g1(kind: Distribution, alpha: f64) -> (impl Fn([f64; 3]) -> f64, impl Fn([f64; 3], [f64; 3]) -> f64) {
+type Dir = [f64; 3];
+
+fn d_g1(kind: Distribution, alpha: f64) -> (impl Fn(Dir) -> f64, impl Fn(Dir, Dir) -> f64) {
     let d = move |m: [f64; 3]| {
         if m[2] <= 0.0 {
             return 0.0;

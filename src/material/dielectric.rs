@@ -157,7 +157,7 @@ impl RoughDielectric {
             (i, self.t * (self.mf.g1(i, m) * scale), 1.0 / eta_ti)
         };
         let pdf = self.pdf(o, i);
-        if !(pdf > 0.0) || weight == Vec3::ZERO {
+        if pdf.is_nan() || pdf <= 0.0 || weight == Vec3::ZERO {
             return None;
         }
         Some(BsdfSample {

@@ -128,7 +128,8 @@ impl CoatingTables {
         }
         // computed outside the lock; a race computes the same table twice at worst
         let t: &'static CoatingTables = Box::leak(Box::new(CoatingTables::compute(kind, alpha, eta)));
-        *cache.lock().unwrap_or_else(|e| e.into_inner()).entry(key).or_insert(t)
+        let mut cache = cache.lock().unwrap_or_else(|e| e.into_inner());
+        *cache.entry(key).or_insert(t)
     }
 
     fn compute(kind: Distribution, alpha: f32, eta: f32) -> CoatingTables {
@@ -280,7 +281,7 @@ impl RoughPlastic {
             return None;
         }
         let pdf = self.pdf(o, i);
-        if !(pdf > 0.0) {
+        if pdf.is_nan() || pdf <= 0.0 {
             return None;
         }
         Some(BsdfSample {

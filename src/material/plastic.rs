@@ -129,7 +129,8 @@ impl CoatingTables {
         // computed outside the lock; a race computes the same table twice at worst
         let t: &'static CoatingTables = Box::leak(Box::new(CoatingTables::compute(kind, alpha, eta)));
         let mut cache = cache.lock().unwrap_or_else(|e| e.into_inner());
-        *cache.entry(key).or_insert(t)
+        let t: &'static CoatingTables = cache.entry(key).or_insert(t);
+        t
     }
 
     fn compute(kind: Distribution, alpha: f32, eta: f32) -> CoatingTables {

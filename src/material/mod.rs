@@ -82,7 +82,7 @@ pub enum Material<T = u32> {
     ThinDielectric { reflect: Vec3, transmit: Vec3, eta: f32 },
     /// `roughdielectric` (Mitsuba `roughdielectric`; Walter et al. 2007): `R`, `T`
     /// (vec3, (1,1,1)), `eta` (1.5; `int_ior`/`ext_ior`), `alpha_x`, `alpha_y` (≥ 0,
-    /// 0.1 each; `alpha_u`, `alpha_v`, or `alpha` for both), `distribution`
+    /// 0.1 each; Mitsuba's `alpha_u`, `alpha_v`, or its `alpha` for both), `distribution`
     /// (`"beckmann"` | `"ggx"`, `"beckmann"`). Index `eta` below the shading normal.
     RoughDielectric {
         reflect: Vec3,

@@ -108,7 +108,10 @@ pub const TRANSMITTANCE_RES: usize = 64;
 ///
 /// Both integrals as Mitsuba 3 defines them (it integrates by Gauss–Legendre in its
 /// visible-normal sample square; rdr by the faster rule of [`visible_average`], within
-/// about 1e-3 of it), over the same 64 cosines.
+/// about 1e-3 of it), over the same 64 cosines. Checked against Mitsuba 3.9.1's own
+/// `roughplastic` (eval and pdf at 300 random direction pairs): within 0.05 % for GGX
+/// α = 0.3 and 0.5 % for Beckmann α = 0.2 (at grazing angles; an independent fine
+/// quadrature agrees with rdr's tables to 5e-5 there).
 #[derive(Debug)]
 pub struct CoatingTables {
     pub external_transmittance: [f32; TRANSMITTANCE_RES],

@@ -1,17 +1,30 @@
-//! Pinhole camera with a vertical field of view (spec §6).
+//! Cameras (spec §6): the pinhole with a vertical field of view, a thin lens
+//! (depth of field) and the orthographic projection.
 
+use crate::geometry::ray::RAY_T_MAX;
 use crate::geometry::{Ray, RayDifferential};
-use crate::math::{normalize_div, Vec3, PI};
+use crate::math::{normalize_div, Vec2, Vec3, PI};
+use crate::sampling::concentric_disk;
 
-/// Where a pinhole camera is and how it looks: `camera` in a scene, every key
-/// optional:
+/// Where a camera is and how it looks: `camera` in a scene, every key optional:
+/// * `type` (`"perspective"` (the pinhole; RDR171's only camera) | `"thinlens"` |
+///   `"orthographic"`, `"perspective"`);
 /// * `position` (vec3, (0,0,1)), `look_at` (vec3, (0,0,0)) — must differ;
 /// * `ref_up` (vec3, (0,1,0)) — not zero nor parallel to the viewing direction;
-/// * `fov` (vertical degrees, strictly between 0 and 180, 45);
-/// * `focal_length` (> 0, 1; cancels out of the rays).
+/// * `fov` (vertical degrees, strictly between 0 and 180, 45; not `orthographic`);
+/// * `focal_length` (> 0, 1; cancels out of the rays);
+/// * `thinlens`: `aperture_radius` (≥ 0, world units, required) and
+///   `focus_distance` (> 0, along the view axis, required): rays leave a disk of
+///   that radius around `position` and meet at the plane in focus (Mitsuba's
+///   `thinlens`);
+/// * `orthographic`: `height` (> 0, world units, 2): the film sees a `height` tall
+///   window perpendicular to the view direction, with parallel rays;
+/// * `near_clip` (≥ 0, 0), `far_clip` (> `near_clip`, unbounded): camera rays see
+///   only what lies between these distances along the view axis.
 ///
 /// ```json
-/// "camera": {"position": [0, 1, 6.8], "look_at": [0, 1, 0], "ref_up": [0, 1, 0], "fov": 19.5}
+/// "camera": {"type": "thinlens", "position": [0, 1, 6.8], "look_at": [0, 1, 0], "fov": 19.5,
+///            "aperture_radius": 0.05, "focus_distance": 6.8}
 /// ```
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CameraParams {
@@ -20,6 +33,37 @@ pub struct CameraParams {
     pub ref_up: Vec3,
     pub fov: f32,
     pub focal_length: f32,
+    pub projection: Projection,
+    pub near_clip: f32,
+    pub far_clip: f32,
+}
+
+impl Default for CameraParams {
+    fn default() -> Self {
+        CameraParams {
+            position: Vec3::new(0.0, 0.0, 1.0),
+            look_at: Vec3::ZERO,
+            ref_up: Vec3::Y,
+            fov: 45.0,
+            focal_length: 1.0,
+            projection: Projection::Pinhole,
+            near_clip: 0.0,
+            far_clip: f32::INFINITY,
+        }
+    }
+}
+
+/// How film positions become rays.
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub enum Projection {
+    /// All rays leave `position` (JSON `perspective`).
+    #[default]
+    Pinhole,
+    /// Rays leave a disk of `aperture_radius` around `position`, perpendicular to
+    /// the view axis, and meet on the plane `focus_distance` ahead.
+    ThinLens { aperture_radius: f32, focus_distance: f32 },
+    /// Parallel rays along the view axis from a window `height` tall.
+    Orthographic { height: f32 },
 }
 
 #[derive(Clone, Debug)]
@@ -31,6 +75,16 @@ pub struct Camera {
     up: Vec3,
     width: f32,
     height: f32,
+    pub projection: Projection,
+    /// Unit view axis, right and up (the lens and the orthographic window).
+    axis: Vec3,
+    unit_right: Vec3,
+    unit_up: Vec3,
+    /// Orthographic half extents (world units).
+    half_w: f32,
+    half_h: f32,
+    near_clip: f32,
+    far_clip: f32,
 }
 
 impl Camera {
@@ -41,6 +95,10 @@ impl Camera {
         let u = r.cross(f);
         let hy = (((d.fov / 2.0) * PI) / 180.0).tan() * d.focal_length;
         let hx = hy * (width as f32 / height as f32);
+        let (half_h, half_w) = match d.projection {
+            Projection::Orthographic { height: h } => (0.5 * h, 0.5 * h * (width as f32 / height as f32)),
+            _ => (0.0, 0.0),
+        };
         Camera {
             position: d.position,
             forward: f * d.focal_length,
@@ -48,6 +106,120 @@ impl Camera {
             up: u * hy,
             width: width as f32,
             height: height as f32,
+            projection: d.projection,
+            axis: f,
+            unit_right: r,
+            unit_up: u,
+            half_w,
+            half_h,
+            near_clip: d.near_clip,
+            far_clip: d.far_clip,
+        }
+    }
+
+    /// Whether rays need a lens sample ([`Camera::sample_ray`]'s `u_lens`).
+    pub fn has_lens(&self) -> bool {
+        matches!(self.projection, Projection::ThinLens { aperture_radius, .. } if aperture_radius > 0.0)
+    }
+
+    /// Whether every ray leaves one point (light paths can be joined to it).
+    pub fn is_pinhole(&self) -> bool {
+        self.projection == Projection::Pinhole
+    }
+
+    /// The point of the lens that `u` (in [0,1)²) picks.
+    pub fn lens_point(&self, u: Vec2) -> Vec3 {
+        match self.projection {
+            Projection::ThinLens { aperture_radius, .. } => {
+                let d = concentric_disk(u) * aperture_radius;
+                self.position + self.unit_right * d.x + self.unit_up * d.y
+            }
+            _ => self.position,
+        }
+    }
+
+    /// Area of the lens (1 for a pinhole, whose position density is a Dirac delta).
+    pub fn lens_area(&self) -> f32 {
+        match self.projection {
+            Projection::ThinLens { aperture_radius, .. } if aperture_radius > 0.0 => PI * aperture_radius * aperture_radius,
+            _ => 1.0,
+        }
+    }
+
+    /// The camera ray through film position `(x, y)`, leaving the lens point
+    /// `u_lens` picks (ignored without a lens). A pinhole without clipping gives
+    /// exactly [`Camera::ray`].
+    pub fn sample_ray(&self, x: f32, y: f32, u_lens: Vec2) -> Ray {
+        let (o, d) = self.origin_direction(x, y, u_lens);
+        self.clipped(o, d)
+    }
+
+    /// [`Camera::sample_ray`] and its differentials (the rays through `(x + 1, y)`
+    /// and `(x, y + 1)` from the same lens point).
+    pub fn sample_ray_differential(&self, x: f32, y: f32, u_lens: Vec2) -> (Ray, RayDifferential) {
+        let (o, d) = self.origin_direction(x, y, u_lens);
+        let (rx_o, rx_d) = self.origin_direction(x + 1.0, y, u_lens);
+        let (ry_o, ry_d) = self.origin_direction(x, y + 1.0, u_lens);
+        (self.clipped(o, d), RayDifferential { rx_o, rx_d, ry_o, ry_d })
+    }
+
+    fn origin_direction(&self, x: f32, y: f32, u_lens: Vec2) -> (Vec3, Vec3) {
+        match self.projection {
+            Projection::Pinhole => (self.position, self.direction(x, y)),
+            Projection::ThinLens { focus_distance, .. } => {
+                let d = self.direction(x, y);
+                let focus = self.position + d * (focus_distance / d.dot(self.axis));
+                let o = self.lens_point(u_lens);
+                (o, normalize_div(focus - o))
+            }
+            Projection::Orthographic { .. } => {
+                let sx = (x / self.width) * 2.0 - 1.0;
+                let sy = (y / self.height) * 2.0 - 1.0;
+                (
+                    self.position + self.unit_right * (sx * self.half_w) + self.unit_up * (sy * self.half_h),
+                    self.axis,
+                )
+            }
+        }
+    }
+
+    /// The ray from `o` along `d`, limited to the clip distances (along the axis).
+    fn clipped(&self, o: Vec3, d: Vec3) -> Ray {
+        if self.near_clip == 0.0 && self.far_clip == f32::INFINITY {
+            return Ray::new(o, d);
+        }
+        let cos = d.dot(self.axis);
+        Ray::with_range(o, d, self.near_clip / cos, (self.far_clip / cos).min(RAY_T_MAX))
+    }
+
+    /// For a ray leaving lens point `o` towards world point `p`: the film position
+    /// it arrives at and cos θ of its direction to the view axis; `None` behind
+    /// the lens or outside the film. A pinhole's `o` is its position ([`Camera::project`]).
+    pub fn project_from(&self, o: Vec3, p: Vec3) -> Option<(Vec2, f32)> {
+        match self.projection {
+            Projection::ThinLens { focus_distance, .. } => {
+                let w = normalize_div(p - o);
+                let cos = w.dot(self.axis);
+                if cos <= 0.0 || !cos.is_finite() {
+                    return None;
+                }
+                // the pinhole ray through the point in focus has the same film position
+                let (pos, _) = self.project(o + w * (focus_distance / cos))?;
+                Some((pos, cos))
+            }
+            _ => self.project(p),
+        }
+    }
+
+    /// Solid-angle density of camera rays leaving lens point `o` in direction `w`
+    /// (film positions uniform): 1/(A·cos³θ) inside the view, as for the pinhole.
+    pub fn pdf_dir_from(&self, o: Vec3, w: Vec3) -> f32 {
+        match self.projection {
+            Projection::ThinLens { .. } => match self.project_from(o, o + w) {
+                Some((_, cos)) => 1.0 / (self.image_plane_area() * cos * cos * cos),
+                None => 0.0,
+            },
+            _ => self.pdf_dir(w),
         }
     }
 
@@ -144,6 +316,7 @@ mod tests {
             ref_up: Vec3::Y,
             fov: 90.0,
             focal_length: 1.0,
+            ..Default::default()
         };
         let c = Camera::new(&d, 200, 100);
         assert!(c.direction(0.0, 50.0).x < 0.0, "left edge looks towards -x");
@@ -163,6 +336,7 @@ mod tests {
             ref_up: Vec3::Y,
             fov: 50.0,
             focal_length: 1.0,
+            ..Default::default()
         };
         let c = Camera::new(&d, 64, 48);
         for (x, y) in [(0.5f32, 0.5f32), (10.25, 40.0), (63.9, 0.1), (32.0, 24.0)] {
@@ -194,6 +368,7 @@ mod tests {
             ref_up: Vec3::Y,
             fov: 40.0,
             focal_length: 1.0,
+            ..Default::default()
         };
         let c = Camera::new(&d, 64, 48);
         let (r, diff) = c.ray_differential(10.25, 7.5);
@@ -203,5 +378,104 @@ mod tests {
         assert_eq!(diff.ry_d, c.direction(10.25, 8.5));
         let half = diff.scaled(&r, 0.5);
         assert!((half.rx_d - (r.d + diff.rx_d) * 0.5).length() < 1e-7);
+    }
+
+    fn lens_camera(projection: Projection) -> Camera {
+        let d = CameraParams {
+            position: Vec3::new(0.5, 1.0, 3.0),
+            look_at: Vec3::new(0.0, 0.8, 0.0),
+            fov: 50.0,
+            projection,
+            ..Default::default()
+        };
+        Camera::new(&d, 64, 48)
+    }
+
+    #[test]
+    fn thin_lens_rays_of_one_film_point_meet_on_the_plane_in_focus() {
+        let c = lens_camera(Projection::ThinLens {
+            aperture_radius: 0.2,
+            focus_distance: 2.5,
+        });
+        let axis = c.axis;
+        for (x, y) in [(0.5f32, 0.5f32), (10.25, 40.0), (63.9, 0.1), (32.0, 24.0)] {
+            let pinhole = c.ray(x, y);
+            let focus = pinhole.o + pinhole.d * (2.5 / pinhole.d.dot(axis));
+            for u in [(0.1f32, 0.2f32), (0.9, 0.5), (0.5, 0.5), (0.3, 0.99)] {
+                let r = c.sample_ray(x, y, Vec2::new(u.0, u.1));
+                // the origin lies on the lens disk, the ray passes through the point in focus
+                let off = r.o - c.position;
+                assert!(off.dot(axis).abs() < 1e-5 && off.length() <= 0.2 + 1e-5, "{off}");
+                let t = (focus - r.o).dot(r.d);
+                assert!((r.o + r.d * t - focus).length() < 1e-4, "({x},{y}) {u:?}");
+                // and it projects back to the film point it came from
+                let (pos, cos) = c.project_from(r.o, r.o + r.d * 7.0).unwrap();
+                assert!((pos.x - x).abs() < 2e-3 && (pos.y - y).abs() < 2e-3, "({x},{y}) -> {pos}");
+                assert!((cos - r.d.dot(axis)).abs() < 1e-6);
+            }
+        }
+        // from any lens point the density of ray directions integrates to 1 (a
+        // direction grid over the cone ahead that holds the view: cos θ in [0.7, 1])
+        let (right, up) = (c.unit_right, c.unit_up);
+        for u in [Vec2::new(0.8, 0.3), Vec2::new(0.5, 0.5)] {
+            let o = c.lens_point(u);
+            let n = 600;
+            let mut total = 0.0f64;
+            let d_cos = 0.3 / n as f64;
+            let d_phi = 2.0 * std::f64::consts::PI / n as f64;
+            for i in 0..n {
+                let cos = 0.7 + (i as f64 + 0.5) * d_cos;
+                let sin = (1.0 - cos * cos).sqrt();
+                for j in 0..n {
+                    let phi = (j as f64 + 0.5) * d_phi;
+                    let w = (right * (sin * phi.cos()) as f32 + up * (sin * phi.sin()) as f32 + axis * cos as f32).normalize();
+                    total += c.pdf_dir_from(o, w) as f64 * d_cos * d_phi;
+                }
+            }
+            assert!((total - 1.0).abs() < 0.01, "{u}: {total}");
+        }
+    }
+
+    #[test]
+    fn orthographic_rays_are_parallel_from_a_window_of_the_given_height() {
+        let c = lens_camera(Projection::Orthographic { height: 3.0 });
+        let bottom_left = c.sample_ray(0.0, 0.0, Vec2::ZERO);
+        let top_right = c.sample_ray(64.0, 48.0, Vec2::ZERO);
+        assert_eq!(bottom_left.d, top_right.d);
+        let span = top_right.o - bottom_left.o;
+        assert!((span.dot(c.unit_up) - 3.0).abs() < 1e-5, "{span}");
+        assert!((span.dot(c.unit_right) - 4.0).abs() < 1e-5, "4:3 film");
+        assert!(span.dot(c.axis).abs() < 1e-6);
+        // the left of the picture is on the left of the view, its top up
+        let centre = c.sample_ray(32.0, 24.0, Vec2::ZERO);
+        assert!((centre.o - c.position).length() < 1e-5);
+        assert!(!c.has_lens() && !c.is_pinhole());
+    }
+
+    #[test]
+    fn clipping_limits_rays_along_the_view_axis() {
+        let d = CameraParams {
+            position: Vec3::ZERO,
+            look_at: Vec3::new(0.0, 0.0, -1.0),
+            near_clip: 1.0,
+            far_clip: 4.0,
+            ..Default::default()
+        };
+        let c = Camera::new(&d, 32, 32);
+        let r = c.sample_ray(0.0, 16.0, Vec2::ZERO);
+        assert!(((r.o + r.d * r.t_min).z + 1.0).abs() < 1e-5, "near plane at z = -1");
+        assert!(((r.o + r.d * r.t_max).z + 4.0).abs() < 1e-4, "far plane at z = -4");
+        // without clipping, exactly the pinhole ray
+        let plain = Camera::new(
+            &CameraParams {
+                look_at: d.look_at,
+                position: d.position,
+                ..Default::default()
+            },
+            32,
+            32,
+        );
+        let (a, b) = (plain.sample_ray(3.5, 7.25, Vec2::new(0.3, 0.6)), plain.ray(3.5, 7.25));
+        assert_eq!((a.o, a.d, a.t_min, a.t_max), (b.o, b.d, b.t_min, b.t_max));
     }
 }

@@ -529,12 +529,74 @@ fn parse_film(p: &Props) -> Result<FilmDesc> {
 }
 
 fn parse_camera(p: &Props) -> Result<CameraParams> {
+    use crate::camera::Projection;
+    let ty = p.string_or("type", "perspective")?;
+    let positive = |key: &str| -> Result<f32> {
+        if !p.contains(key) {
+            return Err(p.error(key, format!("is required for a '{ty}' camera")));
+        }
+        let v = p.f32_or(key, 0.0)?;
+        if v.is_nan() || v <= 0.0 {
+            return Err(p.error(key, format!("must be positive, found {v}")));
+        }
+        in_range(p, key, v, 1e-6, 1e15)?;
+        Ok(v)
+    };
+    let projection = match ty.as_str() {
+        "perspective" => Projection::Pinhole,
+        "thinlens" => {
+            if !p.contains("aperture_radius") {
+                return Err(p.error("aperture_radius", "is required for a 'thinlens' camera"));
+            }
+            let aperture_radius = p.f32_or("aperture_radius", 0.0)?;
+            if aperture_radius.is_nan() || aperture_radius < 0.0 {
+                return Err(p.error("aperture_radius", format!("must be at least 0, found {aperture_radius}")));
+            }
+            in_range(p, "aperture_radius", aperture_radius, 0.0, 1e15)?;
+            Projection::ThinLens {
+                aperture_radius,
+                focus_distance: positive("focus_distance")?,
+            }
+        }
+        "orthographic" => {
+            let height = if p.contains("height") { positive("height")? } else { 2.0 };
+            if p.contains("fov") {
+                p.ctx()
+                    .warn(&p.key_path("fov"), "an orthographic camera has no field of view: ignored");
+            }
+            Projection::Orthographic { height }
+        }
+        other => {
+            return Err(p.error(
+                "type",
+                format!("unknown camera type '{other}' (available: perspective, thinlens, orthographic)"),
+            ));
+        }
+    };
+    let near_clip = p.f32_or("near_clip", 0.0)?;
+    let far_clip = if p.contains("far_clip") {
+        p.f32_or("far_clip", 0.0)?
+    } else {
+        f32::INFINITY
+    };
+    if !(near_clip >= 0.0 && near_clip.is_finite()) {
+        return Err(p.error("near_clip", format!("must be a finite distance of at least 0, found {near_clip}")));
+    }
+    if far_clip.is_nan() || far_clip <= near_clip {
+        return Err(p.error(
+            "far_clip",
+            format!("must be greater than near_clip ({near_clip}), found {far_clip}"),
+        ));
+    }
     let c = CameraParams {
         position: point(p, "position", p.vec3_or("position", Vec3::new(0.0, 0.0, 1.0))?)?,
         look_at: point(p, "look_at", p.vec3_or("look_at", Vec3::ZERO)?)?,
         ref_up: point(p, "ref_up", p.vec3_or("ref_up", Vec3::Y)?)?,
         fov: p.f32_or("fov", 45.0)?,
         focal_length: p.f32_or("focal_length", 1.0)?,
+        projection,
+        near_clip,
+        far_clip,
     };
     if !(c.fov > 0.0 && c.fov < 180.0) {
         return Err(p.error("fov", format!("must be between 0 and 180 degrees, found {}", c.fov)));

@@ -111,12 +111,18 @@ where
                     let mut sampler = PixelSampler::new(x as u32, y as u32, pass, ctx.seed);
                     let (u, v) = sampler.next_2d();
                     let pos = Vec2::new(x as f32 + u, y as f32 + v);
+                    // a thin lens takes the next two dimensions (a pinhole none)
+                    let u_lens = if ctx.camera.has_lens() {
+                        Vec2::from(sampler.next_2d())
+                    } else {
+                        Vec2::ZERO
+                    };
                     // differentials only matter to image textures: skip them otherwise
                     let (ray, diff) = if scene.uses_footprints {
-                        let (ray, diff) = ctx.camera.ray_differential(pos.x, pos.y);
+                        let (ray, diff) = ctx.camera.sample_ray_differential(pos.x, pos.y, u_lens);
                         (ray, Some(diff.scaled(&ray, diff_scale)))
                     } else {
-                        (ctx.camera.ray(pos.x, pos.y), None)
+                        (ctx.camera.sample_ray(pos.x, pos.y, u_lens), None)
                     };
                     let l = li(&mut CameraSample {
                         pos,

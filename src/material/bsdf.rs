@@ -75,7 +75,8 @@ impl Bsdf {
         )
     }
 
-    /// f(wo, wi) for radiance transport (see [`Bsdf::eval_mode`]).
+    /// The BSDF value f(wo, wi) (without the cosine) for radiance transport (see
+    /// [`Bsdf::eval_mode`]).
     pub fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
         self.eval_mode(wo, wi, TransportMode::Radiance)
     }
@@ -83,20 +84,21 @@ impl Bsdf {
     /// f(wo, wi) for radiance or importance transport: they differ only where light
     /// is refracted (`roughdielectric`).
     pub fn eval_mode(&self, wo: Vec3, wi: Vec3, mode: TransportMode) -> Vec3 {
-        let (o, i) = (self.frame.to_local(wo), self.frame.to_local(wi));
         match self.kind {
-            BsdfKind::RoughDielectric(b) => b.eval(o, i, mode),
-            BsdfKind::Plastic(b) => b.eval(o, i),
-            BsdfKind::RoughPlastic(b) => b.eval(o, i),
+            BsdfKind::RoughDielectric(b) => b.eval(self.frame.to_local(wo), self.frame.to_local(wi), mode),
+            BsdfKind::Plastic(b) => b.eval(self.frame.to_local(wo), self.frame.to_local(wi)),
+            BsdfKind::RoughPlastic(b) => b.eval(self.frame.to_local(wo), self.frame.to_local(wi)),
             BsdfKind::SmoothConductor(_) | BsdfKind::ThinDielectric(_) => Vec3::ZERO,
+            // only the cosines: the hot case skips the full change of frame
             BsdfKind::Diffuse { albedo } => {
-                if o.z > 0.0 && i.z > 0.0 {
+                if wo.dot(self.frame.n) > 0.0 && wi.dot(self.frame.n) > 0.0 {
                     albedo * INV_PI
                 } else {
                     Vec3::ZERO
                 }
             }
             BsdfKind::Conductor { tint, eta, k, mf } => {
+                let (o, i) = (self.frame.to_local(wo), self.frame.to_local(wi));
                 if o.z <= 0.0 || i.z <= 0.0 {
                     return Vec3::ZERO;
                 }
@@ -112,21 +114,23 @@ impl Bsdf {
         }
     }
 
+    /// The solid-angle density with which [`Bsdf::sample`] from `wo` returns `wi`.
     pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
-        let (o, i) = (self.frame.to_local(wo), self.frame.to_local(wi));
         match self.kind {
             BsdfKind::Diffuse { .. } => {
-                if o.z > 0.0 && i.z > 0.0 {
-                    i.z * INV_PI
+                let (zo, zi) = (wo.dot(self.frame.n), wi.dot(self.frame.n));
+                if zo > 0.0 && zi > 0.0 {
+                    zi * INV_PI
                 } else {
                     0.0
                 }
             }
-            BsdfKind::RoughDielectric(b) => b.pdf(o, i),
-            BsdfKind::Plastic(b) => b.pdf(o, i),
-            BsdfKind::RoughPlastic(b) => b.pdf(o, i),
+            BsdfKind::RoughDielectric(b) => b.pdf(self.frame.to_local(wo), self.frame.to_local(wi)),
+            BsdfKind::Plastic(b) => b.pdf(self.frame.to_local(wo), self.frame.to_local(wi)),
+            BsdfKind::RoughPlastic(b) => b.pdf(self.frame.to_local(wo), self.frame.to_local(wi)),
             BsdfKind::SmoothConductor(_) | BsdfKind::ThinDielectric(_) => 0.0,
             BsdfKind::Conductor { mf, .. } => {
+                let (o, i) = (self.frame.to_local(wo), self.frame.to_local(wi));
                 if o.z <= 0.0 || i.z <= 0.0 {
                     return 0.0;
                 }
@@ -138,6 +142,21 @@ impl Bsdf {
                 mf.pdf_visible(o, m) / (4.0 * om)
             }
             BsdfKind::PerfectRefraction { .. } | BsdfKind::Dielectric { .. } => 0.0,
+        }
+    }
+
+    /// `(pdf(a, b), pdf(b, a))`, sharing the change of frame (bit-identical to two calls).
+    pub fn pdf_pair(&self, a: Vec3, b: Vec3) -> (f32, f32) {
+        match self.kind {
+            BsdfKind::Diffuse { .. } => {
+                let (za, zb) = (a.dot(self.frame.n), b.dot(self.frame.n));
+                if za > 0.0 && zb > 0.0 {
+                    (zb * INV_PI, za * INV_PI)
+                } else {
+                    (0.0, 0.0)
+                }
+            }
+            _ => (self.pdf(a, b), self.pdf(b, a)),
         }
     }
 

@@ -2,7 +2,7 @@
 //! with its parameters, samples per pixel, seed and time limit. The world itself
 //! (geometry, materials, lights, BVH) is the [`Scene`].
 
-use crate::camera::Camera;
+use crate::camera::{Camera, Projection};
 use crate::compat::Profile;
 use crate::desc::{build, BuildOptions, SceneDesc};
 use crate::error::{Result, SceneError};
@@ -40,6 +40,19 @@ impl RenderJob {
                 ))
             }
         };
+        let projection = desc.camera.projection;
+        let refuse = |why: String| Err(SceneError::new(&desc.file, Some("camera.type"), why));
+        if profile == Profile::Rdr171
+            && (projection != Projection::Pinhole || desc.camera.near_clip != 0.0 || desc.camera.far_clip != f32::INFINITY)
+        {
+            return refuse("--compat rdr171 has the course renderer's pinhole camera only (no lens, orthographic view or clipping)".into());
+        }
+        if let (Projection::Orthographic { .. }, Integrator::Bdpt(_) | Integrator::Ptracer(_)) = (projection, integrator) {
+            return refuse(format!(
+                "{}: light paths cannot be joined to an orthographic camera (its rays are parallel); use a perspective or thinlens camera, or path",
+                integrator.name()
+            ));
+        }
         let f = &desc.film;
         let camera = Camera::new(&desc.camera, f.width, f.height);
         if !camera.is_finite() {

@@ -65,43 +65,64 @@ impl PathDensities {
         if n == 2 {
             return s == 0 && !self.delta_light;
         }
-        s < n && !self.delta[s] && if s == 0 { !self.delta_light } else { !self.delta[s - 1] }
+        let delta = |i: usize| self.delta[i];
+        s < n && possible_of(s, self.delta_light, delta)
     }
 
     /// The MIS weight of strategy `s` for this path.
     pub fn weight(&self, s: usize, heuristic: Heuristic) -> f32 {
-        let n = self.len();
-        if n == 2 {
-            return 1.0;
+        weight_of(self.len(), s, self.delta_light, heuristic, |i| {
+            (self.light[i], self.camera[i], self.delta[i])
+        })
+    }
+}
+
+/// Whether strategy `s` (< n, of a path of more than two vertices) is possible,
+/// `delta(i)` telling the specular vertices.
+#[inline(always)]
+fn possible_of(s: usize, delta_light: bool, delta: impl Fn(usize) -> bool) -> bool {
+    !delta(s) && if s == 0 { !delta_light } else { !delta(s - 1) }
+}
+
+/// The MIS weight of strategy `s` for a path of `n` vertices whose vertex `i` has
+/// the densities `at(i)` = (p_L, p_E, specular): the one computation behind
+/// [`PathDensities::weight`] and the integrator's connections, which read their
+/// densities from the subpaths in place.
+#[inline(always)]
+pub fn weight_of(n: usize, s: usize, delta_light: bool, heuristic: Heuristic, at: impl Fn(usize) -> (f32, f32, bool)) -> f32 {
+    if n == 2 {
+        return 1.0;
+    }
+    let remap = |p: f32| if p != 0.0 { p } else { 1.0 };
+    let h = |r: f32| match heuristic {
+        Heuristic::Power => r * r,
+        Heuristic::Balance => r,
+    };
+    let delta = |i: usize| at(i).2;
+    let mut sum = 0.0f32;
+    // more light vertices: x_s, x_{s+1}, … move to the light side
+    let mut r = 1.0f32;
+    for i in s..n - 1 {
+        let (pl, pe, _) = at(i);
+        r *= remap(pl) / remap(pe);
+        if possible_of(i + 1, delta_light, delta) {
+            sum += h(r);
         }
-        let remap = |p: f32| if p != 0.0 { p } else { 1.0 };
-        let h = |r: f32| match heuristic {
-            Heuristic::Power => r * r,
-            Heuristic::Balance => r,
-        };
-        let mut sum = 0.0f32;
-        // more light vertices: x_s, x_{s+1}, … move to the light side
-        let mut r = 1.0f32;
-        for i in s..n - 1 {
-            r *= remap(self.light[i]) / remap(self.camera[i]);
-            if self.possible(i + 1) {
-                sum += h(r);
-            }
+    }
+    // fewer light vertices: x_{s−1}, x_{s−2}, … move to the camera side
+    let mut r = 1.0f32;
+    for i in (0..s).rev() {
+        let (pl, pe, _) = at(i);
+        r *= remap(pe) / remap(pl);
+        if possible_of(i, delta_light, delta) {
+            sum += h(r);
         }
-        // fewer light vertices: x_{s−1}, x_{s−2}, … move to the camera side
-        let mut r = 1.0f32;
-        for i in (0..s).rev() {
-            r *= remap(self.camera[i]) / remap(self.light[i]);
-            if self.possible(i) {
-                sum += h(r);
-            }
-        }
-        let w = 1.0 / (1.0 + sum);
-        if w.is_finite() {
-            w
-        } else {
-            0.0
-        }
+    }
+    let w = 1.0 / (1.0 + sum);
+    if w.is_finite() {
+        w
+    } else {
+        0.0
     }
 }
 

@@ -128,8 +128,8 @@ enum Select {
 }
 
 thread_local! {
-    /// Per-thread camera subpath, light subpath and MIS scratch, reused across samples.
-    static BUFFERS: std::cell::Cell<(Vec<Vertex>, Vec<Vertex>, PathDensities)> = const { std::cell::Cell::new((Vec::new(), Vec::new(), PathDensities::new())) };
+    /// Per-thread camera and light subpaths, reused across samples.
+    static BUFFERS: std::cell::Cell<(Vec<Vertex>, Vec<Vertex>)> = const { std::cell::Cell::new((Vec::new(), Vec::new())) };
 }
 
 struct Engine<'a> {
@@ -141,25 +141,26 @@ struct Engine<'a> {
 
 impl Engine<'_> {
     fn sample(&self, cs: &mut CameraSample) -> Vec3 {
-        // the subpaths and the MIS scratch reuse this thread's buffers (taken, so a
+        // the subpaths reuse this thread's buffers (taken, so a
         // nested sample would only start with empty ones)
-        let (mut cam, mut light, mut scratch) = BUFFERS.take();
+        let (mut cam, mut light) = BUFFERS.take();
         cam.clear();
         light.clear();
-        let l = self.sample_with(cs, &mut cam, &mut light, &mut scratch);
-        BUFFERS.set((cam, light, scratch));
+        let l = self.sample_with(cs, &mut cam, &mut light);
+        BUFFERS.set((cam, light));
         l
     }
 
-    fn sample_with(&self, cs: &mut CameraSample, cam: &mut Vec<Vertex>, light: &mut Vec<Vertex>, scratch: &mut PathDensities) -> Vec3 {
+    fn sample_with(&self, cs: &mut CameraSample, cam: &mut Vec<Vertex>, light: &mut Vec<Vertex>) -> Vec3 {
         let ctx = &self.ctx;
         let light_tracing = self.select == Select::LightTracing;
-        let mut camera_vertex = Vertex::new(Kind::Camera, ctx.camera.position, Vec3::ZERO, Vec3::ONE);
+        // the pinhole, or the lens point the camera ray leaves
+        let mut camera_vertex = Vertex::new(Kind::Camera, cs.ray.o, Vec3::ZERO, Vec3::ONE);
         camera_vertex.pdf_fwd = 1.0;
         cam.push(camera_vertex);
         // the light tracer only looks for the environment behind its first segment
         let cam_max = if light_tracing { 2 } else { self.max_depth + 1 };
-        let pdf_dir = ctx.camera.pdf_dir(cs.ray.d);
+        let pdf_dir = ctx.camera.pdf_dir_from(cs.ray.o, cs.ray.d);
         self.walk(
             cs.ray,
             cs.diff,
@@ -196,7 +197,7 @@ impl Engine<'_> {
                 if (s, t) == (1, 1) && weighted {
                     continue;
                 }
-                let Some((c, pos)) = self.connect(light, cam, s, t, cs.sampler, cs.counts, weighted.then_some(&mut *scratch)) else {
+                let Some((c, pos)) = self.connect(light, cam, s, t, cs.sampler, cs.counts, weighted) else {
                     continue;
                 };
                 match pos {
@@ -340,8 +341,8 @@ impl Engine<'_> {
         }
     }
 
-    /// Strategy (s, t): its contribution (MIS-weighted when `mis` gives the scratch
-    /// densities) and, for t = 1, the film position to splat it to.
+    /// Strategy (s, t): its contribution (MIS-weighted when `weighted`) and, for
+    /// t = 1, the film position to splat it to.
     #[allow(clippy::too_many_arguments)]
     fn connect(
         &self,
@@ -351,7 +352,7 @@ impl Engine<'_> {
         t: usize,
         sampler: &mut PixelSampler,
         counts: &mut RayCounts,
-        mis: Option<&mut PathDensities>,
+        weighted: bool,
     ) -> Option<(Vec3, Option<Vec2>)> {
         let ctx = &self.ctx;
         let scene = ctx.scene;
@@ -370,11 +371,26 @@ impl Engine<'_> {
             if !qs.connectible() || qs.infinite || (s == 1 && scene.lights[qs.light()? as usize].is_delta_position()) {
                 return None;
             }
-            let (p, cos_cam) = ctx.camera.project(qs.p)?;
-            let v = ctx.camera.position - qs.p;
+            // a thin lens: a point on it, drawn uniformly (its area density cancels
+            // against the lens area in the importance)
+            let lens = if ctx.camera.has_lens() {
+                let mut c = Vertex::new(
+                    Kind::Camera,
+                    ctx.camera.lens_point(Vec2::from(sampler.next_2d())),
+                    Vec3::ZERO,
+                    Vec3::ONE,
+                );
+                c.pdf_fwd = 1.0 / ctx.camera.lens_area();
+                c
+            } else {
+                cam[0]
+            };
+            let (p, cos_cam) = ctx.camera.project_from(lens.p, qs.p)?;
+            let v = lens.p - qs.p;
             let d2 = v.length_squared();
             let w = v / d2.sqrt();
-            // We·cos_cam = 1/(A cos³θ): the pinhole's importance (1/(A cos⁴θ)) times its cosine
+            // We·cos_cam = 1/(A cos³θ): the pinhole's importance (1/(A cos⁴θ)) times its
+            // cosine; a lens's 1/(A·lens_area·cos⁴θ) times cos over its density 1/lens_area
             let we = 1.0 / (ctx.camera.image_plane_area() * cos_cam * cos_cam * cos_cam);
             let f = if s == 1 {
                 ctx.emitted(qs, w)
@@ -382,10 +398,10 @@ impl Engine<'_> {
                 qs.f(w, TransportMode::Importance)
             };
             l = qs.beta * f * (qs.cos(w) * we / d2);
-            if l == Vec3::ZERO || !self.visible(qs, &cam[0], counts) {
+            if l == Vec3::ZERO || !self.visible(qs, &lens, counts) {
                 return None;
             }
-            sampled = Some(cam[0]);
+            sampled = Some(lens);
             pos = Some(p);
         } else if s == 1 {
             let pt = &cam[t - 1];
@@ -427,8 +443,10 @@ impl Engine<'_> {
                 return None;
             }
         }
-        let Some(d) = mis else { return Some((l, pos)) };
-        let w = self.densities(light, cam, s, t, sampled.as_ref(), d).weight(s, self.heuristic);
+        if !weighted {
+            return Some((l, pos));
+        }
+        let w = self.connection(light, cam, s, t, sampled.as_ref()).weight(self.heuristic);
         Some((l * w, pos))
     }
 
@@ -451,59 +469,111 @@ impl Engine<'_> {
     }
 
     /// The densities of the path strategy (s, t) made, from the subpaths' cached
-    /// densities and the four the connection changes (pbrt-v4's `MISWeight` scheme).
-    fn densities<'d>(
-        &self,
-        light: &[Vertex],
-        cam: &[Vertex],
-        s: usize,
-        t: usize,
-        sampled: Option<&Vertex>,
-        d: &'d mut PathDensities,
-    ) -> &'d PathDensities {
+    /// densities and the four the connection changes (pbrt-v4's `MISWeight` scheme),
+    /// read in place by [`Connection::weight`].
+    fn connection<'v>(&self, light: &'v [Vertex], cam: &'v [Vertex], s: usize, t: usize, sampled: Option<&'v Vertex>) -> Connection<'v> {
         let ctx = &self.ctx;
-        let lv = |i: usize| {
-            if s == 1 && i == 0 {
-                sampled.unwrap_or(&light[0])
-            } else {
-                &light[i]
-            }
+        let mut c = Connection {
+            light,
+            cam,
+            s,
+            t,
+            sampled,
+            light_s: 0.0,
+            light_s1: 0.0,
+            cam_s1: 0.0,
+            cam_s2: 0.0,
+            delta_light: false,
         };
-        let cv = |j: usize| if t == 1 && j == 0 { sampled.unwrap_or(&cam[0]) } else { &cam[j] };
+        let pt = c.cv(t - 1);
+        let pt_minus = (t > 1).then(|| c.cv(t - 2));
+        let qs = (s > 0).then(|| c.lv(s - 1));
+        let qs_minus = (s > 1).then(|| c.lv(s - 2));
+        // the four densities the connection changes, two at each connection vertex
+        match (qs, qs_minus) {
+            (Some(q), Some(qm)) => (c.light_s, c.cam_s2) = ctx.pdf_pair(q, qm, pt),
+            (Some(q), None) => c.light_s = ctx.pdf(q, None, pt),
+            (None, _) => c.light_s = ctx.pdf_light_origin(pt),
+        }
+        match (qs, pt_minus) {
+            (Some(q), Some(pm)) => (c.cam_s1, c.light_s1) = ctx.pdf_pair(pt, pm, q),
+            (Some(q), None) => c.cam_s1 = ctx.pdf(pt, None, q),
+            (None, Some(pm)) => c.light_s1 = ctx.pdf_light(pt, pm),
+            (None, None) => {}
+        }
+        let x0 = if s > 0 { c.lv(0) } else { pt };
+        c.delta_light = x0.light().is_some_and(|i| ctx.scene.lights[i as usize].is_delta_position());
+        c
+    }
+
+    /// [`Engine::connection`]'s densities collected (for checking them).
+    fn densities(&self, light: &[Vertex], cam: &[Vertex], s: usize, t: usize, sampled: Option<&Vertex>, d: &mut PathDensities) {
+        let c = self.connection(light, cam, s, t, sampled);
         d.clear();
-        for i in 0..s {
-            let v = lv(i);
-            d.push(v.pdf_fwd, v.pdf_rev, v.delta);
+        for i in 0..s + t {
+            let (pl, pe, delta) = c.at(i);
+            d.push(pl, pe, delta);
         }
-        for j in (0..t).rev() {
-            let v = cv(j);
-            d.push(v.pdf_rev, v.pdf_fwd, v.delta);
+        d.delta_light = c.delta_light;
+    }
+}
+
+/// The path of strategy (s, t): the subpaths' prefixes, the vertex the connection
+/// sampled (s = 1: a light; t = 1: the pinhole), and the densities it changes.
+struct Connection<'v> {
+    light: &'v [Vertex],
+    cam: &'v [Vertex],
+    s: usize,
+    t: usize,
+    sampled: Option<&'v Vertex>,
+    /// p_L of x_s and x_{s+1}; p_E of x_{s−1} and x_{s−2}.
+    light_s: f32,
+    light_s1: f32,
+    cam_s1: f32,
+    cam_s2: f32,
+    delta_light: bool,
+}
+
+impl<'v> Connection<'v> {
+    #[inline(always)]
+    fn lv(&self, i: usize) -> &'v Vertex {
+        match self.sampled {
+            Some(v) if self.s == 1 && i == 0 => v,
+            _ => &self.light[i],
         }
-        let pt = cv(t - 1);
-        let pt_minus = (t > 1).then(|| cv(t - 2));
-        let qs = (s > 0).then(|| lv(s - 1));
-        let qs_minus = (s > 1).then(|| lv(s - 2));
-        d.light[s] = match qs {
-            Some(q) => ctx.pdf(q, qs_minus, pt),
-            None => ctx.pdf_light_origin(pt),
-        };
-        d.delta[s] = false;
-        if let Some(pm) = pt_minus {
-            d.light[s + 1] = match qs {
-                Some(q) => ctx.pdf(pt, Some(q), pm),
-                None => ctx.pdf_light(pt, pm),
-            };
+    }
+
+    #[inline(always)]
+    fn cv(&self, j: usize) -> &'v Vertex {
+        match self.sampled {
+            Some(v) if self.t == 1 && j == 0 => v,
+            _ => &self.cam[j],
         }
-        if let Some(q) = qs {
-            d.camera[s - 1] = ctx.pdf(pt, pt_minus, q);
-            d.delta[s - 1] = false;
-            if let Some(qm) = qs_minus {
-                d.camera[s - 2] = ctx.pdf(q, Some(pt), qm);
+    }
+
+    /// Path vertex `i` (0 at the light): (p_L, p_E, specular).
+    #[inline(always)]
+    fn at(&self, i: usize) -> (f32, f32, bool) {
+        let s = self.s;
+        if i < s {
+            let v = self.lv(i);
+            match s - i {
+                1 => (v.pdf_fwd, self.cam_s1, false),
+                2 => (v.pdf_fwd, self.cam_s2, v.delta),
+                _ => (v.pdf_fwd, v.pdf_rev, v.delta),
+            }
+        } else {
+            let v = self.cv(s + self.t - 1 - i);
+            match i - s {
+                0 => (self.light_s, v.pdf_fwd, false),
+                1 => (self.light_s1, v.pdf_fwd, v.delta),
+                _ => (v.pdf_rev, v.pdf_fwd, v.delta),
             }
         }
-        let x0 = if s > 0 { lv(0) } else { pt };
-        d.delta_light = x0.light().is_some_and(|i| ctx.scene.lights[i as usize].is_delta_position());
-        d
+    }
+
+    fn weight(&self, heuristic: Heuristic) -> f32 {
+        mis::weight_of(self.s + self.t, self.s, self.delta_light, heuristic, |i| self.at(i))
     }
 }
 
@@ -595,7 +665,7 @@ pub fn mis_self_check(
                     continue;
                 }
                 let mut probe = sampler;
-                let Some((c, _)) = e.connect(&light, &cam, s, t, &mut probe, &mut counts, None) else {
+                let Some((c, _)) = e.connect(&light, &cam, s, t, &mut probe, &mut counts, false) else {
                     continue;
                 };
                 if c == Vec3::ZERO {

@@ -174,12 +174,25 @@ impl Ctx<'_> {
     /// Density with which `cur` (reached from `prev`) samples `next`.
     pub fn pdf(&self, cur: &Vertex, prev: Option<&Vertex>, next: &Vertex) -> f32 {
         match cur.kind {
-            Kind::Camera => self.convert(self.camera.pdf_dir(cur.dir_to(next)), cur, next),
+            Kind::Camera => self.convert(self.camera.pdf_dir_from(cur.p, cur.dir_to(next)), cur, next),
             Kind::Light(_) => self.pdf_light(cur, next),
             Kind::Surface => {
                 let (Some(bsdf), Some(prev)) = (&cur.bsdf, prev) else { return 0.0 };
                 self.convert(bsdf.pdf(cur.dir_to(prev), cur.dir_to(next)), cur, next)
             }
+        }
+    }
+
+    /// [`Ctx::pdf`] both ways at a surface or end vertex `cur` between `prev` and
+    /// `next`: (density of `next` reached from `prev`, of `prev` reached from `next`),
+    /// sharing the directions and the BSDF's frame (bit-identical to two calls).
+    pub fn pdf_pair(&self, cur: &Vertex, prev: &Vertex, next: &Vertex) -> (f32, f32) {
+        match (cur.kind, &cur.bsdf) {
+            (Kind::Surface, Some(bsdf)) => {
+                let (to_next, to_prev) = bsdf.pdf_pair(cur.dir_to(prev), cur.dir_to(next));
+                (self.convert(to_next, cur, next), self.convert(to_prev, cur, prev))
+            }
+            _ => (self.pdf(cur, Some(prev), next), self.pdf(cur, Some(next), prev)),
         }
     }
 

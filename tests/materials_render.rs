@@ -17,10 +17,17 @@ fn refs() -> std::path::PathBuf {
 #[test]
 fn every_material_converges_to_mitsubas_image() {
     let mut failed = Vec::new();
-    for name in ["conductor", "thindielectric", "roughdielectric", "plastic", "roughplastic", "twosided"] {
+    for name in [
+        "conductor",
+        "thindielectric",
+        "roughdielectric",
+        "plastic",
+        "roughplastic",
+        "twosided",
+    ] {
         let dir = refs();
         let s = load_scene(&dir.join(format!("{name}.json")), &[], Profile::Physical);
-        let (a, b) = (render(&s, 256, 1), render(&s, 256, 2));
+        let (a, b) = (render(&s, 512, 1), render(&s, 512, 2));
         let r = read(&dir.join(format!("{name}.exr")));
         let vr = read(&dir.join(format!("{name}.var.exr")));
         let c = compare(&a, &b, &r, &vr);

@@ -133,6 +133,11 @@ enum Command {
         /// Mesh benchmark: skip the build timings and the kernel check (for profiling).
         #[arg(long)]
         trace_only: bool,
+        /// Mesh benchmark: trace the rays of this file (raw little-endian f32, 6 a ray:
+        /// origin, unit direction) and check them against X.t.f32 beside X.rays.f32;
+        /// repeatable. The generated sets are then timed only if --rays names them.
+        #[arg(long, value_name = "FILE")]
+        ray_file: Vec<PathBuf>,
     },
 }
 
@@ -180,10 +185,11 @@ fn main() -> ExitCode {
             isa,
             rays,
             trace_only,
+            ray_file,
         } => {
             let ext = args.scene.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
             if ext == "obj" || ext == "ply" {
-                bench_mesh(&args, repeat, isa.as_deref(), rays, trace_only)
+                bench_mesh(&args, repeat, isa.as_deref(), rays, trace_only, ray_file)
             } else {
                 bench_scene(&args)
             }
@@ -376,7 +382,14 @@ fn render(args: &SceneArgs, output: Option<PathBuf>, quiet: bool, time_limit: Op
 }
 
 /// `rdr bench MESH`: the BVH benchmark.
-fn bench_mesh(args: &SceneArgs, repeat: usize, isa: Option<&str>, rays: Vec<String>, trace_only: bool) -> Result<ExitCode> {
+fn bench_mesh(
+    args: &SceneArgs,
+    repeat: usize,
+    isa: Option<&str>,
+    rays: Vec<String>,
+    trace_only: bool,
+    ray_files: Vec<PathBuf>,
+) -> Result<ExitCode> {
     let all = args
         .threads
         .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
@@ -399,9 +412,14 @@ fn bench_mesh(args: &SceneArgs, repeat: usize, isa: Option<&str>, rays: Vec<Stri
         isa,
         rays,
         trace_only,
+        ray_files,
     };
     let report = rdr::bench::run(&args.scene, &opts)?;
-    say(report.trim_end_matches('\n'))?;
+    say(report.text.trim_end_matches('\n'))?;
+    anyhow::ensure!(
+        report.agrees,
+        "closest-hit distances disagree with a distances file beyond the tolerance (see above)"
+    );
     Ok(ExitCode::SUCCESS)
 }
 
@@ -416,6 +434,7 @@ fn bench_scene(args: &SceneArgs) -> Result<ExitCode> {
     let mut t = String::new();
     let _ = writeln!(t, "scene            {}", args.scene.display());
     let _ = writeln!(t, "threads          {}", rayon::current_num_threads());
+    let _ = writeln!(t, "cpu              {}", rdr::bench::cpu_line(scene.bvh.isa()));
     let _ = writeln!(t, "primitives       {} ({} triangles)", scene.prims.len(), scene.triangle_count());
     let _ = writeln!(
         t,

@@ -38,7 +38,7 @@ pub fn scene_json(data: &[u8]) -> Result<(), String> {
 
 /// The OBJ reader and the mesh built from it.
 pub fn obj_mesh(data: &[u8]) -> Result<(), String> {
-    let d = obj::parse(&String::from_utf8_lossy(data)).map_err(|e| e.to_string())?;
+    let d = obj::parse_bytes(data).map_err(|e| e.to_string())?;
     let _ = Mesh::from_obj(d, &Mat4::IDENTITY, Vec3::ZERO, true);
     Ok(())
 }

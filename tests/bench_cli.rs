@@ -93,3 +93,104 @@ fn mesh_benchmark_options() {
     let (ok, _, err) = bench(&[path, "--isa", "sse9"]);
     assert!(!ok && err.contains("--isa") && err.contains("sse9"), "{err}");
 }
+
+/// Closest-hit distance of `o + t·d` against every triangle of the OBJ text (f64
+/// Möller–Trumbore, brute force): the test's own oracle for `--ray-file`.
+fn brute_force_t(obj: &str, o: [f64; 3], d: [f64; 3]) -> f64 {
+    let v: Vec<[f64; 3]> = obj
+        .lines()
+        .filter_map(|l| l.strip_prefix("v "))
+        .map(|l| {
+            let x: Vec<f64> = l.split_whitespace().map(|w| w.parse().unwrap()).collect();
+            [x[0], x[1], x[2]]
+        })
+        .collect();
+    let sub = |a: [f64; 3], b: [f64; 3]| [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
+    let cross = |a: [f64; 3], b: [f64; 3]| [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]];
+    let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    let mut best = f64::INFINITY;
+    for l in obj.lines().filter_map(|l| l.strip_prefix("f ")) {
+        let i: Vec<usize> = l.split_whitespace().map(|w| w.parse::<usize>().unwrap() - 1).collect();
+        let (p0, p1, p2) = (v[i[0]], v[i[1]], v[i[2]]);
+        let (e1, e2) = (sub(p1, p0), sub(p2, p0));
+        let pv = cross(d, e2);
+        let det = dot(e1, pv);
+        if det.abs() < 1e-14 {
+            continue;
+        }
+        let s = sub(o, p0);
+        let u = dot(s, pv) / det;
+        let q = cross(s, e1);
+        let w = dot(d, q) / det;
+        let t = dot(e2, q) / det;
+        if u >= 0.0 && w >= 0.0 && u + w <= 1.0 && t > 0.0 {
+            best = best.min(t);
+        }
+    }
+    best
+}
+
+#[test]
+fn ray_files_are_traced_and_checked_against_their_distances() {
+    let (tmp, mesh) = sphere_obj("rayfile", 12);
+    let obj = std::fs::read_to_string(&mesh).unwrap();
+    // 400 rays from a sphere of radius 3 towards points near the centre; some miss
+    let mut state = 12345u64;
+    let mut next = || {
+        state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        (state >> 11) as f64 / (1u64 << 53) as f64
+    };
+    let (mut rays, mut ts) = (Vec::new(), Vec::new());
+    for _ in 0..400 {
+        let (z, phi) = (2.0 * next() - 1.0, 2.0 * std::f64::consts::PI * next());
+        let r = (1.0 - z * z).sqrt();
+        let o = [3.0 * r * phi.cos(), 3.0 * r * phi.sin(), 3.0 * z];
+        let target = [2.4 * next() - 1.2, 2.4 * next() - 1.2, 2.4 * next() - 1.2];
+        let mut d = [target[0] - o[0], target[1] - o[1], target[2] - o[2]];
+        let len = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+        d.iter_mut().for_each(|x| *x /= len);
+        // the file's values are f32; the oracle traces those exact values
+        let o32 = o.map(|x| x as f32 as f64);
+        let d32 = d.map(|x| x as f32 as f64);
+        rays.extend(o32.iter().chain(&d32).map(|&x| x as f32));
+        ts.push(brute_force_t(&obj, o32, d32) as f32);
+    }
+    let hits = ts.iter().filter(|t| t.is_finite()).count();
+    assert!(hits > 100 && hits < 390, "{hits} of 400 rays hit: the test needs both");
+    let le = |v: &[f32]| v.iter().flat_map(|x| x.to_le_bytes()).collect::<Vec<u8>>();
+    let rays_path = tmp.path().join("sphere_test.rays.f32");
+    std::fs::write(&rays_path, le(&rays)).unwrap();
+    std::fs::write(tmp.path().join("sphere_test.t.f32"), le(&ts)).unwrap();
+    let (m, r) = (mesh.to_str().unwrap(), rays_path.to_str().unwrap());
+    let (ok, out, err) = bench(&[m, "--repeat", "1", "--threads", "2", "--trace-only", "--ray-file", r]);
+    assert!(ok, "{out}{err}");
+    let line = out
+        .lines()
+        .find(|l| l.starts_with("sphere_test.rays.f32"))
+        .unwrap_or_else(|| panic!("no ray-file line in\n{out}"));
+    assert!(
+        line.contains("1T closest") && line.contains("2T closest") && line.contains(" any "),
+        "{line}"
+    );
+    assert!(line.contains("0 hit/miss and 0 distance"), "{line}");
+    // the generated sets are not timed unless asked for
+    assert!(!out.lines().any(|l| l.starts_with("primary")), "{out}");
+
+    // distances 1 % too long: every hit disagrees, and the run fails saying so
+    let wrong: Vec<f32> = ts.iter().map(|t| t * 1.01).collect();
+    std::fs::write(tmp.path().join("sphere_test.t.f32"), le(&wrong)).unwrap();
+    let (ok, out, err) = bench(&[m, "--repeat", "1", "--threads", "1", "--trace-only", "--ray-file", r]);
+    assert!(
+        !ok && out.contains(&format!("0 hit/miss and {hits} distance")) && out.contains("TOO MANY"),
+        "{out}"
+    );
+    assert!(err.contains("disagree"), "{err}");
+    // a truncated ray file is a one-line error naming it
+    std::fs::write(&rays_path, &le(&rays)[..100]).unwrap();
+    let (ok, _, err) = bench(&[m, "--repeat", "1", "--threads", "1", "--trace-only", "--ray-file", r]);
+    assert!(
+        !ok && err.contains("sphere_test.rays.f32") && err.contains("multiple of 24"),
+        "{err}"
+    );
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+}

@@ -5,13 +5,18 @@
 //! and any-hit queries on one thread and on all threads:
 //!
 //! * **primary**: 1000×1000 pinhole rays, 40° field of view, the camera looking at
-//!   the centre of the bounding box from front-right-above (direction (1, 1, 1)),
-//!   pulled back until all eight corners of the box are inside the image;
+//!   the centre of the bounding box along −(0.35, 0.25, 1), pulled back until all
+//!   eight corners of the box are inside the image with a 5 % margin;
 //! * **incoherent**: 1,000,000 rays from uniform points on the bounding sphere
 //!   towards uniform points inside the box (fixed seed);
 //! * **bounce**: 1,000,000 cosine-distributed rays leaving the primary hit points
 //!   (hit points reused in turn when fewer than a million primary rays hit),
-//!   offset along the geometric normal on the side the primary ray came from.
+//!   offset by 1e-4 of the bounding sphere's radius along the geometric normal on
+//!   the side the primary ray came from.
+//!
+//! These are the definitions of `shared/tools/embree_rays.py`, which writes the same
+//! three sets (identical rays) to files with Embree's distances; `--ray-file` traces
+//! such files ([`ray_file`]) instead of the sets generated here.
 //!
 //! Ray figures are the CPU time of the busiest worker thread (Linux `schedstat`;
 //! the workers claim chunks of rays until none are left), so time the OS gives
@@ -27,12 +32,13 @@
 //! ([`run`]: the build, check and table); meshes load here, PLY files through
 //! [`crate::geometry::ply`].
 
+pub mod ray_file;
 pub mod rays;
 mod report;
 mod timing;
 
 pub use rays::{bounce_rays, incoherent_rays, primary_rays, RaySets};
-pub use report::run;
+pub use report::{run, Report};
 
 use crate::accel::Isa;
 use crate::geometry::mesh::Mesh;
@@ -54,7 +60,7 @@ pub fn load_mesh(path: &Path) -> Result<Vec<Prim>> {
     .map_err(anyhow::Error::msg)?;
     let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
     let data = match ext.as_str() {
-        "obj" => obj::parse(&String::from_utf8_lossy(&bytes)).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?,
+        "obj" => obj::parse_bytes(&bytes).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?,
         "ply" => ply::parse_ply(&bytes).with_context(|| format!("{}", path.display()))?,
         _ => bail!("'{}': the mesh benchmark reads .obj and .ply files", path.display()),
     };
@@ -84,4 +90,27 @@ pub struct Options {
     pub rays: Vec<String>,
     /// Build once and skip the kernel check (for profiling the traversal).
     pub trace_only: bool,
+    /// Ray files to trace ([`ray_file`]); with any, the generated sets are timed
+    /// only when `rays` names them.
+    pub ray_files: Vec<std::path::PathBuf>,
+}
+
+/// The CPU's model name (Linux `/proc/cpuinfo`), or "unknown CPU".
+pub fn cpu_model() -> String {
+    std::fs::read_to_string("/proc/cpuinfo")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("model name"))
+                .and_then(|l| l.split_once(':'))
+                .map(|(_, v)| v.trim().to_string())
+        })
+        .filter(|s| !s.is_empty())
+        .unwrap_or_else(|| "unknown CPU".to_string())
+}
+
+/// The CPU line of both benchmarks: model and the instruction sets the kernels use.
+pub fn cpu_line(isa: Isa) -> String {
+    let have: Vec<&str> = Isa::all_available().into_iter().map(Isa::name).collect();
+    format!("{} (kernels {}; this CPU runs {})", cpu_model(), isa.name(), have.join(", "))
 }

@@ -14,10 +14,12 @@ pub struct RaySets {
     pub bounce: Vec<Ray>,
 }
 
-/// The benchmark camera's 1000×1000 primary rays.
+/// The benchmark camera's `res`×`res` primary rays (the camera of
+/// `shared/tools/embree_rays.py`: looking along −(0.35, 0.25, 1), 40° field of
+/// view, all eight box corners in view with a 5 % margin).
 pub fn primary_rays(b: &Aabb, res: usize) -> Vec<Ray> {
     let c = b.centroid();
-    let w = Vec3::ONE.normalize(); // from the centre towards the camera
+    let w = Vec3::new(0.35, 0.25, 1.0).normalize(); // from the centre towards the camera
     let right = Vec3::Y.cross(w).normalize();
     let up = w.cross(right);
     let tan_half = (20.0f32).to_radians().tan();
@@ -29,7 +31,7 @@ pub fn primary_rays(b: &Aabb, res: usize) -> Vec<Ray> {
             if k & 4 == 0 { b.min.z } else { b.max.z },
         );
         let q = corner - c;
-        dist = dist.max(q.dot(w) + q.dot(right).abs().max(q.dot(up).abs()) / tan_half);
+        dist = dist.max(q.dot(w) + q.dot(right).abs().max(q.dot(up).abs()) * 1.05 / tan_half);
     }
     let eye = c + w * dist.max(1e-6);
     let mut rays = Vec::with_capacity(res * res);
@@ -110,9 +112,26 @@ mod tests {
         let b = Aabb::new(Vec3::new(-1.0, 0.0, 2.0), Vec3::new(1.0, 3.0, 2.5));
         let primary = primary_rays(&b, 16);
         assert_eq!(primary.len(), 256);
-        // the camera sits outside the box, front-right-above its centre
+        // the camera sits outside the box along (0.35, 0.25, 1) from its centre and
+        // sees every corner inside the 40° image, with a margin
         let eye = primary[0].o;
-        assert!(eye.cmpgt(b.max).all());
+        let w = Vec3::new(0.35, 0.25, 1.0).normalize();
+        assert!((eye - b.centroid()).normalize().dot(w) > 1.0 - 1e-6);
+        let tan_half = 20f32.to_radians().tan();
+        for k in 0..8 {
+            let corner = Vec3::new(
+                if k & 1 == 0 { b.min.x } else { b.max.x },
+                if k & 2 == 0 { b.min.y } else { b.max.y },
+                if k & 4 == 0 { b.min.z } else { b.max.z },
+            );
+            let q = corner - eye;
+            let depth = -q.dot(w);
+            let right = Vec3::Y.cross(w).normalize();
+            let up = w.cross(right);
+            assert!(depth > 0.0);
+            assert!(q.dot(right).abs() / depth < tan_half / 1.04, "corner {k}");
+            assert!(q.dot(up).abs() / depth < tan_half / 1.04, "corner {k}");
+        }
         let inc = incoherent_rays(&b, 1000, 1);
         let r = b.extent().length() * 0.5;
         for ray in &inc {

@@ -1,5 +1,6 @@
 //! The benchmark itself: build timings, the kernel check and the table.
 
+use super::ray_file::{distances_path, read_distances, read_rays, Agreement, T_TOLERANCE};
 use super::rays::{bounce_rays, incoherent_rays, primary_rays};
 use super::timing::{time_rays, timed};
 use super::{load_mesh, Options, RAY_SETS};
@@ -15,7 +16,7 @@ use std::path::Path;
 use std::time::Instant;
 
 /// Runs the mesh benchmark and returns the report.
-pub fn run(path: &Path, opts: &Options) -> Result<String> {
+pub fn run(path: &Path, opts: &Options) -> Result<Report> {
     if let Some(r) = opts.rays.iter().find(|r| !RAY_SETS.contains(&r.as_str())) {
         bail!("--rays: unknown ray set '{r}' ({})", RAY_SETS.join(", "));
     }
@@ -84,7 +85,8 @@ pub fn run(path: &Path, opts: &Options) -> Result<String> {
     let primary_hits: Vec<Option<Hit>> = pools[pools.len() - 1]
         .1
         .install(|| primary.par_iter().map(|r| tracer.closest(r)).collect());
-    let eps = 1e-4 * b.extent().length().max(1e-20);
+    // 1e-4 of the bounding sphere's radius, as embree_rays.py
+    let eps = 1e-4 * 0.5 * b.extent().length().max(1e-20);
     let bounce = bounce_rays(&ordered, &primary, &primary_hits, 1_000_000, eps, 0xB0B);
     let sets: Vec<(&str, &Vec<Ray>)> = RAY_SETS.into_iter().zip([&primary, &incoherent, &bounce]).collect();
 
@@ -117,11 +119,30 @@ pub fn run(path: &Path, opts: &Options) -> Result<String> {
             )?;
         }
     }
+    writeln!(out, "cpu           {}", super::cpu_line(isa))?;
     writeln!(out, "kernels       {} (the table below)", isa.name())?;
+    let generated = opts.ray_files.is_empty() || !opts.rays.is_empty();
+    if generated {
+        table(&mut out, &sets, &pools, &tracer, opts)?;
+    }
+    let mut all_ok = true;
+    for file in &opts.ray_files {
+        all_ok &= ray_file_line(&mut out, file, &pools, &tracer, opts.repeat)?;
+    }
+    Ok(Report { text: out, agrees: all_ok })
+}
 
-    // the table
+/// The benchmark's output.
+pub struct Report {
+    pub text: String,
+    /// False when a ray file's distances disagree beyond the tolerance.
+    pub agrees: bool,
+}
+
+/// The table of the generated ray sets.
+fn table(out: &mut String, sets: &[(&str, &Vec<Ray>)], pools: &[(usize, rayon::ThreadPool)], tracer: &Wide, opts: &Options) -> Result<()> {
     write!(out, "\n{:<11}", "Mrays/s")?;
-    for (t, _) in &pools {
+    for (t, _) in pools {
         write!(out, " | {:>8} {:>8}", format!("{t}T close"), format!("{t}T any"))?;
     }
     writeln!(out, " | hit %")?;
@@ -131,7 +152,7 @@ pub fn run(path: &Path, opts: &Options) -> Result<String> {
     {
         write!(out, "{name:<11}")?;
         let mut hit_frac = 0.0;
-        for (_, pool) in &pools {
+        for (_, pool) in pools {
             let (tc, hits) = time_rays(pool, rays, opts.repeat, &|r| tracer.closest(r).is_some());
             let (ta, hits_any) = time_rays(pool, rays, opts.repeat, &|r| tracer.any(r));
             if hits != hits_any {
@@ -143,5 +164,52 @@ pub fn run(path: &Path, opts: &Options) -> Result<String> {
         }
         writeln!(out, " | {:>5.1}", hit_frac * 100.0)?;
     }
-    Ok(out)
+    Ok(())
+}
+
+/// One line for a ray file: its name, then `1T closest X any Y` Mrays/s per thread
+/// count, the hit percentage and the check against its distances file. False when
+/// the check fails.
+fn ray_file_line(out: &mut String, file: &Path, pools: &[(usize, rayon::ThreadPool)], tracer: &Wide, repeat: usize) -> Result<bool> {
+    let rays = read_rays(file)?;
+    let name = file
+        .file_name()
+        .map_or_else(|| file.display().to_string(), |n| n.to_string_lossy().into_owned());
+    write!(out, "{name}")?;
+    let mut hits = 0;
+    for (threads, pool) in pools {
+        let (tc, h) = time_rays(pool, &rays, repeat, &|r| tracer.closest(r).is_some());
+        let (ta, _) = time_rays(pool, &rays, repeat, &|r| tracer.any(r));
+        hits = h;
+        let m = |t: f64| rays.len() as f64 / t / 1e6;
+        write!(out, "  {threads}T closest {:.2} any {:.2}", m(tc), m(ta))?;
+    }
+    write!(
+        out,
+        "  Mrays/s, {} rays, hit {:.1} %",
+        rays.len(),
+        100.0 * hits as f64 / rays.len() as f64
+    )?;
+    let mut ok = true;
+    match distances_path(file).filter(|p| p.exists()) {
+        None => write!(out, ", no distances file")?,
+        Some(tp) => {
+            let theirs = read_distances(&tp, rays.len())?;
+            let pool = &pools[pools.len() - 1].1;
+            let ours: Vec<f32> = pool.install(|| rays.par_iter().map(|r| tracer.closest(r).map_or(f32::INFINITY, |h| h.t)).collect());
+            let a = Agreement::compare(&ours, &theirs);
+            ok = a.ok(rays.len());
+            let tp_name = tp.file_name().map_or_else(String::new, |n| n.to_string_lossy().into_owned());
+            write!(
+                out,
+                ", vs {tp_name}: {} hit/miss and {} distance (> {:e} relative) disagreements, {}",
+                a.hit_miss,
+                a.distance,
+                T_TOLERANCE,
+                if ok { "ok" } else { "TOO MANY" }
+            )?;
+        }
+    }
+    writeln!(out)?;
+    Ok(ok)
 }

@@ -70,8 +70,7 @@ fn load_mesh(desc: &SceneDesc, file: &MeshFile, opts: BuildOptions) -> Result<(M
         format!("mesh '{}'", full.display())
     })
     .map_err(err)?;
-    let text = String::from_utf8_lossy(&text);
-    let data = obj::parse(&text).map_err(|e| err(format!("{}: {e}", full.display())))?;
+    let data = obj::parse_bytes(&text).map_err(|e| err(format!("{}: {e}", full.display())))?;
     let mut warnings: Vec<String> = data.warnings.iter().map(|w| format!("{}: {w}", full.display())).collect();
     if data.triangles.is_empty() {
         return Err(err(format!("mesh '{}' has no faces", full.display())));

@@ -81,11 +81,13 @@ fn li(
     loop {
         counts.rays += 1;
         let Some(hit) = scene.intersect(&ray) else {
-            if let Some(env) = scene.environment {
-                let le = scene.environment_radiance(ray.d);
+            if let Some((env, sky)) = scene.environment_light() {
+                // the direction's texture coordinates once, for radiance and pdf
+                let uv = sky.direction_to_uv(ray.d);
+                let le = sky.radiance_at(uv);
                 if le != Vec3::ZERO {
                     let w = emitter_weight(profile, after_delta, bsdf_pdf, || {
-                        scene.light_sampler.pmf(env as usize) * scene.lights[env as usize].pdf(prev_p, ray.d, None, mode)
+                        scene.light_sampler.pmf(env as usize) * sky.pdf_at(uv, mode)
                     });
                     l += beta * le * w;
                 }

@@ -153,7 +153,13 @@ impl EnvironmentLight {
 
     /// Radiance arriving from direction `w` (towards the sky).
     pub fn radiance(&self, w: Vec3) -> Vec3 {
-        self.lookup(self.direction_to_uv(w)) * self.scale
+        self.radiance_at(self.direction_to_uv(w))
+    }
+
+    /// Radiance at texture coordinates `uv` ([`Self::direction_to_uv`]): with
+    /// [`Self::pdf_at`], one direction's mapping serves both.
+    pub fn radiance_at(&self, uv: Vec2) -> Vec3 {
+        self.lookup(uv) * self.scale
     }
 
     pub fn sample(&self, u: Vec2, mode: LightSampling) -> Option<LightSample> {
@@ -180,8 +186,15 @@ impl EnvironmentLight {
     pub fn pdf(&self, wi: Vec3, mode: LightSampling) -> f32 {
         match mode {
             LightSampling::Uniform => 1.0 / (4.0 * PI),
+            LightSampling::Importance => self.pdf_at(self.direction_to_uv(wi), mode),
+        }
+    }
+
+    /// [`Self::pdf`] of the direction with texture coordinates `uv`.
+    pub fn pdf_at(&self, uv: Vec2, mode: LightSampling) -> f32 {
+        match mode {
+            LightSampling::Uniform => 1.0 / (4.0 * PI),
             LightSampling::Importance => {
-                let uv = self.direction_to_uv(wi);
                 let sin_theta = (uv.y * PI).sin();
                 if sin_theta <= 0.0 {
                     return 0.0;

@@ -113,6 +113,15 @@ impl Scene {
         }
     }
 
+    /// The environment light and its index, if there is one.
+    pub fn environment_light(&self) -> Option<(u32, &crate::light::environment::EnvironmentLight)> {
+        let i = self.environment?;
+        match &self.lights[i as usize] {
+            Light::Environment(e) => Some((i, e)),
+            _ => None,
+        }
+    }
+
     /// Radiance arriving from the environment along direction `w` (0 without one).
     pub fn environment_radiance(&self, w: Vec3) -> Vec3 {
         match self.environment.map(|i| &self.lights[i as usize]) {

@@ -198,6 +198,9 @@ pub fn build(desc: &SceneDesc, opts: BuildOptions) -> Result<Scene> {
                 .try_map_textures(|t| resolve_texture(t, &texture_names, &mut textures, desc))?,
         );
     }
+    for m in &mut materials {
+        m.prepare(&|t: &u32| textures[*t as usize].mean());
+    }
 
     // Meshes load in parallel; errors are reported for the first failing object.
     let shapes: Vec<Result<(Shape, Vec<String>)>> = desc

@@ -130,8 +130,24 @@ pub struct ImageFile {
 /// * `glass`: `R` ((1,1,1)), `T` ((1,1,1)), `eta` (1.5);
 /// * `roughconductor`: `texture_name` (required), `etaI`, `etaT`, `k` ((1,1,1)),
 ///   `alpha_x`, `alpha_y` (0.1), `distribution` (`"beckmann"` | `"ggx"`, `"beckmann"`);
+/// * `conductor`: `texture_name` (optional tint), `eta` ((0,0,0)), `k` ((1,1,1));
+/// * `thindielectric`: `R`, `T` ((1,1,1)), `eta` (1.5);
+/// * `roughdielectric`: `R`, `T` ((1,1,1)), `eta` (1.5), `alpha_x`, `alpha_y` (0.1),
+///   `distribution` (`"beckmann"`);
+/// * `plastic`: `texture_name` (diffuse; constant 0.5 when absent),
+///   `specular_reflectance` ((1,1,1)), `eta` (1.49, not 1), `nonlinear` (false);
+/// * `roughplastic`: as `plastic`, and `alpha` (0.1), `distribution` (`"beckmann"`);
+/// * `twosided`: `material_name` (required), `back_material_name` (optional);
 ///
-/// see [`Material`].
+/// see [`Material`], which also names the Mitsuba parameter behind each key.
+///
+/// ```json
+/// "materials": {
+///   "red": {"type": "roughplastic", "texture_name": "red", "alpha": 0.2, "distribution": "ggx"},
+///   "mirror": {"type": "conductor"},
+///   "card": {"type": "twosided", "material_name": "red"}
+/// }
+/// ```
 #[derive(Clone, Debug)]
 pub struct MaterialDesc {
     pub name: String,
@@ -293,11 +309,7 @@ impl SceneDesc {
             .iter()
             .map(|(n, p)| parse_texture(n, p))
             .collect::<Result<Vec<_>>>()?;
-        let materials = root
-            .named_objects("materials")?
-            .iter()
-            .map(|(n, p)| parse_material(n, p))
-            .collect::<Result<Vec<_>>>()?;
+        let materials = parse_materials(&root)?;
         let objects = root.objects("objects")?.iter().map(parse_object).collect::<Result<Vec<_>>>()?;
         let environment_map = root.object_opt("environment_map")?.map(|p| parse_env(&p)).transpose()?;
         root.finish();
@@ -806,17 +818,124 @@ fn texture_ref(p: &Props, legacy: &str) -> Result<TextureRef> {
     Ok(TextureRef::Named(p.located("texture_name", p.string("texture_name")?)))
 }
 
-fn parse_material(name: &str, p: &Props) -> Result<MaterialDesc> {
-    let ty = p.string_or("type", "diffuse")?;
-    let positive_eta = |key: &str| -> Result<f32> {
-        let eta = p.f32_or(key, 1.5)?;
+/// Every material type, as the error for an unknown one lists them.
+const MATERIAL_TYPES: [&str; 10] = [
+    "diffuse",
+    "refraction",
+    "glass",
+    "roughconductor",
+    "conductor",
+    "thindielectric",
+    "roughdielectric",
+    "plastic",
+    "roughplastic",
+    "twosided",
+];
+
+/// `materials`: every entry by [`parse_material`]; then each `twosided` gets a copy
+/// of the materials it names (which must be defined, and neither `twosided` nor
+/// transmitting).
+fn parse_materials(root: &Props) -> Result<Vec<MaterialDesc>> {
+    let entries = root.named_objects("materials")?;
+    let mut slots: Vec<Option<MaterialDesc>> = Vec::with_capacity(entries.len());
+    for (name, p) in &entries {
+        let ty = p.string_or("type", "diffuse")?;
+        slots.push(if ty == "twosided" {
+            None
+        } else {
+            Some(parse_material(name, p, &ty)?)
+        });
+    }
+    for i in 0..entries.len() {
+        if slots[i].is_some() {
+            continue;
+        }
+        let (name, p) = &entries[i];
+        let named = |key: &str, target: Option<String>| -> Result<Option<Box<Material<TextureRef>>>> {
+            let Some(target) = target else { return Ok(None) };
+            let Some(j) = entries.iter().position(|(n, _)| *n == target) else {
+                let known: Vec<&str> = entries.iter().map(|(n, _)| n.as_str()).collect();
+                return Err(p.error(key, format!("no material named '{target}' (defined: {})", known.join(", "))));
+            };
+            match &slots[j] {
+                None => Err(p.error(key, format!("'{target}' is a twosided material itself; twosided cannot nest"))),
+                Some(m) if matches!(m.material, Material::TwoSided { .. }) => {
+                    Err(p.error(key, format!("'{target}' is a twosided material itself; twosided cannot nest")))
+                }
+                Some(m) if m.material.transmits() => {
+                    Err(p.error(key, format!("'{target}' transmits light; twosided wraps only reflecting materials")))
+                }
+                Some(m) => Ok(Some(Box::new(m.material.clone()))),
+            }
+        };
+        let front = named("material_name", Some(p.string("material_name")?))?.expect("given");
+        let back = named("back_material_name", p.string_opt("back_material_name")?)?;
+        p.finish();
+        slots[i] = Some(MaterialDesc {
+            name: name.clone(),
+            source: p.own_source(),
+            material: Material::TwoSided { front, back },
+        });
+    }
+    Ok(slots.into_iter().flatten().collect())
+}
+
+/// `distribution`: `"beckmann"` (the default) or `"ggx"`.
+fn distribution(p: &Props) -> Result<Distribution> {
+    match p.string_or("distribution", "beckmann")?.as_str() {
+        "beckmann" => Ok(Distribution::Beckmann),
+        "ggx" => Ok(Distribution::Ggx),
+        other => Err(p.error(
+            "distribution",
+            format!("unknown microfacet distribution '{other}' (available: beckmann, ggx)"),
+        )),
+    }
+}
+
+/// A non-negative reflectance or transmittance colour (default `default`).
+fn colour(p: &Props, key: &str, default: Vec3) -> Result<Vec3> {
+    let c = p.vec3_or(key, default)?;
+    if c.min_element() < 0.0 {
+        return Err(p.error(key, "must not be negative"));
+    }
+    Ok(c)
+}
+
+/// A roughness `alpha` in [0, 10] (beyond that the microfacet forms lose precision).
+fn roughness(p: &Props, key: &str) -> Result<f32> {
+    let a = non_negative(p, key, p.f32_or(key, 0.1)?)?;
+    in_range(p, key, a, 0.0, 10.0)
+}
+
+/// `texture_name` when given, else the constant `default` (the optional textures
+/// of the Mitsuba materials).
+fn texture_or(p: &Props, default: Vec3) -> Result<TextureRef> {
+    match p.string_opt("texture_name")? {
+        Some(t) => Ok(TextureRef::Named(p.located("texture_name", t))),
+        None => Ok(TextureRef::Color(default)),
+    }
+}
+
+/// One material of type `ty` (see [`MaterialDesc`] and [`Material`] for the keys).
+fn parse_material(name: &str, p: &Props, ty: &str) -> Result<MaterialDesc> {
+    let eta_or = |key: &str, default: f32| -> Result<f32> {
+        let eta = p.f32_or(key, default)?;
         if eta <= 0.0 {
             return Err(p.error(key, format!("must be positive, found {eta}")));
         }
         // refraction divides and squares it: beyond this the directions are not finite
         in_range(p, key, eta, 1e-3, 1e3)
     };
-    let material = match ty.as_str() {
+    let positive_eta = |key: &str| eta_or(key, 1.5);
+    // a coating of index 1 is no coating (Mitsuba refuses it too)
+    let coating_eta = || -> Result<f32> {
+        let eta = eta_or("eta", 1.49)?;
+        if eta == 1.0 {
+            return Err(p.error("eta", "a coating needs an index other than 1"));
+        }
+        Ok(eta)
+    };
+    let material = match ty {
         "diffuse" => Material::Diffuse {
             texture: texture_ref(p, "color")?,
             twosided: p.bool_or("twosided", false)?,
@@ -834,21 +953,47 @@ fn parse_material(name: &str, p: &Props) -> Result<MaterialDesc> {
             k: p.vec3_or("k", Vec3::ONE)?,
             alpha_x: non_negative(p, "alpha_x", p.f32_or("alpha_x", 0.1)?)?,
             alpha_y: non_negative(p, "alpha_y", p.f32_or("alpha_y", 0.1)?)?,
-            distribution: match p.string_or("distribution", "beckmann")?.as_str() {
-                "beckmann" => Distribution::Beckmann,
-                "ggx" => Distribution::Ggx,
-                other => {
-                    return Err(p.error(
-                        "distribution",
-                        format!("unknown microfacet distribution '{other}' (available: beckmann, ggx)"),
-                    ))
-                }
-            },
+            distribution: distribution(p)?,
+        },
+        "conductor" => Material::Conductor {
+            texture: texture_or(p, Vec3::ONE)?,
+            eta: colour(p, "eta", Vec3::ZERO)?,
+            k: colour(p, "k", Vec3::ONE)?,
+        },
+        "thindielectric" => Material::ThinDielectric {
+            reflect: colour(p, "R", Vec3::ONE)?,
+            transmit: colour(p, "T", Vec3::ONE)?,
+            eta: positive_eta("eta")?,
+        },
+        "roughdielectric" => Material::RoughDielectric {
+            reflect: colour(p, "R", Vec3::ONE)?,
+            transmit: colour(p, "T", Vec3::ONE)?,
+            eta: positive_eta("eta")?,
+            alpha_x: roughness(p, "alpha_x")?,
+            alpha_y: roughness(p, "alpha_y")?,
+            distribution: distribution(p)?,
+        },
+        "plastic" => Material::Plastic {
+            texture: texture_or(p, Vec3::splat(0.5))?,
+            specular: colour(p, "specular_reflectance", Vec3::ONE)?,
+            eta: coating_eta()?,
+            nonlinear: p.bool_or("nonlinear", false)?,
+            specular_sampling_weight: None,
+        },
+        "roughplastic" => Material::RoughPlastic {
+            texture: texture_or(p, Vec3::splat(0.5))?,
+            specular: colour(p, "specular_reflectance", Vec3::ONE)?,
+            eta: coating_eta()?,
+            nonlinear: p.bool_or("nonlinear", false)?,
+            alpha: roughness(p, "alpha")?,
+            distribution: distribution(p)?,
+            specular_sampling_weight: None,
+            tables: None,
         },
         _ => {
             return Err(p.error(
                 "type",
-                format!("unknown material type '{ty}' (available: diffuse, refraction, glass, roughconductor)"),
+                format!("unknown material type '{ty}' (available: {})", MATERIAL_TYPES.join(", ")),
             ))
         }
     };

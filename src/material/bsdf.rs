@@ -2,8 +2,11 @@
 //! is the shading normal. `eval` returns f (without the cosine); directions are
 //! world-space unit vectors pointing away from the surface.
 
+use super::conductor::SmoothConductor;
+use super::dielectric::{RoughDielectric, ThinDielectric};
 use super::fresnel;
 use super::microfacet::Microfacet;
+use super::plastic::{Plastic, RoughPlastic};
 use crate::math::{Frame, Vec2, Vec3, INV_PI};
 use crate::sampling::cosine_hemisphere;
 
@@ -18,13 +21,24 @@ pub enum BsdfKind {
     Dielectric { r: Vec3, t: Vec3, eta: f32 },
     /// Rough conductor: D·G·F·tint / (4 cosθi cosθo), separable Smith G.
     Conductor { tint: Vec3, eta: Vec3, k: Vec3, mf: Microfacet },
+    /// Mirror with conductor Fresnel (Mitsuba `conductor`), front side only.
+    SmoothConductor(SmoothConductor),
+    /// Thin slab, delta reflection and straight transmission (Mitsuba `thindielectric`).
+    ThinDielectric(ThinDielectric),
+    /// Rough dielectric interface (Mitsuba `roughdielectric`).
+    RoughDielectric(RoughDielectric),
+    /// Coated diffuse, smooth coating (Mitsuba `plastic`): a delta lobe and a diffuse one.
+    Plastic(Plastic),
+    /// Coated diffuse, rough coating (Mitsuba `roughplastic`).
+    RoughPlastic(RoughPlastic),
 }
 
 /// Which quantity a path carries: radiance (camera subpaths) or importance
 /// (light subpaths, the adjoint BSDF). They differ only at specular refraction:
 /// `glass` scales radiance by (η_o/η_i)² and importance not at all; `refraction`
 /// (radiance weight 1) has the adjoint weight (η_o/η_i)², η_o being the index on
-/// the side of `wo`. (The shading-normal correction of the adjoint lives with the
+/// the side of `wo`; `roughdielectric` likewise scales radiance by (η_o/η_i)² in
+/// `eval` and `sample`, importance not. (The shading-normal correction of the adjoint lives with the
 /// integrator, which knows the geometric normal.)
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum TransportMode {
@@ -51,13 +65,30 @@ pub struct BsdfSample {
 }
 
 impl Bsdf {
+    /// Whether every lobe is a Dirac delta (nothing for light sampling to find).
+    /// `plastic` is not: its mirror lobe is, its diffuse lobe is not, so its samples
+    /// say per sample ([`BsdfSample::delta`]) and `eval`/`pdf` cover the diffuse lobe.
     pub fn is_delta(&self) -> bool {
-        matches!(self.kind, BsdfKind::PerfectRefraction { .. } | BsdfKind::Dielectric { .. })
+        matches!(
+            self.kind,
+            BsdfKind::PerfectRefraction { .. } | BsdfKind::Dielectric { .. } | BsdfKind::SmoothConductor(_) | BsdfKind::ThinDielectric(_)
+        )
     }
 
-    /// The BSDF value f(wo, wi) (without the cosine).
+    /// The BSDF value f(wo, wi) (without the cosine) for radiance transport (see
+    /// [`Bsdf::eval_mode`]).
     pub fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
+        self.eval_mode(wo, wi, TransportMode::Radiance)
+    }
+
+    /// f(wo, wi) for radiance or importance transport: they differ only where light
+    /// is refracted (`roughdielectric`).
+    pub fn eval_mode(&self, wo: Vec3, wi: Vec3, mode: TransportMode) -> Vec3 {
         match self.kind {
+            BsdfKind::RoughDielectric(b) => b.eval(self.frame.to_local(wo), self.frame.to_local(wi), mode),
+            BsdfKind::Plastic(b) => b.eval(self.frame.to_local(wo), self.frame.to_local(wi)),
+            BsdfKind::RoughPlastic(b) => b.eval(self.frame.to_local(wo), self.frame.to_local(wi)),
+            BsdfKind::SmoothConductor(_) | BsdfKind::ThinDielectric(_) => Vec3::ZERO,
             // only the cosines: the hot case skips the full change of frame
             BsdfKind::Diffuse { albedo } => {
                 if wo.dot(self.frame.n) > 0.0 && wi.dot(self.frame.n) > 0.0 {
@@ -94,6 +125,10 @@ impl Bsdf {
                     0.0
                 }
             }
+            BsdfKind::RoughDielectric(b) => b.pdf(self.frame.to_local(wo), self.frame.to_local(wi)),
+            BsdfKind::Plastic(b) => b.pdf(self.frame.to_local(wo), self.frame.to_local(wi)),
+            BsdfKind::RoughPlastic(b) => b.pdf(self.frame.to_local(wo), self.frame.to_local(wi)),
+            BsdfKind::SmoothConductor(_) | BsdfKind::ThinDielectric(_) => 0.0,
             BsdfKind::Conductor { mf, .. } => {
                 let (o, i) = (self.frame.to_local(wo), self.frame.to_local(wi));
                 if o.z <= 0.0 || i.z <= 0.0 {
@@ -134,6 +169,20 @@ impl Bsdf {
     pub fn sample_mode(&self, wo: Vec3, u: Vec2, uc: f32, mode: TransportMode) -> Option<BsdfSample> {
         let radiance = mode == TransportMode::Radiance;
         let o = self.frame.to_local(wo);
+        let world = |l: Vec3| self.frame.to_world(l);
+        let local = match self.kind {
+            BsdfKind::SmoothConductor(b) => b.sample(o),
+            BsdfKind::ThinDielectric(b) => b.sample(o, uc),
+            BsdfKind::RoughDielectric(b) => b.sample(o, u, uc, mode),
+            BsdfKind::Plastic(b) => b.sample(o, u, uc),
+            BsdfKind::RoughPlastic(b) => b.sample(o, u, uc),
+            _ => return self.sample_legacy(o, u, uc, radiance),
+        };
+        local.map(|s| BsdfSample { wi: world(s.wi), ..s })
+    }
+
+    /// The materials of the RDR171 format, sampled as before.
+    fn sample_legacy(&self, o: Vec3, u: Vec2, uc: f32, radiance: bool) -> Option<BsdfSample> {
         let world = |l: Vec3| self.frame.to_world(l);
         match self.kind {
             BsdfKind::Diffuse { albedo } => {
@@ -215,6 +264,7 @@ impl Bsdf {
                     eta: 1.0,
                 })
             }
+            _ => unreachable!("sampled by its own module"),
         }
     }
 }

@@ -48,6 +48,33 @@ pub fn conductor(cos_i: f32, eta: Vec3, k: Vec3) -> Vec3 {
     Vec3::new(one(eta.x, k.x), one(eta.y, k.y), one(eta.z, k.z))
 }
 
+/// Hemispherical average of the dielectric Fresnel reflectance for relative index
+/// `eta` (light arriving from the side of index 1), the `fdr` of Mitsuba's `plastic`:
+/// Egan & Hilgeman's fit for `eta` < 1, d'Eon & Irving's polynomial in 1/η otherwise
+/// (the same choice of fits as Mitsuba's `fresnel_diffuse_reflectance`).
+pub fn diffuse_reflectance(eta: f32) -> f32 {
+    let inv = 1.0 / eta;
+    if eta < 1.0 {
+        0.0636 * inv + eta * (eta * -1.4399 + 0.7099) + 0.6681
+    } else {
+        // Horner in 1/η, highest power first
+        let c = [-1.36881, 4.98554, -7.80989, 6.75335, -3.4793, 0.919317];
+        c.iter().fold(0.0f32, |acc, &k| acc * inv + k)
+    }
+}
+
+/// Reflectance of a thin dielectric slab with both faces at relative index `eta`
+/// (Mitsuba's `thindielectric`): one interface reflects `R`, and light bouncing
+/// inside adds `R(1−R)²/(1−R²)`, so the slab reflects 2R/(1+R) and transmits the rest.
+pub fn thin_dielectric(cos_i: f32, eta: f32) -> f32 {
+    let r = dielectric(cos_i.abs(), eta).0;
+    if r < 1.0 {
+        2.0 * r / (1.0 + r)
+    } else {
+        1.0
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

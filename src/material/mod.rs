@@ -1,15 +1,32 @@
 //! Materials (spec §9): a closed family. The `intersection_test` integrator uses
-//! `diffuse` (Lambertian ρ/π) and `refraction` (a perfect refractor); `glass` and
-//! `roughconductor` are parsed and kept for the path tracer.
+//! `diffuse` (Lambertian ρ/π) and `refraction` (a perfect refractor); the others are
+//! for the path tracers. Besides the RDR171 ones, the BSDFs of Mitsuba 3 scenes
+//! (`conductor`, `thindielectric`, `roughdielectric`, `plastic`, `roughplastic`,
+//! `twosided`), named and parametrised as Mitsuba's (its parameter names in each
+//! variant's documentation), so the XML reader maps onto them one to one.
+//!
+//! Mitsuba's `diffuse`, `dielectric` and `roughconductor` are rdr's `diffuse`
+//! (`reflectance` = `texture_name`; both one-sided), `glass` (`eta` = `int_ior`/`ext_ior`,
+//! `R`/`T` = `specular_reflectance`/`specular_transmittance`; the same Fresnel
+//! choice and 1/η² radiance scaling) and `roughconductor` (`eta` = `etaT`/`etaI`,
+//! `k` = `k`/`etaI`, `alpha_u`/`alpha_v` = `alpha_x`/`alpha_y`, `specular_reflectance`
+//! = the texture; the same D, separable Smith G and visible-normal sampling). One
+//! difference: rdr's `roughconductor` reflects on both sides (the RDR171 scenes rely
+//! on it; Mitsuba scenes wrap it in `twosided`, which then changes nothing), where
+//! Mitsuba's bare `roughconductor` is black from behind.
 
 pub mod bsdf;
+pub mod conductor;
+pub mod dielectric;
 pub mod fresnel;
 pub mod microfacet;
+pub mod plastic;
 
 pub use bsdf::{Bsdf, BsdfKind, BsdfSample, TransportMode};
 pub use microfacet::Distribution;
 
 use crate::math::{Frame, Vec3};
+use plastic::CoatingTables;
 
 /// A material, `materials.<name>` in a scene: `type` (`"diffuse"`) and the keys of
 /// each variant below. Textures are `T`: references by name (or inline colours) in the
@@ -19,7 +36,12 @@ use crate::math::{Frame, Vec3};
 /// "materials": {
 ///   "white": {"type": "diffuse", "texture_name": "white"},
 ///   "metal": {"type": "roughconductor", "texture_name": "white", "etaT": [0.2, 0.9, 1.1],
-///             "k": [3.9, 2.4, 2.2], "alpha_x": 0.2, "alpha_y": 0.2, "distribution": "ggx"}
+///             "k": [3.9, 2.4, 2.2], "alpha_x": 0.2, "alpha_y": 0.2, "distribution": "ggx"},
+///   "gold": {"type": "conductor", "eta": [0.143, 0.374, 1.442], "k": [3.983, 2.385, 1.603]},
+///   "frosted": {"type": "roughdielectric", "eta": 1.5, "alpha_x": 0.2, "alpha_y": 0.2, "distribution": "ggx"},
+///   "pane": {"type": "thindielectric", "eta": 1.5},
+///   "red_plastic": {"type": "roughplastic", "texture_name": "red", "eta": 1.49, "alpha": 0.1},
+///   "leaf": {"type": "twosided", "material_name": "red_plastic", "back_material_name": "white"}
 /// }
 /// ```
 #[derive(Clone, Debug)]
@@ -47,17 +69,94 @@ pub enum Material<T = u32> {
         alpha_y: f32,
         distribution: Distribution,
     },
+    /// `conductor` (Mitsuba `conductor`): a smooth mirror with the conductor Fresnel
+    /// reflectance of the complex relative index η + ik, one-sided. `texture_name`
+    /// (a tint, Mitsuba's `specular_reflectance`; white when absent), `eta` (vec3,
+    /// (0,0,0)), `k` (vec3, (1,1,1)): the defaults make a perfect mirror, as
+    /// Mitsuba's `material="none"`. Normal-incidence reflectance ((η−1)²+k²)/((η+1)²+k²).
+    Conductor { texture: T, eta: Vec3, k: Vec3 },
+    /// `thindielectric` (Mitsuba `thindielectric`): a thin pane, both faces alike;
+    /// reflects 2F/(1+F) (inter-reflections inside the pane summed), lets the rest
+    /// through undeflected. `R`, `T` (vec3, (1,1,1): `specular_reflectance`,
+    /// `specular_transmittance`), `eta` (1.5; `int_ior`/`ext_ior`).
+    ThinDielectric { reflect: Vec3, transmit: Vec3, eta: f32 },
+    /// `roughdielectric` (Mitsuba `roughdielectric`; Walter et al. 2007): `R`, `T`
+    /// (vec3, (1,1,1)), `eta` (1.5; `int_ior`/`ext_ior`), `alpha_x`, `alpha_y` (≥ 0,
+    /// 0.1 each; Mitsuba's `alpha_u`, `alpha_v`, or its `alpha` for both), `distribution`
+    /// (`"beckmann"` | `"ggx"`, `"beckmann"`). Index `eta` below the shading normal.
+    RoughDielectric {
+        reflect: Vec3,
+        transmit: Vec3,
+        eta: f32,
+        alpha_x: f32,
+        alpha_y: f32,
+        distribution: Distribution,
+    },
+    /// `plastic` (Mitsuba `plastic`): diffuse base under a smooth coating, one-sided.
+    /// `texture_name` (`diffuse_reflectance`; constant 0.5 when absent),
+    /// `specular_reflectance` (vec3, (1,1,1)), `eta` (1.49, `int_ior`/`ext_ior`; ≠ 1),
+    /// `nonlinear` (false).
+    Plastic {
+        texture: T,
+        specular: Vec3,
+        eta: f32,
+        nonlinear: bool,
+        /// Derived, not a key: Mitsuba's `specular_sampling_weight` s̄/(d̄+s̄) from the
+        /// means of the two reflectances; set by [`Material::prepare`] when the scene
+        /// is built (`None` in a description: then the reflectance at the point is used).
+        specular_sampling_weight: Option<f32>,
+    },
+    /// `roughplastic` (Mitsuba `roughplastic`): diffuse base under a rough coating.
+    /// The keys of `plastic`, and `alpha` (≥ 0, 0.1; isotropic as Mitsuba's),
+    /// `distribution` (`"beckmann"` | `"ggx"`, `"beckmann"`).
+    RoughPlastic {
+        texture: T,
+        specular: Vec3,
+        eta: f32,
+        nonlinear: bool,
+        alpha: f32,
+        distribution: Distribution,
+        /// Derived as in `plastic`.
+        specular_sampling_weight: Option<f32>,
+        /// Derived: the coating's transmittance tables, set by [`Material::prepare`]
+        /// (looked up on every use when `None`).
+        tables: Option<&'static CoatingTables>,
+    },
+    /// `twosided` (Mitsuba `twosided`): `material_name` (required) seen from the
+    /// front, and from the back the same material or `back_material_name`, with the
+    /// frame flipped so the back side is its front. Neither may transmit light nor be
+    /// `twosided` itself (Mitsuba's rule).
+    TwoSided {
+        front: Box<Material<T>>,
+        back: Option<Box<Material<T>>>,
+    },
 }
-
 impl<T> Material<T> {
     /// Specular materials have a Dirac-delta BSDF.
     pub fn is_delta(&self) -> bool {
-        matches!(self, Material::Refraction { .. } | Material::Glass { .. })
+        match self {
+            Material::Refraction { .. } | Material::Glass { .. } | Material::Conductor { .. } | Material::ThinDielectric { .. } => true,
+            Material::TwoSided { front, back } => front.is_delta() && back.as_ref().is_none_or(|b| b.is_delta()),
+            _ => false,
+        }
+    }
+
+    /// Whether light passes through (what `twosided` may not wrap).
+    pub fn transmits(&self) -> bool {
+        matches!(
+            self,
+            Material::Refraction { .. } | Material::Glass { .. } | Material::ThinDielectric { .. } | Material::RoughDielectric { .. }
+        )
     }
 
     /// The same material with every texture replaced by `f(texture)` (in declaration
     /// order): how a description's texture references become indices.
-    pub fn try_map_textures<U, E>(&self, mut f: impl FnMut(&T) -> Result<U, E>) -> Result<Material<U>, E> {
+    pub fn try_map_textures<U, E>(&self, f: impl FnMut(&T) -> Result<U, E>) -> Result<Material<U>, E> {
+        let mut f = f;
+        self.map_with(&mut f)
+    }
+
+    fn map_with<U, E>(&self, f: &mut impl FnMut(&T) -> Result<U, E>) -> Result<Material<U>, E> {
         Ok(match self {
             Material::Diffuse { texture, twosided } => Material::Diffuse {
                 texture: f(texture)?,
@@ -86,16 +185,128 @@ impl<T> Material<T> {
                 alpha_y: *alpha_y,
                 distribution: *distribution,
             },
+            Material::Conductor { texture, eta, k } => Material::Conductor {
+                texture: f(texture)?,
+                eta: *eta,
+                k: *k,
+            },
+            Material::ThinDielectric { reflect, transmit, eta } => Material::ThinDielectric {
+                reflect: *reflect,
+                transmit: *transmit,
+                eta: *eta,
+            },
+            Material::RoughDielectric {
+                reflect,
+                transmit,
+                eta,
+                alpha_x,
+                alpha_y,
+                distribution,
+            } => Material::RoughDielectric {
+                reflect: *reflect,
+                transmit: *transmit,
+                eta: *eta,
+                alpha_x: *alpha_x,
+                alpha_y: *alpha_y,
+                distribution: *distribution,
+            },
+            Material::Plastic {
+                texture,
+                specular,
+                eta,
+                nonlinear,
+                specular_sampling_weight,
+            } => Material::Plastic {
+                texture: f(texture)?,
+                specular: *specular,
+                eta: *eta,
+                nonlinear: *nonlinear,
+                specular_sampling_weight: *specular_sampling_weight,
+            },
+            Material::RoughPlastic {
+                texture,
+                specular,
+                eta,
+                nonlinear,
+                alpha,
+                distribution,
+                specular_sampling_weight,
+                tables,
+            } => Material::RoughPlastic {
+                texture: f(texture)?,
+                specular: *specular,
+                eta: *eta,
+                nonlinear: *nonlinear,
+                alpha: *alpha,
+                distribution: *distribution,
+                specular_sampling_weight: *specular_sampling_weight,
+                tables: *tables,
+            },
+            Material::TwoSided { front, back } => Material::TwoSided {
+                front: Box::new(front.map_with(f)?),
+                back: match back {
+                    Some(b) => Some(Box::new(b.map_with(f)?)),
+                    None => None,
+                },
+            },
         })
+    }
+
+    /// Fills in what is derived from the parameters once, when the scene is built:
+    /// the plastics' specular sampling weight from the mean of their diffuse texture
+    /// (`mean`) and specular reflectance, and the rough coating's tables.
+    pub fn prepare(&mut self, mean: &impl Fn(&T) -> Vec3) {
+        match self {
+            Material::Plastic {
+                texture,
+                specular,
+                specular_sampling_weight,
+                ..
+            } => *specular_sampling_weight = Some(sampling_weight(mean(texture), *specular)),
+            Material::RoughPlastic {
+                texture,
+                specular,
+                eta,
+                alpha,
+                distribution,
+                specular_sampling_weight,
+                tables,
+                ..
+            } => {
+                *specular_sampling_weight = Some(sampling_weight(mean(texture), *specular));
+                *tables = Some(CoatingTables::get(*distribution, alpha.max(1e-4), *eta));
+            }
+            Material::TwoSided { front, back } => {
+                front.prepare(mean);
+                if let Some(b) = back {
+                    b.prepare(mean);
+                }
+            }
+            _ => {}
+        }
+    }
+}
+
+/// Mitsuba's `specular_sampling_weight` s̄/(d̄ + s̄), s̄ and d̄ the channel means.
+fn sampling_weight(diffuse: Vec3, specular: Vec3) -> f32 {
+    let (d, s) = (diffuse.element_sum() / 3.0, specular.element_sum() / 3.0);
+    if d + s > 0.0 {
+        s / (d + s)
+    } else {
+        0.5
     }
 }
 
 impl Material {
     /// The BSDF at a point with shading normal `ns`, seen from `wo`; `tint`
     /// evaluates a texture there. One-sided materials keep `ns`; two-sided ones
-    /// (`twosided` diffuse, conductors — Mitsuba wraps them — and dielectrics)
-    /// face the viewer.
+    /// (`twosided` diffuse, `roughconductor`, dielectrics) face the viewer or handle
+    /// both sides themselves.
     pub fn bsdf(&self, ns: Vec3, wo: Vec3, tint: impl Fn(u32) -> Vec3) -> Bsdf {
+        self.bsdf_with(ns, wo, &tint)
+    }
+
+    fn bsdf_with<F: Fn(u32) -> Vec3>(&self, ns: Vec3, wo: Vec3, tint: &F) -> Bsdf {
         let facing = if ns.dot(wo) < 0.0 { -ns } else { ns };
         let (n, kind) = match *self {
             Material::Diffuse { texture, twosided } => (if twosided { facing } else { ns }, BsdfKind::Diffuse { albedo: tint(texture) }),
@@ -125,6 +336,90 @@ impl Material {
                     mf: microfacet::Microfacet::new(distribution, alpha_x, alpha_y),
                 },
             ),
+            Material::Conductor { texture, eta, k } => (
+                ns,
+                BsdfKind::SmoothConductor(conductor::SmoothConductor {
+                    tint: tint(texture),
+                    eta,
+                    k,
+                }),
+            ),
+            Material::ThinDielectric { reflect, transmit, eta } => (
+                ns,
+                BsdfKind::ThinDielectric(dielectric::ThinDielectric {
+                    r: reflect,
+                    t: transmit,
+                    eta,
+                }),
+            ),
+            Material::RoughDielectric {
+                reflect,
+                transmit,
+                eta,
+                alpha_x,
+                alpha_y,
+                distribution,
+            } => (
+                ns,
+                BsdfKind::RoughDielectric(dielectric::RoughDielectric {
+                    r: reflect,
+                    t: transmit,
+                    eta,
+                    mf: microfacet::Microfacet::new(distribution, alpha_x, alpha_y),
+                }),
+            ),
+            Material::Plastic {
+                texture,
+                specular,
+                eta,
+                nonlinear,
+                specular_sampling_weight,
+            } => {
+                let diffuse = tint(texture);
+                (
+                    ns,
+                    BsdfKind::Plastic(plastic::Plastic {
+                        diffuse,
+                        specular,
+                        eta,
+                        nonlinear,
+                        specular_sampling_weight: specular_sampling_weight.unwrap_or_else(|| sampling_weight(diffuse, specular)),
+                    }),
+                )
+            }
+            Material::RoughPlastic {
+                texture,
+                specular,
+                eta,
+                nonlinear,
+                alpha,
+                distribution,
+                specular_sampling_weight,
+                tables,
+            } => {
+                let diffuse = tint(texture);
+                let mf = microfacet::Microfacet::new(distribution, alpha, alpha);
+                (
+                    ns,
+                    BsdfKind::RoughPlastic(plastic::RoughPlastic {
+                        diffuse,
+                        specular,
+                        eta,
+                        nonlinear,
+                        specular_sampling_weight: specular_sampling_weight.unwrap_or_else(|| sampling_weight(diffuse, specular)),
+                        mf,
+                        tables: tables.unwrap_or_else(|| CoatingTables::get(distribution, mf.alpha_x, eta)),
+                    }),
+                )
+            }
+            Material::TwoSided { ref front, ref back } => {
+                // the back side is the (back) material's front: its frame flipped
+                return match (ns.dot(wo) >= 0.0, back) {
+                    (true, _) => front.bsdf_with(ns, wo, tint),
+                    (false, None) => front.bsdf_with(-ns, wo, tint),
+                    (false, Some(b)) => b.bsdf_with(-ns, wo, tint),
+                };
+            }
         };
         Bsdf {
             frame: Frame::from_normal(n),

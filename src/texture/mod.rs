@@ -124,6 +124,17 @@ impl<I> Texture<I> {
 }
 
 impl Texture {
+    /// The texture's mean over its domain (as Mitsuba's `Texture::mean`, which steers
+    /// the plastics' lobe sampling): the colour, the two checks' average, the image's
+    /// texel average.
+    pub fn mean(&self) -> Vec3 {
+        match self {
+            Texture::Constant(c) => *c,
+            Texture::Checkerboard { color0, color1, .. } => 0.5 * (*color0 + *color1),
+            Texture::Image(t) => t.mipmap.levels()[0].mean(),
+        }
+    }
+
     /// The texture's value at `tc` (a [`TexCoord`], or a bare `uv` for a lookup
     /// without footprint).
     #[inline]

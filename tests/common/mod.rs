@@ -2,6 +2,7 @@
 #![allow(dead_code)]
 
 pub mod brute;
+pub mod chi2;
 pub mod gen;
 pub mod lattice;
 pub mod rng;

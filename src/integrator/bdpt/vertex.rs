@@ -115,7 +115,7 @@ impl Vertex {
     /// subpath carries: importance gets Veach's shading-normal correction.
     pub fn f(&self, wi: Vec3, mode: TransportMode) -> Vec3 {
         let Some(bsdf) = &self.bsdf else { return Vec3::ZERO };
-        let f = bsdf.eval(self.wo, wi);
+        let f = bsdf.eval_mode(self.wo, wi, mode);
         match mode {
             TransportMode::Radiance => f,
             TransportMode::Importance => f * shading_correction(self.wo, wi, self.ns, self.ng),

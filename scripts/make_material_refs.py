@@ -1,0 +1,196 @@
+#!/usr/bin/env python3
+"""Regenerates the material references in tests/refs/materials/ with Mitsuba 3.
+
+For each material: <name>.xml (the Mitsuba scene), <name>.json (its RDR171 twin, which
+tests/materials_render.rs renders with rdr), <name>.exr (the mean of K independent passes
+of Mitsuba's `path` integrator, pass p with seed p) and <name>.var.exr (per pixel and
+channel the variance of that mean: the sample variance of the K pass images / K, as
+../shared/refs/README.md describes).
+
+Run from the repository root with the venv that has Mitsuba:
+    /work/venv-mi/bin/python scripts/make_material_refs.py [--passes 8] [--spp 256] [NAME...]
+"""
+import argparse
+import json
+import os
+import sys
+
+RES = 32
+MAX_DEPTH = 8
+HERE = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "tests", "refs", "materials")
+
+# the scene around each material: a unit sphere at the origin on a large diffuse
+# sphere (the floor), lit by a small emitting sphere and a constant sky
+CAMERA = {"position": [0.0, 0.6, -4.5], "look_at": [0.0, 0.0, 0.0], "ref_up": [0.0, 1.0, 0.0], "fov": 30.0}
+LIGHT = {"center": [2.0, 3.0, -2.0], "radius": 0.5, "radiance": [20.0, 20.0, 20.0]}
+SKY = [0.3, 0.3, 0.3]
+FLOOR = {"center": [0.0, -101.0, 0.0], "radius": 100.0, "albedo": [0.5, 0.5, 0.5]}
+
+GOLD_ETA = [0.143, 0.374, 1.442]
+GOLD_K = [3.983, 2.385, 1.603]
+
+# name: (Mitsuba <bsdf> XML, rdr material JSON, extra rdr textures)
+MATERIALS = {
+    "conductor": (
+        f'<bsdf type="conductor"><rgb name="eta" value="{GOLD_ETA[0]}, {GOLD_ETA[1]}, {GOLD_ETA[2]}"/>'
+        f'<rgb name="k" value="{GOLD_K[0]}, {GOLD_K[1]}, {GOLD_K[2]}"/></bsdf>',
+        {"type": "conductor", "eta": GOLD_ETA, "k": GOLD_K},
+        {},
+    ),
+    "thindielectric": (
+        '<bsdf type="thindielectric"><float name="int_ior" value="1.5"/><float name="ext_ior" value="1.0"/></bsdf>',
+        {"type": "thindielectric", "eta": 1.5},
+        {},
+    ),
+    "roughdielectric": (
+        '<bsdf type="roughdielectric"><string name="distribution" value="ggx"/><float name="alpha" value="0.2"/>'
+        '<float name="int_ior" value="1.5"/><float name="ext_ior" value="1.0"/></bsdf>',
+        {"type": "roughdielectric", "distribution": "ggx", "alpha_x": 0.2, "alpha_y": 0.2, "eta": 1.5},
+        {},
+    ),
+    "plastic": (
+        '<bsdf type="plastic"><rgb name="diffuse_reflectance" value="0.8, 0.3, 0.1"/>'
+        '<float name="int_ior" value="1.49"/><float name="ext_ior" value="1.0"/></bsdf>',
+        {"type": "plastic", "texture_name": "albedo", "eta": 1.49},
+        {"albedo": [0.8, 0.3, 0.1]},
+    ),
+    "roughplastic": (
+        '<bsdf type="roughplastic"><string name="distribution" value="beckmann"/><float name="alpha" value="0.15"/>'
+        '<rgb name="diffuse_reflectance" value="0.1, 0.3, 0.8"/>'
+        '<float name="int_ior" value="1.5"/><float name="ext_ior" value="1.0"/></bsdf>',
+        {"type": "roughplastic", "distribution": "beckmann", "alpha": 0.15, "texture_name": "albedo", "eta": 1.5},
+        {"albedo": [0.1, 0.3, 0.8]},
+    ),
+}
+
+# twosided: two unit quads (quad.obj), one turned to the camera, one away from it
+TWOSIDED_XML = (
+    '<bsdf type="twosided"><bsdf type="roughplastic"><string name="distribution" value="ggx"/>'
+    '<float name="alpha" value="0.3"/><rgb name="diffuse_reflectance" value="0.8, 0.2, 0.2"/>'
+    '<float name="int_ior" value="1.5"/><float name="ext_ior" value="1.0"/></bsdf>'
+    '<bsdf type="diffuse"><rgb name="reflectance" value="0.2, 0.7, 0.2"/></bsdf></bsdf>'
+)
+QUADS = [
+    # row-major 4×4 placing quad.obj (the unit square in xy, normal +z) : facing −z (camera) or +z
+    ("front", [-1, 0, 0, -0.6, 0, 1, 0, 0.0, 0, 0, -1, 0, 0, 0, 0, 1]),
+    ("back", [1, 0, 0, 0.6, 0, 1, 0, 0.0, 0, 0, 1, 0, 0, 0, 0, 1]),
+]
+QUAD_OBJ = "v -0.5 -0.5 0\nv 0.5 -0.5 0\nv 0.5 0.5 0\nv -0.5 0.5 0\nf 1 2 3 4\n"
+
+
+def xml_matrix(m):
+    return ", ".join(str(float(x)) for x in m)
+
+
+def scene_xml(name, shapes_xml):
+    c = CAMERA
+    return f"""<?xml version="1.0" encoding="utf-8"?>
+<!-- tests/refs/materials/{name}: made by scripts/make_material_refs.py (do not edit; rerun it).
+     {RES}x{RES}, box filter, path max_depth {MAX_DEPTH}; twin: {name}.json -->
+<scene version="3.0.0">
+  <default name="spp" value="256"/>
+  <integrator type="path"><integer name="max_depth" value="{MAX_DEPTH}"/></integrator>
+  <sensor type="perspective">
+    <float name="fov" value="{c['fov']}"/>
+    <string name="fov_axis" value="y"/>
+    <transform name="to_world">
+      <lookat origin="{', '.join(map(str, c['position']))}" target="{', '.join(map(str, c['look_at']))}" up="{', '.join(map(str, c['ref_up']))}"/>
+    </transform>
+    <film type="hdrfilm">
+      <integer name="width" value="{RES}"/><integer name="height" value="{RES}"/>
+      <string name="pixel_format" value="rgb"/><rfilter type="box"/>
+    </film>
+    <sampler type="independent"><integer name="sample_count" value="$spp"/></sampler>
+  </sensor>
+  <shape type="sphere">
+    <point name="center" x="{LIGHT['center'][0]}" y="{LIGHT['center'][1]}" z="{LIGHT['center'][2]}"/>
+    <float name="radius" value="{LIGHT['radius']}"/>
+    <emitter type="area"><rgb name="radiance" value="{', '.join(map(str, LIGHT['radiance']))}"/></emitter>
+  </shape>
+  <shape type="sphere">
+    <point name="center" x="{FLOOR['center'][0]}" y="{FLOOR['center'][1]}" z="{FLOOR['center'][2]}"/>
+    <float name="radius" value="{FLOOR['radius']}"/>
+    <bsdf type="diffuse"><rgb name="reflectance" value="{', '.join(map(str, FLOOR['albedo']))}"/></bsdf>
+  </shape>
+{shapes_xml}
+  <emitter type="constant"><rgb name="radiance" value="{', '.join(map(str, SKY))}"/></emitter>
+</scene>
+"""
+
+
+def scene_json(material, textures, objects):
+    tex = {"floor": {"type": "constant", "color": FLOOR["albedo"]}, "sky": {"type": "constant", "color": SKY}}
+    tex.update({k: {"type": "constant", "color": v} for k, v in textures.items()})
+    mats = {"floor": {"type": "diffuse", "texture_name": "floor"}}
+    mats.update(material)
+    objs = [
+        {"type": "sphere", "center": LIGHT["center"], "radius": LIGHT["radius"],
+         "light": {"type": "area", "radiance": LIGHT["radiance"]}},
+        {"type": "sphere", "center": FLOOR["center"], "radius": FLOOR["radius"], "material_name": "floor"},
+    ] + objects
+    return {
+        "integrator": {"type": "path", "spp": 64, "max_depth": MAX_DEPTH},
+        "film": {"resolution": [RES, RES], "filter": {"type": "box", "radius": 0.5}},
+        "camera": dict(CAMERA, focal_length=1.0),
+        "textures": tex,
+        "materials": mats,
+        "environment_map": {"texture_name": "sky"},
+        "objects": objs,
+    }
+
+
+def scenes():
+    for name, (bsdf, mat, textures) in MATERIALS.items():
+        shapes = f'  <shape type="sphere"><point name="center" x="0" y="0" z="0"/><float name="radius" value="1"/>{bsdf}</shape>'
+        yield name, scene_xml(name, shapes), scene_json({"m": mat}, textures,
+                                                         [{"type": "sphere", "center": [0, 0, 0], "radius": 1, "material_name": "m"}])
+    shapes = "\n".join(
+        f'  <shape type="obj"><string name="filename" value="quad.obj"/>'
+        f'<transform name="to_world"><matrix value="{xml_matrix(m)}"/></transform>{TWOSIDED_XML}</shape>'
+        for _, m in QUADS
+    )
+    mats = {
+        "red": {"type": "roughplastic", "distribution": "ggx", "alpha": 0.3, "texture_name": "red", "eta": 1.5},
+        "green": {"type": "diffuse", "texture_name": "green"},
+        "m": {"type": "twosided", "material_name": "red", "back_material_name": "green"},
+    }
+    objs = [{"type": "mesh", "path": "quad.obj", "transform": m, "material_name": "m"} for _, m in QUADS]
+    yield "twosided", scene_xml("twosided", shapes), scene_json(mats, {"red": [0.8, 0.2, 0.2], "green": [0.2, 0.7, 0.2]}, objs)
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--passes", type=int, default=8)
+    ap.add_argument("--spp", type=int, default=256)
+    ap.add_argument("--variant", default="scalar_rgb")
+    ap.add_argument("names", nargs="*")
+    args = ap.parse_args()
+    import mitsuba as mi
+    import numpy as np
+    mi.set_variant(args.variant)
+    with open(os.path.join(HERE, "quad.obj"), "w") as f:
+        f.write(QUAD_OBJ)
+    for name, xml, js in scenes():
+        if args.names and name not in args.names:
+            continue
+        xml_path = os.path.join(HERE, f"{name}.xml")
+        with open(xml_path, "w") as f:
+            f.write(xml)
+        with open(os.path.join(HERE, f"{name}.json"), "w") as f:
+            json.dump(js, f, indent=1)
+            f.write("\n")
+        scene = mi.load_file(xml_path)
+        print(f"{name}: rendering", file=sys.stderr, flush=True)
+        passes = np.stack([np.array(mi.render(scene, seed=p, spp=args.spp), dtype=np.float64)[..., :3]
+                           for p in range(args.passes)])
+        mean = passes.mean(axis=0)
+        var = passes.var(axis=0, ddof=1) / args.passes
+        # written synchronously (write_bitmap's background writer can hang at exit)
+        mi.Bitmap(mean.astype(np.float32), mi.Bitmap.PixelFormat.RGB).write(os.path.join(HERE, f"{name}.exr"))
+        mi.Bitmap(var.astype(np.float32), mi.Bitmap.PixelFormat.RGB).write(os.path.join(HERE, f"{name}.var.exr"))
+        rel = np.sqrt((var / (mean ** 2 + 0.01)).mean())
+        print(f"{name}: {args.passes}×{args.spp} spp, relMSE-noise {rel:.2e}", file=sys.stderr, flush=True)
+
+
+if __name__ == "__main__":
+    main()

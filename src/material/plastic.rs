@@ -1,0 +1,317 @@
+//! Mitsuba's `plastic` and `roughplastic`: a diffuse base under a smooth or rough
+//! dielectric coating of relative index `eta`, with internal scattering folded into
+//! the diffuse term (Mitsuba 3's definitions; its `nonlinear` flag off by default).
+//! One-sided; local frame as in [`super::bsdf`].
+
+use super::bsdf::BsdfSample;
+use super::fresnel;
+use super::microfacet::{Distribution, Microfacet};
+use crate::math::{Vec2, Vec3, INV_PI};
+use crate::sampling::cosine_hemisphere;
+use std::collections::HashMap;
+use std::sync::{Mutex, OnceLock};
+
+/// The diffuse albedo after internal scattering: ρ / (1 − ρ·r) with `nonlinear`,
+/// else ρ / (1 − r), `r` the coating's internal diffuse reflectance.
+fn internal_scattering(rho: Vec3, r: f32, nonlinear: bool) -> Vec3 {
+    if nonlinear {
+        rho / (Vec3::ONE - rho * r)
+    } else {
+        rho / (1.0 - r)
+    }
+}
+
+/// The share of samples for the specular lobe given the two lobes' weights
+/// (Mitsuba: `(specular share)·w / ((specular share)·w + (diffuse share)·(1 − w))`).
+fn specular_probability(spec_share: f32, weight: f32) -> Option<f32> {
+    let (ps, pd) = (spec_share * weight, (1.0 - spec_share) * (1.0 - weight));
+    let p = ps / (ps + pd);
+    p.is_finite().then_some(p)
+}
+
+/// Smooth plastic: a delta mirror lobe weighted by F(cos θo)·`specular`, and
+/// diffuse ρ/(1 − fdr_int) · (1/π) · (1/η²) · (1 − F(cos θo))(1 − F(cos θi)),
+/// fdr_int = [`fresnel::diffuse_reflectance`](1/η).
+#[derive(Clone, Copy, Debug)]
+pub struct Plastic {
+    pub diffuse: Vec3,
+    /// Mitsuba's `specular_reflectance`.
+    pub specular: Vec3,
+    pub eta: f32,
+    pub nonlinear: bool,
+    /// Mitsuba's `specular_sampling_weight`: s̄ / (d̄ + s̄) of the reflectances' means.
+    pub specular_sampling_weight: f32,
+}
+
+impl Plastic {
+    fn diffuse_factor(&self) -> Vec3 {
+        internal_scattering(self.diffuse, fresnel::diffuse_reflectance(1.0 / self.eta), self.nonlinear) / (self.eta * self.eta)
+    }
+
+    pub fn eval(&self, o: Vec3, i: Vec3) -> Vec3 {
+        if o.z <= 0.0 || i.z <= 0.0 {
+            return Vec3::ZERO;
+        }
+        let (fo, fi) = (fresnel::dielectric(o.z, self.eta).0, fresnel::dielectric(i.z, self.eta).0);
+        self.diffuse_factor() * ((1.0 - fo) * (1.0 - fi) * INV_PI)
+    }
+
+    pub fn pdf(&self, o: Vec3, i: Vec3) -> f32 {
+        if o.z <= 0.0 || i.z <= 0.0 {
+            return 0.0;
+        }
+        let fo = fresnel::dielectric(o.z, self.eta).0;
+        let ps = specular_probability(fo, self.specular_sampling_weight).unwrap_or(0.0);
+        (1.0 - ps) * i.z * INV_PI
+    }
+
+    pub fn sample(&self, o: Vec3, u: Vec2, uc: f32) -> Option<BsdfSample> {
+        if o.z <= 0.0 {
+            return None;
+        }
+        let fo = fresnel::dielectric(o.z, self.eta).0;
+        let ps = specular_probability(fo, self.specular_sampling_weight)?;
+        if uc < ps {
+            return Some(BsdfSample {
+                wi: Vec3::new(-o.x, -o.y, o.z),
+                weight: self.specular * (fo / ps),
+                pdf: ps,
+                delta: true,
+                eta: 1.0,
+            });
+        }
+        let i = cosine_hemisphere(u);
+        if i.z <= 0.0 {
+            return None;
+        }
+        let fi = fresnel::dielectric(i.z, self.eta).0;
+        Some(BsdfSample {
+            wi: i,
+            weight: self.diffuse_factor() * ((1.0 - fo) * (1.0 - fi) / (1.0 - ps)),
+            pdf: (1.0 - ps) * i.z * INV_PI,
+            delta: false,
+            eta: 1.0,
+        })
+    }
+}
+
+/// Cosines at which [`CoatingTables::external_transmittance`] is tabulated
+/// (Mitsuba's `MI_ROUGH_TRANSMITTANCE_RES`), evenly from 0 to 1.
+pub const TRANSMITTANCE_RES: usize = 64;
+
+/// What a rough coating lets through, integrated once per (distribution, α, η):
+/// * `external_transmittance[j]`: the fraction of light arriving from outside at
+///   cos θ = j/63 that the rough interface transmits, E_m[(1 − F(o·m)) G1(t, m)]
+///   over normals m visible from o, t the refracted direction;
+/// * `internal_reflectance`: the diffuse reflectance of its inside, 2·mean_j of
+///   cos θ_j · E_m[F(o·m, 1/η) G1(r, m)] over the same cosines, r reflected.
+///
+/// Both integrals as Mitsuba 3 defines them (it integrates by Gauss–Legendre in its
+/// visible-normal sample square; rdr by the faster rule of [`visible_average`], within
+/// about 1e-3 of it), over the same 64 cosines. Checked against Mitsuba 3.9.1's own
+/// `roughplastic` (eval and pdf at 300 random direction pairs): within 0.05 % for GGX
+/// α = 0.3 and 0.5 % for Beckmann α = 0.2 (at grazing angles; an independent fine
+/// quadrature agrees with rdr's tables to 5e-5 there).
+#[derive(Debug)]
+pub struct CoatingTables {
+    pub external_transmittance: [f32; TRANSMITTANCE_RES],
+    pub internal_reflectance: f32,
+}
+
+impl CoatingTables {
+    /// The tables of one coating, computed on first use and kept for the process
+    /// (a few hundred bytes per distinct coating), so a [`super::Bsdf`] stays `Copy`.
+    pub fn get(kind: Distribution, alpha: f32, eta: f32) -> &'static CoatingTables {
+        type Key = (bool, u32, u32);
+        static CACHE: OnceLock<Mutex<HashMap<Key, &'static CoatingTables>>> = OnceLock::new();
+        let key = (kind == Distribution::Ggx, alpha.to_bits(), eta.to_bits());
+        let cache = CACHE.get_or_init(Default::default);
+        if let Some(t) = cache.lock().unwrap_or_else(|e| e.into_inner()).get(&key) {
+            return t;
+        }
+        // computed outside the lock; a race computes the same table twice at worst
+        let t: &'static CoatingTables = Box::leak(Box::new(CoatingTables::compute(kind, alpha, eta)));
+        let mut cache = cache.lock().unwrap_or_else(|e| e.into_inner());
+        let t: &'static CoatingTables = cache.entry(key).or_insert(t);
+        t
+    }
+
+    fn compute(kind: Distribution, alpha: f32, eta: f32) -> CoatingTables {
+        let mf = Microfacet::new(kind, alpha, alpha);
+        let cosines = (0..TRANSMITTANCE_RES).map(|j| (j as f32 / (TRANSMITTANCE_RES - 1) as f32).max(1e-6));
+        let dir = |mu: f32| Vec3::new((1.0 - mu * mu).max(0.0).sqrt(), 0.0, mu);
+        let mut external_transmittance = [0.0; TRANSMITTANCE_RES];
+        for (t, mu) in external_transmittance.iter_mut().zip(cosines.clone()) {
+            *t = transmittance(&mf, dir(mu), eta) as f32;
+        }
+        let internal = cosines.map(|mu| reflectance(&mf, dir(mu), 1.0 / eta) * mu as f64).sum::<f64>();
+        CoatingTables {
+            external_transmittance,
+            internal_reflectance: (2.0 * internal / TRANSMITTANCE_RES as f64) as f32,
+        }
+    }
+
+    /// `external_transmittance` at `cos θ`, linearly interpolated.
+    pub fn transmittance_at(&self, cos: f32) -> f32 {
+        let x = cos.clamp(0.0, 1.0) * (TRANSMITTANCE_RES - 1) as f32;
+        let j = (x as usize).min(TRANSMITTANCE_RES - 2);
+        let w = x - j as f32;
+        let t = &self.external_transmittance;
+        t[j] * (1.0 - w) + t[j + 1] * w
+    }
+}
+
+/// E over normals m visible from `o` (density G1(o, m) max(0, o·m) D(m) / cos θo) of
+/// `g(m)`: a midpoint rule over the projected-area distribution D(m) cos θm, drawn
+/// by its inverse CDF in slope space (r² = −ln(1 − u) for Beckmann, u/(1 − u) for
+/// GGX; u itself stretched towards 1), each node weighted by G1(o, m) max(0, o·m) / (cos θm cos θo). `o` lies in
+/// the xz-plane, so half the circle of azimuths, mirrored, covers it.
+fn visible_average(mf: &Microfacet, o: Vec3, g: impl Fn(Vec3) -> f32) -> f64 {
+    const NU: usize = 128;
+    const NPHI: usize = 40;
+    let mut acc = 0.0f64;
+    for a in 0..NU {
+        // u = 1 − (1 − s)²: grazing facets (u → 1) weigh ~1/√(1 − u) (GGX's long tail)
+        let s = (a as f64 + 0.5) / NU as f64;
+        let (u, du) = (1.0 - (1.0 - s) * (1.0 - s), 2.0 * (1.0 - s));
+        let r2 = match mf.kind {
+            Distribution::Beckmann => -(1.0 - u).ln(),
+            Distribution::Ggx => u / (1.0 - u),
+        };
+        let r = r2.sqrt();
+        for b in 0..NPHI {
+            let phi = std::f64::consts::PI * (b as f64 + 0.5) / NPHI as f64;
+            let m = Vec3::new(
+                (r * phi.cos() * mf.alpha_x as f64) as f32,
+                (r * phi.sin() * mf.alpha_y as f64) as f32,
+                1.0,
+            )
+            .normalize();
+            let om = o.dot(m);
+            if om <= 0.0 {
+                continue;
+            }
+            let w = mf.g1(o, m) * om / (m.z * o.z);
+            if w > 0.0 {
+                acc += (w * g(m)) as f64 * du;
+            }
+        }
+    }
+    acc / (NU * NPHI) as f64
+}
+
+/// Fraction of light from `o` (outside) that a rough interface of index `eta` transmits.
+fn transmittance(mf: &Microfacet, o: Vec3, eta: f32) -> f64 {
+    visible_average(mf, o, |m| {
+        let (f, cos_t, eta_ti) = fresnel::dielectric(o.dot(m), eta);
+        let t = m * (o.dot(m) * eta_ti + cos_t) - o * eta_ti;
+        if t.z * o.z >= 0.0 {
+            return 0.0;
+        }
+        mf.g1(t, m) * (1.0 - f)
+    })
+}
+
+/// Fraction of light from `o` that a rough interface of index `eta` reflects.
+fn reflectance(mf: &Microfacet, o: Vec3, eta: f32) -> f64 {
+    visible_average(mf, o, |m| {
+        let r = 2.0 * o.dot(m) * m - o;
+        if r.z <= 0.0 || o.z <= 0.0 {
+            return 0.0;
+        }
+        mf.g1(r, m) * fresnel::dielectric(o.dot(m), eta).0
+    })
+}
+
+/// Rough plastic: the rough dielectric reflection F·D·G/(4 cos θo cos θi)·`specular`
+/// over the diffuse term ρ/(1 − R_int) · (1/π) · (1/η²) · T(cos θo) T(cos θi), with
+/// T and R_int from [`CoatingTables`]. Isotropic α (as Mitsuba's).
+#[derive(Clone, Copy, Debug)]
+pub struct RoughPlastic {
+    pub diffuse: Vec3,
+    pub specular: Vec3,
+    pub eta: f32,
+    pub nonlinear: bool,
+    pub specular_sampling_weight: f32,
+    pub mf: Microfacet,
+    pub tables: &'static CoatingTables,
+}
+
+impl RoughPlastic {
+    fn specular_probability(&self, o: Vec3) -> Option<f32> {
+        specular_probability(1.0 - self.tables.transmittance_at(o.z), self.specular_sampling_weight)
+    }
+
+    pub fn eval(&self, o: Vec3, i: Vec3) -> Vec3 {
+        if o.z <= 0.0 || i.z <= 0.0 {
+            return Vec3::ZERO;
+        }
+        let m = (o + i).normalize();
+        let f = fresnel::dielectric(o.dot(m), self.eta).0;
+        let spec = self.specular * (f * self.mf.d(m) * self.mf.g(o, i, m) / (4.0 * o.z * i.z));
+        let t = self.tables.transmittance_at(o.z) * self.tables.transmittance_at(i.z);
+        let diff =
+            internal_scattering(self.diffuse, self.tables.internal_reflectance, self.nonlinear) * (INV_PI * t / (self.eta * self.eta));
+        spec + diff
+    }
+
+    pub fn pdf(&self, o: Vec3, i: Vec3) -> f32 {
+        if o.z <= 0.0 || i.z <= 0.0 {
+            return 0.0;
+        }
+        let Some(ps) = self.specular_probability(o) else { return 0.0 };
+        let m = (o + i).normalize();
+        let spec = self.mf.pdf_visible(o, m) / (4.0 * o.dot(m));
+        let p = ps * spec + (1.0 - ps) * i.z * INV_PI;
+        if p.is_finite() {
+            p
+        } else {
+            0.0
+        }
+    }
+
+    pub fn sample(&self, o: Vec3, u: Vec2, uc: f32) -> Option<BsdfSample> {
+        if o.z <= 0.0 {
+            return None;
+        }
+        let ps = self.specular_probability(o)?;
+        let i = if uc < ps {
+            let m = self.mf.sample_visible(o, u);
+            2.0 * o.dot(m) * m - o
+        } else {
+            cosine_hemisphere(u)
+        };
+        if i.z <= 0.0 {
+            return None;
+        }
+        let pdf = self.pdf(o, i);
+        if pdf.is_nan() || pdf <= 0.0 {
+            return None;
+        }
+        Some(BsdfSample {
+            wi: i,
+            weight: self.eval(o, i) * (i.z / pdf),
+            pdf,
+            delta: false,
+            eta: 1.0,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_nearly_smooth_coating_transmits_one_minus_fresnel() {
+        let t = CoatingTables::get(Distribution::Ggx, 1e-3, 1.5);
+        for c in [0.3f32, 0.7, 1.0] {
+            let expect = 1.0 - fresnel::dielectric(c, 1.5).0;
+            assert!(
+                (t.transmittance_at(c) - expect).abs() < 2e-3,
+                "cos {c}: {} vs {expect}",
+                t.transmittance_at(c)
+            );
+        }
+    }
+}

@@ -264,6 +264,7 @@ fn train(loaded: &rdr::Loaded, spp: u32) -> Film {
         camera: &job.camera,
         film: &job.film,
         spp,
+        target_spp: spp,
         seed: 7,
         time_limit: None,
         stop: &stop,
@@ -459,6 +460,7 @@ fn an_interrupted_render_is_the_shorter_render_and_time_budgets_are_followed() {
     let control = RenderControl {
         progress: None,
         stop: Arc::new(StopToken::new()),
+        periodic: Vec::new(),
     };
     let (r2, stop) = (reports.clone(), control.stop.clone());
     let control = RenderControl {

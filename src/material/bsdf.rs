@@ -7,6 +7,7 @@ use super::dielectric::{RoughDielectric, ThinDielectric};
 use super::fresnel;
 use super::microfacet::Microfacet;
 use super::plastic::{Plastic, RoughPlastic};
+pub use super::sample::{BsdfSample, TransportMode};
 use crate::math::{Frame, Vec2, Vec3, INV_PI};
 use crate::sampling::cosine_hemisphere;
 
@@ -33,35 +34,10 @@ pub enum BsdfKind {
     RoughPlastic(RoughPlastic),
 }
 
-/// Which quantity a path carries: radiance (camera subpaths) or importance
-/// (light subpaths, the adjoint BSDF). They differ only at specular refraction:
-/// `glass` scales radiance by (η_o/η_i)² and importance not at all; `refraction`
-/// (radiance weight 1) has the adjoint weight (η_o/η_i)², η_o being the index on
-/// the side of `wo`; `roughdielectric` likewise scales radiance by (η_o/η_i)² in
-/// `eval` and `sample`, importance not. (The shading-normal correction of the adjoint lives with the
-/// integrator, which knows the geometric normal.)
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
-pub enum TransportMode {
-    #[default]
-    Radiance,
-    Importance,
-}
-
 #[derive(Clone, Copy, Debug)]
 pub struct Bsdf {
     pub frame: Frame,
     pub kind: BsdfKind,
-}
-
-#[derive(Clone, Copy, Debug)]
-pub struct BsdfSample {
-    pub wi: Vec3,
-    /// f·|cos θi| / pdf (for delta lobes: the lobe's weight).
-    pub weight: Vec3,
-    pub pdf: f32,
-    pub delta: bool,
-    /// Relative index crossed (η_t/η_i for a refraction, 1 otherwise).
-    pub eta: f32,
 }
 
 impl Bsdf {

@@ -2,7 +2,7 @@
 //! conductor Fresnel term of the complex index η + ik, times a tint. One-sided.
 
 use super::fresnel;
-use super::BsdfSample;
+use super::sample::BsdfSample;
 use crate::math::Vec3;
 
 #[derive(Clone, Copy, Debug)]

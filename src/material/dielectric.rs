@@ -2,9 +2,9 @@
 //! shading normal; `o` points to the viewer, `i` to the light, both away from the
 //! surface). Index `eta` = η_inside / η_outside, the inside being below the frame.
 
-use super::bsdf::{BsdfSample, TransportMode};
 use super::fresnel;
 use super::microfacet::Microfacet;
+use super::sample::{BsdfSample, TransportMode};
 use crate::math::Vec3;
 
 /// A thin slab: mirror reflection with probability 2R/(1+R) (see

@@ -21,9 +21,11 @@ pub mod dielectric;
 pub mod fresnel;
 pub mod microfacet;
 pub mod plastic;
+pub mod sample;
 
-pub use bsdf::{Bsdf, BsdfKind, BsdfSample, TransportMode};
+pub use bsdf::{Bsdf, BsdfKind};
 pub use microfacet::Distribution;
+pub use sample::{BsdfSample, TransportMode};
 
 use crate::math::{Frame, Vec3};
 use plastic::CoatingTables;

@@ -3,9 +3,9 @@
 //! the diffuse term (Mitsuba 3's definitions; its `nonlinear` flag off by default).
 //! One-sided; local frame as in [`super::bsdf`].
 
-use super::bsdf::BsdfSample;
 use super::fresnel;
 use super::microfacet::{Distribution, Microfacet};
+use super::sample::BsdfSample;
 use crate::math::{Vec2, Vec3, INV_PI};
 use crate::sampling::cosine_hemisphere;
 use std::collections::HashMap;

@@ -21,7 +21,7 @@ pub use bdpt::Bdpt;
 pub use guided::Guided;
 pub use intersection_test::IntersectionTest;
 pub use normals::Normals;
-pub use pass::{camera_pass, CameraSample, PassContext, PassResult, RayCounts, StopToken};
+pub use pass::{camera_pass, lens_sample, CameraSample, PassContext, PassResult, RayCounts, StopToken};
 pub use path::{PathProfile, PathTracer};
 pub use photon::PhotonMapper;
 pub use ptracer::Ptracer;

@@ -119,12 +119,7 @@ where
                     let mut sampler = PixelSampler::new(x as u32, y as u32, pass, ctx.seed);
                     let (u, v) = sampler.next_2d();
                     let pos = Vec2::new(x as f32 + u, y as f32 + v);
-                    // a thin lens takes the next two dimensions (a pinhole none)
-                    let u_lens = if ctx.camera.has_lens() {
-                        Vec2::from(sampler.next_2d())
-                    } else {
-                        Vec2::ZERO
-                    };
+                    let u_lens = lens_sample(ctx.camera, &mut sampler);
                     // differentials only matter to image textures: skip them otherwise
                     let (ray, diff) = if scene.uses_footprints {
                         let (ray, diff) = ctx.camera.sample_ray_differential(pos.x, pos.y, u_lens);
@@ -165,6 +160,16 @@ where
         }
     }
     result
+}
+
+/// The lens point's sample for a camera ray: a thin lens takes the pixel sampler's next
+/// two dimensions, a pinhole or orthographic camera none (so their images stay as they were).
+pub fn lens_sample(camera: &crate::camera::Camera, sampler: &mut PixelSampler) -> Vec2 {
+    if camera.has_lens() {
+        Vec2::from(sampler.next_2d())
+    } else {
+        Vec2::ZERO
+    }
 }
 
 /// Camera-ray differentials span one pixel; with `spp` samples per pixel (the scene's

@@ -105,11 +105,7 @@ impl Sppm {
                     let mut sampler = PixelSampler::new(x as u32, y as u32, pass, ctx.seed);
                     let (u, v) = sampler.next_2d();
                     let pos = Vec2::new(x as f32 + u, y as f32 + v);
-                    let u_lens = if ctx.camera.has_lens() {
-                        Vec2::from(sampler.next_2d())
-                    } else {
-                        Vec2::ZERO
-                    };
+                    let u_lens = super::lens_sample(ctx.camera, &mut sampler);
                     let ray = ctx.camera.sample_ray(pos.x, pos.y, u_lens);
                     let (l, vp) = camera_path(scene, ray, None, &mut sampler, &mut counts, max_depth, true);
                     if l.is_finite() {

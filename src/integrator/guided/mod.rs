@@ -427,12 +427,7 @@ fn render_tiles(ctx: &PassContext, sample: u32, seed: u32, guiding: &Guiding) ->
                     let mut sampler = PixelSampler::new(x as u32, y as u32, sample, seed);
                     let (u, v) = sampler.next_2d();
                     let pos = Vec2::new(x as f32 + u, y as f32 + v);
-                    // as camera_pass: a thin lens takes the next two dimensions
-                    let u_lens = if ctx.camera.has_lens() {
-                        Vec2::from(sampler.next_2d())
-                    } else {
-                        Vec2::ZERO
-                    };
+                    let u_lens = crate::integrator::lens_sample(ctx.camera, &mut sampler);
                     let (ray, diff) = if scene.uses_footprints {
                         let (ray, diff) = ctx.camera.sample_ray_differential(pos.x, pos.y, u_lens);
                         (ray, Some(diff.scaled(&ray, diff_scale)))

@@ -41,7 +41,7 @@ use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
 const SHAPES: &str = "obj, ply, serialized, rectangle, cube, disk, sphere";
-const BSDFS: &str = "diffuse, dielectric, roughconductor, twosided";
+const BSDFS: &str = "diffuse, dielectric, thindielectric, roughdielectric, conductor, roughconductor, plastic, roughplastic, twosided";
 const EMITTERS: &str = "point, constant, envmap (and area inside a <shape>)";
 const TEXTURES: &str = "bitmap, checkerboard";
 const INTEGRATORS: &str = "path, direct, ptracer, bdpt, photonmapper, sppm";
@@ -176,6 +176,53 @@ fn check_point(p: &Plugin, name: &str, v: Vec3) -> Result<()> {
         ));
     }
     Ok(())
+}
+
+/// `int_ior` / `ext_ior` (numbers or names; `ext_ior` "air" by default).
+fn ior_ratio(p: &Plugin, int_default: &str) -> Result<f32> {
+    let eta = p.ior("int_ior", int_default)? / p.ior("ext_ior", "air")?;
+    if !(1e-3..=1e3).contains(&eta) {
+        return Err(p.error(format!("int_ior / ext_ior = {eta} is out of range")));
+    }
+    Ok(eta)
+}
+
+/// A constant, non-negative reflectance or transmittance (1 by default); rdr's
+/// dielectrics and coatings take no textures here.
+fn colour_of(p: &Plugin, name: &str) -> Result<Vec3> {
+    let c = p.rgb(name, Vec3::ONE)?;
+    if !(c.min_element() >= 0.0 && c.is_finite()) {
+        return Err(p.value_error(name, "must not be negative"));
+    }
+    Ok(c)
+}
+
+/// `alpha` (0.1), or both `alpha_u` and `alpha_v`; each in [0, 10].
+fn alphas(p: &Plugin) -> Result<(f32, f32)> {
+    let (ax, ay) = if p.has("alpha_u") || p.has("alpha_v") {
+        if !(p.has("alpha_u") && p.has("alpha_v")) || p.has("alpha") {
+            return Err(p.error("give either alpha, or both alpha_u and alpha_v"));
+        }
+        (p.float("alpha_u", 0.1)?, p.float("alpha_v", 0.1)?)
+    } else {
+        let a = p.float("alpha", 0.1)?;
+        (a, a)
+    };
+    for (k, a) in [("alpha", ax), ("alpha_v", ay)] {
+        if !(0.0..=10.0).contains(&a) {
+            return Err(p.value_error(k, format!("must be between 0 and 10, found {a}")));
+        }
+    }
+    Ok((ax, ay))
+}
+
+/// `distribution`: `beckmann` (the default) or `ggx`.
+fn distribution(p: &Plugin) -> Result<Distribution> {
+    match p.string("distribution", "beckmann")?.to_ascii_lowercase().as_str() {
+        "beckmann" => Ok(Distribution::Beckmann),
+        "ggx" => Ok(Distribution::Ggx),
+        other => Err(p.value_error("distribution", format!("unknown distribution \"{other}\" (beckmann, ggx)"))),
+    }
 }
 
 struct Reader<'a> {
@@ -708,88 +755,147 @@ impl<'a> Reader<'a> {
                 let Some((b, _)) = inner.first() else {
                     return Err(p.error("a twosided bsdf needs a nested <bsdf>"));
                 };
-                if let Some((_, at)) = inner.get(1) {
-                    return Err(at.error("a twosided bsdf with different front and back materials is not supported"));
+                if let Some((_, at)) = inner.get(2) {
+                    return Err(at.error("a twosided bsdf takes one or two nested <bsdf>s"));
                 }
-                match self.material_value(b)? {
-                    Material::Diffuse { texture, .. } => Material::Diffuse { texture, twosided: true },
-                    m @ (Material::Glass { .. } | Material::Refraction { .. }) => m,
-                    m => {
-                        self.ids
-                            .warn(el, "twosided around a non-diffuse bsdf: rdr's is one-sided (black from behind)");
-                        m
+                let front = self.material_value(b)?;
+                let back = match inner.get(1) {
+                    Some((b, _)) => Some(self.material_value(b)?),
+                    None => None,
+                };
+                for (m, (_, at)) in std::iter::once(&front).chain(back.as_ref()).zip(&inner) {
+                    if matches!(m, Material::TwoSided { .. }) || matches!(m, Material::Diffuse { twosided: true, .. }) {
+                        return Err(at.error("twosided cannot wrap another twosided bsdf"));
                     }
+                    if back.is_some() && m.transmits() || matches!(m, Material::ThinDielectric { .. } | Material::RoughDielectric { .. }) {
+                        return Err(at.error("twosided wraps only reflecting bsdfs (this one transmits light)"));
+                    }
+                }
+                match (front, back) {
+                    // rdr's own two-sided diffuse; its roughconductor is two-sided already
+                    (Material::Diffuse { texture, .. }, None) => Material::Diffuse { texture, twosided: true },
+                    (m @ Material::RoughConductor { .. }, None) => m,
+                    // smooth glass is the same from both sides (the 0.6 course files wrap it)
+                    (m @ (Material::Glass { .. } | Material::Refraction { .. }), None) => m,
+                    (front, back) => Material::TwoSided {
+                        front: Box::new(front),
+                        back: back.map(Box::new),
+                    },
                 }
             }
             "dielectric" => {
-                let int_ior = p.ior("int_ior", "bk7")?;
-                let ext_ior = p.ior("ext_ior", "air")?;
-                let eta = int_ior / ext_ior;
-                if !(1e-3..=1e3).contains(&eta) {
-                    return Err(p.error(format!("int_ior / ext_ior = {eta} is out of range")));
-                }
                 Material::Glass {
-                    reflect: p.rgb("specular_reflectance", Vec3::ONE)?,
-                    transmit: p.rgb("specular_transmittance", Vec3::ONE)?,
-                    eta,
+                    reflect: colour_of(&p, "specular_reflectance")?,
+                    transmit: colour_of(&p, "specular_transmittance")?,
+                    eta: ior_ratio(&p, "bk7")?,
                 }
             }
             "roughconductor" => {
-                let (ax, ay) = if p.has("alpha_u") || p.has("alpha_v") {
-                    if !(p.has("alpha_u") && p.has("alpha_v")) || p.has("alpha") {
-                        return Err(p.error("give either alpha, or both alpha_u and alpha_v"));
-                    }
-                    (p.float("alpha_u", 0.1)?, p.float("alpha_v", 0.1)?)
-                } else {
-                    let a = p.float("alpha", 0.1)?;
-                    (a, a)
-                };
-                for (k, a) in [("alpha", ax), ("alpha_v", ay)] {
-                    if !(0.0..=10.0).contains(&a) {
-                        return Err(p.value_error(k, format!("must be between 0 and 10, found {a}")));
-                    }
-                }
-                let distribution = match p.string("distribution", "beckmann")?.to_ascii_lowercase().as_str() {
-                    "beckmann" => Distribution::Beckmann,
-                    "ggx" => Distribution::Ggx,
-                    other => return Err(p.value_error("distribution", format!("unknown distribution \"{other}\" (beckmann, ggx)"))),
-                };
-                if let Some(m) = p.string_opt("material")? {
-                    if m != "none" {
-                        return Err(p.value_error(
-                            "material",
-                            format!("named conductor \"{m}\" is not supported yet: give eta and k as <rgb>"),
-                        ));
-                    }
-                }
-                let mut eta = p.rgb("eta", Vec3::ZERO)?;
-                let mut k = p.rgb("k", Vec3::ONE)?;
-                if let Some(ext) = p.float_opt("ext_eta")? {
-                    if ext.is_nan() || ext <= 0.0 {
-                        return Err(p.value_error("ext_eta", "must be positive"));
-                    }
-                    // Mitsuba 3 has no ext_eta: η and k are relative to the outside
-                    eta /= ext;
-                    k /= ext;
-                    if ext != 1.0 {
-                        self.ids.warn(el, format!("ext_eta {ext} (Mitsuba 0.6) folded into eta and k"));
-                    }
-                }
+                let (alpha_x, alpha_y) = alphas(&p)?;
+                let (eta, k) = self.conductor_eta_k(&p)?;
                 p.ignore("sample_visible");
                 Material::RoughConductor {
                     texture: self.texture_ref(&p, "specular_reflectance", Vec3::ONE)?,
                     eta_i: Vec3::ONE,
                     eta_t: eta.max(Vec3::splat(1e-4)),
                     k,
-                    alpha_x: ax,
-                    alpha_y: ay,
-                    distribution,
+                    alpha_x,
+                    alpha_y,
+                    distribution: distribution(&p)?,
+                }
+            }
+            "conductor" => {
+                let (eta, k) = self.conductor_eta_k(&p)?;
+                Material::Conductor {
+                    texture: self.texture_ref(&p, "specular_reflectance", Vec3::ONE)?,
+                    eta,
+                    k,
+                }
+            }
+            "thindielectric" => Material::ThinDielectric {
+                reflect: colour_of(&p, "specular_reflectance")?,
+                transmit: colour_of(&p, "specular_transmittance")?,
+                eta: ior_ratio(&p, "bk7")?,
+            },
+            "roughdielectric" => {
+                let (alpha_x, alpha_y) = alphas(&p)?;
+                p.ignore("sample_visible");
+                Material::RoughDielectric {
+                    reflect: colour_of(&p, "specular_reflectance")?,
+                    transmit: colour_of(&p, "specular_transmittance")?,
+                    eta: ior_ratio(&p, "bk7")?,
+                    alpha_x,
+                    alpha_y,
+                    distribution: distribution(&p)?,
+                }
+            }
+            "plastic" | "roughplastic" => {
+                let texture = self.texture_ref(&p, "diffuse_reflectance", Vec3::splat(0.5))?;
+                let specular = colour_of(&p, "specular_reflectance")?;
+                let eta = ior_ratio(&p, "polypropylene")?;
+                if eta == 1.0 {
+                    return Err(p.value_error("int_ior", "a coating needs int_ior and ext_ior to differ"));
+                }
+                let nonlinear = p.boolean("nonlinear", false)?;
+                if p.ty == "plastic" {
+                    Material::Plastic {
+                        texture,
+                        specular,
+                        eta,
+                        nonlinear,
+                        specular_sampling_weight: None,
+                    }
+                } else {
+                    if p.has("alpha_u") || p.has("alpha_v") {
+                        return Err(p.error("roughplastic is isotropic: give alpha, not alpha_u and alpha_v"));
+                    }
+                    p.ignore("sample_visible");
+                    Material::RoughPlastic {
+                        texture,
+                        specular,
+                        eta,
+                        nonlinear,
+                        alpha: alphas(&p)?.0,
+                        distribution: distribution(&p)?,
+                        specular_sampling_weight: None,
+                        tables: None,
+                    }
                 }
             }
             other => return Err(p.error(format!("unsupported bsdf \"{other}\" (supported: {BSDFS})"))),
         };
         p.finish(&["bsdf", "texture"])?;
         Ok(m)
+    }
+
+    /// A conductor's η and k: `eta` (0) and `k` (1), or `material` (a name from
+    /// [`values::NAMED_CONDUCTORS`], or `none`, the default); the 0.6 `ext_eta` folded in.
+    fn conductor_eta_k(&self, p: &Plugin) -> Result<(Vec3, Vec3)> {
+        let named = p.string_opt("material")?;
+        let (mut eta, mut k) = match named.as_deref() {
+            Some(m) if m != "none" => {
+                if p.has("eta") || p.has("k") {
+                    return Err(p.value_error("material", "give either material or eta and k, not both"));
+                }
+                values::conductor(m).map_err(|e| p.value_error("material", e))?
+            }
+            _ => (p.rgb("eta", Vec3::ZERO)?, p.rgb("k", Vec3::ONE)?),
+        };
+        if !(eta.min_element() >= 0.0 && k.min_element() >= 0.0 && eta.is_finite() && k.is_finite()) {
+            return Err(p.value_error(if p.has("k") { "k" } else { "eta" }, "must not be negative"));
+        }
+        if let Some(ext) = p.float_opt("ext_eta")? {
+            if ext.is_nan() || ext <= 0.0 {
+                return Err(p.value_error("ext_eta", "must be positive"));
+            }
+            // Mitsuba 3 has no ext_eta: η and k are relative to the outside
+            eta /= ext;
+            k /= ext;
+            if ext != 1.0 {
+                self.ids.warn(p.el, format!("ext_eta {ext} (Mitsuba 0.6) folded into eta and k"));
+            }
+        }
+        Ok((eta, k))
     }
 
     fn texture_ref(&mut self, p: &Plugin<'a>, name: &str, default: Vec3) -> Result<TextureRef> {

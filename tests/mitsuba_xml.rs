@@ -1032,3 +1032,63 @@ fn mitsuba_material_defaults_and_names() {
         assert!(close(*e, eta) && close(*kk, k), "{name}: eta {e} k {kk}, Mitsuba {eta:?} {k:?}");
     }
 }
+
+#[test]
+fn convert_round_trips_the_mitsuba_materials() {
+    let dir = temp_dir("rdr-convert-materials");
+    let d = dir.path();
+    for name in [
+        "conductor",
+        "conductor_cu",
+        "thindielectric",
+        "roughdielectric",
+        "plastic",
+        "roughplastic",
+        "twosided",
+    ] {
+        let json = material_refs().join(format!("{name}.json"));
+        let (x, y) = (d.join(format!("{name}_a.xml")), d.join(format!("{name}_b.json")));
+        convert(&json, &x);
+        convert(&x, &y);
+        let original = SceneDesc::load(&json, &[]).unwrap();
+        assert_same_scene(&format!("{name} JSON → XML"), &original, &xml_desc(&x, &[]));
+        assert_same_scene(&format!("{name} JSON → XML → JSON"), &original, &SceneDesc::load(&y, &[]).unwrap());
+        let xml = material_refs().join(format!("{name}.xml"));
+        let (j, z) = (d.join(format!("{name}_c.json")), d.join(format!("{name}_d.xml")));
+        convert(&xml, &j);
+        convert(&j, &z);
+        let original = xml_desc(&xml, &[]);
+        assert_same_scene(&format!("{name} XML → JSON"), &original, &SceneDesc::load(&j, &[]).unwrap());
+        assert_same_scene(&format!("{name} XML → JSON → XML"), &original, &xml_desc(&z, &[]));
+    }
+    // non-default parameters and a twosided around one material survive both ways
+    let objects: Vec<serde_json::Value> = ["a", "b", "c", "d", "e", "f"]
+        .iter()
+        .enumerate()
+        .map(|(i, m)| serde_json::json!({"type": "sphere", "center": [i as f32 * 3.0, 0, 5], "radius": 1, "material_name": m}))
+        .collect();
+    let v = serde_json::json!({
+        "integrator": {"type": "path", "spp": 4, "lights": []},
+        "film": {"resolution": [8, 8], "filter": {"type": "box"}},
+        "camera": {"position": [0, 0, 0], "look_at": [0, 0, 1]},
+        "textures": {"c": {"type": "checkerboard", "color0": [1, 0, 0], "color1": [0, 0, 1],
+                           "tex_coordinate_generator": {"type": "uvmapping2d", "scale": [4, 2], "delta": [0.1, 0.2]}}},
+        "materials": {
+            "a": {"type": "roughdielectric", "R": [0.9, 0.8, 0.7], "T": [0.5, 0.6, 0.7], "eta": 1.33, "alpha_x": 0.05, "alpha_y": 0.3, "distribution": "ggx"},
+            "b": {"type": "plastic", "texture_name": "c", "specular_reflectance": [0.5, 0.5, 0.5], "eta": 1.7, "nonlinear": true},
+            "c": {"type": "roughplastic", "eta": 1.3, "alpha": 0.4, "distribution": "ggx"},
+            "d": {"type": "conductor", "texture_name": "c", "eta": [0.2, 0.9, 1.1], "k": [3.9, 2.4, 2.1]},
+            "e": {"type": "thindielectric", "R": [0.5, 1, 1], "eta": 1.2},
+            "f": {"type": "twosided", "material_name": "d"}
+        },
+        "objects": objects
+    });
+    let json = d.join("many.json");
+    std::fs::write(&json, v.to_string()).unwrap();
+    let (x, y) = (d.join("many_a.xml"), d.join("many_b.json"));
+    convert(&json, &x);
+    convert(&x, &y);
+    let original = SceneDesc::load(&json, &[]).unwrap();
+    assert_same_scene("many JSON → XML", &original, &xml_desc(&x, &[]));
+    assert_same_scene("many JSON → XML → JSON", &original, &SceneDesc::load(&y, &[]).unwrap());
+}

@@ -10,7 +10,7 @@
 //! | `<sampler>` | any type: `sample_count` (4) → spp; the type is noted, rdr uses its own sampler. |
 //! | `<shape>` | `obj`, `ply` (`filename`, `face_normals` false: else smooth vertex normals when the file has none; `flip_normals`; `flip_tex_coords`, true for OBJ, false for PLY), `serialized` (`filename`, `shape_index` 0), `rectangle`, `cube`, `disk` (generated meshes), `sphere` (`center` 0, `radius` 1); all take `to_world`, one `<bsdf>` and one `area` `<emitter>`. A shape with neither gets Mitsuba's default, a diffuse 0.5. |
 //! | `<bsdf>` | `diffuse` (`reflectance` 0.5, a colour or texture); `dielectric`, `thindielectric` (`int_ior` "bk7", `ext_ior` "air": numbers or names, η = int/ext; `specular_reflectance`, `specular_transmittance` 1, colours); `roughdielectric` (as `dielectric`, and `distribution` beckmann \| ggx, `alpha` 0.1 or `alpha_u`+`alpha_v`); `conductor` and `roughconductor` (`material` "none", or a name from [`values::NAMED_CONDUCTORS`] such as "Au"; else `eta` 0 / `k` 1 (a perfect mirror); `specular_reflectance` 1, a colour or texture; `roughconductor`'s `alpha`, `alpha_u`/`alpha_v`, `distribution` as `roughdielectric`; the 0.6 `ext_eta` folded into η and k); `plastic` (`diffuse_reflectance` 0.5, a colour or texture; `specular_reflectance` 1; `int_ior` "polypropylene" (1.49), `ext_ior` "air"; `nonlinear` false), `roughplastic` (as `plastic`, and `alpha` 0.1 (isotropic), `distribution` beckmann); `twosided` (one or two nested non-transmitting bsdfs: around one `diffuse` it is rdr's two-sided diffuse, around one `roughconductor` that material (rdr's is two-sided), otherwise rdr's `twosided` with the second as the back). Example: `<bsdf type="twosided"><bsdf type="roughplastic"><float name="alpha" value="0.2"/></bsdf></bsdf>`. |
-//! | `<emitter>` | `area` (in a shape: `radiance` 1), `point` (`position` or `to_world`; `intensity` I (1) → flux 4πI), `constant` (`radiance` 1), `envmap` (`filename`, `scale` 1, `to_world`) |
+//! | `<emitter>` | `area` (in a shape: `radiance` 1), `point` (`position` or `to_world`; `intensity` I (1) → flux 4πI), `spot` (`to_world`: at its origin, along its +z; `intensity` 1, `cutoff_angle` 20°, `beam_width` ¾ of it; linear falloff in angle), `directional` (`direction` or `to_world`'s +z, of travel; `irradiance` 1) — these two for `path`, `direct` and guided only, `constant` (`radiance` 1), `envmap` (`filename`, `scale` 1, `to_world`) |
 //! | `<texture>` | `bitmap` (`filename`, `to_uv`; `filter_type`, `wrap_mode`, `raw` noted), `checkerboard` (`color0` 0.4, `color1` 0.2, `to_uv`); the 0.6 `uoffset`, `voffset`, `uscale`, `vscale` become `to_uv` |
 //!
 //! Anything else is an error naming the plugin and what is supported. Colours are
@@ -42,7 +42,7 @@ use std::path::{Path, PathBuf};
 
 const SHAPES: &str = "obj, ply, serialized, rectangle, cube, disk, sphere";
 const BSDFS: &str = "diffuse, dielectric, thindielectric, roughdielectric, conductor, roughconductor, plastic, roughplastic, twosided";
-const EMITTERS: &str = "point, constant, envmap (and area inside a <shape>)";
+const EMITTERS: &str = "point, spot, directional, constant, envmap (and area inside a <shape>)";
 const TEXTURES: &str = "bitmap, checkerboard";
 const INTEGRATORS: &str = "path, direct, ptracer, bdpt, photonmapper, sppm";
 const FILTERS: &str = "box, tent, gaussian, mitchell";
@@ -108,6 +108,7 @@ pub fn scene(root: &Element, file: &Path) -> Result<SceneDesc> {
         objects.push(r.shape(el)?);
     }
     let mut point_lights = Vec::new();
+    let mut delta_lights = Vec::new();
     let mut environment_map: Option<EnvMapDesc> = None;
     for (el, at) in top.objects("emitter") {
         let p = Plugin::new(el, &ids)?;
@@ -128,6 +129,35 @@ pub fn scene(root: &Element, file: &Path) -> Result<SceneDesc> {
                     flux: intensity * (4.0 * std::f32::consts::PI),
                     key: where_is(el),
                 });
+                p.finish(&[])?;
+            }
+            "spot" => {
+                let m = p.transform_opt("to_world")?.unwrap_or(Mat4::IDENTITY);
+                let position = m.transform_point3(Vec3::ZERO);
+                check_point(&p, "to_world", position)?;
+                let light = crate::desc::spot_light(
+                    position,
+                    m.transform_vector3(Vec3::Z),
+                    p.rgb("intensity", Vec3::ONE)?,
+                    p.float("cutoff_angle", 20.0)?,
+                    p.float_opt("beam_width")?,
+                )
+                .map_err(|e| {
+                    let key = ["cutoff_angle", "beam_width", "intensity"].into_iter().find(|k| e.starts_with(k));
+                    p.value_error(key.unwrap_or("to_world"), e)
+                })?;
+                delta_lights.push(crate::desc::DeltaLightDesc { light, key: where_is(el) });
+                p.finish(&[])?;
+            }
+            "directional" => {
+                let direction = match p.transform_opt("to_world")? {
+                    Some(m) if !p.has("direction") => m.transform_vector3(Vec3::Z),
+                    Some(_) => return Err(p.error("give either direction or to_world")),
+                    None => p.point_opt("direction")?.unwrap_or(Vec3::Z),
+                };
+                let light = crate::desc::directional_light(direction, p.rgb("irradiance", Vec3::ONE)?)
+                    .map_err(|e| p.value_error(if e.starts_with("irradiance") { "irradiance" } else { "direction" }, e))?;
+                delta_lights.push(crate::desc::DeltaLightDesc { light, key: where_is(el) });
                 p.finish(&[])?;
             }
             "constant" | "envmap" => {
@@ -152,6 +182,7 @@ pub fn scene(root: &Element, file: &Path) -> Result<SceneDesc> {
             integrator,
             spp,
             point_lights,
+            delta_lights,
             light_sampling: crate::light::LightSampling::Importance,
         },
         film,

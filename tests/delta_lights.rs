@@ -69,3 +69,50 @@ fn integrators_take_or_refuse_delta_lights() {
         assert!(e.contains("--compat rdr171 does not support"), "{e}");
     }
 }
+
+/// The numbers of a description's spot and directional lights, in order.
+fn light_numbers(d: &rdr::desc::SceneDesc) -> (String, Vec<f64>) {
+    let text = format!("{:?}", d.integrator.delta_lights.iter().map(|l| &l.light).collect::<Vec<_>>());
+    let words: String = text.chars().filter(|c| c.is_alphabetic()).collect();
+    let numbers = text
+        .split(|c: char| !(c.is_ascii_digit() || c == '.' || c == '-' || c == 'e'))
+        .filter_map(|t| t.parse::<f64>().ok())
+        .collect();
+    (words, numbers)
+}
+
+fn convert(input: &Path, output: &Path) {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_rdr"))
+        .args(["convert", "-q"])
+        .arg(input)
+        .arg("-o")
+        .arg(output)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+}
+
+#[test]
+fn convert_carries_spot_and_directional_both_ways() {
+    let dir = temp_dir("rdr-convert-lights");
+    let d = dir.path();
+    for name in ["spot", "directional"] {
+        for (from, mid, back) in [("json", "xml", "json"), ("xml", "json", "xml")] {
+            let original = refs().join(format!("{name}.{from}"));
+            let (m, b) = (d.join(format!("{name}_{from}.{mid}")), d.join(format!("{name}_{from}_back.{back}")));
+            convert(&original, &m);
+            convert(&m, &b);
+            let load = |p: &Path| rdr::desc::SceneDesc::load(p, &[]).unwrap_or_else(|e| panic!("{e}"));
+            let (w0, n0) = light_numbers(&load(&original));
+            for p in [&m, &b] {
+                let (w, n) = light_numbers(&load(p));
+                assert_eq!(w, w0, "{}", p.display());
+                assert!(
+                    n.len() == n0.len() && n.iter().zip(&n0).all(|(x, y)| (x - y).abs() <= 1e-4 * (1.0 + y.abs())),
+                    "{}: {n:?} vs {n0:?}",
+                    p.display()
+                );
+            }
+        }
+    }
+}

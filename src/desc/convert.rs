@@ -209,11 +209,29 @@ pub fn to_json(desc: &SceneDesc, out: &Path) -> Result<Converted> {
     }
     integ.insert("spp".into(), d.spp.into());
     // an explicit list, so the format's default point light is not added
-    let lights: Vec<Value> = d
+    let mut lights: Vec<Value> = d
         .point_lights
         .iter()
         .map(|l| json!({"type": "point", "position": vec3(l.position), "flux": vec3(l.flux)}))
         .collect();
+    for l in &d.delta_lights {
+        lights.push(match &l.light {
+            crate::light::Light::Spot {
+                position,
+                axis,
+                intensity,
+                cutoff,
+                beam_width,
+            } => json!({
+                "type": "spot", "position": vec3(*position), "direction": vec3(*axis), "intensity": vec3(*intensity),
+                "cutoff_angle": num(cutoff.to_degrees()), "beam_width": num(beam_width.to_degrees()),
+            }),
+            crate::light::Light::Directional { direction, irradiance } => {
+                json!({"type": "directional", "direction": vec3(*direction), "irradiance": vec3(*irradiance)})
+            }
+            _ => unreachable!("delta_lights holds spot and directional lights"),
+        });
+    }
     integ.insert("lights".into(), Value::Array(lights));
     if d.light_sampling == crate::light::LightSampling::Uniform {
         integ.insert("light_sampling".into(), "uniform".into());
@@ -853,6 +871,39 @@ pub fn to_xml(desc: &SceneDesc, out: &Path) -> Result<Converted> {
             v3(l.position),
             v3(l.flux / (4.0 * std::f32::consts::PI))
         );
+    }
+    for l in &desc.integrator.delta_lights {
+        match &l.light {
+            crate::light::Light::Spot {
+                position,
+                axis,
+                intensity,
+                cutoff,
+                beam_width,
+            } => {
+                // the up vector only has to differ from the axis (the cone is round)
+                let up = if axis.x.abs() < 0.9 { Vec3::X } else { Vec3::Y };
+                let _ = writeln!(
+                    s,
+                    "  <emitter type=\"spot\">\n    <transform name=\"to_world\"><lookat origin=\"{}\" target=\"{}\" up=\"{}\"/></transform>\n    <rgb name=\"intensity\" value=\"{}\"/>\n    <float name=\"cutoff_angle\" value=\"{}\"/>\n    <float name=\"beam_width\" value=\"{}\"/>\n  </emitter>",
+                    v3(*position),
+                    v3(*position + *axis),
+                    v3(up),
+                    v3(*intensity),
+                    cutoff.to_degrees(),
+                    beam_width.to_degrees()
+                );
+            }
+            crate::light::Light::Directional { direction, irradiance } => {
+                let _ = writeln!(
+                    s,
+                    "  <emitter type=\"directional\">\n    <vector name=\"direction\" value=\"{}\"/>\n    <rgb name=\"irradiance\" value=\"{}\"/>\n  </emitter>",
+                    v3(*direction),
+                    v3(*irradiance)
+                );
+            }
+            _ => unreachable!("delta_lights holds spot and directional lights"),
+        }
     }
     if desc.integrator.light_sampling == crate::light::LightSampling::Uniform {
         w.push("light_sampling uniform has no Mitsuba counterpart (the same converged image)".into());

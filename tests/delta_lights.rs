@@ -58,7 +58,10 @@ fn integrators_take_or_refuse_delta_lights() {
         }
         for ty in ["bdpt", "ptracer", "photon", "sppm"] {
             let o = vec![format!("{{\"integrator\": {{\"type\": \"{ty}\"}}}}")];
-            let e = rdr::load(&file, &o, Profile::Physical).err().unwrap_or_else(|| panic!("{ty} accepted a {name} light")).to_string();
+            let e = rdr::load(&file, &o, Profile::Physical)
+                .err()
+                .unwrap_or_else(|| panic!("{ty} accepted a {name} light"))
+                .to_string();
             assert!(
                 !e.contains('\n') && e.contains("integrator.lights[0]") && e.contains("does not support spot and directional"),
                 "{e}"

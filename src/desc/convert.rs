@@ -364,6 +364,9 @@ fn distribution_name(d: Distribution) -> &'static str {
     }
 }
 
+/// Names the texture of a reference (inline colours get a constant texture of their own).
+type TextureNamer = dyn Fn(&TextureRef, &str, &mut Map<String, Value>) -> String;
+
 /// A material as RDR171 JSON; a `twosided`'s inner materials (inline in XML) become
 /// materials of their own, `<name>_front` and `<name>_back`.
 fn material_json(
@@ -371,7 +374,7 @@ fn material_json(
     name: &str,
     textures: &mut Map<String, Value>,
     materials: &mut Map<String, Value>,
-    texture_name: &dyn Fn(&TextureRef, &str, &mut Map<String, Value>) -> String,
+    texture_name: &TextureNamer,
 ) -> Value {
     match m {
         Material::Diffuse { texture, twosided } => {
@@ -439,7 +442,13 @@ fn material_json(
         Material::TwoSided { front, back } => {
             let mut side = |m: &Material<TextureRef>, suffix: &str| -> String {
                 let n = (0..)
-                    .map(|i| if i == 0 { format!("{name}_{suffix}") } else { format!("{name}_{suffix}_{i}") })
+                    .map(|i| {
+                        if i == 0 {
+                            format!("{name}_{suffix}")
+                        } else {
+                            format!("{name}_{suffix}_{i}")
+                        }
+                    })
                     .find(|n| !materials.contains_key(n))
                     .expect("a free name");
                 let v = material_json(m, &n, textures, materials, texture_name);
@@ -456,7 +465,13 @@ fn material_json(
 }
 
 /// A material as a Mitsuba `<bsdf>` (with `id` when given; nested ones have none).
-fn material_xml(m: &Material<TextureRef>, name: &str, id: Option<&str>, colour: &dyn Fn(&str, &TextureRef) -> String, w: &mut Vec<String>) -> String {
+fn material_xml(
+    m: &Material<TextureRef>,
+    name: &str,
+    id: Option<&str>,
+    colour: &dyn Fn(&str, &TextureRef) -> String,
+    w: &mut Vec<String>,
+) -> String {
     let open = |ty: &str| match id {
         Some(id) => format!("<bsdf type=\"{ty}\" id=\"{}\">", esc(id)),
         None => format!("<bsdf type=\"{ty}\">"),
@@ -480,7 +495,11 @@ fn material_xml(m: &Material<TextureRef>, name: &str, id: Option<&str>, colour: 
     match m {
         Material::Diffuse { texture, twosided } => {
             if *twosided {
-                format!("{}<bsdf type=\"diffuse\">{}</bsdf></bsdf>", open("twosided"), colour("reflectance", texture))
+                format!(
+                    "{}<bsdf type=\"diffuse\">{}</bsdf></bsdf>",
+                    open("twosided"),
+                    colour("reflectance", texture)
+                )
             } else {
                 format!("{}{}</bsdf>", open("diffuse"), colour("reflectance", texture))
             }

@@ -105,7 +105,13 @@ pub struct DeltaLightDesc {
 }
 
 /// A spot light from Mitsuba's parameters (angles in degrees), checked.
-pub fn spot_light(position: Vec3, axis: Vec3, intensity: Vec3, cutoff_deg: f32, beam_deg: Option<f32>) -> std::result::Result<crate::light::Light, String> {
+pub fn spot_light(
+    position: Vec3,
+    axis: Vec3,
+    intensity: Vec3,
+    cutoff_deg: f32,
+    beam_deg: Option<f32>,
+) -> std::result::Result<crate::light::Light, String> {
     if !(cutoff_deg > 0.0 && cutoff_deg <= 180.0) {
         return Err(format!("cutoff_angle must be in (0, 180] degrees, found {cutoff_deg}"));
     }
@@ -500,20 +506,37 @@ fn parse_integrator(p: &Props) -> Result<IntegratorDesc> {
                 point(&l, "look_at", l.vec3("look_at")?)? - position
             };
             let cutoff = l.f32_or("cutoff_angle", 20.0)?;
-            let beam = if l.contains("beam_width") { Some(l.f32_or("beam_width", 15.0)?) } else { None };
+            let beam = if l.contains("beam_width") {
+                Some(l.f32_or("beam_width", 15.0)?)
+            } else {
+                None
+            };
             let light = spot_light(position, axis, l.vec3_or("intensity", Vec3::ONE)?, cutoff, beam).map_err(|e| {
-                let key = if e.starts_with("beam") { "beam_width" } else if e.starts_with("cutoff") { "cutoff_angle" } else if e.starts_with("intensity") { "intensity" } else { "look_at" };
+                let key = if e.starts_with("beam") {
+                    "beam_width"
+                } else if e.starts_with("cutoff") {
+                    "cutoff_angle"
+                } else if e.starts_with("intensity") {
+                    "intensity"
+                } else {
+                    "look_at"
+                };
                 l.error(key, e)
             })?;
-            delta_lights.push(DeltaLightDesc { light, key: l.path.clone() });
+            delta_lights.push(DeltaLightDesc {
+                light,
+                key: l.path.clone(),
+            });
             l.finish();
             continue;
         }
         if ty == "directional" {
-            let light = directional_light(l.vec3("direction")?, l.vec3_or("irradiance", Vec3::ONE)?).map_err(|e| {
-                l.error(if e.starts_with("irradiance") { "irradiance" } else { "direction" }, e)
-            })?;
-            delta_lights.push(DeltaLightDesc { light, key: l.path.clone() });
+            let light = directional_light(l.vec3("direction")?, l.vec3_or("irradiance", Vec3::ONE)?)
+                .map_err(|e| l.error(if e.starts_with("irradiance") { "irradiance" } else { "direction" }, e))?;
+            delta_lights.push(DeltaLightDesc {
+                light,
+                key: l.path.clone(),
+            });
             l.finish();
             continue;
         }

@@ -34,7 +34,10 @@ pub enum Light {
     },
     /// Mitsuba's `directional`: light from infinitely far, travelling along the unit
     /// `direction`, `irradiance` on a surface facing it.
-    Directional { direction: Vec3, irradiance: Vec3 },
+    Directional {
+        direction: Vec3,
+        irradiance: Vec3,
+    },
 }
 
 /// A spot light's intensity factor for a direction at `cos_theta` to its axis:

@@ -52,7 +52,11 @@ impl RenderJob {
                 Integrator::Bdpt(_) | Integrator::Ptracer(_) | Integrator::Photon(_) | Integrator::Sppm(_) | Integrator::Rdr171(_)
             );
             if traces_from_lights {
-                let name = if profile == Profile::Rdr171 { "--compat rdr171" } else { integrator.name() };
+                let name = if profile == Profile::Rdr171 {
+                    "--compat rdr171"
+                } else {
+                    integrator.name()
+                };
                 return Err(SceneError::new(
                     &desc.file,
                     Some(&l.key),

@@ -814,13 +814,11 @@ impl<'a> Reader<'a> {
                     },
                 }
             }
-            "dielectric" => {
-                Material::Glass {
-                    reflect: colour_of(&p, "specular_reflectance")?,
-                    transmit: colour_of(&p, "specular_transmittance")?,
-                    eta: ior_ratio(&p, "bk7")?,
-                }
-            }
+            "dielectric" => Material::Glass {
+                reflect: colour_of(&p, "specular_reflectance")?,
+                transmit: colour_of(&p, "specular_transmittance")?,
+                eta: ior_ratio(&p, "bk7")?,
+            },
             "roughconductor" => {
                 let (alpha_x, alpha_y) = alphas(&p)?;
                 let (eta, k) = self.conductor_eta_k(&p)?;

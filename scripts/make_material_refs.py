@@ -28,6 +28,8 @@ FLOOR = {"center": [0.0, -101.0, 0.0], "radius": 100.0, "albedo": [0.5, 0.5, 0.5
 
 GOLD_ETA = [0.143, 0.374, 1.442]
 GOLD_K = [3.983, 2.385, 1.603]
+CU_ETA = [0.20365, 0.92203, 1.1017]
+CU_K = [3.8845, 2.4632, 2.1396]
 
 # name: (Mitsuba <bsdf> XML, rdr material JSON, extra rdr textures)
 MATERIALS = {
@@ -35,6 +37,14 @@ MATERIALS = {
         f'<bsdf type="conductor"><rgb name="eta" value="{GOLD_ETA[0]}, {GOLD_ETA[1]}, {GOLD_ETA[2]}"/>'
         f'<rgb name="k" value="{GOLD_K[0]}, {GOLD_K[1]}, {GOLD_K[2]}"/></bsdf>',
         {"type": "conductor", "eta": GOLD_ETA, "k": GOLD_K},
+        {},
+    ),
+    # a named conductor: Mitsuba reads its own spectral table; the JSON twin has rdr's
+    # row for "Cu" (src/desc/xml/values.rs NAMED_CONDUCTORS), so rdr rendering the XML
+    # checks that row against Mitsuba
+    "conductor_cu": (
+        '<bsdf type="conductor"><string name="material" value="Cu"/></bsdf>',
+        {"type": "conductor", "eta": CU_ETA, "k": CU_K},
         {},
     ),
     "thindielectric": (
@@ -129,7 +139,8 @@ def scene_json(material, textures, objects):
         {"type": "sphere", "center": FLOOR["center"], "radius": FLOOR["radius"], "material_name": "floor"},
     ] + objects
     return {
-        "integrator": {"type": "path", "spp": 64, "max_depth": MAX_DEPTH},
+        # no point light: without "lights" RDR171 JSON has a default one, which Mitsuba has not
+        "integrator": {"type": "path", "spp": 64, "max_depth": MAX_DEPTH, "lights": []},
         "film": {"resolution": [RES, RES], "filter": {"type": "box", "radius": 0.5}},
         "camera": dict(CAMERA, focal_length=1.0),
         "textures": tex,

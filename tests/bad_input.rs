@@ -190,9 +190,25 @@ fn cases() -> Vec<Case> {
         })
         .err(&["environment_map.texture_name", "sky"]),
         edit("unknown light type", |s| {
-            s["integrator"]["lights"] = json!([{"type": "spot", "position": [0, 1, 0], "flux": [1, 1, 1]}])
+            s["integrator"]["lights"] = json!([{"type": "laser", "position": [0, 1, 0], "flux": [1, 1, 1]}])
         })
-        .err(&["integrator.lights[0].type", "spot"]),
+        .err(&["integrator.lights[0].type", "laser", "spot, directional"]),
+        edit("spot without a direction", |s| {
+            s["integrator"]["lights"] = json!([{"type": "spot", "position": [0, 1, 0]}])
+        })
+        .err(&["integrator.lights[0].look_at", "required"]),
+        edit(
+            "spot beam wider than its cutoff",
+            |s| {
+                s["integrator"]["lights"] =
+                    json!([{"type": "spot", "position": [0, 1, 0], "direction": [0, -1, 0], "cutoff_angle": 10, "beam_width": 20}])
+            },
+        )
+        .err(&["integrator.lights[0].beam_width", "cutoff_angle"]),
+        edit("directional of zero direction", |s| {
+            s["integrator"]["lights"] = json!([{"type": "directional", "direction": [0, 0, 0]}])
+        })
+        .err(&["integrator.lights[0].direction", "zero"]),
         edit("image texture file missing", |s| s["textures"]["white"] = image_texture("a.png")).err(&["textures.white.path", "a.png"]),
         edit("image texture not an image", |s| s["textures"]["white"] = image_texture("tri.obj")).err(&["textures.white.path", "tri.obj"]),
         edit("image texture is a folder", |s| s["textures"]["white"] = image_texture(".")).err(&["textures.white.path"]),

@@ -220,6 +220,7 @@ pub fn build(desc: &SceneDesc, opts: BuildOptions) -> Result<Scene> {
             position: l.position,
             flux: l.flux,
         })
+        .chain(desc.integrator.delta_lights.iter().map(|l| l.light.clone()))
         .collect();
     for (oi, (o, shape)) in desc.objects.iter().zip(shapes).enumerate() {
         let (shape, w) = shape?;

@@ -212,11 +212,29 @@ pub fn to_json(desc: &SceneDesc, out: &Path) -> Result<Converted> {
     }
     integ.insert("spp".into(), d.spp.into());
     // an explicit list, so the format's default point light is not added
-    let lights: Vec<Value> = d
+    let mut lights: Vec<Value> = d
         .point_lights
         .iter()
         .map(|l| json!({"type": "point", "position": vec3(l.position), "flux": vec3(l.flux)}))
         .collect();
+    for l in &d.delta_lights {
+        lights.push(match &l.light {
+            crate::light::Light::Spot {
+                position,
+                axis,
+                intensity,
+                cutoff,
+                beam_width,
+            } => json!({
+                "type": "spot", "position": vec3(*position), "direction": vec3(*axis), "intensity": vec3(*intensity),
+                "cutoff_angle": num(cutoff.to_degrees()), "beam_width": num(beam_width.to_degrees()),
+            }),
+            crate::light::Light::Directional { direction, irradiance } => {
+                json!({"type": "directional", "direction": vec3(*direction), "irradiance": vec3(*irradiance)})
+            }
+            _ => unreachable!("delta_lights holds spot and directional lights"),
+        });
+    }
     integ.insert("lights".into(), Value::Array(lights));
     if d.light_sampling == crate::light::LightSampling::Uniform {
         integ.insert("light_sampling".into(), "uniform".into());
@@ -271,31 +289,7 @@ pub fn to_json(desc: &SceneDesc, out: &Path) -> Result<Converted> {
     };
     let mut materials = Map::new();
     for m in &desc.materials {
-        let v = match &m.material {
-            Material::Diffuse { texture, twosided } => {
-                json!({"type": "diffuse", "texture_name": texture_name(texture, &m.name, &mut textures), "twosided": twosided})
-            }
-            Material::Refraction { eta } => json!({"type": "refraction", "eta": num(*eta)}),
-            Material::Glass { reflect, transmit, eta } => {
-                json!({"type": "glass", "R": vec3(*reflect), "T": vec3(*transmit), "eta": num(*eta)})
-            }
-            Material::RoughConductor {
-                texture,
-                eta_i,
-                eta_t,
-                k,
-                alpha_x,
-                alpha_y,
-                distribution,
-            } => json!({
-                "type": "roughconductor",
-                "texture_name": texture_name(texture, &m.name, &mut textures),
-                "etaI": vec3(*eta_i), "etaT": vec3(*eta_t), "k": vec3(*k),
-                "alpha_x": num(*alpha_x), "alpha_y": num(*alpha_y),
-                "distribution": if *distribution == Distribution::Ggx { "ggx" } else { "beckmann" },
-            }),
-            other => return Err(not_yet(desc, &m.name, other)),
-        };
+        let v = material_json(&m.material, &m.name, &mut textures, &mut materials, &texture_name);
         materials.insert(m.name.clone(), v);
     }
     let stem = out
@@ -364,6 +358,251 @@ pub fn to_json(desc: &SceneDesc, out: &Path) -> Result<Converted> {
 // ---------------------------------------------------------------------------
 // → Mitsuba 3 XML
 // ---------------------------------------------------------------------------
+
+fn distribution_name(d: Distribution) -> &'static str {
+    if d == Distribution::Ggx {
+        "ggx"
+    } else {
+        "beckmann"
+    }
+}
+
+/// Names the texture of a reference (inline colours get a constant texture of their own).
+type TextureNamer = dyn Fn(&TextureRef, &str, &mut Map<String, Value>) -> String;
+
+/// A material as RDR171 JSON; a `twosided`'s inner materials (inline in XML) become
+/// materials of their own, `<name>_front` and `<name>_back`.
+fn material_json(
+    m: &Material<TextureRef>,
+    name: &str,
+    textures: &mut Map<String, Value>,
+    materials: &mut Map<String, Value>,
+    texture_name: &TextureNamer,
+) -> Value {
+    match m {
+        Material::Diffuse { texture, twosided } => {
+            json!({"type": "diffuse", "texture_name": texture_name(texture, name, textures), "twosided": twosided})
+        }
+        Material::Refraction { eta } => json!({"type": "refraction", "eta": num(*eta)}),
+        Material::Glass { reflect, transmit, eta } => {
+            json!({"type": "glass", "R": vec3(*reflect), "T": vec3(*transmit), "eta": num(*eta)})
+        }
+        Material::RoughConductor {
+            texture,
+            eta_i,
+            eta_t,
+            k,
+            alpha_x,
+            alpha_y,
+            distribution,
+        } => json!({
+            "type": "roughconductor",
+            "texture_name": texture_name(texture, name, textures),
+            "etaI": vec3(*eta_i), "etaT": vec3(*eta_t), "k": vec3(*k),
+            "alpha_x": num(*alpha_x), "alpha_y": num(*alpha_y),
+            "distribution": distribution_name(*distribution),
+        }),
+        Material::Conductor { texture, eta, k } => json!({
+            "type": "conductor", "texture_name": texture_name(texture, name, textures), "eta": vec3(*eta), "k": vec3(*k),
+        }),
+        Material::ThinDielectric { reflect, transmit, eta } => {
+            json!({"type": "thindielectric", "R": vec3(*reflect), "T": vec3(*transmit), "eta": num(*eta)})
+        }
+        Material::RoughDielectric {
+            reflect,
+            transmit,
+            eta,
+            alpha_x,
+            alpha_y,
+            distribution,
+        } => json!({
+            "type": "roughdielectric", "R": vec3(*reflect), "T": vec3(*transmit), "eta": num(*eta),
+            "alpha_x": num(*alpha_x), "alpha_y": num(*alpha_y), "distribution": distribution_name(*distribution),
+        }),
+        Material::Plastic {
+            texture,
+            specular,
+            eta,
+            nonlinear,
+            ..
+        } => json!({
+            "type": "plastic", "texture_name": texture_name(texture, name, textures),
+            "specular_reflectance": vec3(*specular), "eta": num(*eta), "nonlinear": nonlinear,
+        }),
+        Material::RoughPlastic {
+            texture,
+            specular,
+            eta,
+            nonlinear,
+            alpha,
+            distribution,
+            ..
+        } => json!({
+            "type": "roughplastic", "texture_name": texture_name(texture, name, textures),
+            "specular_reflectance": vec3(*specular), "eta": num(*eta), "nonlinear": nonlinear,
+            "alpha": num(*alpha), "distribution": distribution_name(*distribution),
+        }),
+        Material::TwoSided { front, back } => {
+            let mut side = |m: &Material<TextureRef>, suffix: &str| -> String {
+                let n = (0..)
+                    .map(|i| {
+                        if i == 0 {
+                            format!("{name}_{suffix}")
+                        } else {
+                            format!("{name}_{suffix}_{i}")
+                        }
+                    })
+                    .find(|n| !materials.contains_key(n))
+                    .expect("a free name");
+                let v = material_json(m, &n, textures, materials, texture_name);
+                materials.insert(n.clone(), v);
+                n
+            };
+            let mut v = json!({"type": "twosided", "material_name": side(front, "front")});
+            if let Some(b) = back {
+                v["back_material_name"] = side(b, "back").into();
+            }
+            v
+        }
+    }
+}
+
+/// A material as a Mitsuba `<bsdf>` (with `id` when given; nested ones have none).
+fn material_xml(
+    m: &Material<TextureRef>,
+    name: &str,
+    id: Option<&str>,
+    colour: &dyn Fn(&str, &TextureRef) -> String,
+    w: &mut Vec<String>,
+) -> String {
+    let open = |ty: &str| match id {
+        Some(id) => format!("<bsdf type=\"{ty}\" id=\"{}\">", esc(id)),
+        None => format!("<bsdf type=\"{ty}\">"),
+    };
+    let rgb_unless_one = |key: &str, v: Vec3| {
+        if v == Vec3::ONE {
+            String::new()
+        } else {
+            format!("<rgb name=\"{key}\" value=\"{}\"/>", v3(v))
+        }
+    };
+    let iors = |eta: f32| format!("<float name=\"int_ior\" value=\"{eta}\"/><float name=\"ext_ior\" value=\"1\"/>");
+    let alphas = |ax: f32, ay: f32, d: Distribution| {
+        let a = if ax == ay {
+            format!("<float name=\"alpha\" value=\"{ax}\"/>")
+        } else {
+            format!("<float name=\"alpha_u\" value=\"{ax}\"/><float name=\"alpha_v\" value=\"{ay}\"/>")
+        };
+        format!("{a}<string name=\"distribution\" value=\"{}\"/>", distribution_name(d))
+    };
+    match m {
+        Material::Diffuse { texture, twosided } => {
+            if *twosided {
+                format!(
+                    "{}<bsdf type=\"diffuse\">{}</bsdf></bsdf>",
+                    open("twosided"),
+                    colour("reflectance", texture)
+                )
+            } else {
+                format!("{}{}</bsdf>", open("diffuse"), colour("reflectance", texture))
+            }
+        }
+        Material::Refraction { eta } => {
+            w.push(format!(
+                "material '{name}': perfect refraction without Fresnel has no Mitsuba counterpart: written as a dielectric"
+            ));
+            format!("{}{}</bsdf>", open("dielectric"), iors(*eta))
+        }
+        Material::Glass { reflect, transmit, eta } => format!(
+            "{}{}{}{}</bsdf>",
+            open("dielectric"),
+            iors(*eta),
+            rgb_unless_one("specular_reflectance", *reflect),
+            rgb_unless_one("specular_transmittance", *transmit)
+        ),
+        Material::RoughConductor {
+            texture,
+            eta_i,
+            eta_t,
+            k,
+            alpha_x,
+            alpha_y,
+            distribution,
+        } => format!(
+            "{}{}<rgb name=\"eta\" value=\"{}\"/><rgb name=\"k\" value=\"{}\"/>{}</bsdf>",
+            open("roughconductor"),
+            alphas(*alpha_x, *alpha_y, *distribution),
+            v3(*eta_t / *eta_i),
+            v3(*k / *eta_i),
+            colour("specular_reflectance", texture)
+        ),
+        Material::Conductor { texture, eta, k } => format!(
+            "{}<rgb name=\"eta\" value=\"{}\"/><rgb name=\"k\" value=\"{}\"/>{}</bsdf>",
+            open("conductor"),
+            v3(*eta),
+            v3(*k),
+            colour("specular_reflectance", texture)
+        ),
+        Material::ThinDielectric { reflect, transmit, eta } => format!(
+            "{}{}{}{}</bsdf>",
+            open("thindielectric"),
+            iors(*eta),
+            rgb_unless_one("specular_reflectance", *reflect),
+            rgb_unless_one("specular_transmittance", *transmit)
+        ),
+        Material::RoughDielectric {
+            reflect,
+            transmit,
+            eta,
+            alpha_x,
+            alpha_y,
+            distribution,
+        } => format!(
+            "{}{}{}{}{}</bsdf>",
+            open("roughdielectric"),
+            alphas(*alpha_x, *alpha_y, *distribution),
+            iors(*eta),
+            rgb_unless_one("specular_reflectance", *reflect),
+            rgb_unless_one("specular_transmittance", *transmit)
+        ),
+        Material::Plastic {
+            texture,
+            specular,
+            eta,
+            nonlinear,
+            ..
+        } => format!(
+            "{}{}{}{}<boolean name=\"nonlinear\" value=\"{nonlinear}\"/></bsdf>",
+            open("plastic"),
+            colour("diffuse_reflectance", texture),
+            rgb_unless_one("specular_reflectance", *specular),
+            iors(*eta)
+        ),
+        Material::RoughPlastic {
+            texture,
+            specular,
+            eta,
+            nonlinear,
+            alpha,
+            distribution,
+            ..
+        } => format!(
+            "{}{}{}{}{}<boolean name=\"nonlinear\" value=\"{nonlinear}\"/></bsdf>",
+            open("roughplastic"),
+            alphas(*alpha, *alpha, *distribution),
+            colour("diffuse_reflectance", texture),
+            rgb_unless_one("specular_reflectance", *specular),
+            iors(*eta)
+        ),
+        Material::TwoSided { front, back } => {
+            let mut inner = material_xml(front, name, None, colour, w);
+            if let Some(b) = back {
+                inner += &material_xml(b, name, None, colour, w);
+            }
+            format!("{}{inner}</bsdf>", open("twosided"))
+        }
+    }
+}
 
 fn esc(s: &str) -> String {
     s.replace('&', "&amp;")
@@ -561,64 +800,7 @@ pub fn to_xml(desc: &SceneDesc, out: &Path) -> Result<Converted> {
     let mut material_ids = std::collections::HashMap::new();
     for m in &desc.materials {
         let id = id_for(&m.name, "bsdf-");
-        let body = match &m.material {
-            Material::Diffuse { texture, twosided } => {
-                let inner = format!("<bsdf type=\"diffuse\">{}</bsdf>", colour("reflectance", texture));
-                if *twosided {
-                    format!("  <bsdf type=\"twosided\" id=\"{}\">{inner}</bsdf>", esc(&id))
-                } else {
-                    inner.replacen(
-                        "<bsdf type=\"diffuse\">",
-                        &format!("  <bsdf type=\"diffuse\" id=\"{}\">", esc(&id)),
-                        1,
-                    )
-                }
-            }
-            Material::Refraction { eta } => {
-                w.push(format!(
-                    "material '{}': perfect refraction without Fresnel has no Mitsuba counterpart: written as a dielectric",
-                    m.name
-                ));
-                format!("  <bsdf type=\"dielectric\" id=\"{}\"><float name=\"int_ior\" value=\"{eta}\"/><float name=\"ext_ior\" value=\"1\"/></bsdf>", esc(&id))
-            }
-            Material::Glass { reflect, transmit, eta } => {
-                let mut b = format!(
-                    "  <bsdf type=\"dielectric\" id=\"{}\"><float name=\"int_ior\" value=\"{eta}\"/><float name=\"ext_ior\" value=\"1\"/>",
-                    esc(&id)
-                );
-                if *reflect != Vec3::ONE {
-                    let _ = write!(b, "<rgb name=\"specular_reflectance\" value=\"{}\"/>", v3(*reflect));
-                }
-                if *transmit != Vec3::ONE {
-                    let _ = write!(b, "<rgb name=\"specular_transmittance\" value=\"{}\"/>", v3(*transmit));
-                }
-                b + "</bsdf>"
-            }
-            Material::RoughConductor {
-                texture,
-                eta_i,
-                eta_t,
-                k,
-                alpha_x,
-                alpha_y,
-                distribution,
-            } => {
-                let alpha = if alpha_x == alpha_y {
-                    format!("<float name=\"alpha\" value=\"{alpha_x}\"/>")
-                } else {
-                    format!("<float name=\"alpha_u\" value=\"{alpha_x}\"/><float name=\"alpha_v\" value=\"{alpha_y}\"/>")
-                };
-                let d = if *distribution == Distribution::Ggx { "ggx" } else { "beckmann" };
-                format!(
-                    "  <bsdf type=\"roughconductor\" id=\"{}\">{alpha}<string name=\"distribution\" value=\"{d}\"/><rgb name=\"eta\" value=\"{}\"/><rgb name=\"k\" value=\"{}\"/>{}</bsdf>",
-                    esc(&id),
-                    v3(*eta_t / *eta_i),
-                    v3(*k / *eta_i),
-                    colour("specular_reflectance", texture)
-                )
-            }
-            other => return Err(not_yet(desc, &m.name, other)),
-        };
+        let body = format!("  {}", material_xml(&m.material, &m.name, Some(&id), &colour, &mut w));
         s += &body;
         s += "\n";
         material_ids.insert(m.name.clone(), id);
@@ -712,6 +894,39 @@ pub fn to_xml(desc: &SceneDesc, out: &Path) -> Result<Converted> {
             v3(l.flux / (4.0 * std::f32::consts::PI))
         );
     }
+    for l in &desc.integrator.delta_lights {
+        match &l.light {
+            crate::light::Light::Spot {
+                position,
+                axis,
+                intensity,
+                cutoff,
+                beam_width,
+            } => {
+                // the up vector only has to differ from the axis (the cone is round)
+                let up = if axis.x.abs() < 0.9 { Vec3::X } else { Vec3::Y };
+                let _ = writeln!(
+                    s,
+                    "  <emitter type=\"spot\">\n    <transform name=\"to_world\"><lookat origin=\"{}\" target=\"{}\" up=\"{}\"/></transform>\n    <rgb name=\"intensity\" value=\"{}\"/>\n    <float name=\"cutoff_angle\" value=\"{}\"/>\n    <float name=\"beam_width\" value=\"{}\"/>\n  </emitter>",
+                    v3(*position),
+                    v3(*position + *axis),
+                    v3(up),
+                    v3(*intensity),
+                    cutoff.to_degrees(),
+                    beam_width.to_degrees()
+                );
+            }
+            crate::light::Light::Directional { direction, irradiance } => {
+                let _ = writeln!(
+                    s,
+                    "  <emitter type=\"directional\">\n    <vector name=\"direction\" value=\"{}\"/>\n    <rgb name=\"irradiance\" value=\"{}\"/>\n  </emitter>",
+                    v3(*direction),
+                    v3(*irradiance)
+                );
+            }
+            _ => unreachable!("delta_lights holds spot and directional lights"),
+        }
+    }
     if desc.integrator.light_sampling == crate::light::LightSampling::Uniform {
         w.push("light_sampling uniform has no Mitsuba counterpart (the same converged image)".into());
     }
@@ -759,23 +974,4 @@ pub fn to_xml(desc: &SceneDesc, out: &Path) -> Result<Converted> {
         files: Vec::new(),
         warnings: w,
     })
-}
-
-/// The materials `convert` cannot write yet (the Mitsuba materials added with the
-/// XML reader's issue): a one-line error rather than a wrong scene.
-fn not_yet<T>(desc: &SceneDesc, name: &str, m: &Material<T>) -> SceneError {
-    let kind = match m {
-        Material::Conductor { .. } => "conductor",
-        Material::ThinDielectric { .. } => "thindielectric",
-        Material::RoughDielectric { .. } => "roughdielectric",
-        Material::Plastic { .. } => "plastic",
-        Material::RoughPlastic { .. } => "roughplastic",
-        Material::TwoSided { .. } => "twosided",
-        _ => "this",
-    };
-    SceneError::new(
-        &desc.file,
-        Some(&format!("materials.{name}")),
-        format!("convert cannot write a {kind} material yet (it renders; only diffuse, refraction, glass and roughconductor convert)"),
-    )
 }

@@ -70,7 +70,13 @@ use crate::integrator::{
 /// * `point_light_position` (vec3, (0,5,0)), `point_light_flux` (vec3, (1,1,1)) —
 ///   the legacy single point light; present when either key is given or when
 ///   there is no `lights` list.
-/// * `lights` — list of `{"type": "point", "position": [..], "flux": [..]}`.
+/// * `lights` — list of `{"type": "point", "position": [..], "flux": [..]}`, and (for
+///   `path`, `guided` and `intersection_test`; the integrators that trace from the lights
+///   refuse them) Mitsuba's delta lights:
+///   `{"type": "spot", "position": [..], "look_at": [..] (or "direction": [..]), "intensity": [..]
+///   ((1,1,1), radiant intensity on the axis), "cutoff_angle": 20, "beam_width": ¾ of
+///   cutoff_angle}` (degrees, half-angles; linear falloff in angle between them) and
+///   `{"type": "directional", "direction": [..] (of travel), "irradiance": [..] ((1,1,1))}`.
 /// * `light_sampling` (`"importance"` | `"uniform"`, `"importance"`) — lights drawn
 ///   by their own importance and chosen by power, or uniformly (for comparisons).
 ///
@@ -78,13 +84,67 @@ use crate::integrator::{
 /// {"type": "path", "profile": "NEE", "spp": 64, "max_depth": 8}
 /// {"type": "intersection_test", "spp": 32, "max_depth": 16,
 ///  "lights": [{"type": "point", "position": [0, 1.5, 0.5], "flux": [17, 12, 5]}]}
+/// {"type": "path", "lights": [{"type": "spot", "position": [0, 2, 0], "look_at": [0, 0, 0], "intensity": [5, 5, 5], "cutoff_angle": 30},
+///                             {"type": "directional", "direction": [0, -1, -1], "irradiance": [2, 2, 2]}]}
 /// ```
 #[derive(Clone, Debug)]
 pub struct IntegratorDesc {
     pub integrator: Integrator,
     pub spp: u32,
     pub point_lights: Vec<PointLightDesc>,
+    /// Spot and directional lights ([`crate::light::Light::Spot`], `Directional`).
+    pub delta_lights: Vec<DeltaLightDesc>,
     pub light_sampling: crate::light::LightSampling,
+}
+
+/// A spot or directional light, as it renders, and where it was given.
+#[derive(Clone, Debug)]
+pub struct DeltaLightDesc {
+    pub light: crate::light::Light,
+    pub key: String,
+}
+
+/// A spot light from Mitsuba's parameters (angles in degrees), checked.
+pub fn spot_light(
+    position: Vec3,
+    axis: Vec3,
+    intensity: Vec3,
+    cutoff_deg: f32,
+    beam_deg: Option<f32>,
+) -> std::result::Result<crate::light::Light, String> {
+    if !(cutoff_deg > 0.0 && cutoff_deg <= 180.0) {
+        return Err(format!("cutoff_angle must be in (0, 180] degrees, found {cutoff_deg}"));
+    }
+    let beam_deg = beam_deg.unwrap_or(cutoff_deg * 0.75);
+    if !(beam_deg > 0.0 && beam_deg <= cutoff_deg) {
+        return Err(format!("beam_width must be in (0, cutoff_angle] degrees, found {beam_deg}"));
+    }
+    if !(intensity.min_element() >= 0.0 && intensity.is_finite()) {
+        return Err("intensity must not be negative".into());
+    }
+    let axis = axis.normalize_or_zero();
+    if axis == Vec3::ZERO || !axis.is_finite() {
+        return Err("the spot light's direction is degenerate".into());
+    }
+    Ok(crate::light::Light::Spot {
+        position,
+        axis,
+        intensity,
+        cutoff: cutoff_deg.to_radians(),
+        beam_width: beam_deg.to_radians(),
+    })
+}
+
+/// A directional light travelling along `direction`, checked.
+pub fn directional_light(direction: Vec3, irradiance: Vec3) -> std::result::Result<crate::light::Light, String> {
+    if !(irradiance.min_element() >= 0.0 && irradiance.is_finite()) {
+        return Err("irradiance must not be negative".into());
+    }
+    let direction = direction.normalize_or_zero();
+    if direction == Vec3::ZERO || !direction.is_finite() {
+        return Err("the direction must not be zero".into());
+    }
+    Ok(crate::light::Light::Directional { direction, irradiance })
 }
 
 /// A point light of total power `flux` Φ (radiant intensity Φ/4π).
@@ -435,12 +495,55 @@ fn parse_integrator(p: &Props) -> Result<IntegratorDesc> {
             key: p.key_path("point_light_position"),
         });
     }
+    let mut delta_lights = Vec::new();
     for l in p.objects("lights")? {
         let ty = l.string("type")?;
+        if ty == "spot" {
+            let position = point(&l, "position", l.vec3("position")?)?;
+            let axis = if l.contains("direction") {
+                l.vec3("direction")?
+            } else {
+                point(&l, "look_at", l.vec3("look_at")?)? - position
+            };
+            let cutoff = l.f32_or("cutoff_angle", 20.0)?;
+            let beam = if l.contains("beam_width") {
+                Some(l.f32_or("beam_width", 15.0)?)
+            } else {
+                None
+            };
+            let light = spot_light(position, axis, l.vec3_or("intensity", Vec3::ONE)?, cutoff, beam).map_err(|e| {
+                let key = if e.starts_with("beam") {
+                    "beam_width"
+                } else if e.starts_with("cutoff") {
+                    "cutoff_angle"
+                } else if e.starts_with("intensity") {
+                    "intensity"
+                } else {
+                    "look_at"
+                };
+                l.error(key, e)
+            })?;
+            delta_lights.push(DeltaLightDesc {
+                light,
+                key: l.path.clone(),
+            });
+            l.finish();
+            continue;
+        }
+        if ty == "directional" {
+            let light = directional_light(l.vec3("direction")?, l.vec3_or("irradiance", Vec3::ONE)?)
+                .map_err(|e| l.error(if e.starts_with("irradiance") { "irradiance" } else { "direction" }, e))?;
+            delta_lights.push(DeltaLightDesc {
+                light,
+                key: l.path.clone(),
+            });
+            l.finish();
+            continue;
+        }
         if ty != "point" {
             return Err(l.error(
                 "type",
-                format!("unknown light type '{ty}' in the integrator's list (available: point)"),
+                format!("unknown light type '{ty}' in the integrator's list (available: point, spot, directional)"),
             ));
         }
         point_lights.push(PointLightDesc {
@@ -470,6 +573,7 @@ fn parse_integrator(p: &Props) -> Result<IntegratorDesc> {
         integrator,
         spp,
         point_lights,
+        delta_lights,
         light_sampling,
     })
 }

@@ -46,12 +46,12 @@ pub struct SceneBounds {
 impl Light {
     /// Whether emission starts at a single point (a delta position).
     pub fn is_delta_position(&self) -> bool {
-        matches!(self, Light::Point { .. })
+        matches!(self, Light::Point { .. } | Light::Spot { .. })
     }
 
     /// Whether the light lies at infinity (its vertices have no position).
     pub fn is_infinite(&self) -> bool {
-        matches!(self, Light::Environment(_))
+        matches!(self, Light::Environment(_) | Light::Directional { .. })
     }
 
     /// A ray leaving the light; `None` when the sample carries no light.
@@ -65,6 +65,9 @@ impl Light {
                 pdf_pos: 1.0,
                 pdf_dir: INV_4PI,
             }),
+            // spot and directional lights are refused by the integrators that trace
+            // from the lights (`RenderJob::from_desc`): they emit nothing here
+            Light::Spot { .. } | Light::Directional { .. } => None,
             Light::Area(a) => {
                 let (p, n, pdf_pos) = a.sample_point(u_pos)?;
                 let local = cosine_hemisphere(u_dir);
@@ -107,6 +110,7 @@ impl Light {
     pub fn pdf_emission(&self, n: Vec3, dir: Vec3, bounds: SceneBounds) -> (f32, f32) {
         match self {
             Light::Point { .. } => (0.0, INV_4PI),
+            Light::Spot { .. } | Light::Directional { .. } => (0.0, 0.0),
             Light::Area(a) => (1.0 / a.area(), n.dot(dir).max(0.0) * INV_PI),
             Light::Environment(e) => (1.0 / (PI * bounds.radius * bounds.radius), e.pdf(-dir, LightSampling::Importance)),
         }

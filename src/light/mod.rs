@@ -22,6 +22,34 @@ pub enum Light {
     },
     Area(AreaLight),
     Environment(EnvironmentLight),
+    /// Mitsuba's `spot`: a point at `position` shining along the unit `axis`, radiant
+    /// intensity `intensity` within `beam_width` of it, falling linearly in angle to 0
+    /// at `cutoff` (both half-angles in radians, 0 < beam_width ≤ cutoff < π/2 … π).
+    Spot {
+        position: Vec3,
+        axis: Vec3,
+        intensity: Vec3,
+        cutoff: f32,
+        beam_width: f32,
+    },
+    /// Mitsuba's `directional`: light from infinitely far, travelling along the unit
+    /// `direction`, `irradiance` on a surface facing it.
+    Directional {
+        direction: Vec3,
+        irradiance: Vec3,
+    },
+}
+
+/// A spot light's intensity factor for a direction at `cos_theta` to its axis:
+/// 1 inside the beam, linear in the angle down to 0 at the cutoff (Mitsuba's curve).
+pub fn spot_falloff(cos_theta: f32, cutoff: f32, beam_width: f32) -> f32 {
+    if cos_theta <= cutoff.cos() {
+        return 0.0;
+    }
+    if cos_theta >= beam_width.cos() || cutoff <= beam_width {
+        return 1.0;
+    }
+    ((cutoff - cos_theta.clamp(-1.0, 1.0).acos()) / (cutoff - beam_width)).clamp(0.0, 1.0)
 }
 
 /// Where a shadow ray for a light sample has to go.
@@ -57,7 +85,7 @@ pub enum LightSampling {
 
 impl Light {
     pub fn is_delta(&self) -> bool {
-        matches!(self, Light::Point { .. })
+        matches!(self, Light::Point { .. } | Light::Spot { .. } | Light::Directional { .. })
     }
 
     /// A sample of the light as seen from `p`. `None` when the light cannot
@@ -78,6 +106,35 @@ impl Light {
                     target: ShadowTarget::Point { p: *position, n: None },
                 })
             }
+            Light::Spot {
+                position,
+                axis,
+                intensity,
+                cutoff,
+                beam_width,
+            } => {
+                let v = *position - p;
+                let d2 = v.length_squared();
+                if d2 == 0.0 {
+                    return None;
+                }
+                let wi = v / d2.sqrt();
+                let f = spot_falloff(-wi.dot(*axis), *cutoff, *beam_width);
+                (f > 0.0).then_some(LightSample {
+                    radiance: *intensity * f / d2,
+                    wi,
+                    pdf: 1.0,
+                    delta: true,
+                    target: ShadowTarget::Point { p: *position, n: None },
+                })
+            }
+            Light::Directional { direction, irradiance } => Some(LightSample {
+                radiance: *irradiance,
+                wi: -*direction,
+                pdf: 1.0,
+                delta: true,
+                target: ShadowTarget::Infinity,
+            }),
             Light::Area(a) => a.sample(p, u, mode),
             Light::Environment(e) => e.sample(u, mode),
         }
@@ -88,7 +145,7 @@ impl Light {
     /// `None` for the environment).
     pub fn pdf(&self, p: Vec3, wi: Vec3, hit: Option<(Vec3, Vec3)>, mode: LightSampling) -> f32 {
         match self {
-            Light::Point { .. } => 0.0,
+            Light::Point { .. } | Light::Spot { .. } | Light::Directional { .. } => 0.0,
             Light::Area(a) => hit.map_or(0.0, |(q, n)| a.pdf(p, wi, q, n, mode)),
             Light::Environment(e) => e.pdf(wi, mode),
         }
@@ -100,6 +157,9 @@ impl Light {
             Light::Point { flux, .. } => luminance(*flux),
             Light::Area(a) => PI * a.area() * luminance(a.radiance),
             Light::Environment(e) => PI * scene_radius * scene_radius * 4.0 * PI * e.mean_luminance(),
+            // the cone's power with the full intensity out to the cutoff (a choice weight only)
+            Light::Spot { intensity, cutoff, .. } => 2.0 * PI * (1.0 - cutoff.cos()) * luminance(*intensity),
+            Light::Directional { irradiance, .. } => PI * scene_radius * scene_radius * luminance(*irradiance),
         }
     }
 }

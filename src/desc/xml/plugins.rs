@@ -9,8 +9,8 @@
 //! | `<rfilter>` | `box` (`radius` 0.5), `tent` (`radius` 1), `gaussian` (`stddev` 0.5, radius 4·stddev), `mitchell` (`B`, `C` 1/3, radius 2) |
 //! | `<sampler>` | any type: `sample_count` (4) → spp; the type is noted, rdr uses its own sampler. |
 //! | `<shape>` | `obj`, `ply` (`filename`, `face_normals` false: else smooth vertex normals when the file has none; `flip_normals`; `flip_tex_coords`, true for OBJ, false for PLY), `serialized` (`filename`, `shape_index` 0), `rectangle`, `cube`, `disk` (generated meshes), `sphere` (`center` 0, `radius` 1); all take `to_world`, one `<bsdf>` and one `area` `<emitter>`. A shape with neither gets Mitsuba's default, a diffuse 0.5. |
-//! | `<bsdf>` | `diffuse` (`reflectance` 0.5, a colour or texture), `dielectric` (`int_ior` "bk7", `ext_ior` "air": numbers or names; `specular_reflectance`, `specular_transmittance` 1), `roughconductor` (`alpha` 0.1 or `alpha_u`+`alpha_v`, `distribution` beckmann \| ggx, `eta` 0 / `k` 1 (a perfect mirror), `specular_reflectance` 1; the 0.6 `ext_eta` folded into η and k), `twosided` (around one `diffuse`: rdr's two-sided diffuse; around others: the inner material, one-sided). |
-//! | `<emitter>` | `area` (in a shape: `radiance` 1), `point` (`position` or `to_world`; `intensity` I (1) → flux 4πI), `constant` (`radiance` 1), `envmap` (`filename`, `scale` 1, `to_world`) |
+//! | `<bsdf>` | `diffuse` (`reflectance` 0.5, a colour or texture); `dielectric`, `thindielectric` (`int_ior` "bk7", `ext_ior` "air": numbers or names, η = int/ext; `specular_reflectance`, `specular_transmittance` 1, colours); `roughdielectric` (as `dielectric`, and `distribution` beckmann \| ggx, `alpha` 0.1 or `alpha_u`+`alpha_v`); `conductor` and `roughconductor` (`material` "none", or a name from [`values::NAMED_CONDUCTORS`] such as "Au"; else `eta` 0 / `k` 1 (a perfect mirror); `specular_reflectance` 1, a colour or texture; `roughconductor`'s `alpha`, `alpha_u`/`alpha_v`, `distribution` as `roughdielectric`; the 0.6 `ext_eta` folded into η and k); `plastic` (`diffuse_reflectance` 0.5, a colour or texture; `specular_reflectance` 1; `int_ior` "polypropylene" (1.49), `ext_ior` "air"; `nonlinear` false), `roughplastic` (as `plastic`, and `alpha` 0.1 (isotropic), `distribution` beckmann); `twosided` (one or two nested non-transmitting bsdfs: around one `diffuse` it is rdr's two-sided diffuse, around one `roughconductor` that material (rdr's is two-sided), otherwise rdr's `twosided` with the second as the back). Example: `<bsdf type="twosided"><bsdf type="roughplastic"><float name="alpha" value="0.2"/></bsdf></bsdf>`. |
+//! | `<emitter>` | `area` (in a shape: `radiance` 1), `point` (`position` or `to_world`; `intensity` I (1) → flux 4πI), `spot` (`to_world`: at its origin, along its +z; `intensity` 1, `cutoff_angle` 20°, `beam_width` ¾ of it; linear falloff in angle), `directional` (`direction` or `to_world`'s +z, of travel; `irradiance` 1) — these two for `path`, `direct` and guided only, `constant` (`radiance` 1), `envmap` (`filename`, `scale` 1, `to_world`) |
 //! | `<texture>` | `bitmap` (`filename`, `to_uv`; `filter_type`, `wrap_mode`, `raw` noted), `checkerboard` (`color0` 0.4, `color1` 0.2, `to_uv`); the 0.6 `uoffset`, `voffset`, `uscale`, `vscale` become `to_uv` |
 //!
 //! Anything else is an error naming the plugin and what is supported. Colours are
@@ -41,8 +41,8 @@ use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
 const SHAPES: &str = "obj, ply, serialized, rectangle, cube, disk, sphere";
-const BSDFS: &str = "diffuse, dielectric, roughconductor, twosided";
-const EMITTERS: &str = "point, constant, envmap (and area inside a <shape>)";
+const BSDFS: &str = "diffuse, dielectric, thindielectric, roughdielectric, conductor, roughconductor, plastic, roughplastic, twosided";
+const EMITTERS: &str = "point, spot, directional, constant, envmap (and area inside a <shape>)";
 const TEXTURES: &str = "bitmap, checkerboard";
 const INTEGRATORS: &str = "path, direct, ptracer, bdpt, photonmapper, sppm";
 const FILTERS: &str = "box, tent, gaussian, mitchell";
@@ -108,6 +108,7 @@ pub fn scene(root: &Element, file: &Path) -> Result<SceneDesc> {
         objects.push(r.shape(el)?);
     }
     let mut point_lights = Vec::new();
+    let mut delta_lights = Vec::new();
     let mut environment_map: Option<EnvMapDesc> = None;
     for (el, at) in top.objects("emitter") {
         let p = Plugin::new(el, &ids)?;
@@ -128,6 +129,35 @@ pub fn scene(root: &Element, file: &Path) -> Result<SceneDesc> {
                     flux: intensity * (4.0 * std::f32::consts::PI),
                     key: where_is(el),
                 });
+                p.finish(&[])?;
+            }
+            "spot" => {
+                let m = p.transform_opt("to_world")?.unwrap_or(Mat4::IDENTITY);
+                let position = m.transform_point3(Vec3::ZERO);
+                check_point(&p, "to_world", position)?;
+                let light = crate::desc::spot_light(
+                    position,
+                    m.transform_vector3(Vec3::Z),
+                    p.rgb("intensity", Vec3::ONE)?,
+                    p.float("cutoff_angle", 20.0)?,
+                    p.float_opt("beam_width")?,
+                )
+                .map_err(|e| {
+                    let key = ["cutoff_angle", "beam_width", "intensity"].into_iter().find(|k| e.starts_with(k));
+                    p.value_error(key.unwrap_or("to_world"), e)
+                })?;
+                delta_lights.push(crate::desc::DeltaLightDesc { light, key: where_is(el) });
+                p.finish(&[])?;
+            }
+            "directional" => {
+                let direction = match p.transform_opt("to_world")? {
+                    Some(m) if !p.has("direction") => m.transform_vector3(Vec3::Z),
+                    Some(_) => return Err(p.error("give either direction or to_world")),
+                    None => p.point_opt("direction")?.unwrap_or(Vec3::Z),
+                };
+                let light = crate::desc::directional_light(direction, p.rgb("irradiance", Vec3::ONE)?)
+                    .map_err(|e| p.value_error(if e.starts_with("irradiance") { "irradiance" } else { "direction" }, e))?;
+                delta_lights.push(crate::desc::DeltaLightDesc { light, key: where_is(el) });
                 p.finish(&[])?;
             }
             "constant" | "envmap" => {
@@ -152,6 +182,7 @@ pub fn scene(root: &Element, file: &Path) -> Result<SceneDesc> {
             integrator,
             spp,
             point_lights,
+            delta_lights,
             light_sampling: crate::light::LightSampling::Importance,
         },
         film,
@@ -176,6 +207,53 @@ fn check_point(p: &Plugin, name: &str, v: Vec3) -> Result<()> {
         ));
     }
     Ok(())
+}
+
+/// `int_ior` / `ext_ior` (numbers or names; `ext_ior` "air" by default).
+fn ior_ratio(p: &Plugin, int_default: &str) -> Result<f32> {
+    let eta = p.ior("int_ior", int_default)? / p.ior("ext_ior", "air")?;
+    if !(1e-3..=1e3).contains(&eta) {
+        return Err(p.error(format!("int_ior / ext_ior = {eta} is out of range")));
+    }
+    Ok(eta)
+}
+
+/// A constant, non-negative reflectance or transmittance (1 by default); rdr's
+/// dielectrics and coatings take no textures here.
+fn colour_of(p: &Plugin, name: &str) -> Result<Vec3> {
+    let c = p.rgb(name, Vec3::ONE)?;
+    if !(c.min_element() >= 0.0 && c.is_finite()) {
+        return Err(p.value_error(name, "must not be negative"));
+    }
+    Ok(c)
+}
+
+/// `alpha` (0.1), or both `alpha_u` and `alpha_v`; each in [0, 10].
+fn alphas(p: &Plugin) -> Result<(f32, f32)> {
+    let (ax, ay) = if p.has("alpha_u") || p.has("alpha_v") {
+        if !(p.has("alpha_u") && p.has("alpha_v")) || p.has("alpha") {
+            return Err(p.error("give either alpha, or both alpha_u and alpha_v"));
+        }
+        (p.float("alpha_u", 0.1)?, p.float("alpha_v", 0.1)?)
+    } else {
+        let a = p.float("alpha", 0.1)?;
+        (a, a)
+    };
+    for (k, a) in [("alpha", ax), ("alpha_v", ay)] {
+        if !(0.0..=10.0).contains(&a) {
+            return Err(p.value_error(k, format!("must be between 0 and 10, found {a}")));
+        }
+    }
+    Ok((ax, ay))
+}
+
+/// `distribution`: `beckmann` (the default) or `ggx`.
+fn distribution(p: &Plugin) -> Result<Distribution> {
+    match p.string("distribution", "beckmann")?.to_ascii_lowercase().as_str() {
+        "beckmann" => Ok(Distribution::Beckmann),
+        "ggx" => Ok(Distribution::Ggx),
+        other => Err(p.value_error("distribution", format!("unknown distribution \"{other}\" (beckmann, ggx)"))),
+    }
 }
 
 struct Reader<'a> {
@@ -709,88 +787,145 @@ impl<'a> Reader<'a> {
                 let Some((b, _)) = inner.first() else {
                     return Err(p.error("a twosided bsdf needs a nested <bsdf>"));
                 };
-                if let Some((_, at)) = inner.get(1) {
-                    return Err(at.error("a twosided bsdf with different front and back materials is not supported"));
+                if let Some((_, at)) = inner.get(2) {
+                    return Err(at.error("a twosided bsdf takes one or two nested <bsdf>s"));
                 }
-                match self.material_value(b)? {
-                    Material::Diffuse { texture, .. } => Material::Diffuse { texture, twosided: true },
-                    m @ (Material::Glass { .. } | Material::Refraction { .. }) => m,
-                    m => {
-                        self.ids
-                            .warn(el, "twosided around a non-diffuse bsdf: rdr's is one-sided (black from behind)");
-                        m
+                let front = self.material_value(b)?;
+                let back = match inner.get(1) {
+                    Some((b, _)) => Some(self.material_value(b)?),
+                    None => None,
+                };
+                for (m, (_, at)) in std::iter::once(&front).chain(back.as_ref()).zip(&inner) {
+                    if matches!(m, Material::TwoSided { .. }) || matches!(m, Material::Diffuse { twosided: true, .. }) {
+                        return Err(at.error("twosided cannot wrap another twosided bsdf"));
+                    }
+                    if back.is_some() && m.transmits() || matches!(m, Material::ThinDielectric { .. } | Material::RoughDielectric { .. }) {
+                        return Err(at.error("twosided wraps only reflecting bsdfs (this one transmits light)"));
                     }
                 }
-            }
-            "dielectric" => {
-                let int_ior = p.ior("int_ior", "bk7")?;
-                let ext_ior = p.ior("ext_ior", "air")?;
-                let eta = int_ior / ext_ior;
-                if !(1e-3..=1e3).contains(&eta) {
-                    return Err(p.error(format!("int_ior / ext_ior = {eta} is out of range")));
-                }
-                Material::Glass {
-                    reflect: p.rgb("specular_reflectance", Vec3::ONE)?,
-                    transmit: p.rgb("specular_transmittance", Vec3::ONE)?,
-                    eta,
+                match (front, back) {
+                    // rdr's own two-sided diffuse; its roughconductor is two-sided already
+                    (Material::Diffuse { texture, .. }, None) => Material::Diffuse { texture, twosided: true },
+                    (m @ Material::RoughConductor { .. }, None) => m,
+                    // smooth glass is the same from both sides (the 0.6 course files wrap it)
+                    (m @ (Material::Glass { .. } | Material::Refraction { .. }), None) => m,
+                    (front, back) => Material::TwoSided {
+                        front: Box::new(front),
+                        back: back.map(Box::new),
+                    },
                 }
             }
+            "dielectric" => Material::Glass {
+                reflect: colour_of(&p, "specular_reflectance")?,
+                transmit: colour_of(&p, "specular_transmittance")?,
+                eta: ior_ratio(&p, "bk7")?,
+            },
             "roughconductor" => {
-                let (ax, ay) = if p.has("alpha_u") || p.has("alpha_v") {
-                    if !(p.has("alpha_u") && p.has("alpha_v")) || p.has("alpha") {
-                        return Err(p.error("give either alpha, or both alpha_u and alpha_v"));
-                    }
-                    (p.float("alpha_u", 0.1)?, p.float("alpha_v", 0.1)?)
-                } else {
-                    let a = p.float("alpha", 0.1)?;
-                    (a, a)
-                };
-                for (k, a) in [("alpha", ax), ("alpha_v", ay)] {
-                    if !(0.0..=10.0).contains(&a) {
-                        return Err(p.value_error(k, format!("must be between 0 and 10, found {a}")));
-                    }
-                }
-                let distribution = match p.string("distribution", "beckmann")?.to_ascii_lowercase().as_str() {
-                    "beckmann" => Distribution::Beckmann,
-                    "ggx" => Distribution::Ggx,
-                    other => return Err(p.value_error("distribution", format!("unknown distribution \"{other}\" (beckmann, ggx)"))),
-                };
-                if let Some(m) = p.string_opt("material")? {
-                    if m != "none" {
-                        return Err(p.value_error(
-                            "material",
-                            format!("named conductor \"{m}\" is not supported yet: give eta and k as <rgb>"),
-                        ));
-                    }
-                }
-                let mut eta = p.rgb("eta", Vec3::ZERO)?;
-                let mut k = p.rgb("k", Vec3::ONE)?;
-                if let Some(ext) = p.float_opt("ext_eta")? {
-                    if ext.is_nan() || ext <= 0.0 {
-                        return Err(p.value_error("ext_eta", "must be positive"));
-                    }
-                    // Mitsuba 3 has no ext_eta: η and k are relative to the outside
-                    eta /= ext;
-                    k /= ext;
-                    if ext != 1.0 {
-                        self.ids.warn(el, format!("ext_eta {ext} (Mitsuba 0.6) folded into eta and k"));
-                    }
-                }
+                let (alpha_x, alpha_y) = alphas(&p)?;
+                let (eta, k) = self.conductor_eta_k(&p)?;
                 p.ignore("sample_visible");
                 Material::RoughConductor {
                     texture: self.texture_ref(&p, "specular_reflectance", Vec3::ONE)?,
                     eta_i: Vec3::ONE,
                     eta_t: eta.max(Vec3::splat(1e-4)),
                     k,
-                    alpha_x: ax,
-                    alpha_y: ay,
-                    distribution,
+                    alpha_x,
+                    alpha_y,
+                    distribution: distribution(&p)?,
+                }
+            }
+            "conductor" => {
+                let (eta, k) = self.conductor_eta_k(&p)?;
+                Material::Conductor {
+                    texture: self.texture_ref(&p, "specular_reflectance", Vec3::ONE)?,
+                    eta,
+                    k,
+                }
+            }
+            "thindielectric" => Material::ThinDielectric {
+                reflect: colour_of(&p, "specular_reflectance")?,
+                transmit: colour_of(&p, "specular_transmittance")?,
+                eta: ior_ratio(&p, "bk7")?,
+            },
+            "roughdielectric" => {
+                let (alpha_x, alpha_y) = alphas(&p)?;
+                p.ignore("sample_visible");
+                Material::RoughDielectric {
+                    reflect: colour_of(&p, "specular_reflectance")?,
+                    transmit: colour_of(&p, "specular_transmittance")?,
+                    eta: ior_ratio(&p, "bk7")?,
+                    alpha_x,
+                    alpha_y,
+                    distribution: distribution(&p)?,
+                }
+            }
+            "plastic" | "roughplastic" => {
+                let texture = self.texture_ref(&p, "diffuse_reflectance", Vec3::splat(0.5))?;
+                let specular = colour_of(&p, "specular_reflectance")?;
+                let eta = ior_ratio(&p, "polypropylene")?;
+                if eta == 1.0 {
+                    return Err(p.value_error("int_ior", "a coating needs int_ior and ext_ior to differ"));
+                }
+                let nonlinear = p.boolean("nonlinear", false)?;
+                if p.ty == "plastic" {
+                    Material::Plastic {
+                        texture,
+                        specular,
+                        eta,
+                        nonlinear,
+                        specular_sampling_weight: None,
+                    }
+                } else {
+                    if p.has("alpha_u") || p.has("alpha_v") {
+                        return Err(p.error("roughplastic is isotropic: give alpha, not alpha_u and alpha_v"));
+                    }
+                    p.ignore("sample_visible");
+                    Material::RoughPlastic {
+                        texture,
+                        specular,
+                        eta,
+                        nonlinear,
+                        alpha: alphas(&p)?.0,
+                        distribution: distribution(&p)?,
+                        specular_sampling_weight: None,
+                        tables: None,
+                    }
                 }
             }
             other => return Err(p.error(format!("unsupported bsdf \"{other}\" (supported: {BSDFS})"))),
         };
         p.finish(&["bsdf", "texture"])?;
         Ok(m)
+    }
+
+    /// A conductor's η and k: `eta` (0) and `k` (1), or `material` (a name from
+    /// [`values::NAMED_CONDUCTORS`], or `none`, the default); the 0.6 `ext_eta` folded in.
+    fn conductor_eta_k(&self, p: &Plugin) -> Result<(Vec3, Vec3)> {
+        let named = p.string_opt("material")?;
+        let (mut eta, mut k) = match named.as_deref() {
+            Some(m) if m != "none" => {
+                if p.has("eta") || p.has("k") {
+                    return Err(p.value_error("material", "give either material or eta and k, not both"));
+                }
+                values::conductor(m).map_err(|e| p.value_error("material", e))?
+            }
+            _ => (p.rgb("eta", Vec3::ZERO)?, p.rgb("k", Vec3::ONE)?),
+        };
+        if !(eta.min_element() >= 0.0 && k.min_element() >= 0.0 && eta.is_finite() && k.is_finite()) {
+            return Err(p.value_error(if p.has("k") { "k" } else { "eta" }, "must not be negative"));
+        }
+        if let Some(ext) = p.float_opt("ext_eta")? {
+            if ext.is_nan() || ext <= 0.0 {
+                return Err(p.value_error("ext_eta", "must be positive"));
+            }
+            // Mitsuba 3 has no ext_eta: η and k are relative to the outside
+            eta /= ext;
+            k /= ext;
+            if ext != 1.0 {
+                self.ids.warn(p.el, format!("ext_eta {ext} (Mitsuba 0.6) folded into eta and k"));
+            }
+        }
+        Ok((eta, k))
     }
 
     fn texture_ref(&mut self, p: &Plugin<'a>, name: &str, default: Vec3) -> Result<TextureRef> {

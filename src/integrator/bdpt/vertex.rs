@@ -207,6 +207,8 @@ impl Ctx<'_> {
                 cos / (PI * r * r)
             }
             Light::Point { .. } => self.convert(INV_4PI, light, next),
+            // refused for bdpt (RenderJob::from_desc)
+            Light::Spot { .. } | Light::Directional { .. } => 0.0,
             Light::Area(_) => {
                 let w = light.dir_to(next);
                 self.convert(light.ng.dot(w).max(0.0) * INV_PI, light, next)
@@ -222,6 +224,7 @@ impl Ctx<'_> {
         let l = &self.scene.lights[i as usize];
         match l {
             Light::Point { .. } => pmf,
+            Light::Spot { .. } | Light::Directional { .. } => 0.0,
             Light::Area(a) => pmf / a.area(),
             Light::Environment(_) => pmf * l.pdf_emission(Vec3::ZERO, -light.ng, self.bounds).1,
         }
@@ -234,6 +237,7 @@ impl Ctx<'_> {
         match &self.scene.lights[i as usize] {
             Light::Environment(e) => e.radiance(light.ng),
             Light::Point { flux, .. } => *flux * INV_4PI,
+            Light::Spot { .. } | Light::Directional { .. } => Vec3::ZERO,
             Light::Area(a) => a.emitted(light.ng, w),
         }
     }

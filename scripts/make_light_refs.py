@@ -1,0 +1,133 @@
+#!/usr/bin/env python3
+"""Regenerates the delta-light references in tests/refs/lights/ with Mitsuba 3.
+
+For each emitter (`spot`, `directional`): <name>.xml (the Mitsuba scene), <name>.json (its
+RDR171 twin, which tests/delta_lights.rs renders with rdr), <name>.exr (the mean of K
+independent passes of Mitsuba's `path` integrator, pass p with seed p) and <name>.var.exr
+(per pixel and channel the variance of that mean: the sample variance of the K pass
+images / K, as ../shared/refs/README.md describes).
+
+The scene: a diffuse sphere on a diffuse floor (a large sphere) lit only by the emitter;
+the spot's beam edge and falloff lie on the floor in view.
+
+Run from the repository root with the venv that has Mitsuba:
+    /work/venv-mi/bin/python scripts/make_light_refs.py [--passes 8] [--spp 256] [NAME...]
+"""
+import argparse
+import json
+import os
+import sys
+
+RES = 32
+MAX_DEPTH = 8
+HERE = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "tests", "refs", "lights")
+
+CAMERA = {"position": [0.0, 1.5, -4.5], "look_at": [0.0, -0.5, 0.0], "ref_up": [0.0, 1.0, 0.0], "fov": 35.0}
+FLOOR = {"center": [0.0, -101.0, 0.0], "radius": 100.0, "albedo": [0.5, 0.5, 0.5]}
+BALL = {"center": [-0.6, -0.5, 0.0], "radius": 0.5, "albedo": [0.8, 0.4, 0.2]}
+
+SPOT = {"position": [0.3, 3.0, 0.2], "look_at": [0.3, -1.0, 0.0], "intensity": [30.0, 30.0, 30.0],
+        "cutoff_angle": 20.0, "beam_width": 10.0}
+DIRECTIONAL = {"direction": [1.0, -2.0, 0.5], "irradiance": [2.0, 2.0, 2.0]}
+
+
+def v(x):
+    return ", ".join(str(float(c)) for c in x)
+
+
+def emitter_xml(name):
+    if name == "spot":
+        s = SPOT
+        return (f'  <emitter type="spot"><transform name="to_world"><lookat origin="{v(s["position"])}" '
+                f'target="{v(s["look_at"])}" up="1, 0, 0"/></transform>'
+                f'<rgb name="intensity" value="{v(s["intensity"])}"/>'
+                f'<float name="cutoff_angle" value="{s["cutoff_angle"]}"/><float name="beam_width" value="{s["beam_width"]}"/></emitter>')
+    d = DIRECTIONAL
+    return (f'  <emitter type="directional"><vector name="direction" value="{v(d["direction"])}"/>'
+            f'<rgb name="irradiance" value="{v(d["irradiance"])}"/></emitter>')
+
+
+def scene_xml(name):
+    c = CAMERA
+    return f"""<?xml version="1.0" encoding="utf-8"?>
+<!-- tests/refs/lights/{name}: made by scripts/make_light_refs.py (do not edit; rerun it).
+     {RES}x{RES}, box filter, path max_depth {MAX_DEPTH}; twin: {name}.json -->
+<scene version="3.0.0">
+  <default name="spp" value="256"/>
+  <integrator type="path"><integer name="max_depth" value="{MAX_DEPTH}"/></integrator>
+  <sensor type="perspective">
+    <float name="fov" value="{c['fov']}"/>
+    <string name="fov_axis" value="y"/>
+    <transform name="to_world">
+      <lookat origin="{v(c['position'])}" target="{v(c['look_at'])}" up="{v(c['ref_up'])}"/>
+    </transform>
+    <film type="hdrfilm">
+      <integer name="width" value="{RES}"/><integer name="height" value="{RES}"/>
+      <string name="pixel_format" value="rgb"/><rfilter type="box"/>
+    </film>
+    <sampler type="independent"><integer name="sample_count" value="$spp"/></sampler>
+  </sensor>
+  <shape type="sphere">
+    <point name="center" value="{v(FLOOR['center'])}"/><float name="radius" value="{FLOOR['radius']}"/>
+    <bsdf type="diffuse"><rgb name="reflectance" value="{v(FLOOR['albedo'])}"/></bsdf>
+  </shape>
+  <shape type="sphere">
+    <point name="center" value="{v(BALL['center'])}"/><float name="radius" value="{BALL['radius']}"/>
+    <bsdf type="diffuse"><rgb name="reflectance" value="{v(BALL['albedo'])}"/></bsdf>
+  </shape>
+{emitter_xml(name)}
+</scene>
+"""
+
+
+def scene_json(name):
+    light = dict(SPOT, type="spot") if name == "spot" else dict(DIRECTIONAL, type="directional")
+    return {
+        "integrator": {"type": "path", "spp": 64, "max_depth": MAX_DEPTH, "lights": [light]},
+        "film": {"resolution": [RES, RES], "filter": {"type": "box", "radius": 0.5}},
+        "camera": dict(CAMERA, focal_length=1.0),
+        "textures": {"floor": {"type": "constant", "color": FLOOR["albedo"]},
+                     "ball": {"type": "constant", "color": BALL["albedo"]}},
+        "materials": {"floor": {"type": "diffuse", "texture_name": "floor"},
+                      "ball": {"type": "diffuse", "texture_name": "ball"}},
+        "objects": [
+            {"type": "sphere", "center": FLOOR["center"], "radius": FLOOR["radius"], "material_name": "floor"},
+            {"type": "sphere", "center": BALL["center"], "radius": BALL["radius"], "material_name": "ball"},
+        ],
+    }
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--passes", type=int, default=8)
+    ap.add_argument("--spp", type=int, default=256)
+    ap.add_argument("--variant", default="scalar_rgb")
+    ap.add_argument("names", nargs="*")
+    args = ap.parse_args()
+    import mitsuba as mi
+    import numpy as np
+    mi.set_variant(args.variant)
+    os.makedirs(HERE, exist_ok=True)
+    for name in ["spot", "directional"]:
+        if args.names and name not in args.names:
+            continue
+        xml_path = os.path.join(HERE, f"{name}.xml")
+        with open(xml_path, "w") as f:
+            f.write(scene_xml(name))
+        with open(os.path.join(HERE, f"{name}.json"), "w") as f:
+            json.dump(scene_json(name), f, indent=1)
+            f.write("\n")
+        scene = mi.load_file(xml_path)
+        passes = np.stack([np.array(mi.render(scene, seed=p, spp=args.spp), dtype=np.float64)[..., :3]
+                           for p in range(args.passes)])
+        mean = passes.mean(axis=0)
+        var = passes.var(axis=0, ddof=1) / args.passes
+        # written synchronously (write_bitmap's background writer can hang at exit)
+        mi.Bitmap(mean.astype(np.float32), mi.Bitmap.PixelFormat.RGB).write(os.path.join(HERE, f"{name}.exr"))
+        mi.Bitmap(var.astype(np.float32), mi.Bitmap.PixelFormat.RGB).write(os.path.join(HERE, f"{name}.var.exr"))
+        rel = np.sqrt((var / (mean ** 2 + 0.01)).mean())
+        print(f"{name}: {args.passes}×{args.spp} spp, relMSE-noise {rel:.2e}, mean {mean.mean():.4f}", file=sys.stderr, flush=True)
+
+
+if __name__ == "__main__":
+    main()

@@ -502,7 +502,7 @@ fn render(args: &SceneArgs, output: Option<PathBuf>, quiet: bool, time_limit: Op
         );
     }
     let identity = if physical && is_exr {
-        Some(RenderIdentity::of(&args.scene, &args.overrides, &desc, job.seed)?)
+        Some(RenderIdentity::of(&args.scene, &args.overrides, &args.defines, &desc, job.seed)?)
     } else {
         None
     };

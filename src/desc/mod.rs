@@ -281,6 +281,13 @@ pub enum MeshFormat {
     Disk,
 }
 
+impl MeshFormat {
+    /// Whether the mesh is read from its `path` (not generated).
+    pub fn reads_file(&self) -> bool {
+        !matches!(self, MeshFormat::Rectangle | MeshFormat::Cube | MeshFormat::Disk)
+    }
+}
+
 /// Triangles a generated `disk` is made of.
 pub const DISK_SEGMENTS: u32 = 256;
 

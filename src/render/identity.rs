@@ -25,9 +25,20 @@ pub struct RenderIdentity {
 }
 
 impl RenderIdentity {
-    /// The identity of `desc` (read from `file` with `overrides`) rendered with `seed`.
-    pub fn of(file: &Path, overrides: &[String], desc: &SceneDesc, seed: u32) -> anyhow::Result<RenderIdentity> {
-        let value = resolved_json(file, overrides)?;
+    /// The identity of `desc` (read from `file` with `overrides`, and a Mitsuba XML
+    /// file's `-D` `defines`) rendered with `seed`.
+    pub fn of(
+        file: &Path,
+        overrides: &[String],
+        defines: &[(String, String)],
+        desc: &SceneDesc,
+        seed: u32,
+    ) -> anyhow::Result<RenderIdentity> {
+        let mut value = resolved_json(file, overrides)?;
+        if !defines.is_empty() {
+            let d: serde_json::Map<String, Value> = defines.iter().map(|(k, v)| (k.clone(), Value::String(v.clone()))).collect();
+            value = serde_json::json!({"file": value, "defines": d});
+        }
         let integrator = value.get("integrator").map_or_else(|| "{}".into(), canonical);
         let scene = Sha256::digest_hex(canonical(&value).as_bytes());
         let mut assets = Sha256::new();
@@ -39,8 +50,9 @@ impl RenderIdentity {
             }
         }
         for o in &desc.objects {
-            if let Shape::Mesh(m) = &o.shape {
-                paths.push(m.path.value.clone());
+            match &o.shape {
+                Shape::Mesh(m) if m.options.format.reads_file() => paths.push(m.path.value.clone()),
+                _ => {}
             }
         }
         for p in paths {

@@ -73,6 +73,8 @@ pub struct RenderOutput {
     /// The film state the image is made of (the pieces of [`blocks`]), to be saved for
     /// a resume or a merge.
     pub state: FilmState,
+    /// Feature-buffer sums, when asked for ([`render_with_aov`]).
+    pub aov: Option<crate::film::AovSums>,
 }
 
 /// Renders `scene` as `job` says. When the stop token is set the current pass is
@@ -85,6 +87,12 @@ pub fn render(scene: &Scene, job: &RenderJob, control: &RenderControl) -> Render
 /// whose pieces end where this one's passes ([`RenderJob::passes`]) begin: the result
 /// is the same, bit for bit, as one render of all the passes.
 pub fn render_from(scene: &Scene, job: &RenderJob, control: &RenderControl, start: FilmState) -> RenderOutput {
+    render_with_aov(scene, job, control, start, false)
+}
+
+/// [`render_from`], also summing feature buffers when `aov` (for integrators with
+/// [`crate::integrator::Integrator::supports_aov`]; the image is the same either way).
+pub fn render_with_aov(scene: &Scene, job: &RenderJob, control: &RenderControl, start: FilmState, aov: bool) -> RenderOutput {
     let t0 = Instant::now();
     let invalid_rays_before = crate::accel::wide::invalid_rays();
     let report = |n: u64| {
@@ -94,6 +102,9 @@ pub fn render_from(scene: &Scene, job: &RenderJob, control: &RenderControl, star
     };
     let f = &job.film;
     let mut film = Film::new(f.width, f.height, f.filter);
+    if aov {
+        film.enable_aov();
+    }
     let ctx = PassContext {
         scene,
         camera: &job.camera,
@@ -209,5 +220,6 @@ pub fn render_from(scene: &Scene, job: &RenderJob, control: &RenderControl, star
         summary: job.integrator.summary(&film),
         invalid_rays: crate::accel::wide::invalid_rays() - invalid_rays_before,
         state: image_state,
+        aov: film.aov().cloned(),
     }
 }

@@ -125,6 +125,10 @@ struct FlowArgs {
     /// depth, position (comma-separated; from the first non-specular hit).
     #[arg(long, value_name = "LIST")]
     aov: Option<String>,
+    /// Denoise the image with Intel Open Image Denoise, guided by albedo and normal
+    /// (needs the `denoise` build feature and libOpenImageDenoise; see RDR_OIDN_LIB).
+    #[arg(long)]
+    denoise: bool,
 }
 
 #[derive(Subcommand)]
@@ -509,18 +513,26 @@ fn render(args: &SceneArgs, output: Option<PathBuf>, quiet: bool, time_limit: Op
             output.display()
         );
     }
-    if aov.any() {
-        anyhow::ensure!(physical, "--aov: not with --compat rdr171 (the course renderer had no feature buffers)");
+    if flow.denoise {
+        rdr::render::denoise::check().map_err(|e| anyhow::anyhow!("--denoise: {e}"))?;
+    }
+    for what in ["--aov", "--denoise"] {
+        if (what == "--aov" && !aov.any()) || (what == "--denoise" && !flow.denoise) {
+            continue;
+        }
+        anyhow::ensure!(physical, "{what}: not with --compat rdr171 (the course renderer had no feature buffers)");
         anyhow::ensure!(
             job.integrator.supports_aov(),
-            "--aov: the {} integrator does not make feature buffers (path, intersection_test, bdpt, ptracer, photon and normals do)",
+            "{what}: the {} integrator does not make feature buffers (path, intersection_test, bdpt, ptracer, photon and normals do)",
             job.integrator.name()
         );
-        anyhow::ensure!(is_exr, "--aov: needs an .exr output ({} cannot hold layers)", output.display());
         anyhow::ensure!(
             !flow.resume && shard.is_none(),
-            "--aov: not with --resume or --shard yet (the feature sums are not kept in the film state)"
+            "{what}: not with --resume or --shard yet (the feature sums are not kept in the film state)"
         );
+    }
+    if aov.any() {
+        anyhow::ensure!(is_exr, "--aov: needs an .exr output ({} cannot hold layers)", output.display());
     }
     let identity = if physical && is_exr {
         Some(RenderIdentity::of(&args.scene, &args.overrides, &desc, job.seed)?)
@@ -648,7 +660,7 @@ fn render(args: &SceneArgs, output: Option<PathBuf>, quiet: bool, time_limit: Op
             .map(|b| Arc::new(move |n: u64| b.inc(n)) as Arc<dyn Fn(u64) + Send + Sync>),
         periodic,
     };
-    let out = rdr::render::render_with_aov(&scene, &job, &control, start, aov.any());
+    let mut out = rdr::render::render_with_aov(&scene, &job, &control, start, aov.any() || flow.denoise);
     if let Some(b) = bar {
         b.finish_and_clear();
     }
@@ -669,7 +681,18 @@ fn render(args: &SceneArgs, output: Option<PathBuf>, quiet: bool, time_limit: Op
             note!("warning: preview: {e:#}");
         }
     }
-    let layers = out.aov.as_ref().map_or_else(Vec::new, |sums| rdr::integrator::aov::channels(sums, aov));
+    let mut layers = out.aov.as_ref().map_or_else(Vec::new, |sums| rdr::integrator::aov::channels(sums, aov));
+    if flow.denoise {
+        let sums = out.aov.as_ref().expect("feature sums for --denoise");
+        let (albedo, normal) = (rdr::integrator::aov::layer_rgb(sums, 0), rdr::integrator::aov::layer_rgb(sums, 3));
+        let clean = rdr::render::denoise::denoise(out.width, out.height, &out.pixels, &albedo, &normal)
+            .map_err(|e| anyhow::anyhow!("--denoise: {e}"))?;
+        // the noisy image stays in the file, beside the film state it is made of
+        if header.is_some() {
+            layers.extend(rdr::imageio::rgb_channels("noisy.", &out.pixels));
+        }
+        out.pixels = clean;
+    }
     let bytes = encode(out.width, out.height, &out.pixels, &out.state, layers)?;
     if let Err(e) = write_atomically(&output, &bytes) {
         // the render is not lost: keep it where it can be written

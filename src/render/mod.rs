@@ -4,6 +4,7 @@
 //! (sample count, seed) and never on the thread count or timing.
 
 pub mod blocks;
+pub mod denoise;
 pub mod identity;
 pub mod job;
 pub mod statefile;

@@ -520,7 +520,10 @@ fn render(args: &SceneArgs, output: Option<PathBuf>, quiet: bool, time_limit: Op
         if (what == "--aov" && !aov.any()) || (what == "--denoise" && !flow.denoise) {
             continue;
         }
-        anyhow::ensure!(physical, "{what}: not with --compat rdr171 (the course renderer had no feature buffers)");
+        anyhow::ensure!(
+            physical,
+            "{what}: not with --compat rdr171 (the course renderer had no feature buffers)"
+        );
         anyhow::ensure!(
             job.integrator.supports_aov(),
             "{what}: the {} integrator does not make feature buffers (path, intersection_test, bdpt, ptracer, photon and normals do)",
@@ -597,7 +600,8 @@ fn render(args: &SceneArgs, output: Option<PathBuf>, quiet: bool, time_limit: Op
         periodic.push(Periodic {
             every,
             call: Arc::new(move |snap: &Snapshot| {
-                let written = encode(snap.width, snap.height, snap.pixels, snap.state, Vec::new()).and_then(|b| write_atomically(&output, &b));
+                let written =
+                    encode(snap.width, snap.height, snap.pixels, snap.state, Vec::new()).and_then(|b| write_atomically(&output, &b));
                 if let Err(e) = written {
                     note!("warning: checkpoint: {e:#}");
                 }
@@ -681,7 +685,10 @@ fn render(args: &SceneArgs, output: Option<PathBuf>, quiet: bool, time_limit: Op
             note!("warning: preview: {e:#}");
         }
     }
-    let mut layers = out.aov.as_ref().map_or_else(Vec::new, |sums| rdr::integrator::aov::channels(sums, aov));
+    let mut layers = out
+        .aov
+        .as_ref()
+        .map_or_else(Vec::new, |sums| rdr::integrator::aov::channels(sums, aov));
     if flow.denoise {
         let sums = out.aov.as_ref().expect("feature sums for --denoise");
         let (albedo, normal) = (rdr::integrator::aov::layer_rgb(sums, 0), rdr::integrator::aov::layer_rgb(sums, 3));

@@ -20,7 +20,13 @@ fn denoised_cbox_at_4spp_is_at_least_5x_closer_to_the_reference() {
     let reference = shared.join("refs/cbox.exr");
     let dir = tempfile::tempdir().unwrap();
     let (noisy, clean) = (dir.path().join("noisy.exr"), dir.path().join("clean.exr"));
-    let o = rdr().arg("render").arg(&scene).args(["--spp", "4", "--denoise", "-q", "-o"]).arg(&clean).output().unwrap();
+    let o = rdr()
+        .arg("render")
+        .arg(&scene)
+        .args(["--spp", "4", "--denoise", "-q", "-o"])
+        .arg(&clean)
+        .output()
+        .unwrap();
     let err = String::from_utf8_lossy(&o.stderr).into_owned();
     if !o.status.success() {
         // a clear one-line refusal in any case
@@ -30,13 +36,25 @@ fn denoised_cbox_at_4spp_is_at_least_5x_closer_to_the_reference() {
         eprintln!("skipping: {}", err.trim());
         return;
     }
-    let o = rdr().arg("render").arg(&scene).args(["--spp", "4", "-q", "-o"]).arg(&noisy).output().unwrap();
+    let o = rdr()
+        .arg("render")
+        .arg(&scene)
+        .args(["--spp", "4", "-q", "-o"])
+        .arg(&noisy)
+        .output()
+        .unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let r = common::read(&reference);
     let rel = |path: &std::path::Path| rdr::metrics::rel_mse(&common::read(path), &r, None).0;
     let (e_noisy, e_clean) = (rel(&noisy), rel(&clean));
-    eprintln!("relMSE noisy {e_noisy:.4e}, denoised {e_clean:.4e} ({:.1}x lower)", e_noisy / e_clean);
-    assert!(e_clean * 5.0 <= e_noisy, "denoised relMSE {e_clean:.4e} is not 5x below the noisy {e_noisy:.4e}");
+    eprintln!(
+        "relMSE noisy {e_noisy:.4e}, denoised {e_clean:.4e} ({:.1}x lower)",
+        e_noisy / e_clean
+    );
+    assert!(
+        e_clean * 5.0 <= e_noisy,
+        "denoised relMSE {e_clean:.4e} is not 5x below the noisy {e_noisy:.4e}"
+    );
     // the noisy image stays in the file beside the denoised one, as a layer
     let exr = rdr::imageio::read_exr_channels(&clean).unwrap();
     assert!(exr.channels.iter().any(|c| c.name == "noisy.R"), "no noisy.R layer");

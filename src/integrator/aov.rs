@@ -154,7 +154,11 @@ pub fn layer_rgb(sums: &AovSums, first: usize) -> Vec<Vec3> {
         .map(|j| {
             let s = &sums.sums[(h - 1 - j / w) * w + j % w];
             if s[11] > 0.0 {
-                Vec3::new((s[first] / s[11]) as f32, (s[first + 1] / s[11]) as f32, (s[first + 2] / s[11]) as f32)
+                Vec3::new(
+                    (s[first] / s[11]) as f32,
+                    (s[first + 1] / s[11]) as f32,
+                    (s[first + 2] / s[11]) as f32,
+                )
             } else {
                 Vec3::ZERO
             }

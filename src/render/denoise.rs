@@ -10,7 +10,8 @@
 use crate::math::Vec3;
 
 /// How to get the library, for error messages.
-pub const HOW_TO_GET: &str = "pip install pyoidn (in a venv) ships it; point RDR_OIDN_LIB at …/site-packages/pyoidn/oidn/lib/libOpenImageDenoise.so.2";
+pub const HOW_TO_GET: &str =
+    "pip install pyoidn (in a venv) ships it; point RDR_OIDN_LIB at …/site-packages/pyoidn/oidn/lib/libOpenImageDenoise.so.2";
 
 /// Whether this build can denoise at all (the `denoise` feature).
 pub const AVAILABLE: bool = cfg!(feature = "denoise");
@@ -70,7 +71,12 @@ mod oidn {
     pub fn run(width: u32, height: u32, color: &[Vec3], albedo: &[Vec3], normal: &[Vec3]) -> Result<Vec<Vec3>, String> {
         let n = width as usize * height as usize;
         if color.len() != n || albedo.len() != n || normal.len() != n {
-            return Err(format!("images of {} / {} / {} pixels for a {width}x{height} film", color.len(), albedo.len(), normal.len()));
+            return Err(format!(
+                "images of {} / {} / {} pixels for a {width}x{height} film",
+                color.len(),
+                albedo.len(),
+                normal.len()
+            ));
         }
         let lib = library()?;
         let (mut color, mut albedo, mut normal) = (flat(color), flat(albedo), flat(normal));
@@ -84,9 +90,12 @@ mod oidn {
         // the end of the block. Handles are checked for null before use and released once.
         unsafe {
             let sym = |name: &[u8]| -> Result<*mut c_void, String> {
-                let s: Symbol<*mut c_void> = lib
-                    .get(name)
-                    .map_err(|e| format!("{}: {e} (not Open Image Denoise 2?)", String::from_utf8_lossy(&name[..name.len() - 1])))?;
+                let s: Symbol<*mut c_void> = lib.get(name).map_err(|e| {
+                    format!(
+                        "{}: {e} (not Open Image Denoise 2?)",
+                        String::from_utf8_lossy(&name[..name.len() - 1])
+                    )
+                })?;
                 Ok(*s)
             };
             let new_device: extern "C" fn(i32) -> Handle = std::mem::transmute(sym(b"oidnNewDevice\0")?);
@@ -105,7 +114,11 @@ mod oidn {
                 let mut msg: *const c_char = std::ptr::null();
                 let code = device_error(device, &mut msg);
                 (code != ERROR_NONE).then(|| {
-                    let text = if msg.is_null() { String::new() } else { CStr::from_ptr(msg).to_string_lossy().into_owned() };
+                    let text = if msg.is_null() {
+                        String::new()
+                    } else {
+                        CStr::from_ptr(msg).to_string_lossy().into_owned()
+                    };
                     format!("Open Image Denoise error {code}: {text}")
                 })
             };

@@ -92,6 +92,9 @@ pub struct CameraSample<'s> {
     pub splats: &'s mut Splats,
 }
 
+/// A finished tile: its samples, splats, counters and feature sums (`--aov`).
+type TileResult = (FilmTile, Splats, RayCounts, Option<AovTile>);
+
 /// Renders sample index `pass` of every pixel: tiles in parallel, each sample's
 /// radiance from `li`, tiles and splats merged into `film` in tile order, so
 /// the result does not depend on the thread count. When the stop token is set,
@@ -106,7 +109,7 @@ where
     let (w, h) = (ctx.film.width as i32, ctx.film.height as i32);
     let filter = &ctx.film.filter;
     let with_aov = film.aov().is_some();
-    let done: Vec<Option<(FilmTile, Splats, RayCounts, Option<AovTile>)>> = tiles
+    let done: Vec<Option<TileResult>> = tiles
         .par_iter()
         .map(|&(x0, y0, x1, y1)| {
             if ctx.stop.is_stopped() {

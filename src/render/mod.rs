@@ -76,6 +76,8 @@ pub struct RenderOutput {
     pub state: FilmState,
     /// Feature-buffer sums, when asked for ([`render_with_aov`]).
     pub aov: Option<crate::film::AovSums>,
+    /// Images besides the main one, named ([`crate::integrator::Integrator::extra_images`]).
+    pub extra_images: Vec<(String, Vec<Vec3>)>,
 }
 
 /// Renders `scene` as `job` says. When the stop token is set the current pass is
@@ -207,6 +209,8 @@ pub fn render_with_aov(scene: &Scene, job: &RenderJob, control: &RenderControl, 
     };
     let spp_done = spp_of(&image_state);
     let run_spp = job.integrator.spp_done(job.spp, rendered as u32);
+    let weights = || image_state.total().map_or_else(|| film.sums().weight.clone(), |s| s.weight);
+    let extra_images = job.integrator.extra_images(&film, weights, 1.0 / spp_done.max(1) as f64);
     RenderOutput {
         width: f.width,
         height: f.height,
@@ -219,6 +223,7 @@ pub fn render_with_aov(scene: &Scene, job: &RenderJob, control: &RenderControl, 
         invalid_samples: invalid,
         time_limited,
         summary: job.integrator.summary(&film),
+        extra_images,
         invalid_rays: crate::accel::wide::invalid_rays() - invalid_rays_before,
         state: image_state,
         aov: film.aov().cloned(),

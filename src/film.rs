@@ -281,6 +281,8 @@ pub struct Film {
     /// Pixel values (film rows, `y` up) an integrator computed itself; they replace
     /// the weighted average of samples in [`Film::to_rgb_rows`].
     estimate: Option<Vec<Vec3>>,
+    /// Feature-buffer sums (`--aov`), when asked for.
+    aov: Option<AovSums>,
 }
 
 impl Film {
@@ -294,6 +296,32 @@ impl Film {
             splat_norm: 1.0 / filter_integral(&filter),
             aux: None,
             estimate: None,
+            aov: None,
+        }
+    }
+
+    /// Starts feature-buffer sums (`--aov`): [`crate::integrator::camera_pass`] then
+    /// adds every camera sample's features.
+    pub fn enable_aov(&mut self) {
+        self.aov = Some(AovSums::zero(self.width, self.height));
+    }
+
+    pub fn aov(&self) -> Option<&AovSums> {
+        self.aov.as_ref()
+    }
+
+    /// Adds a tile's feature sums (tiles are disjoint, so the order does not matter
+    /// for a pixel; callers keep the tile order anyway).
+    pub fn merge_aov(&mut self, t: &AovTile) {
+        let Some(a) = &mut self.aov else { return };
+        for y in 0..t.h {
+            for x in 0..t.w {
+                let src = &t.sums[(y * t.w + x) as usize];
+                let dst = &mut a.sums[((t.y0 + y) * a.width as i32 + t.x0 + x) as usize];
+                for (d, s) in dst.iter_mut().zip(src) {
+                    *d += s;
+                }
+            }
         }
     }
 
@@ -489,5 +517,78 @@ mod tests {
         let mut t = FilmTile::new(1, 1, 2, 2, f.reach(), 3, 3);
         t.add(Vec2::new(1.5, 1.5), Vec3::ONE, &f, 3, 3);
         assert_eq!(t.weight.iter().filter(|w| **w > 0.0).count(), 9);
+    }
+}
+
+/// Per-pixel sums of feature values, one box-filtered sample a pixel a pass (f64):
+/// albedo RGB, normal XYZ, position XYZ, depth, hits (samples whose camera ray hit
+/// something: depth and position are averaged over them), samples.
+pub const AOV_VALUES: usize = 12;
+
+/// The feature sums of a whole film (film rows, `y` up).
+#[derive(Clone, Debug, PartialEq)]
+pub struct AovSums {
+    pub width: u32,
+    pub height: u32,
+    pub sums: Vec<[f64; AOV_VALUES]>,
+}
+
+impl AovSums {
+    pub fn zero(width: u32, height: u32) -> AovSums {
+        AovSums {
+            width,
+            height,
+            sums: vec![[0.0; AOV_VALUES]; (width * height) as usize],
+        }
+    }
+}
+
+/// One camera sample's features ([`crate::integrator::aov`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct AovSample {
+    pub albedo: Vec3,
+    pub normal: Vec3,
+    pub position: Vec3,
+    /// Distance from the camera to the first surface, `None` for a miss.
+    pub depth: Option<f32>,
+}
+
+/// The feature sums of one tile.
+pub struct AovTile {
+    x0: i32,
+    y0: i32,
+    w: i32,
+    h: i32,
+    sums: Vec<[f64; AOV_VALUES]>,
+}
+
+impl AovTile {
+    pub fn new(x0: i32, y0: i32, x1: i32, y1: i32) -> AovTile {
+        let (w, h) = (x1 - x0, y1 - y0);
+        AovTile {
+            x0,
+            y0,
+            w,
+            h,
+            sums: vec![[0.0; AOV_VALUES]; (w * h) as usize],
+        }
+    }
+
+    /// Adds the features of a sample of pixel (`x`, `y`) (film coordinates).
+    pub fn add(&mut self, x: i32, y: i32, f: &AovSample) {
+        let s = &mut self.sums[((y - self.y0) * self.w + x - self.x0) as usize];
+        let v = |i: usize, a: Vec3, s: &mut [f64; AOV_VALUES]| {
+            s[i] += a.x as f64;
+            s[i + 1] += a.y as f64;
+            s[i + 2] += a.z as f64;
+        };
+        v(0, f.albedo, s);
+        v(3, f.normal, s);
+        if let Some(d) = f.depth {
+            v(6, f.position, s);
+            s[9] += d as f64;
+            s[10] += 1.0;
+        }
+        s[11] += 1.0;
     }
 }

@@ -121,6 +121,14 @@ struct FlowArgs {
     /// Stream the image to a running tev viewer (`tev`, default port 14158).
     #[arg(long, value_name = "HOST:PORT")]
     tev: Option<String>,
+    /// Also write feature buffers as layers of the .exr output: albedo, normal,
+    /// depth, position (comma-separated; from the first non-specular hit).
+    #[arg(long, value_name = "LIST")]
+    aov: Option<String>,
+    /// Denoise the image with Intel Open Image Denoise, guided by albedo and normal
+    /// (needs the `denoise` build feature and libOpenImageDenoise; see RDR_OIDN_LIB).
+    #[arg(long)]
+    denoise: bool,
 }
 
 #[derive(Subcommand)]
@@ -462,6 +470,10 @@ fn render(args: &SceneArgs, output: Option<PathBuf>, quiet: bool, time_limit: Op
         }
     }
     let shard = flow.shard.as_deref().map(parse_shard).transpose()?;
+    let aov = match &flow.aov {
+        Some(text) => rdr::integrator::aov::AovSet::parse(text).map_err(|e| anyhow::anyhow!("--aov '{}': {e}", sanitize(text)))?,
+        None => rdr::integrator::aov::AovSet::default(),
+    };
     setup_threads(args.threads)?;
     let (Loaded { scene, mut job }, desc) = load_desc(args, quiet)?;
     job.time_limit = time_limit;
@@ -500,6 +512,30 @@ fn render(args: &SceneArgs, output: Option<PathBuf>, quiet: bool, time_limit: Op
             "{what}: needs an .exr output ({} cannot hold the film state)",
             output.display()
         );
+    }
+    if flow.denoise {
+        rdr::render::denoise::check().map_err(|e| anyhow::anyhow!("--denoise: {e}"))?;
+    }
+    for what in ["--aov", "--denoise"] {
+        if (what == "--aov" && !aov.any()) || (what == "--denoise" && !flow.denoise) {
+            continue;
+        }
+        anyhow::ensure!(
+            physical,
+            "{what}: not with --compat rdr171 (the course renderer had no feature buffers)"
+        );
+        anyhow::ensure!(
+            job.integrator.supports_aov(),
+            "{what}: the {} integrator does not make feature buffers (path, intersection_test, bdpt, ptracer, photon and normals do)",
+            job.integrator.name()
+        );
+        anyhow::ensure!(
+            !flow.resume && shard.is_none(),
+            "{what}: not with --resume or --shard yet (the feature sums are not kept in the film state)"
+        );
+    }
+    if aov.any() {
+        anyhow::ensure!(is_exr, "--aov: needs an .exr output ({} cannot hold layers)", output.display());
     }
     let identity = if physical && is_exr {
         Some(RenderIdentity::of(&args.scene, &args.overrides, &args.defines, &desc, job.seed)?)
@@ -550,9 +586,9 @@ fn render(args: &SceneArgs, output: Option<PathBuf>, quiet: bool, time_limit: Op
     let encode = {
         let output = output.clone();
         let header = header.clone();
-        move |w: u32, h: u32, pixels: &[rdr::math::Vec3], state: &FilmState| -> Result<Vec<u8>> {
+        move |w: u32, h: u32, pixels: &[rdr::math::Vec3], state: &FilmState, layers: Vec<rdr::imageio::ExrChannel>| -> Result<Vec<u8>> {
             match &header {
-                Some(hd) => Ok(statefile::encode(w, h, pixels, state, resumable, hd, Vec::new())),
+                Some(hd) => Ok(statefile::encode(w, h, pixels, state, resumable, hd, layers)),
                 None => encode_image(&output, w, h, pixels, exr),
             }
         }
@@ -564,7 +600,8 @@ fn render(args: &SceneArgs, output: Option<PathBuf>, quiet: bool, time_limit: Op
         periodic.push(Periodic {
             every,
             call: Arc::new(move |snap: &Snapshot| {
-                let written = encode(snap.width, snap.height, snap.pixels, snap.state).and_then(|b| write_atomically(&output, &b));
+                let written =
+                    encode(snap.width, snap.height, snap.pixels, snap.state, Vec::new()).and_then(|b| write_atomically(&output, &b));
                 if let Err(e) = written {
                     note!("warning: checkpoint: {e:#}");
                 }
@@ -578,7 +615,7 @@ fn render(args: &SceneArgs, output: Option<PathBuf>, quiet: bool, time_limit: Op
             every,
             call: Arc::new(move |snap: &Snapshot| {
                 let written = rdr::imageio::write_png(&png, snap.width, snap.height, snap.pixels)
-                    .and_then(|_| encode(snap.width, snap.height, snap.pixels, snap.state))
+                    .and_then(|_| encode(snap.width, snap.height, snap.pixels, snap.state, Vec::new()))
                     .and_then(|b| write_atomically(&output, &b));
                 if let Err(e) = written {
                     note!("warning: preview: {e:#}");
@@ -627,7 +664,7 @@ fn render(args: &SceneArgs, output: Option<PathBuf>, quiet: bool, time_limit: Op
             .map(|b| Arc::new(move |n: u64| b.inc(n)) as Arc<dyn Fn(u64) + Send + Sync>),
         periodic,
     };
-    let out = rdr::render::render_from(&scene, &job, &control, start);
+    let mut out = rdr::render::render_with_aov(&scene, &job, &control, start, aov.any() || flow.denoise);
     if let Some(b) = bar {
         b.finish_and_clear();
     }
@@ -648,7 +685,22 @@ fn render(args: &SceneArgs, output: Option<PathBuf>, quiet: bool, time_limit: Op
             note!("warning: preview: {e:#}");
         }
     }
-    let bytes = encode(out.width, out.height, &out.pixels, &out.state)?;
+    let mut layers = out
+        .aov
+        .as_ref()
+        .map_or_else(Vec::new, |sums| rdr::integrator::aov::channels(sums, aov));
+    if flow.denoise {
+        let sums = out.aov.as_ref().expect("feature sums for --denoise");
+        let (albedo, normal) = (rdr::integrator::aov::layer_rgb(sums, 0), rdr::integrator::aov::layer_rgb(sums, 3));
+        let clean = rdr::render::denoise::denoise(out.width, out.height, &out.pixels, &albedo, &normal)
+            .map_err(|e| anyhow::anyhow!("--denoise: {e}"))?;
+        // the noisy image stays in the file, beside the film state it is made of
+        if header.is_some() {
+            layers.extend(rdr::imageio::rgb_channels("noisy.", &out.pixels));
+        }
+        out.pixels = clean;
+    }
+    let bytes = encode(out.width, out.height, &out.pixels, &out.state, layers)?;
     if let Err(e) = write_atomically(&output, &bytes) {
         // the render is not lost: keep it where it can be written
         match save_elsewhere(&output, &bytes) {

@@ -6,6 +6,7 @@
 //! Adding an integrator: one file with its parameters and its pass, one arm here
 //! (and one in [`Integrator::render_pass`]), one in the scene reader.
 
+pub mod aov;
 pub mod bdpt;
 pub mod guided;
 pub mod intersection_test;
@@ -97,6 +98,20 @@ impl Integrator {
             Integrator::IntersectionTest(_) | Integrator::Path(_) | Integrator::Ptracer(_) | Integrator::Normals(_) => true,
             // the guiding tree learns from the passes before
             Integrator::Photon(_) | Integrator::Sppm(_) | Integrator::Guided(_) | Integrator::Rdr171(_) => false,
+        }
+    }
+
+    /// Whether `--aov` feature buffers come with its passes: those of the integrators
+    /// whose camera rays go through [`camera_pass`].
+    pub fn supports_aov(&self) -> bool {
+        match self {
+            Integrator::IntersectionTest(_)
+            | Integrator::Path(_)
+            | Integrator::Bdpt(_)
+            | Integrator::Ptracer(_)
+            | Integrator::Normals(_)
+            | Integrator::Photon(_) => true,
+            Integrator::Sppm(_) | Integrator::Guided(_) | Integrator::Rdr171(_) => false,
         }
     }
 

@@ -4,7 +4,7 @@
 //! tiles on all cores and merges the tiles (and any splats) in a fixed order.
 
 use crate::camera::Camera;
-use crate::film::{Film, FilmSettings, FilmTile, Splats};
+use crate::film::{AovTile, Film, FilmSettings, FilmTile, Splats};
 use crate::geometry::{Ray, RayDifferential};
 use crate::math::{Vec2, Vec3};
 use crate::sampler::PixelSampler;
@@ -92,6 +92,9 @@ pub struct CameraSample<'s> {
     pub splats: &'s mut Splats,
 }
 
+/// A finished tile: its samples, splats, counters and feature sums (`--aov`).
+type TileResult = (FilmTile, Splats, RayCounts, Option<AovTile>);
+
 /// Renders sample index `pass` of every pixel: tiles in parallel, each sample's
 /// radiance from `li`, tiles and splats merged into `film` in tile order, so
 /// the result does not depend on the thread count. When the stop token is set,
@@ -105,7 +108,8 @@ where
     let tiles = tile_grid(ctx.film);
     let (w, h) = (ctx.film.width as i32, ctx.film.height as i32);
     let filter = &ctx.film.filter;
-    let done: Vec<Option<(FilmTile, Splats, RayCounts)>> = tiles
+    let with_aov = film.aov().is_some();
+    let done: Vec<Option<TileResult>> = tiles
         .par_iter()
         .map(|&(x0, y0, x1, y1)| {
             if ctx.stop.is_stopped() {
@@ -114,6 +118,7 @@ where
             let mut tile = FilmTile::new(x0, y0, x1, y1, filter.reach(), w, h);
             let mut counts = RayCounts::default();
             let mut splats = Splats::default();
+            let mut aov = with_aov.then(|| AovTile::new(x0, y0, x1, y1));
             for y in y0..y1 {
                 for x in x0..x1 {
                     let mut sampler = PixelSampler::new(x as u32, y as u32, pass, ctx.seed);
@@ -127,6 +132,10 @@ where
                     } else {
                         (ctx.camera.sample_ray(pos.x, pos.y, u_lens), None)
                     };
+                    if let Some(aov) = &mut aov {
+                        let mut aux = super::aov::aov_sampler(x as u32, y as u32, pass, ctx.seed);
+                        aov.add(x, y, &super::aov::features(scene, &ray, &mut aux));
+                    }
                     let l = li(&mut CameraSample {
                         pos,
                         ray,
@@ -143,20 +152,23 @@ where
                 }
             }
             (ctx.progress)(((x1 - x0) * (y1 - y0)) as u64);
-            Some((tile, splats, counts))
+            Some((tile, splats, counts, aov))
         })
         .collect();
     let mut result = PassResult {
         complete: done.iter().all(Option::is_some),
         counts: RayCounts::default(),
     };
-    for (_, _, c) in done.iter().flatten() {
+    for (_, _, c, _) in done.iter().flatten() {
         result.counts += *c;
     }
     if result.complete {
-        for (tile, splats, _) in done.iter().flatten() {
+        for (tile, splats, _, aov) in done.iter().flatten() {
             film.merge(tile);
             film.add_splats(splats);
+            if let Some(aov) = aov {
+                film.merge_aov(aov);
+            }
         }
     }
     result

@@ -4,6 +4,7 @@
 //! (sample count, seed) and never on the thread count or timing.
 
 pub mod blocks;
+pub mod denoise;
 pub mod identity;
 pub mod job;
 pub mod statefile;
@@ -73,6 +74,8 @@ pub struct RenderOutput {
     /// The film state the image is made of (the pieces of [`blocks`]), to be saved for
     /// a resume or a merge.
     pub state: FilmState,
+    /// Feature-buffer sums, when asked for ([`render_with_aov`]).
+    pub aov: Option<crate::film::AovSums>,
     /// Images besides the main one, named ([`crate::integrator::Integrator::extra_images`]).
     pub extra_images: Vec<(String, Vec<Vec3>)>,
 }
@@ -87,6 +90,12 @@ pub fn render(scene: &Scene, job: &RenderJob, control: &RenderControl) -> Render
 /// whose pieces end where this one's passes ([`RenderJob::passes`]) begin: the result
 /// is the same, bit for bit, as one render of all the passes.
 pub fn render_from(scene: &Scene, job: &RenderJob, control: &RenderControl, start: FilmState) -> RenderOutput {
+    render_with_aov(scene, job, control, start, false)
+}
+
+/// [`render_from`], also summing feature buffers when `aov` (for integrators with
+/// [`crate::integrator::Integrator::supports_aov`]; the image is the same either way).
+pub fn render_with_aov(scene: &Scene, job: &RenderJob, control: &RenderControl, start: FilmState, aov: bool) -> RenderOutput {
     let t0 = Instant::now();
     let invalid_rays_before = crate::accel::wide::invalid_rays();
     let report = |n: u64| {
@@ -96,6 +105,9 @@ pub fn render_from(scene: &Scene, job: &RenderJob, control: &RenderControl, star
     };
     let f = &job.film;
     let mut film = Film::new(f.width, f.height, f.filter);
+    if aov {
+        film.enable_aov();
+    }
     let ctx = PassContext {
         scene,
         camera: &job.camera,
@@ -214,5 +226,6 @@ pub fn render_from(scene: &Scene, job: &RenderJob, control: &RenderControl, star
         extra_images,
         invalid_rays: crate::accel::wide::invalid_rays() - invalid_rays_before,
         state: image_state,
+        aov: film.aov().cloned(),
     }
 }

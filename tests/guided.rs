@@ -233,7 +233,7 @@ fn mixture_sampling_matches_the_mixture_density_and_a_wrong_fraction_is_rejected
                 assert!(z.is_ok(), "{z:?}");
             }
             // the mixture density wrong by the BSDF fraction: off by 0.1, or left out of the BSDF's term
-            let g = |w: Vec3| tree.pdf(w);
+            let g = |w: Vec3| Mixture::guide_pdf(&tree, &bsdf, w);
             let off = on_square(&|w| (fraction + 0.1) * bsdf.pdf(wo, w) + (0.9 - fraction) * g(w));
             {
                 let e = chi2(&format!("{what}, fraction off by 0.1"), n, &observed, &off);
@@ -340,9 +340,12 @@ fn learned_distribution_in_caustic_cbox_points_at_the_light_and_the_glass_sphere
     let (light, sphere) = (0u32, 6u32); // objects[0] is the ceiling light, objects[6] the glass sphere
     let film = train(&loaded, 64);
     let tree = learned_tree(&film).unwrap();
+    // as the floor's vertices sample it: folded onto the upper hemisphere (below the
+    // floor nothing is recorded, but a leaf's cells straddle the horizon)
     let learned_at = |p: Vec3| {
         let t = tree.sampling_tree_at(p);
-        hit_fractions(&loaded.scene, p, 100_000, |u| t.sample(u).map(|s| s.0), [light, sphere])
+        let fold = |w: Vec3| Vec3::new(w.x, w.y.abs(), w.z);
+        hit_fractions(&loaded.scene, p, 100_000, |u| t.sample(u).map(|s| fold(s.0)), [light, sphere])
     };
     let share_at = |p: Vec3| hit_fractions(&loaded.scene, p, 100_000, |u| Some(upper_hemisphere(u)), [light, sphere]);
 

@@ -7,7 +7,7 @@ use super::quadtree::DTree;
 use super::sdtree::SdTree;
 use crate::geometry::{Ray, RayDifferential};
 use crate::integrator::{shadow_ray, spawn_ray, RayCounts};
-use crate::material::{Bsdf, BsdfSample};
+use crate::material::{Bsdf, BsdfKind, BsdfSample};
 use crate::math::{Vec2, Vec3};
 use crate::sampler::PixelSampler;
 use crate::sampling::power_heuristic;
@@ -24,13 +24,39 @@ pub struct Mixture<'a> {
     pub bsdf_fraction: f32,
 }
 
+/// Whether the BSDF scatters only to the side of its shading normal (every
+/// non-delta kind but `roughdielectric`): the guide is then folded onto that
+/// hemisphere, since directions below it would carry nothing.
+static TMP_FOLD: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
+#[inline]
+fn reflects_only(bsdf: &Bsdf) -> bool {
+    *TMP_FOLD.get_or_init(|| std::env::var("RDR_NOFOLD").is_err()) && !matches!(bsdf.kind, BsdfKind::RoughDielectric(_))
+}
+
 impl Mixture<'_> {
+    /// Solid-angle density of the guided strategy at `wi` for this BSDF: the tree's
+    /// density, or for a reflecting BSDF the tree folded onto the upper hemisphere
+    /// (a direction below the surface is mirrored to `w − 2(w·n)n`), so the density
+    /// at `w` above is `g(w) + g(mirror(w))` and 0 below.
+    #[inline]
+    pub fn guide_pdf(guide: &DTree, bsdf: &Bsdf, wi: Vec3) -> f32 {
+        if !reflects_only(bsdf) {
+            return guide.pdf(wi);
+        }
+        let n = bsdf.frame.n;
+        let c = n.dot(wi);
+        if c <= 0.0 {
+            return 0.0;
+        }
+        guide.pdf(wi) + guide.pdf(wi - n * (2.0 * c))
+    }
+
     /// Solid-angle density of sampling `wi` (what MIS weighs against light sampling).
     #[inline]
     pub fn pdf(&self, bsdf: &Bsdf, wo: Vec3, wi: Vec3) -> f32 {
         let pb = bsdf.pdf(wo, wi);
         match self.guide {
-            Some(g) if !bsdf.is_delta() => self.bsdf_fraction * pb + (1.0 - self.bsdf_fraction) * g.pdf(wi),
+            Some(g) if !bsdf.is_delta() => self.bsdf_fraction * pb + (1.0 - self.bsdf_fraction) * Self::guide_pdf(g, bsdf, wi),
             _ => pb,
         }
     }
@@ -45,24 +71,43 @@ impl Mixture<'_> {
         let a = self.bsdf_fraction;
         if u_choice < a {
             let bs = bsdf.sample(wo, u, uc)?;
-            let pdf = a * bs.pdf + (1.0 - a) * guide.pdf(bs.wi);
+            if bs.delta {
+                // a delta lobe (plastic's coating): its density is no solid-angle one
+                // and the guide cannot produce it, so it keeps its own weight
+                return Some(BsdfSample {
+                    weight: bs.weight * (1.0 / a),
+                    pdf: bs.pdf * a,
+                    ..bs
+                });
+            }
+            let pdf = a * bs.pdf + (1.0 - a) * Self::guide_pdf(guide, bsdf, bs.wi);
             Some(BsdfSample {
                 weight: bs.weight * (bs.pdf / pdf),
                 pdf,
                 ..bs
             })
         } else {
-            let (wi, _) = guide.sample(u)?;
+            let (mut wi, _) = guide.sample(u)?;
+            if reflects_only(bsdf) {
+                let c = bsdf.frame.n.dot(wi);
+                if c < 0.0 {
+                    wi -= bsdf.frame.n * (2.0 * c);
+                }
+            }
             // the density evaluated as MIS evaluates it (the map's round trip may
             // move a point on a cell's edge to its neighbour)
             let pdf = self.pdf(bsdf, wo, wi);
             if pdf <= 0.0 || !pdf.is_finite() {
                 return None;
             }
+            let f = bsdf.eval(wo, wi);
+            if f == Vec3::ZERO {
+                return None;
+            }
             let cos = bsdf.frame.n.dot(wi).abs();
             Some(BsdfSample {
                 wi,
-                weight: bsdf.eval(wo, wi) * (cos / pdf),
+                weight: f * (cos / pdf),
                 pdf,
                 delta: false,
                 eta: 1.0,
@@ -93,7 +138,11 @@ pub struct Vertex {
     /// Throughput from the camera up to and including this vertex's scattering
     /// (before roulette): a later contribution C arrived here as C / beta.
     beta: Vec3,
-    radiance: Vec3,
+    /// The estimate when the vertex was made: what arrives here is the estimate's
+    /// growth since, less `excluded` (a prefix sum instead of adding every
+    /// contribution to every waiting vertex).
+    l_before: Vec3,
+    excluded: Vec3,
 }
 
 /// Per-thread buffers: the records of a tile, and the current path's vertices.
@@ -116,28 +165,16 @@ pub struct Guiding<'a> {
     pub record_direct: bool,
 }
 
-/// How many of the waiting vertices receive emission found now: all, or all but
-/// the last when it sampled this direction itself and direct light is not recorded.
+/// Adds emission `c` found along the direction the last vertex sampled: every
+/// waiting vertex receives it, except that last one when its own direct light is
+/// not recorded (`skip_last`).
 #[inline]
-fn direct_skip(len: usize, after_delta: bool, record_direct: bool) -> usize {
-    if record_direct || after_delta {
-        len
-    } else {
-        len.saturating_sub(1)
-    }
-}
-
-/// Adds contribution `c` to the estimate and to the radiance of every waiting vertex.
-#[inline]
-fn add(l: &mut Vec3, verts: &mut [Vertex], c: Vec3) {
+fn add_emission(l: &mut Vec3, verts: &mut [Vertex], c: Vec3, skip_last: bool) {
     *l += c;
-    for v in verts {
-        let d = Vec3::new(
-            if v.beta.x > 0.0 { c.x / v.beta.x } else { 0.0 },
-            if v.beta.y > 0.0 { c.y / v.beta.y } else { 0.0 },
-            if v.beta.z > 0.0 { c.z / v.beta.z } else { 0.0 },
-        );
-        v.radiance += d;
+    if skip_last {
+        if let Some(v) = verts.last_mut() {
+            v.excluded += c;
+        }
     }
 }
 
@@ -168,17 +205,18 @@ impl Guiding<'_> {
         loop {
             counts.rays += 1;
             let Some(hit) = scene.intersect(&ray) else {
-                if let Some(env) = scene.environment {
-                    let le = scene.environment_radiance(ray.d);
+                if let Some((env, sky)) = scene.environment_light() {
+                    // the direction's texture coordinates once, for radiance and pdf
+                    let uv = sky.direction_to_uv(ray.d);
+                    let le = sky.radiance_at(uv);
                     if le != Vec3::ZERO {
                         let w = if after_delta {
                             1.0
                         } else {
-                            let pl = scene.light_sampler.pmf(env as usize) * scene.lights[env as usize].pdf(prev_p, ray.d, None, mode);
+                            let pl = scene.light_sampler.pmf(env as usize) * sky.pdf_at(uv, mode);
                             power_heuristic(mix_pdf, pl)
                         };
-                        let n = direct_skip(verts.len(), after_delta, self.record_direct);
-                        add(&mut l, &mut verts[..n], beta * le * w);
+                        add_emission(&mut l, verts, beta * le * w, !after_delta && !self.record_direct);
                     }
                 }
                 break;
@@ -197,8 +235,7 @@ impl Guiding<'_> {
                             * scene.lights[index as usize].pdf(prev_p, ray.d, Some((it.p, it.ng)), mode);
                         power_heuristic(mix_pdf, pl)
                     };
-                    let n = direct_skip(verts.len(), after_delta, self.record_direct);
-                    add(&mut l, &mut verts[..n], beta * le * w);
+                    add_emission(&mut l, verts, beta * le * w, !after_delta && !self.record_direct);
                 }
             }
             if segment >= self.max_depth {
@@ -229,7 +266,7 @@ impl Guiding<'_> {
                             } else {
                                 power_heuristic(light_pdf, mixture.pdf(&bsdf, it.wo, ls.wi))
                             };
-                            add(&mut l, verts, beta * f * ls.radiance * (cos * w / light_pdf));
+                            l += beta * f * ls.radiance * (cos * w / light_pdf);
                             // a point light is no direction a guided sample can find
                             if self.record && self.record_direct && !ls.delta {
                                 records.push(Record {
@@ -260,7 +297,8 @@ impl Guiding<'_> {
                     cell: self.tree.record_cell(leaf, bs.wi),
                     pdf: bs.pdf,
                     beta,
-                    radiance: Vec3::ZERO,
+                    l_before: l,
+                    excluded: Vec3::ZERO,
                 });
             }
             after_delta = bs.delta;
@@ -278,10 +316,16 @@ impl Guiding<'_> {
         }
         if self.record {
             for v in verts.iter() {
+                let c = l - v.l_before - v.excluded;
+                let arrived = Vec3::new(
+                    if v.beta.x > 0.0 { c.x / v.beta.x } else { 0.0 },
+                    if v.beta.y > 0.0 { c.y / v.beta.y } else { 0.0 },
+                    if v.beta.z > 0.0 { c.z / v.beta.z } else { 0.0 },
+                );
                 records.push(Record {
                     leaf: v.leaf,
                     cell: v.cell,
-                    value: mean(v.radiance) / v.pdf,
+                    value: mean(arrived).max(0.0) / v.pdf,
                     counted: true,
                 });
             }

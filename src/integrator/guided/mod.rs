@@ -195,10 +195,7 @@ impl Guided {
         let n = (ctx.film.width * ctx.film.height) as usize;
         let schedule = match (ctx.time_limit, self.training_iterations) {
             (_, Some(k)) => format!("{k} training iterations (given)"),
-            (Some(t), None) => format!(
-                "time budget of {t} s (training within {:.0} % of it)",
-                100.0 * self.training_share
-            ),
+            (Some(t), None) => format!("time budget of {t} s (training within {:.0} % of it)", 100.0 * self.training_share),
             (None, None) => format!("spp budget: {} training iterations", Self::auto_training_iterations(ctx.spp)),
         };
         let mut s = State {
@@ -593,7 +590,10 @@ pub fn combine(parts: &[Part], pixels: usize) -> Vec<Vec3> {
 /// Normalised weights 1/v_k; iterations whose variance is 0 or unknown (a black
 /// image) fall back to weights by spp.
 pub fn iteration_weights(variances: &[f64], parts: &[Part]) -> Vec<f64> {
-    let w: Vec<f64> = variances.iter().map(|&v| if v > 0.0 && v.is_finite() { 1.0 / v } else { 0.0 }).collect();
+    let w: Vec<f64> = variances
+        .iter()
+        .map(|&v| if v > 0.0 && v.is_finite() { 1.0 / v } else { 0.0 })
+        .collect();
     if w.iter().any(|&x| x == 0.0) || w.iter().sum::<f64>() <= 0.0 {
         return parts.iter().map(|p| p.spp as f64).collect();
     }

@@ -7,7 +7,7 @@ use super::quadtree::DTree;
 use super::sdtree::SdTree;
 use crate::geometry::{Ray, RayDifferential};
 use crate::integrator::{shadow_ray, spawn_ray, RayCounts};
-use crate::material::{Bsdf, BsdfKind, BsdfSample};
+use crate::material::{Bsdf, BsdfSample};
 use crate::math::{Vec2, Vec3};
 use crate::sampler::PixelSampler;
 use crate::sampling::power_heuristic;
@@ -24,39 +24,13 @@ pub struct Mixture<'a> {
     pub bsdf_fraction: f32,
 }
 
-/// Whether the BSDF scatters only to the side of its shading normal (every
-/// non-delta kind but `roughdielectric`): the guide is then folded onto that
-/// hemisphere, since directions below it would carry nothing.
-static TMP_FOLD: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
-#[inline]
-fn reflects_only(bsdf: &Bsdf) -> bool {
-    *TMP_FOLD.get_or_init(|| std::env::var("RDR_NOFOLD").is_err()) && !matches!(bsdf.kind, BsdfKind::RoughDielectric(_))
-}
-
 impl Mixture<'_> {
-    /// Solid-angle density of the guided strategy at `wi` for this BSDF: the tree's
-    /// density, or for a reflecting BSDF the tree folded onto the upper hemisphere
-    /// (a direction below the surface is mirrored to `w − 2(w·n)n`), so the density
-    /// at `w` above is `g(w) + g(mirror(w))` and 0 below.
-    #[inline]
-    pub fn guide_pdf(guide: &DTree, bsdf: &Bsdf, wi: Vec3) -> f32 {
-        if !reflects_only(bsdf) {
-            return guide.pdf(wi);
-        }
-        let n = bsdf.frame.n;
-        let c = n.dot(wi);
-        if c <= 0.0 {
-            return 0.0;
-        }
-        guide.pdf(wi) + guide.pdf(wi - n * (2.0 * c))
-    }
-
     /// Solid-angle density of sampling `wi` (what MIS weighs against light sampling).
     #[inline]
     pub fn pdf(&self, bsdf: &Bsdf, wo: Vec3, wi: Vec3) -> f32 {
         let pb = bsdf.pdf(wo, wi);
         match self.guide {
-            Some(g) if !bsdf.is_delta() => self.bsdf_fraction * pb + (1.0 - self.bsdf_fraction) * Self::guide_pdf(g, bsdf, wi),
+            Some(g) if !bsdf.is_delta() => self.bsdf_fraction * pb + (1.0 - self.bsdf_fraction) * g.pdf(wi),
             _ => pb,
         }
     }
@@ -80,34 +54,24 @@ impl Mixture<'_> {
                     ..bs
                 });
             }
-            let pdf = a * bs.pdf + (1.0 - a) * Self::guide_pdf(guide, bsdf, bs.wi);
+            let pdf = a * bs.pdf + (1.0 - a) * guide.pdf(bs.wi);
             Some(BsdfSample {
                 weight: bs.weight * (bs.pdf / pdf),
                 pdf,
                 ..bs
             })
         } else {
-            let (mut wi, _) = guide.sample(u)?;
-            if reflects_only(bsdf) {
-                let c = bsdf.frame.n.dot(wi);
-                if c < 0.0 {
-                    wi -= bsdf.frame.n * (2.0 * c);
-                }
-            }
+            let (wi, _) = guide.sample(u)?;
             // the density evaluated as MIS evaluates it (the map's round trip may
             // move a point on a cell's edge to its neighbour)
             let pdf = self.pdf(bsdf, wo, wi);
             if pdf <= 0.0 || !pdf.is_finite() {
                 return None;
             }
-            let f = bsdf.eval(wo, wi);
-            if f == Vec3::ZERO {
-                return None;
-            }
             let cos = bsdf.frame.n.dot(wi).abs();
             Some(BsdfSample {
                 wi,
-                weight: f * (cos / pdf),
+                weight: bsdf.eval(wo, wi) * (cos / pdf),
                 pdf,
                 delta: false,
                 eta: 1.0,
@@ -138,11 +102,10 @@ pub struct Vertex {
     /// Throughput from the camera up to and including this vertex's scattering
     /// (before roulette): a later contribution C arrived here as C / beta.
     beta: Vec3,
-    /// The estimate when the vertex was made: what arrives here is the estimate's
-    /// growth since, less `excluded` (a prefix sum instead of adding every
-    /// contribution to every waiting vertex).
+    /// The estimate when the vertex was made (or after its own direct light, when
+    /// that is not recorded): what arrives here is the estimate's growth since (a
+    /// prefix sum instead of adding every contribution to every waiting vertex).
     l_before: Vec3,
-    excluded: Vec3,
 }
 
 /// Per-thread buffers: the records of a tile, and the current path's vertices.
@@ -172,8 +135,10 @@ pub struct Guiding<'a> {
 fn add_emission(l: &mut Vec3, verts: &mut [Vertex], c: Vec3, skip_last: bool) {
     *l += c;
     if skip_last {
+        // nothing was added since the vertex was made (its `l_before` equals `l`
+        // before this addition), so this is exact: what it receives is 0 + later
         if let Some(v) = verts.last_mut() {
-            v.excluded += c;
+            v.l_before = *l;
         }
     }
 }
@@ -298,7 +263,6 @@ impl Guiding<'_> {
                     pdf: bs.pdf,
                     beta,
                     l_before: l,
-                    excluded: Vec3::ZERO,
                 });
             }
             after_delta = bs.delta;
@@ -316,7 +280,7 @@ impl Guiding<'_> {
         }
         if self.record {
             for v in verts.iter() {
-                let c = l - v.l_before - v.excluded;
+                let c = l - v.l_before;
                 let arrived = Vec3::new(
                     if v.beta.x > 0.0 { c.x / v.beta.x } else { 0.0 },
                     if v.beta.y > 0.0 { c.y / v.beta.y } else { 0.0 },

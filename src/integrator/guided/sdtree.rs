@@ -20,17 +20,8 @@ pub struct Leaf {
     pub building: DTree,
     /// Path vertices recorded here in the current iteration.
     pub count: u64,
-    /// Path vertices the sampling tree was learned from (its leaf's, before splits).
-    pub learned_from: u64,
     depth: u32,
 }
-
-/// Fewest path vertices a sampling tree must be learned from to guide: below
-/// that its few samples describe the light worse than the BSDF does, and the
-/// vertex samples the BSDF alone (unbiased either way: the choice depends only
-/// on the tree, fixed during an iteration).
-pub const MIN_LEARNED_FROM: u64 = 64;
-static TMP_MIN: std::sync::OnceLock<u64> = std::sync::OnceLock::new();
 
 /// Deepest spatial level (a box of 2⁻¹⁶ of the cube's side per axis).
 const MAX_SPATIAL_DEPTH: u32 = 48;
@@ -65,7 +56,6 @@ impl SdTree {
                 sampling: DTree::default(),
                 building: initial,
                 count: 0,
-                learned_from: 0,
                 depth: 0,
             }],
         }
@@ -99,12 +89,11 @@ impl SdTree {
         self.leaves[leaf as usize].building.cell_of(sphere_to_square(d))
     }
 
-    /// The sampling tree of `leaf`, if it learned enough to guide (see
-    /// [`MIN_LEARNED_FROM`]).
+    /// The sampling tree of `leaf`, if it learned anything.
     #[inline]
     pub fn guide(&self, leaf: u32) -> Option<&DTree> {
-        let l = &self.leaves[leaf as usize];
-        (l.learned_from >= *TMP_MIN.get_or_init(|| std::env::var("RDR_MIN").ok().and_then(|v| v.parse().ok()).unwrap_or(MIN_LEARNED_FROM)) && l.sampling.can_sample()).then_some(&l.sampling)
+        let t = &self.leaves[leaf as usize].sampling;
+        t.can_sample().then_some(t)
     }
 
     /// The learned density at point `p` (for tests and inspection).
@@ -121,7 +110,6 @@ impl SdTree {
         for leaf in &mut self.leaves {
             leaf.building.finish_recording();
             leaf.sampling = std::mem::take(&mut leaf.building);
-            leaf.learned_from = leaf.count;
         }
         if refine {
             let mut n = 0;

@@ -594,7 +594,7 @@ pub fn iteration_weights(variances: &[f64], parts: &[Part]) -> Vec<f64> {
         .iter()
         .map(|&v| if v > 0.0 && v.is_finite() { 1.0 / v } else { 0.0 })
         .collect();
-    if w.iter().any(|&x| x == 0.0) || w.iter().sum::<f64>() <= 0.0 {
+    if w.contains(&0.0) || w.iter().sum::<f64>() <= 0.0 {
         return parts.iter().map(|p| p.spp as f64).collect();
     }
     let total: f64 = w.iter().sum();

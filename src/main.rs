@@ -657,6 +657,18 @@ fn render(args: &SceneArgs, output: Option<PathBuf>, quiet: bool, time_limit: Op
         }
     }
     say(output.display())?;
+    for (name, pixels) in &out.extra_images {
+        let path = extra_image_path(&output, name);
+        let bytes = encode_image(&path, out.width, out.height, pixels, exr)?;
+        write_atomically(&path, &bytes)?;
+    }
+    if !quiet && !out.extra_images.is_empty() {
+        note!(
+            "wrote {} strategy images beside it ({})",
+            out.extra_images.len(),
+            extra_image_path(&output, "sS_tT").display()
+        );
+    }
     if !quiet {
         note!(
             "rendered {}x{} at {} spp in {:.2} s ({:.3e} samples/s){}",
@@ -678,6 +690,12 @@ fn render(args: &SceneArgs, output: Option<PathBuf>, quiet: bool, time_limit: Op
         }
     }
     Ok(if out.interrupted { ExitCode::from(130) } else { ExitCode::SUCCESS })
+}
+
+/// `out.exr` and `s2_t1` → `out.s2_t1.exr`.
+fn extra_image_path(output: &Path, name: &str) -> PathBuf {
+    let ext = output.extension().map_or("exr".into(), |e| e.to_string_lossy().into_owned());
+    output.with_extension(format!("{name}.{ext}"))
 }
 
 /// `out.exr` → `out.preview.png`.

@@ -170,6 +170,14 @@ fn cases() -> Vec<Case> {
         edit("no material and no light", |s| remove(&mut s["objects"][0], "material_name")).err(&["objects[0]", "material_name"]),
         // --- unknown names and types -------------------------------------------------------
         edit("unknown integrator", |s| s["integrator"]["type"] = json!("magic")).err(&["integrator.type", "magic"]),
+        edit("bdpt strategy with t = 0", |s| {
+            s["integrator"] = json!({"type": "bdpt", "strategy": [2, 0]})
+        })
+        .err(&["integrator.strategy", "t ≥ 1"]),
+        edit("bdpt one strategy and all of them", |s| {
+            s["integrator"] = json!({"type": "bdpt", "strategy": [1, 2], "visualize_strategies": true})
+        })
+        .err(&["integrator.visualize_strategies", "strategy"]),
         edit("unknown object type", |s| s["objects"][0]["type"] = json!("cube")).err(&["objects[0].type", "cube"]),
         edit("unknown filter", |s| s["film"]["filter"]["type"] = json!("lanczos")).err(&["film.filter.type", "lanczos"]),
         edit("unknown texture type", |s| s["textures"]["white"]["type"] = json!("noise")).err(&["textures.white.type", "noise"]),

@@ -233,6 +233,86 @@ fn each_strategy_alone_converges_to_the_same_image_and_weighted_shares_add_up() 
     assert!(((sum - full_mean) / full_mean).abs().max_element() < 0.01, "{sum} vs {full_mean}");
 }
 
+/// `visualize_strategies`: one render gives the `bdpt` image unchanged and every
+/// strategy's weighted share, each the same, pixel for pixel, as a render of that
+/// strategy alone (`strategy` + `strategy_weighted`: the same subpaths; s = 1
+/// strategies after the first draw other light samples, so only (1, 2) of them),
+/// and the shares add up to the image. Splats over 16 passes (a block) and more:
+/// 20 passes, a box filter.
+#[test]
+fn visualize_strategies_writes_each_strategy_share_in_one_render() {
+    let Some(shared) = shared() else { return };
+    let (spp, seed) = (20, 5);
+    let plain = render(&small_cbox(&shared, 12, 3, ""), spp, seed);
+    let l = small_cbox(&shared, 12, 3, r#", "visualize_strategies": true"#);
+    let job = rdr::RenderJob {
+        spp,
+        target_spp: spp,
+        seed,
+        ..l.job.clone()
+    };
+    let out = rdr::render(&l.scene, &job, &rdr::render::RenderControl::default());
+    assert!(out.pixels == plain.pixels, "the bdpt image itself must not change");
+    let names: Vec<&str> = out.extra_images.iter().map(|(n, _)| n.as_str()).collect();
+    assert_eq!(
+        names,
+        ["s0_t2", "s0_t3", "s1_t2", "s2_t1", "s0_t4", "s1_t3", "s2_t2", "s3_t1"],
+        "strategies of 1 to 3 segments"
+    );
+    let mut sum = vec![Vec3::ZERO; plain.pixels.len()];
+    for (name, px) in &out.extra_images {
+        for (a, b) in sum.iter_mut().zip(px) {
+            *a += *b;
+        }
+        let (s, t) = name[1..]
+            .split_once("_t")
+            .map(|(s, t)| (s.parse::<u32>().unwrap(), t.parse::<u32>().unwrap()))
+            .unwrap();
+        assert!(px.iter().any(|p| p.max_element() > 0.0), "{name} carries light");
+        if s == 1 && t > 2 {
+            continue;
+        }
+        let alone = render(
+            &small_cbox(&shared, 12, 3, &format!(r#", "strategy": [{s}, {t}], "strategy_weighted": true"#)),
+            spp,
+            seed,
+        );
+        let differ = px.iter().zip(&alone.pixels).position(|(a, b)| a != b);
+        assert!(
+            differ.is_none(),
+            "{name} is not strategy ({s}, {t})'s weighted share (pixel {differ:?} differs)"
+        );
+    }
+    for (a, b) in sum.iter().zip(&plain.pixels) {
+        assert!(
+            (*a - *b).abs().max_element() <= 1e-5 * (1.0 + b.max_element()),
+            "shares {a} vs image {b}"
+        );
+    }
+}
+
+/// The command line writes the strategy images beside the output, named by (s, t).
+#[test]
+fn visualize_strategies_files_beside_the_output() {
+    let Some(shared) = shared() else { return };
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("v.exr");
+    let o = r#"{"film": {"resolution": [8, 8]}, "integrator": {"type": "bdpt", "max_depth": 2, "visualize_strategies": true}}"#;
+    let run = std::process::Command::new(env!("CARGO_BIN_EXE_rdr"))
+        .args(["render", "-q", "--spp", "2", "--override", o, "-o"])
+        .arg(&out)
+        .arg(shared.join("refs/scenes/cbox_path.json"))
+        .output()
+        .unwrap();
+    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    let mut names: Vec<String> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    assert_eq!(names, ["v.exr", "v.s0_t2.exr", "v.s0_t3.exr", "v.s1_t2.exr", "v.s2_t1.exr"]);
+}
+
 #[test]
 fn mis_weights_of_every_path_sum_to_one_and_densities_match_the_geometry() {
     let Some(shared) = shared() else { return };

@@ -157,6 +157,9 @@ pub fn to_json(desc: &SceneDesc, out: &Path) -> Result<Converted> {
                 integ.insert("strategy".into(), json!([s, t]));
                 integ.insert("strategy_weighted".into(), b.strategy_weighted.into());
             }
+            if b.visualize_strategies {
+                integ.insert("visualize_strategies".into(), true.into());
+            }
         }
         Integrator::Ptracer(p) => {
             integ.insert("type".into(), "ptracer".into());
@@ -411,7 +414,7 @@ pub fn to_xml(desc: &SceneDesc, out: &Path) -> Result<Converted> {
             format!("  <integrator type=\"direct\">\n    <integer name=\"emitter_samples\" value=\"{n}\"/>\n    <integer name=\"bsdf_samples\" value=\"{n}\"/>\n  </integrator>\n")
         }
         Integrator::Bdpt(b) => {
-            if b.strategy.is_some() || b.heuristic != Heuristic::Power {
+            if b.strategy.is_some() || b.visualize_strategies || b.heuristic != Heuristic::Power {
                 w.push("bdpt's mis/strategy options have no Mitsuba counterpart".into());
             }
             format!("  <integrator type=\"bdpt\">\n{}  </integrator>\n", depth(b.max_depth))

@@ -59,7 +59,7 @@ use crate::integrator::{
 ///   `"sppm"` or `"normals"` (a debug view: shading normals as colours). The keys of each
 ///   are documented on its type:
 ///   [`PathTracer`] (`spp` 32, `max_depth` 12, `profile`, `rr_threshold`),
-///   [`Bdpt`] (as `path`, and `mis`, `strategy`, `strategy_weighted`), [`Guided`] (`spp` 64,
+///   [`Bdpt`] (as `path`, and `mis`, `strategy`, `strategy_weighted`, `visualize_strategies`), [`Guided`] (`spp` 64,
 ///   `max_depth` 12, `rr_threshold`, `bsdf_fraction` 0.5, `training_iterations`, `combine`,
 ///   `spatial_threshold`, `learn_direct`, `training_share`), [`Ptracer`]
 ///   (`spp` 32, `max_depth` 12, `rr_threshold`),
@@ -569,7 +569,8 @@ fn in_range(p: &Props, key: &str, v: f32, lo: f32, hi: f32) -> Result<f32> {
     Ok(v)
 }
 
-/// The keys only `bdpt` has (see [`Bdpt`]): `mis`, `strategy`, `strategy_weighted`.
+/// The keys only `bdpt` has (see [`Bdpt`]): `mis`, `strategy`, `strategy_weighted`,
+/// `visualize_strategies`.
 fn parse_bdpt(p: &Props, max_depth: u32, rr_threshold: f32) -> Result<Bdpt> {
     let heuristic = match p.string_or("mis", "power")?.as_str() {
         "power" => Heuristic::Power,
@@ -583,12 +584,20 @@ fn parse_bdpt(p: &Props, max_depth: u32, rr_threshold: f32) -> Result<Bdpt> {
         },
         false => None,
     };
+    let visualize_strategies = p.bool_or("visualize_strategies", false)?;
+    if visualize_strategies && strategy.is_some() {
+        return Err(p.error(
+            "visualize_strategies",
+            "writes every strategy's image: it cannot be combined with 'strategy' (one strategy alone)",
+        ));
+    }
     Ok(Bdpt {
         max_depth,
         rr_threshold,
         heuristic,
         strategy,
         strategy_weighted: p.bool_or("strategy_weighted", false)?,
+        visualize_strategies,
     })
 }
 

@@ -92,11 +92,9 @@ impl Integrator {
     /// [`Film::set_estimate`], no [`Film::set_aux`] that later passes read).
     pub fn passes_independent(&self) -> bool {
         match self {
-            Integrator::IntersectionTest(_)
-            | Integrator::Path(_)
-            | Integrator::Bdpt(_)
-            | Integrator::Ptracer(_)
-            | Integrator::Normals(_) => true,
+            // the strategy images of `visualize_strategies` live outside the film state
+            Integrator::Bdpt(b) => !b.visualize_strategies,
+            Integrator::IntersectionTest(_) | Integrator::Path(_) | Integrator::Ptracer(_) | Integrator::Normals(_) => true,
             // the guiding tree learns from the passes before
             Integrator::Photon(_) | Integrator::Sppm(_) | Integrator::Guided(_) | Integrator::Rdr171(_) => false,
         }
@@ -116,6 +114,7 @@ impl Integrator {
         match self {
             Integrator::IntersectionTest(i) => camera_pass(ctx, pass, film, |s| i.li(scene, s.ray, s.diff, s.sampler, s.counts)),
             Integrator::Path(p) => camera_pass(ctx, pass, film, |s| p.li(scene, s.ray, s.diff, s.sampler, s.counts)),
+            Integrator::Bdpt(b) if b.visualize_strategies => bdpt::strategies::render_pass(b, ctx, pass, film),
             Integrator::Bdpt(b) => camera_pass(ctx, pass, film, |s| b.li(scene, ctx.camera, s)),
             Integrator::Ptracer(p) => camera_pass(ctx, pass, film, |s| p.li(scene, ctx.camera, s)),
             Integrator::Normals(n) => camera_pass(ctx, pass, film, |s| n.li(scene, s.ray, s.counts)),
@@ -123,6 +122,18 @@ impl Integrator {
             Integrator::Guided(g) => g.render_pass(ctx, pass, film),
             Integrator::Sppm(p) => p.render_pass(ctx, pass, film),
             Integrator::Rdr171(c) => c.render(ctx, film),
+        }
+    }
+
+    /// Images an integrator makes besides the main one (`bdpt`'s strategy images),
+    /// named, row 0 = top; `weights` gives the film's pixel weights over all passes (the
+    /// film itself may hold only the last block's), `splat_scale` is 1 / samples per pixel.
+    pub fn extra_images(&self, film: &Film, weights: impl FnOnce() -> Vec<f64>, splat_scale: f64) -> Vec<(String, Vec<Vec3>)> {
+        match self {
+            Integrator::Bdpt(b) if b.visualize_strategies => film
+                .aux::<bdpt::strategies::StrategyFilms>()
+                .map_or_else(Vec::new, |f| f.images(&weights(), splat_scale)),
+            _ => Vec::new(),
         }
     }
 

@@ -84,6 +84,21 @@ impl RenderJob {
             )
         })
         .map_err(|m| SceneError::new(&desc.file, Some("film.resolution"), m))?;
+        if let Integrator::Bdpt(b) = integrator {
+            if b.visualize_strategies {
+                let bytes = crate::integrator::bdpt::strategies::memory_bytes(b.max_depth, f.width, f.height);
+                crate::limits::check_memory(bytes, || {
+                    format!(
+                        "visualize_strategies: {} strategy images of {}x{} pixels (max_depth {})",
+                        crate::integrator::bdpt::strategies::strategy_list(b.max_depth).len(),
+                        f.width,
+                        f.height,
+                        b.max_depth
+                    )
+                })
+                .map_err(|m| SceneError::new(&desc.file, Some("integrator.visualize_strategies"), m))?;
+            }
+        }
         Ok(RenderJob {
             camera,
             film,

@@ -73,6 +73,8 @@ pub struct RenderOutput {
     /// The film state the image is made of (the pieces of [`blocks`]), to be saved for
     /// a resume or a merge.
     pub state: FilmState,
+    /// Images besides the main one, named ([`crate::integrator::Integrator::extra_images`]).
+    pub extra_images: Vec<(String, Vec<Vec3>)>,
 }
 
 /// Renders `scene` as `job` says. When the stop token is set the current pass is
@@ -195,6 +197,8 @@ pub fn render_from(scene: &Scene, job: &RenderJob, control: &RenderControl, star
     };
     let spp_done = spp_of(&image_state);
     let run_spp = job.integrator.spp_done(job.spp, rendered as u32);
+    let weights = || image_state.total().map_or_else(|| film.sums().weight.clone(), |s| s.weight);
+    let extra_images = job.integrator.extra_images(&film, weights, 1.0 / spp_done.max(1) as f64);
     RenderOutput {
         width: f.width,
         height: f.height,
@@ -207,6 +211,7 @@ pub fn render_from(scene: &Scene, job: &RenderJob, control: &RenderControl, star
         invalid_samples: invalid,
         time_limited,
         summary: job.integrator.summary(&film),
+        extra_images,
         invalid_rays: crate::accel::wide::invalid_rays() - invalid_rays_before,
         state: image_state,
     }

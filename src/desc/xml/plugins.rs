@@ -284,6 +284,7 @@ impl<'a> Reader<'a> {
                     heuristic: Heuristic::Power,
                     strategy: None,
                     strategy_weighted: false,
+                    visualize_strategies: false,
                 })
             }
             "photonmapper" | "photon" => {

@@ -26,6 +26,7 @@
 //! light subpath's throughput relative to its start), survivors reweighted.
 
 pub mod mis;
+pub mod strategies;
 pub mod vertex;
 
 use super::{CameraSample, RayCounts};
@@ -51,7 +52,10 @@ const RR_DEPTH: usize = 5;
 ///   (s, t) (s + t − 1 segments), unweighted (each strategy alone converges to the
 ///   same image as the other strategies of its length), or with
 ///   `strategy_weighted` (bool, false) its MIS-weighted share of the full image
-///   (the shares of all strategies add up to the `bdpt` image).
+///   (the shares of all strategies add up to the `bdpt` image);
+/// * `visualize_strategies` (bool, false) — pbrt-v4's view: one render writes, beside
+///   the `bdpt` image `OUT.exr`, every strategy's MIS-weighted share to
+///   `OUT.s{s}_t{t}.exr` (s + t − 1 ≤ `max_depth`; see [`strategies`]); not with `strategy`.
 ///
 /// ```json
 /// {"type": "bdpt", "spp": 64, "max_depth": 12, "strategy": [2, 2]}
@@ -63,6 +67,7 @@ pub struct Bdpt {
     pub heuristic: Heuristic,
     pub strategy: Option<(u32, u32)>,
     pub strategy_weighted: bool,
+    pub visualize_strategies: bool,
 }
 
 impl Bdpt {
@@ -73,6 +78,7 @@ impl Bdpt {
             heuristic: Heuristic::Power,
             strategy: None,
             strategy_weighted: false,
+            visualize_strategies: false,
         }
     }
 
@@ -125,6 +131,8 @@ enum Select {
     Only(usize, usize, bool),
     /// Light tracing: every t = 1 strategy unweighted, and the environment seen directly.
     LightTracing,
+    /// Every strategy MIS-weighted, each to its own image ([`strategies`]).
+    Each,
 }
 
 thread_local! {
@@ -141,40 +149,67 @@ struct Engine<'a> {
 
 impl Engine<'_> {
     fn sample(&self, cs: &mut CameraSample) -> Vec3 {
+        let mut l = Vec3::ZERO;
+        let splats = &mut *cs.splats;
+        self.sample_each(cs.ray, cs.diff, cs.sampler, cs.counts, |_, _, c, pos| match pos {
+            Some(pos) => splats.add(pos, c),
+            None => l += c,
+        });
+        l
+    }
+
+    /// One camera sample, each strategy's (weighted, as `select` says) contribution
+    /// handed to `sink` as (s, t, value, film position of a t = 1 splat).
+    fn sample_each(
+        &self,
+        ray: Ray,
+        diff: Option<RayDifferential>,
+        sampler: &mut PixelSampler,
+        counts: &mut RayCounts,
+        sink: impl FnMut(usize, usize, Vec3, Option<Vec2>),
+    ) {
         // the subpaths reuse this thread's buffers (taken, so a
         // nested sample would only start with empty ones)
         let (mut cam, mut light) = BUFFERS.take();
         cam.clear();
         light.clear();
-        let l = self.sample_with(cs, &mut cam, &mut light);
+        self.sample_with(ray, diff, sampler, counts, &mut cam, &mut light, sink);
         BUFFERS.set((cam, light));
-        l
     }
 
-    fn sample_with(&self, cs: &mut CameraSample, cam: &mut Vec<Vertex>, light: &mut Vec<Vertex>) -> Vec3 {
+    #[allow(clippy::too_many_arguments)]
+    fn sample_with(
+        &self,
+        ray: Ray,
+        diff: Option<RayDifferential>,
+        sampler: &mut PixelSampler,
+        counts: &mut RayCounts,
+        cam: &mut Vec<Vertex>,
+        light: &mut Vec<Vertex>,
+        mut sink: impl FnMut(usize, usize, Vec3, Option<Vec2>),
+    ) {
         let ctx = &self.ctx;
         let light_tracing = self.select == Select::LightTracing;
         // the pinhole, or the lens point the camera ray leaves
-        let mut camera_vertex = Vertex::new(Kind::Camera, cs.ray.o, Vec3::ZERO, Vec3::ONE);
+        let mut camera_vertex = Vertex::new(Kind::Camera, ray.o, Vec3::ZERO, Vec3::ONE);
         camera_vertex.pdf_fwd = 1.0;
         cam.push(camera_vertex);
         // the light tracer only looks for the environment behind its first segment
         let cam_max = if light_tracing { 2 } else { self.max_depth + 1 };
-        let pdf_dir = ctx.camera.pdf_dir_from(cs.ray.o, cs.ray.d);
+        let pdf_dir = ctx.camera.pdf_dir_from(ray.o, ray.d);
         self.walk(
-            cs.ray,
-            cs.diff,
+            ray,
+            diff,
             Vec3::ONE,
             pdf_dir,
             TransportMode::Radiance,
             cam_max,
             cam,
-            cs.sampler,
-            cs.counts,
+            sampler,
+            counts,
         );
-        self.light_subpath(light, cs.sampler, cs.counts);
+        self.light_subpath(light, sampler, counts);
 
-        let mut l = Vec3::ZERO;
         for t in 1..=cam.len() {
             for s in 0..=light.len() {
                 let segments = s + t - 1;
@@ -182,7 +217,7 @@ impl Engine<'_> {
                     continue;
                 }
                 let weighted = match self.select {
-                    Select::All => true,
+                    Select::All | Select::Each => true,
                     Select::Only(s0, t0, w) if (s0, t0) == (s, t) => w,
                     Select::Only(..) => continue,
                     Select::LightTracing => {
@@ -197,16 +232,12 @@ impl Engine<'_> {
                 if (s, t) == (1, 1) && weighted {
                     continue;
                 }
-                let Some((c, pos)) = self.connect(light, cam, s, t, cs.sampler, cs.counts, weighted) else {
+                let Some((c, pos)) = self.connect(light, cam, s, t, sampler, counts, weighted) else {
                     continue;
                 };
-                match pos {
-                    Some(pos) => cs.splats.add(pos, c),
-                    None => l += c,
-                }
+                sink(s, t, c, pos);
             }
         }
-        l
     }
 
     /// Traces a subpath from `ray` and appends its vertices to `path` (which holds

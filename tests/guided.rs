@@ -7,7 +7,9 @@
 mod common;
 use common::*;
 use rdr::film::Film;
-use rdr::integrator::guided::{learned_tree, sphere_to_square, square_to_sphere, DTree, Mixture};
+use rdr::integrator::guided::{
+    learned_tree, pixel_variances, relative_variances, sphere_to_square, square_to_sphere, DTree, Mixture, Part,
+};
 use rdr::integrator::{Integrator, PassContext, StopToken};
 use rdr::material::{Bsdf, Material};
 use rdr::math::{Vec2, Vec3, PI};
@@ -513,4 +515,60 @@ fn white_furnace_is_one() {
     let m = img.mean();
     eprintln!("guided furnace: mean {m}");
     assert!((m - Vec3::ONE).abs().max_element() < 8e-4, "{m}");
+}
+
+/// Per-pixel moments (Σy, Σy², n) and pixel means of `spp` samples a pixel from a
+/// heavy-tailed distribution: 0.5, or 100 with probability 1 %.
+fn firefly_iteration(rng: &mut Rng, pixels: usize, spp: u32) -> (Vec<[f64; 3]>, Vec<Vec3>) {
+    let mut moments = vec![[0.0f64; 3]; pixels];
+    for m in &mut moments {
+        for _ in 0..spp {
+            let y = if rng.unit() < 0.01 { 100.0 } else { 0.5 };
+            m[0] += y;
+            m[1] += y * y;
+            m[2] += 1.0;
+        }
+    }
+    let image = moments.iter().map(|m| Vec3::splat((m[0] / m[2]) as f32)).collect();
+    (moments, image)
+}
+
+#[test]
+fn iteration_weights_follow_the_true_variance_of_heavy_tailed_iterations() {
+    // two iterations of the same per-sample distribution, 2 and 8 spp: their pixel
+    // means' variances are 4:1, and so must the estimated variances be
+    let (width, pixels) = (200usize, 40_000usize);
+    let mut rng = Rng::new(5);
+    let (ma, ia) = firefly_iteration(&mut rng, pixels, 2);
+    let (mb, ib) = firefly_iteration(&mut rng, pixels, 8);
+    let (va, vb) = (pixel_variances(&ma, width), pixel_variances(&mb, width));
+    let parts = [
+        Part {
+            image: &ia,
+            pixel_variance: &va,
+            spp: 2,
+        },
+        Part {
+            image: &ib,
+            pixel_variance: &vb,
+            spp: 8,
+        },
+    ];
+    let v = relative_variances(&parts);
+    let ratio = v[0] / v[1];
+    eprintln!("estimated variance ratio {ratio:.3} (true 4)");
+    assert!((ratio - 4.0).abs() < 0.6, "ratio {ratio}");
+    // each iteration's own pixel mean as the denominator (the weighting before):
+    // a rare bright sample raises the mean with the variance, and the 2-spp
+    // iteration looks better than the 8-spp one
+    let own = |m: &[[f64; 3]], var: &[f32]| {
+        m.iter()
+            .zip(var)
+            .map(|(m, v)| *v as f64 / ((m[0] / m[2]).powi(2) + 0.01))
+            .sum::<f64>()
+            / pixels as f64
+    };
+    let wrong = own(&ma, &va) / own(&mb, &vb);
+    eprintln!("  with each iteration's own pixel means: {wrong:.3}, rejected as it must be");
+    assert!((wrong - 4.0).abs() >= 0.6);
 }

@@ -80,7 +80,10 @@ pub enum Combine {
 ///   sampling); `false`: only what arrives by way of other surfaces or specular
 ///   chains (light sampled at later vertices included), leaving the direct light
 ///   to light sampling, which handles it better (cbox, 33 spp: relMSE 1.2e-2 with
-///   direct light learned, 7.0e-3 without, `path` 5.5e-3).
+///   direct light learned, 7.0e-3 without, `path` 5.5e-3);
+/// * `training_share` (number in (0, 1], 0.25) — under `--time-limit`, the share of
+///   the time budget training may take: a training iteration starts only when it
+///   is predicted (twice the previous one) to end within it.
 ///
 /// ```json
 /// {"type": "guided", "spp": 256, "bsdf_fraction": 0.5, "combine": "inverse_variance"}
@@ -94,6 +97,7 @@ pub struct Guided {
     pub combine: Combine,
     pub spatial_threshold: f32,
     pub learn_direct: bool,
+    pub training_share: f32,
 }
 
 impl Default for Guided {
@@ -106,6 +110,7 @@ impl Default for Guided {
             combine: Combine::InverseVariance,
             spatial_threshold: 2000.0,
             learn_direct: false,
+            training_share: 0.25,
         }
     }
 }
@@ -138,18 +143,32 @@ pub struct State {
     last: bool,
     passes: u32,
     passes_total: u32,
-    /// Predicted final variance after the previous training iteration.
-    predicted: Option<f64>,
     stop_training: bool,
     /// The current iteration's image (film rows, y up) and per-pixel moments of
     /// the samples' mean over channels: Σy, Σy², n.
     sum: Vec<[f64; 3]>,
     weight: Vec<f64>,
     moments: Vec<[f64; 3]>,
-    /// Finished iterations: Σ image/variance and Σ 1/variance (for `last`: the
-    /// previous image, weight 1).
-    done: Vec<[f64; 3]>,
-    done_weight: f64,
+    /// Finished iterations, weighted anew whenever the image is made (`last`:
+    /// the previous one only).
+    finished: Vec<Finished>,
+}
+
+/// A finished iteration's image and the variance of each of its pixel means.
+struct Finished {
+    image: Vec<Vec3>,
+    pixel_variance: Vec<f32>,
+    spp: u32,
+}
+
+impl Finished {
+    fn part(&self) -> Part<'_> {
+        Part {
+            image: &self.image,
+            pixel_variance: &self.pixel_variance,
+            spp: self.spp,
+        }
+    }
 }
 
 struct TileOut {
@@ -176,7 +195,7 @@ impl Guided {
         let n = (ctx.film.width * ctx.film.height) as usize;
         let schedule = match (ctx.time_limit, self.training_iterations) {
             (_, Some(k)) => format!("{k} training iterations (given)"),
-            (Some(t), None) => format!("time budget of {t} s (training stops when the predicted final variance rises)"),
+            (Some(t), None) => format!("time budget of {t} s (training within {:.0} % of it)", 100.0 * self.training_share),
             (None, None) => format!("spp budget: {} training iterations", Self::auto_training_iterations(ctx.spp)),
         };
         let mut s = State {
@@ -189,13 +208,11 @@ impl Guided {
             last: false,
             passes: 0,
             passes_total: 0,
-            predicted: None,
             stop_training: false,
             sum: vec![[0.0; 3]; n],
             weight: vec![0.0; n],
             moments: vec![[0.0; 3]; n],
-            done: vec![[0.0; 3]; n],
-            done_weight: 0.0,
+            finished: Vec::new(),
         };
         self.begin_iteration(&mut s, ctx);
         s
@@ -288,44 +305,36 @@ impl Guided {
         result
     }
 
-    /// Folds the finished training iteration into the image, rebuilds the tree and
+    /// Keeps the finished training iteration's image, rebuilds the tree and
     /// starts the next iteration.
     fn end_iteration(&self, s: &mut State, ctx: &PassContext) {
         let build_start = Instant::now();
-        let v = variance(&s.moments, ctx.film.width as usize).max(1e-30);
-        let image = current_image(&s.sum, &s.weight);
+        let finished = Finished {
+            image: current_image(&s.sum, &s.weight),
+            pixel_variance: pixel_variances(&s.moments, ctx.film.width as usize),
+            spp: s.passes,
+        };
         match self.combine {
-            Combine::InverseVariance => {
-                for (d, p) in s.done.iter_mut().zip(&image) {
-                    for c in 0..3 {
-                        d[c] += p[c] as f64 / v;
-                    }
-                }
-                s.done_weight += 1.0 / v;
-            }
-            Combine::Last => {
-                for (d, p) in s.done.iter_mut().zip(&image) {
-                    *d = [p.x as f64, p.y as f64, p.z as f64];
-                }
-                s.done_weight = 1.0;
-            }
+            Combine::InverseVariance => s.finished.push(finished),
+            Combine::Last => s.finished = vec![finished],
         }
         let threshold = self.spatial_threshold as f64 * (s.length as f64).sqrt();
         s.tree.end_iteration(threshold, RHO, true);
         let build = build_start.elapsed().as_secs_f64();
+        let variance = {
+            let parts: Vec<Part> = s.finished.iter().map(Finished::part).collect();
+            relative_variances(&parts).last().copied().unwrap_or(0.0)
+        };
         let info = s.history.last_mut().expect("an iteration is running");
-        info.variance = v;
         info.build_seconds = build;
+        info.variance = variance;
         if let Some(limit) = ctx.time_limit {
-            // the paper's balancing: V_k·T_k spread over the budget left at the
-            // iteration's start predicts the final image's variance
+            // the next iteration, twice as long, must end within the training share
             let spent = info.seconds + build;
-            let predicted = v * spent / (limit - s.iteration_start).max(1e-9);
             let now = s.started.elapsed().as_secs_f64();
-            if s.predicted.is_some_and(|p| predicted > p) || now + 2.0 * spent > limit {
+            if now + 2.0 * spent > self.training_share as f64 * limit {
                 s.stop_training = true;
             }
-            s.predicted = Some(predicted);
         }
         for x in s.sum.iter_mut() {
             *x = [0.0; 3];
@@ -335,28 +344,22 @@ impl Guided {
         self.begin_iteration(s, ctx);
     }
 
-    /// The image so far (film rows, y up).
+    /// The image so far (film rows, y up): the iterations, finished and current,
+    /// each weighted by the inverse of its estimated variance (or the last alone).
     fn estimate(&self, s: &State, width: usize) -> Vec<Vec3> {
-        let current = current_image(&s.sum, &s.weight);
-        let to_vec = |d: &[f64; 3], w: f64| Vec3::new((d[0] / w) as f32, (d[1] / w) as f32, (d[2] / w) as f32);
-        if s.passes == 0 {
-            return s.done.iter().map(|d| to_vec(d, s.done_weight.max(1e-300))).collect();
+        let current = (s.passes > 0).then(|| (current_image(&s.sum, &s.weight), pixel_variances(&s.moments, width)));
+        let mut parts: Vec<Part> = match self.combine {
+            Combine::Last if current.is_some() => Vec::new(),
+            _ => s.finished.iter().map(Finished::part).collect(),
+        };
+        if let Some((image, var)) = &current {
+            parts.push(Part {
+                image,
+                pixel_variance: var,
+                spp: s.passes,
+            });
         }
-        match self.combine {
-            Combine::Last => current,
-            Combine::InverseVariance => {
-                let wc = 1.0 / variance(&s.moments, width).max(1e-30);
-                let total = s.done_weight + wc;
-                s.done
-                    .iter()
-                    .zip(&current)
-                    .map(|(d, c)| {
-                        let mix = [d[0] + c.x as f64 * wc, d[1] + c.y as f64 * wc, d[2] + c.z as f64 * wc];
-                        to_vec(&mix, total)
-                    })
-                    .collect()
-            }
-        }
+        combine(&parts, s.sum.len())
     }
 
     /// Schedule, iterations and tree sizes, for the render summary.
@@ -488,35 +491,112 @@ fn current_image(sum: &[[f64; 3]], weight: &[f64]) -> Vec<Vec3> {
         .collect()
 }
 
-/// Mean over pixels of Var(pixel mean) / (mean² + 0.01), from the per-pixel
-/// moments. With one sample per pixel the variance comes from horizontal pairs
-/// of pixels, (y_a − y_b)²/2 (an overestimate where the image has gradients).
-pub fn variance(moments: &[[f64; 3]], width: usize) -> f64 {
-    let (mut acc, mut n) = (0.0f64, 0usize);
-    for (i, m) in moments.iter().enumerate() {
-        let count = m[2];
-        if count <= 0.0 {
-            continue;
-        }
-        let mean = m[0] / count;
-        let var = if count >= 2.0 {
-            ((m[1] - m[0] * mean) / (count - 1.0)).max(0.0) / count
-        } else {
+/// One iteration's image, the variance of each of its pixel means (NaN: no
+/// estimate) and its samples per pixel.
+#[derive(Clone, Copy, Debug)]
+pub struct Part<'a> {
+    pub image: &'a [Vec3],
+    pub pixel_variance: &'a [f32],
+    pub spp: u32,
+}
+
+/// Var(pixel mean) of the mean over channels per pixel, from the moments Σy,
+/// Σy², n. With one sample per pixel it comes from horizontal pairs of pixels,
+/// (y_a − y_b)²/2 (an overestimate where the image has gradients).
+pub fn pixel_variances(moments: &[[f64; 3]], width: usize) -> Vec<f32> {
+    moments
+        .iter()
+        .enumerate()
+        .map(|(i, m)| {
+            let count = m[2];
+            if count <= 0.0 {
+                return f32::NAN;
+            }
+            let mean = m[0] / count;
+            if count >= 2.0 {
+                return (((m[1] - m[0] * mean) / (count - 1.0)).max(0.0) / count) as f32;
+            }
             let x = i % width;
             let even = x.is_multiple_of(2);
+            if even && x + 1 >= width {
+                return f32::NAN;
+            }
             let j = if even { i + 1 } else { i - 1 };
-            if (even && x + 1 >= width) || j >= moments.len() || moments[j][2] <= 0.0 {
-                continue;
+            if j >= moments.len() || moments[j][2] <= 0.0 {
+                return f32::NAN;
             }
             let other = moments[j][0] / moments[j][2];
-            0.5 * (mean - other) * (mean - other)
-        };
-        acc += var / (mean * mean + 0.01);
-        n += 1;
+            (0.5 * (mean - other) * (mean - other)) as f32
+        })
+        .collect()
+}
+
+/// Each iteration's estimated relative variance: the mean over pixels of
+/// Var(pixel mean) / (r² + 0.01), the `rdr compare` metric's weighting, with one
+/// denominator r per pixel for all iterations: the mean of all their samples.
+/// (Each iteration's own pixel mean there would shrink the variance exactly where
+/// a rare bright sample raised it, and overweight the short early iterations.)
+pub fn relative_variances(parts: &[Part]) -> Vec<f64> {
+    let Some(first) = parts.first() else { return Vec::new() };
+    let n = first.image.len();
+    let total_spp: f64 = parts.iter().map(|p| p.spp as f64).sum::<f64>().max(1.0);
+    let mut acc = vec![(0.0f64, 0usize); parts.len()];
+    for i in 0..n {
+        let r: f64 = parts
+            .iter()
+            .map(|p| {
+                let c = p.image[i];
+                p.spp as f64 * ((c.x + c.y + c.z) / 3.0) as f64
+            })
+            .sum::<f64>()
+            / total_spp;
+        let norm = 1.0 / (r * r + 0.01);
+        for (a, p) in acc.iter_mut().zip(parts) {
+            let v = p.pixel_variance[i];
+            if v.is_finite() {
+                a.0 += v as f64 * norm;
+                a.1 += 1;
+            }
+        }
     }
-    if n == 0 {
-        0.0
-    } else {
-        acc / n as f64
+    acc.iter().map(|&(s, c)| if c == 0 { 0.0 } else { s / c as f64 }).collect()
+}
+
+/// The iterations' images combined with weights 1 / their relative variance
+/// (an iteration without a variance estimate weighs as much as its spp
+/// suggest, relative to the others).
+pub fn combine(parts: &[Part], pixels: usize) -> Vec<Vec3> {
+    match parts {
+        [] => return vec![Vec3::ZERO; pixels],
+        [only] => return only.image.to_vec(),
+        _ => {}
     }
+    let weights = iteration_weights(&relative_variances(parts), parts);
+    let total: f64 = weights.iter().sum();
+    (0..pixels)
+        .map(|i| {
+            let mut acc = [0.0f64; 3];
+            for (p, w) in parts.iter().zip(&weights) {
+                let c = p.image[i];
+                acc[0] += c.x as f64 * w;
+                acc[1] += c.y as f64 * w;
+                acc[2] += c.z as f64 * w;
+            }
+            Vec3::new((acc[0] / total) as f32, (acc[1] / total) as f32, (acc[2] / total) as f32)
+        })
+        .collect()
+}
+
+/// Normalised weights 1/v_k; iterations whose variance is 0 or unknown (a black
+/// image) fall back to weights by spp.
+pub fn iteration_weights(variances: &[f64], parts: &[Part]) -> Vec<f64> {
+    let w: Vec<f64> = variances
+        .iter()
+        .map(|&v| if v > 0.0 && v.is_finite() { 1.0 / v } else { 0.0 })
+        .collect();
+    if w.contains(&0.0) || w.iter().sum::<f64>() <= 0.0 {
+        return parts.iter().map(|p| p.spp as f64).collect();
+    }
+    let total: f64 = w.iter().sum();
+    w.iter().map(|x| x / total).collect()
 }

@@ -45,6 +45,15 @@ impl Mixture<'_> {
         let a = self.bsdf_fraction;
         if u_choice < a {
             let bs = bsdf.sample(wo, u, uc)?;
+            if bs.delta {
+                // a delta lobe (plastic's coating): its density is no solid-angle one
+                // and the guide cannot produce it, so it keeps its own weight
+                return Some(BsdfSample {
+                    weight: bs.weight * (1.0 / a),
+                    pdf: bs.pdf * a,
+                    ..bs
+                });
+            }
             let pdf = a * bs.pdf + (1.0 - a) * guide.pdf(bs.wi);
             Some(BsdfSample {
                 weight: bs.weight * (bs.pdf / pdf),
@@ -93,7 +102,10 @@ pub struct Vertex {
     /// Throughput from the camera up to and including this vertex's scattering
     /// (before roulette): a later contribution C arrived here as C / beta.
     beta: Vec3,
-    radiance: Vec3,
+    /// The estimate when the vertex was made (or after its own direct light, when
+    /// that is not recorded): what arrives here is the estimate's growth since (a
+    /// prefix sum instead of adding every contribution to every waiting vertex).
+    l_before: Vec3,
 }
 
 /// Per-thread buffers: the records of a tile, and the current path's vertices.
@@ -116,28 +128,18 @@ pub struct Guiding<'a> {
     pub record_direct: bool,
 }
 
-/// How many of the waiting vertices receive emission found now: all, or all but
-/// the last when it sampled this direction itself and direct light is not recorded.
+/// Adds emission `c` found along the direction the last vertex sampled: every
+/// waiting vertex receives it, except that last one when its own direct light is
+/// not recorded (`skip_last`).
 #[inline]
-fn direct_skip(len: usize, after_delta: bool, record_direct: bool) -> usize {
-    if record_direct || after_delta {
-        len
-    } else {
-        len.saturating_sub(1)
-    }
-}
-
-/// Adds contribution `c` to the estimate and to the radiance of every waiting vertex.
-#[inline]
-fn add(l: &mut Vec3, verts: &mut [Vertex], c: Vec3) {
+fn add_emission(l: &mut Vec3, verts: &mut [Vertex], c: Vec3, skip_last: bool) {
     *l += c;
-    for v in verts {
-        let d = Vec3::new(
-            if v.beta.x > 0.0 { c.x / v.beta.x } else { 0.0 },
-            if v.beta.y > 0.0 { c.y / v.beta.y } else { 0.0 },
-            if v.beta.z > 0.0 { c.z / v.beta.z } else { 0.0 },
-        );
-        v.radiance += d;
+    if skip_last {
+        // nothing was added since the vertex was made (its `l_before` equals `l`
+        // before this addition), so this is exact: what it receives is 0 + later
+        if let Some(v) = verts.last_mut() {
+            v.l_before = *l;
+        }
     }
 }
 
@@ -168,17 +170,18 @@ impl Guiding<'_> {
         loop {
             counts.rays += 1;
             let Some(hit) = scene.intersect(&ray) else {
-                if let Some(env) = scene.environment {
-                    let le = scene.environment_radiance(ray.d);
+                if let Some((env, sky)) = scene.environment_light() {
+                    // the direction's texture coordinates once, for radiance and pdf
+                    let uv = sky.direction_to_uv(ray.d);
+                    let le = sky.radiance_at(uv);
                     if le != Vec3::ZERO {
                         let w = if after_delta {
                             1.0
                         } else {
-                            let pl = scene.light_sampler.pmf(env as usize) * scene.lights[env as usize].pdf(prev_p, ray.d, None, mode);
+                            let pl = scene.light_sampler.pmf(env as usize) * sky.pdf_at(uv, mode);
                             power_heuristic(mix_pdf, pl)
                         };
-                        let n = direct_skip(verts.len(), after_delta, self.record_direct);
-                        add(&mut l, &mut verts[..n], beta * le * w);
+                        add_emission(&mut l, verts, beta * le * w, !after_delta && !self.record_direct);
                     }
                 }
                 break;
@@ -197,8 +200,7 @@ impl Guiding<'_> {
                             * scene.lights[index as usize].pdf(prev_p, ray.d, Some((it.p, it.ng)), mode);
                         power_heuristic(mix_pdf, pl)
                     };
-                    let n = direct_skip(verts.len(), after_delta, self.record_direct);
-                    add(&mut l, &mut verts[..n], beta * le * w);
+                    add_emission(&mut l, verts, beta * le * w, !after_delta && !self.record_direct);
                 }
             }
             if segment >= self.max_depth {
@@ -229,7 +231,7 @@ impl Guiding<'_> {
                             } else {
                                 power_heuristic(light_pdf, mixture.pdf(&bsdf, it.wo, ls.wi))
                             };
-                            add(&mut l, verts, beta * f * ls.radiance * (cos * w / light_pdf));
+                            l += beta * f * ls.radiance * (cos * w / light_pdf);
                             // a point light is no direction a guided sample can find
                             if self.record && self.record_direct && !ls.delta {
                                 records.push(Record {
@@ -260,7 +262,7 @@ impl Guiding<'_> {
                     cell: self.tree.record_cell(leaf, bs.wi),
                     pdf: bs.pdf,
                     beta,
-                    radiance: Vec3::ZERO,
+                    l_before: l,
                 });
             }
             after_delta = bs.delta;
@@ -278,10 +280,16 @@ impl Guiding<'_> {
         }
         if self.record {
             for v in verts.iter() {
+                let c = l - v.l_before;
+                let arrived = Vec3::new(
+                    if v.beta.x > 0.0 { c.x / v.beta.x } else { 0.0 },
+                    if v.beta.y > 0.0 { c.y / v.beta.y } else { 0.0 },
+                    if v.beta.z > 0.0 { c.z / v.beta.z } else { 0.0 },
+                );
                 records.push(Record {
                     leaf: v.leaf,
                     cell: v.cell,
-                    value: mean(v.radiance) / v.pdf,
+                    value: mean(arrived).max(0.0) / v.pdf,
                     counted: true,
                 });
             }

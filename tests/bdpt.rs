@@ -299,7 +299,7 @@ fn visualize_strategies_files_beside_the_output() {
     let out = dir.path().join("v.exr");
     let o = r#"{"film": {"resolution": [8, 8]}, "integrator": {"type": "bdpt", "max_depth": 2, "visualize_strategies": true}}"#;
     let run = std::process::Command::new(env!("CARGO_BIN_EXE_rdr"))
-        .args(["render", "-q", "--spp", "2", "--override", o, "-o"])
+        .args(["render", "-q", "--spp", "2", "--aov", "albedo", "--override", o, "-o"])
         .arg(&out)
         .arg(shared.join("refs/scenes/cbox_path.json"))
         .output()
@@ -311,6 +311,14 @@ fn visualize_strategies_files_beside_the_output() {
         .collect();
     names.sort();
     assert_eq!(names, ["v.exr", "v.s0_t2.exr", "v.s0_t3.exr", "v.s1_t2.exr", "v.s2_t1.exr"]);
+    // --aov layers are made in this pass too (the Cornell box's albedos are about 0.3–0.7)
+    let exr = rdr::imageio::read_exr_channels(&out).unwrap();
+    let albedo = exr.channels.iter().find(|c| c.name == "albedo.R").expect("an albedo.R layer");
+    let rdr::imageio::ChannelData::F32(v) = &albedo.data else {
+        panic!("albedo.R is not f32")
+    };
+    let mean = v.iter().sum::<f32>() / v.len() as f32;
+    assert!(mean > 0.2, "albedo.R mean {mean}");
 }
 
 #[test]

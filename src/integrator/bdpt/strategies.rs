@@ -8,7 +8,7 @@
 //! strategy contributed nothing), set when the images are made.
 
 use super::{ctx, Bdpt, Engine, Select};
-use crate::film::{Film, FilmTile, Splats};
+use crate::film::{AovTile, Film, FilmTile, Splats};
 use crate::integrator::pass::{differential_scale, lens_sample, tile_grid, PassContext, PassResult, RayCounts};
 use crate::math::{Vec2, Vec3};
 use crate::sampler::PixelSampler;
@@ -91,6 +91,8 @@ struct TileResult {
     strategy_tiles: Vec<Option<FilmTile>>,
     strategy_splats: Vec<Splats>,
     counts: RayCounts,
+    /// Feature sums (`--aov`), as [`camera_pass`](crate::integrator::camera_pass) keeps them.
+    aov: Option<AovTile>,
 }
 
 /// Pass `pass` of a `bdpt` render with `visualize_strategies`: as [`camera_pass`]
@@ -114,6 +116,7 @@ pub fn render_pass(bdpt: &Bdpt, pc: &PassContext, pass: u32, film: &mut Film) ->
     let (w, h) = (pc.film.width as i32, pc.film.height as i32);
     let filter = &pc.film.filter;
     let reach = filter.reach();
+    let with_aov = film.aov().is_some();
     let done: Vec<Option<TileResult>> = tile_grid(pc.film)
         .par_iter()
         .map(|&(x0, y0, x1, y1)| {
@@ -126,6 +129,7 @@ pub fn render_pass(bdpt: &Bdpt, pc: &PassContext, pass: u32, film: &mut Film) ->
                 strategy_tiles: (0..n).map(|_| None).collect(),
                 strategy_splats: vec![Splats::default(); n],
                 counts: RayCounts::default(),
+                aov: with_aov.then(|| AovTile::new(x0, y0, x1, y1)),
             };
             for y in y0..y1 {
                 for x in x0..x1 {
@@ -139,6 +143,10 @@ pub fn render_pass(bdpt: &Bdpt, pc: &PassContext, pass: u32, film: &mut Film) ->
                     } else {
                         (pc.camera.sample_ray(pos.x, pos.y, u_lens), None)
                     };
+                    if let Some(aov) = &mut r.aov {
+                        let mut aux = crate::integrator::aov::aov_sampler(x as u32, y as u32, pass, pc.seed);
+                        aov.add(x, y, &crate::integrator::aov::features(pc.scene, &ray, &mut aux));
+                    }
                     let mut l = Vec3::ZERO;
                     let mut own: Vec<(usize, Vec3)> = Vec::new();
                     let (splats, strategy_splats) = (&mut r.splats, &mut r.strategy_splats);
@@ -183,6 +191,9 @@ pub fn render_pass(bdpt: &Bdpt, pc: &PassContext, pass: u32, film: &mut Film) ->
         for r in done.iter().flatten() {
             film.merge(&r.main);
             film.add_splats(&r.splats);
+            if let Some(aov) = &r.aov {
+                film.merge_aov(aov);
+            }
             for i in 0..n {
                 if let Some(t) = &r.strategy_tiles[i] {
                     films.films[i].merge(t);

@@ -5,6 +5,7 @@
 //! in `caustic_cbox`, thread-count independence, interruption and time budgets.
 
 mod common;
+use common::chi2::chi2_test as chi2;
 use common::*;
 use rdr::film::Film;
 use rdr::integrator::guided::{
@@ -21,43 +22,6 @@ use std::sync::Arc;
 
 fn uniform2(rng: &mut Rng) -> Vec2 {
     Vec2::new(rng.unit() as f32, rng.unit() as f32)
-}
-
-/// χ² statistic of `observed` counts against bin probabilities `mass` (bins
-/// expecting fewer than 5 pooled), as a z-score (Wilson–Hilferty); `Err` when
-/// the samples do not follow the masses (p ≈ 1e-4) or the masses do not sum to
-/// what was drawn.
-fn chi2(name: &str, n: usize, observed: &[f64], mass: &[f64]) -> Result<f64, String> {
-    let (mut stat, mut dof, mut pool_o, mut pool_e) = (0.0f64, 0usize, 0.0f64, 0.0f64);
-    for (o, m) in observed.iter().zip(mass) {
-        let e = m * n as f64;
-        if e < 5.0 {
-            pool_o += o;
-            pool_e += e;
-        } else {
-            stat += (o - e) * (o - e) / e;
-            dof += 1;
-        }
-    }
-    if pool_e > 0.0 {
-        stat += (pool_o - pool_e) * (pool_o - pool_e) / pool_e;
-        dof += 1;
-    } else if pool_o > 1e-4 * n as f64 {
-        return Err(format!("{name}: {pool_o} samples where the density is zero"));
-    }
-    let total: f64 = mass.iter().sum::<f64>() * n as f64;
-    let drawn: f64 = observed.iter().sum();
-    if (total - drawn).abs() > 5.0 * total.sqrt() + 0.002 * n as f64 {
-        return Err(format!("{name}: the density integrates to {total:.0} of {drawn} samples"));
-    }
-    let k = (dof - 1) as f64;
-    let z = ((stat / k).cbrt() - (1.0 - 2.0 / (9.0 * k))) / (2.0 / (9.0 * k)).sqrt();
-    eprintln!("{name}: χ² = {stat:.1}, {dof} bins, z = {z:.2}");
-    if z < 3.72 {
-        Ok(z)
-    } else {
-        Err(format!("{name}: samples do not follow the density (χ² = {stat:.1}, z = {z:.2})"))
-    }
 }
 
 /// Bins of the unit square (`BINS`² of them) and their masses under `density`

@@ -24,13 +24,22 @@ pub fn bin_in_cap(frame: &Frame, w: Vec3, cos_min: f32) -> Option<usize> {
 }
 
 /// χ² test of `n` samples against bin probabilities `mass[b]` (which may sum to
-/// less than 1 when sampling can fail).
+/// less than 1 when sampling can fail); panics when it fails.
 pub fn chi2_bins(name: &str, n: usize, observed: &[f64], mass: &[f64]) {
-    let expected: Vec<f64> = mass.iter().map(|m| m * n as f64).collect();
-    // pool bins with small expectations
+    if let Err(e) = chi2_test(name, n, observed, mass) {
+        panic!("{e}");
+    }
+}
+
+/// The χ² statistic of `observed` counts against bin probabilities `mass` (bins
+/// expecting fewer than 5 pooled) as a z-score (Wilson–Hilferty); `Err` when the
+/// samples do not follow the masses (p ≈ 1e-4 one-sided: a correct sampler fails
+/// about once in 10,000 runs) or the masses do not sum to what was drawn.
+pub fn chi2_test(name: &str, n: usize, observed: &[f64], mass: &[f64]) -> Result<f64, String> {
     let (mut stat, mut dof, mut pool_o, mut pool_e) = (0.0f64, 0usize, 0.0f64, 0.0f64);
-    for (o, e) in observed.iter().zip(&expected) {
-        if *e < 5.0 {
+    for (o, m) in observed.iter().zip(mass) {
+        let e = m * n as f64;
+        if e < 5.0 {
             pool_o += o;
             pool_e += e;
         } else {
@@ -41,25 +50,26 @@ pub fn chi2_bins(name: &str, n: usize, observed: &[f64], mass: &[f64]) {
     if pool_e > 0.0 {
         stat += (pool_o - pool_e) * (pool_o - pool_e) / pool_e;
         dof += 1;
-    } else {
+    } else if pool_o > 1e-4 * n as f64 {
         // bins the quadrature saw no support in; only a sliver along an edge may fall there
-        assert!(pool_o <= 1e-4 * n as f64, "{name}: {pool_o} samples where the pdf is zero");
+        return Err(format!("{name}: {pool_o} samples where the pdf is zero"));
     }
-    let total_e: f64 = expected.iter().sum();
-    let total_o: f64 = observed.iter().sum();
-    assert!(
-        (total_e - total_o).abs() < 5.0 * total_e.sqrt() + 0.002 * n as f64,
-        "{name}: the pdf integrates to {total_e:.0} of the {total_o} samples drawn"
-    );
+    let total: f64 = mass.iter().sum::<f64>() * n as f64;
+    let drawn: f64 = observed.iter().sum();
+    if (total - drawn).abs() > 5.0 * total.sqrt() + 0.002 * n as f64 {
+        return Err(format!("{name}: the pdf integrates to {total:.0} of the {drawn} samples drawn"));
+    }
     let k = (dof - 1) as f64;
     let z = ((stat / k).cbrt() - (1.0 - 2.0 / (9.0 * k))) / (2.0 / (9.0 * k)).sqrt();
     eprintln!("{name}: χ² = {stat:.1} with {} dof, z = {z:.2}", dof - 1);
-    // p ≈ 1e-4 one-sided: a correct sampler fails this about once in 10,000 runs
-    assert!(
-        z < 3.72,
-        "{name}: samples do not follow the pdf (χ² = {stat:.1}, dof {}, z = {z:.2})",
-        dof - 1
-    );
+    if z < 3.72 {
+        Ok(z)
+    } else {
+        Err(format!(
+            "{name}: samples do not follow the pdf (χ² = {stat:.1}, dof {}, z = {z:.2})",
+            dof - 1
+        ))
+    }
 }
 
 /// Directions binned by (cos θ, φ) about `frame.n`; bin masses by a 16×16

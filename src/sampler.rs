@@ -109,6 +109,14 @@ impl PixelSampler {
         (to_unit(x), to_unit(y))
     }
 
+    /// A uniform number keyed by `tag` alone (not a dimension of the sequence): the
+    /// same for this pixel sample whatever else was drawn before it.
+    #[inline]
+    pub fn keyed_1d(&self, tag: u32) -> f32 {
+        let h = hash_combine(hash_combine(self.pixel_seed ^ 0x9e37_79b9, self.index), tag);
+        to_unit(hash_u32(h))
+    }
+
     /// The first coordinate of [`next_2d`](Self::next_2d), without computing the second.
     #[inline]
     pub fn next_1d(&mut self) -> f32 {

@@ -75,6 +75,34 @@ fn converges_to_the_path_traced_references() {
     }
 }
 
+/// `connection_roulette` skips shadow rays without bias: at an aggressive share (2:
+/// most connections are rouletted) `bdpt` still converges to the references, and it
+/// traces clearly fewer rays than with every connection tested.
+#[test]
+fn connection_roulette_is_unbiased_and_traces_fewer_rays() {
+    let Some(shared) = shared() else { return };
+    for (name, scene, k, spp) in [("cbox", "cbox_path", 4, 16), ("caustic_cbox", "caustic_cbox", 4, 16)] {
+        let c = against_reference(&shared, name, scene, k, spp, &[r#"{"integrator": {"connection_roulette": 2}}"#]);
+        assert!(converges(&c), "{name} with connection_roulette 2: {c:?}");
+    }
+    let rays = |share: &str| {
+        let l = small_cbox(&shared, 16, 12, &format!(r#", "connection_roulette": {share}"#));
+        let job = rdr::RenderJob {
+            spp: 4,
+            target_spp: 4,
+            seed: 3,
+            ..l.job.clone()
+        };
+        rdr::render(&l.scene, &job, &rdr::render::RenderControl::default()).rays
+    };
+    let (all, default, aggressive) = (rays("0"), rays("0.3"), rays("2"));
+    eprintln!("rays: every connection {all}, share 0.3 {default}, share 2 {aggressive}");
+    assert!(
+        (default as f64) < 0.95 * all as f64 && aggressive < default,
+        "{all} {default} {aggressive}"
+    );
+}
+
 /// A UV sphere of radius `r` about the origin, `n` segments around, with vertex
 /// normals (outward) or without; triangles wound inwards when `inward`.
 fn sphere_obj(n: usize, r: f32, inward: bool, normals: bool) -> String {
@@ -243,16 +271,23 @@ fn each_strategy_alone_converges_to_the_same_image_and_weighted_shares_add_up() 
 fn visualize_strategies_writes_each_strategy_share_in_one_render() {
     let Some(shared) = shared() else { return };
     let (spp, seed) = (20, 5);
-    let plain = render(&small_cbox(&shared, 12, 3, ""), spp, seed);
-    let l = small_cbox(&shared, 12, 3, r#", "visualize_strategies": true"#);
-    let job = rdr::RenderJob {
-        spp,
-        target_spp: spp,
-        seed,
-        ..l.job.clone()
+    let visualize = |extra: &str| {
+        let l = small_cbox(&shared, 12, 3, &format!(r#", "visualize_strategies": true{extra}"#));
+        let job = rdr::RenderJob {
+            spp,
+            target_spp: spp,
+            seed,
+            ..l.job.clone()
+        };
+        rdr::render(&l.scene, &job, &rdr::render::RenderControl::default())
     };
-    let out = rdr::render(&l.scene, &job, &rdr::render::RenderControl::default());
+    let out = visualize("");
+    let plain = render(&small_cbox(&shared, 12, 3, ""), spp, seed);
     assert!(out.pixels == plain.pixels, "the bdpt image itself must not change");
+    // one strategy alone never roulettes its connections: compare shares without it
+    let out = visualize(r#", "connection_roulette": 0"#);
+    let plain = render(&small_cbox(&shared, 12, 3, r#", "connection_roulette": 0"#), spp, seed);
+    assert!(out.pixels == plain.pixels, "the bdpt image itself must not change (no roulette)");
     let names: Vec<&str> = out.extra_images.iter().map(|(n, _)| n.as_str()).collect();
     assert_eq!(
         names,

@@ -160,6 +160,9 @@ pub fn to_json(desc: &SceneDesc, out: &Path) -> Result<Converted> {
             if b.visualize_strategies {
                 integ.insert("visualize_strategies".into(), true.into());
             }
+            if b.connection_roulette != crate::integrator::bdpt::CONNECTION_ROULETTE {
+                integ.insert("connection_roulette".into(), num(b.connection_roulette));
+            }
         }
         Integrator::Ptracer(p) => {
             integ.insert("type".into(), "ptracer".into());
@@ -653,8 +656,12 @@ pub fn to_xml(desc: &SceneDesc, out: &Path) -> Result<Converted> {
             format!("  <integrator type=\"direct\">\n    <integer name=\"emitter_samples\" value=\"{n}\"/>\n    <integer name=\"bsdf_samples\" value=\"{n}\"/>\n  </integrator>\n")
         }
         Integrator::Bdpt(b) => {
-            if b.strategy.is_some() || b.visualize_strategies || b.heuristic != Heuristic::Power {
-                w.push("bdpt's mis/strategy options have no Mitsuba counterpart".into());
+            if b.strategy.is_some()
+                || b.visualize_strategies
+                || b.heuristic != Heuristic::Power
+                || b.connection_roulette != crate::integrator::bdpt::CONNECTION_ROULETTE
+            {
+                w.push("bdpt's mis/strategy/connection_roulette options have no Mitsuba counterpart".into());
             }
             format!("  <integrator type=\"bdpt\">\n{}  </integrator>\n", depth(b.max_depth))
         }

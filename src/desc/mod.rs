@@ -59,7 +59,7 @@ use crate::integrator::{
 ///   `"sppm"` or `"normals"` (a debug view: shading normals as colours). The keys of each
 ///   are documented on its type:
 ///   [`PathTracer`] (`spp` 32, `max_depth` 12, `profile`, `rr_threshold`),
-///   [`Bdpt`] (as `path`, and `mis`, `strategy`, `strategy_weighted`, `visualize_strategies`), [`Guided`] (`spp` 64,
+///   [`Bdpt`] (as `path`, and `mis`, `strategy`, `strategy_weighted`, `visualize_strategies`, `connection_roulette`), [`Guided`] (`spp` 64,
 ///   `max_depth` 12, `rr_threshold`, `bsdf_fraction` 0.5, `training_iterations`, `combine`,
 ///   `spatial_threshold`, `learn_direct`, `training_share`), [`Ptracer`]
 ///   (`spp` 32, `max_depth` 12, `rr_threshold`),
@@ -681,7 +681,7 @@ fn in_range(p: &Props, key: &str, v: f32, lo: f32, hi: f32) -> Result<f32> {
 }
 
 /// The keys only `bdpt` has (see [`Bdpt`]): `mis`, `strategy`, `strategy_weighted`,
-/// `visualize_strategies`.
+/// `visualize_strategies`, `connection_roulette`.
 fn parse_bdpt(p: &Props, max_depth: u32, rr_threshold: f32) -> Result<Bdpt> {
     let heuristic = match p.string_or("mis", "power")?.as_str() {
         "power" => Heuristic::Power,
@@ -709,6 +709,13 @@ fn parse_bdpt(p: &Props, max_depth: u32, rr_threshold: f32) -> Result<Bdpt> {
         strategy,
         strategy_weighted: p.bool_or("strategy_weighted", false)?,
         visualize_strategies,
+        connection_roulette: in_range(
+            p,
+            "connection_roulette",
+            p.f32_or("connection_roulette", crate::integrator::bdpt::CONNECTION_ROULETTE)?,
+            0.0,
+            1e3,
+        )?,
     })
 }
 

@@ -363,6 +363,7 @@ impl<'a> Reader<'a> {
                     strategy: None,
                     strategy_weighted: false,
                     visualize_strategies: false,
+                    connection_roulette: crate::integrator::bdpt::CONNECTION_ROULETTE,
                 })
             }
             "photonmapper" | "photon" => {

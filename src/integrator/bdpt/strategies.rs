@@ -110,6 +110,7 @@ pub fn render_pass(bdpt: &Bdpt, pc: &PassContext, pass: u32, film: &mut Film) ->
         max_depth: bdpt.max_depth as usize,
         heuristic: bdpt.heuristic,
         select: Select::Each,
+        roulette: bdpt.connection_roulette,
     };
     let n = films.list.len();
     let diff_scale = differential_scale(pc.target_spp);

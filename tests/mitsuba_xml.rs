@@ -218,6 +218,15 @@ fn objects(s: &rdr::Scene) -> Vec<(Vec<[f32; 18]>, String, String)> {
                     a[3] = sp.radius;
                     a
                 }],
+                Shape::Cylinder(c) => vec![{
+                    let c = c.cylinder;
+                    let mut a = [0.0; 18];
+                    a[..3].copy_from_slice(&c.p0.to_array());
+                    a[3..6].copy_from_slice(&c.axis.to_array());
+                    a[6..9].copy_from_slice(&c.x.to_array());
+                    a[9] = c.radius;
+                    a
+                }],
             };
             let material = o.material.map_or("none".to_string(), |m| {
                 let m = s.materials[m as usize]

@@ -227,15 +227,16 @@ mod tests {
             instances: &instances,
             groups: &groups,
         };
-        // x = 4.2·(2) hits the first instance's triangle 2 (x in [4, 5] · 2 = [8, 10]) at z = −3
+        // x = 8.5 hits the first instance's triangle 2 (x in [4, 5]·2 = [8, 10]) at z = −3
         let ray = Ray::new(Vec3::new(8.5, 0.2, 0.0), -Vec3::Z);
         let h = tl.intersect(&top, &ray).unwrap();
         assert_eq!((h.prim, h.sub), (0, 2));
         assert!((h.t - 3.0).abs() < 1e-5, "{}", h.t);
-        // only the second instance (scale 0.5: x in [1, 1.5] for triangle 1) at z = −5
-        let ray = Ray::new(Vec3::new(1.1, 0.1, 0.0), -Vec3::Z);
+        // between the first instance's triangles (x in [0, 2], [4, 6]), on the second's
+        // triangle 2 (scale 0.5: x in [2, 2.5]) at z = −5
+        let ray = Ray::new(Vec3::new(2.1, 0.1, 0.0), -Vec3::Z);
         let h = tl.intersect(&top, &ray).unwrap();
-        assert_eq!(h.prim, 1);
+        assert_eq!((h.prim, h.sub), (1, 2));
         assert!((h.t - 5.0).abs() < 1e-5, "{}", h.t);
         assert!(tl.occluded(&top, &ray));
         assert!(!tl.occluded(&top, &Ray::with_range(ray.o, ray.d, 0.0, 4.9)));

@@ -8,7 +8,7 @@ cylinder.var.exr (per pixel and channel the variance of that mean: the sample va
 of the K pass images / K).
 
 The scene: three open cylinders on a diffuse floor under a constant sky. A tilted one
-with a checkerboard (its uv), an emitting one lying above (area light sampled by
+with an 8×4 image texture (cylinder_tex.png: its uv), an emitting one lying above (area light sampled by
 area), and one with flip_normals whose inside, seen through its open top, is lit and
 whose outside (the back of a one-sided diffuse) is black.
 
@@ -28,7 +28,10 @@ CAMERA = {"position": [0.0, 1.6, -4.2], "look_at": [0.0, -0.1, 0.0], "ref_up": [
 SKY = [0.2, 0.2, 0.25]
 FLOOR = {"center": [0.0, -101.0, 0.0], "radius": 100.0, "albedo": [0.5, 0.5, 0.5]}
 # (p0, p1, radius, flip_normals, material or None, radiance or None)
-CHECKER = {"color0": [0.8, 0.1, 0.1], "color1": [0.9, 0.9, 0.9], "scale": [4.0, 2.0]}
+# the tilted cylinder's texture: 8×4 texels, each of its own colour (u and v and
+# their directions show), magnified, so that Mitsuba's lookup and rdr's
+# (both bilinear) agree
+TEX_W, TEX_H = 8, 4
 CYLINDERS = [
     ([-0.9, -1.0, 0.2], [-0.5, 0.5, 0.5], 0.45, False, "checker", None),
     ([-1.2, 0.9, 0.7], [1.2, 1.1, 0.9], 0.12, False, None, [6.0, 5.0, 4.0]),
@@ -46,10 +49,9 @@ def scene_xml():
     for p0, p1, r, flip, mat, rad in CYLINDERS:
         inner = ""
         if mat == "checker":
-            inner = (f'<bsdf type="diffuse"><texture type="checkerboard" name="reflectance">'
-                     f'<rgb name="color0" value="{v(CHECKER["color0"])}"/><rgb name="color1" value="{v(CHECKER["color1"])}"/>'
-                     f'<transform name="to_uv"><scale x="{CHECKER["scale"][0]}" y="{CHECKER["scale"][1]}"/></transform>'
-                     f'</texture></bsdf>')
+            inner = ('<bsdf type="diffuse"><texture type="bitmap" name="reflectance">'
+                     '<string name="filename" value="cylinder_tex.png"/>'
+                     '</texture></bsdf>')
         elif mat == "white":
             inner = '<bsdf type="diffuse"><rgb name="reflectance" value="0.7, 0.7, 0.7"/></bsdf>'
         if rad is not None:
@@ -97,6 +99,11 @@ def main():
     import numpy as np
     mi.set_variant(args.variant)
     os.makedirs(HERE, exist_ok=True)
+    tex = np.zeros((TEX_H, TEX_W, 3), dtype=np.uint8)
+    for y in range(TEX_H):
+        for x in range(TEX_W):
+            tex[y, x] = [40 + 200 * x // (TEX_W - 1), 40 + 200 * y // (TEX_H - 1), 200 if (x + y) % 2 else 40]
+    mi.Bitmap(tex).write(os.path.join(HERE, "cylinder_tex.png"))
     xml_path = os.path.join(HERE, "cylinder.xml")
     with open(xml_path, "w") as f:
         f.write(scene_xml())

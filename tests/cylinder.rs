@@ -1,7 +1,7 @@
 //! Mitsuba's analytic `cylinder`: intersection and surface points against a finely
 //! triangulated cylinder (random cylinders and rays; uv and the frame written out
-//! here from Mitsuba's definition, not from rdr's), and a small scene (a
-//! checkerboard cylinder, an emitting one, one with `flip_normals`) converging to
+//! here from Mitsuba's definition, not from rdr's), and a small scene (an
+//! image-textured cylinder, an emitting one, one with `flip_normals`) converging to
 //! Mitsuba 3's image of it (`tests/refs/shapes/`, made by
 //! `scripts/make_cylinder_refs.py`), read from its XML and from the JSON `rdr convert`
 //! writes of it.
@@ -107,12 +107,15 @@ fn cylinder_hits_agree_with_a_fine_triangulation() {
                     let tri = &tris[b.prim as usize];
                     let w = b.b;
                     let uv = uvs[b.prim as usize][0] * w[0] + uvs[b.prim as usize][1] * w[1] + uvs[b.prim as usize][2] * w[2];
+                    // rdr's v runs the other way from Mitsuba's (as for meshes)
                     let du = (it.uv.x - uv.x).abs();
-                    assert!(
-                        du.min(1.0 - du) < 2e-3 && (it.uv.y - uv.y).abs() < 2e-3,
-                        "case {case} ray {k}: uv {} vs {uv}",
-                        it.uv
-                    );
+                    let dv = (it.uv.y - (1.0 - uv.y)).abs();
+                    assert!(du.min(1.0 - du) < 2e-3 && dv < 2e-3, "case {case} ray {k}: uv {} vs Mitsuba's {uv}", it.uv);
+                    // ∂p/∂u as Mitsuba's, ∂p/∂v of rdr's v = 1 − h
+                    let h = 1e-3;
+                    let fu = (mitsuba_point(p0, p1, r, uv.x + h, uv.y) - mitsuba_point(p0, p1, r, uv.x - h, uv.y)) / (2.0 * h);
+                    assert!((it.dpdu - fu).length() < 1e-2 * fu.length(), "case {case} ray {k}: dpdu {} vs {fu}", it.dpdu);
+                    assert!((it.dpdv + (p1 - p0)).length() < 1e-4 * (p1 - p0).length(), "case {case} ray {k}: dpdv {}", it.dpdv);
                     // outward normal as Mitsuba's (the triangles wind outwards), inward with flip_normals
                     let n = (tri[1] - tri[0]).cross(tri[2] - tri[0]).normalize();
                     let n = if flip { -n } else { n };

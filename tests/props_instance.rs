@@ -5,7 +5,8 @@
 //! triangle, `t` within 1e-5 relative), shadow rays agree, and the surface points
 //! (position, geometric and shading normals, uv, ∂p/∂u) agree, with every
 //! instruction set; rays that graze an edge (a barycentric below 1e-4 on either
-//! side) are left aside and counted.
+//! side) or, for the distance, the surface (|cos| < 0.02 on the same triangle) are
+//! left aside and counted.
 
 mod common;
 
@@ -167,8 +168,11 @@ fn instances_agree_with_the_flattened_scene() {
                 (None, None) => {}
                 (Some(a), Some(f)) => {
                     let (ka, kf) = (key(&inst, a.prim, a.sub, a.b), key(&flat, f.prim, f.sub, f.b));
+                    // a ray grazing the surface (|cos| < 0.02) has its t moved by the
+                    // rounding of the vertices' or the ray's transform over 1/|cos|
+                    let cos = flat.interaction(ray, &f).ng.dot(ray.d).abs();
                     if (ka.0, ka.1) != (kf.0, kf.1) || (a.t - f.t).abs() > 1e-5 * f.t {
-                        if ka.2 < 1e-4 || kf.2 < 1e-4 {
+                        if ka.2 < 1e-4 || kf.2 < 1e-4 || ((ka.0, ka.1) == (kf.0, kf.1) && cos < 0.02) {
                             grazing += 1;
                             continue;
                         }

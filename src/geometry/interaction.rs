@@ -123,9 +123,14 @@ impl Interaction {
     }
 
     /// The point of `cylinder` nearest `hit_point`; the normal points outwards (the
-    /// scene flips it for `flip_normals`).
+    /// scene flips it for `flip_normals`). Texture coordinates are Mitsuba's
+    /// `(φ/2π, h)` ([`Cylinder::surface`]) in rdr's orientation, `(φ/2π, 1 − h)`: rdr's
+    /// `v` runs the other way from Mitsuba's (an OBJ's coordinates are used as they
+    /// are where Mitsuba flips them, and the XML reader rewrites `to_uv` for that), so
+    /// a texture shows on the cylinder as Mitsuba shows it.
     pub fn on_cylinder(cylinder: &Cylinder, hit_point: Vec3, object: u32, wo: Vec3) -> Interaction {
         let (p, n, uv, dpdu, dpdv) = cylinder.surface(hit_point);
+        let (uv, dpdv) = (Vec2::new(uv.x, 1.0 - uv.y), -dpdv);
         Interaction {
             p,
             ng: n,

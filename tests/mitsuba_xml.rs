@@ -424,7 +424,7 @@ fn bad_xml_gives_one_line_errors_with_file_line_and_column() {
         ("instance of an unknown shapegroup", scene(r#"  <shape type="instance"><ref id="nope"/></shape>"#), "line 6, column 26", "unknown id \"nope\""),
         ("instance without a shapegroup", scene(r#"  <shape type="instance"/>"#), "line 6, column 3", "needs a <ref> to a shapegroup"),
         ("instance of a sphere", scene(r#"  <shape type="sphere" id="s"/><shape type="instance"><ref id="s"/></shape>"#), "line 6, column 55", "must refer to a shapegroup"),
-        ("instance matrix as a string", scene(r#"  <shape type="shapegroup" id="g"><shape type="sphere"/></shape><shape type="instance"><ref id="g"/><string name="to_world" value="1"/></shape>"#), "line 6, column 100", "expected a transform"),
+        ("instance matrix as a string", scene(r#"  <shape type="shapegroup" id="g"><shape type="sphere"/></shape><shape type="instance"><ref id="g"/><string name="to_world" value="1"/></shape>"#), "line 6, column 101", "expected a transform"),
         ("shapegroup without an id", scene(r#"  <shape type="shapegroup"><shape type="sphere"/></shape>"#), "line 6, column 3", "needs an \"id\""),
         ("emitter in a shapegroup", scene(r#"  <shape type="shapegroup" id="g"><shape type="sphere"><emitter type="area"/></shape></shape>"#), "line 6, column 56", "emitters inside a shapegroup"),
         ("nested instancing", scene(r#"  <shape type="shapegroup" id="g"><shape type="instance"><ref id="g"/></shape></shape>"#), "line 6, column 35", "nested instancing"),

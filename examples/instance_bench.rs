@@ -26,15 +26,18 @@ fn scene_json(mesh: &str, n: usize, instanced: bool, spacing: f32) -> Value {
             json!({"type": "mesh", "path": mesh, "translate": t, "material_name": "w"})
         });
     }
-    json!({
+    let mut v = json!({
         "integrator": {"type": "path", "spp": 1},
         "film": {"resolution": [8, 8]},
         "camera": {"position": [0, 0, 10], "look_at": [0, 0, 0], "ref_up": [0, 1, 0], "fov": 40},
         "textures": {"w": {"type": "constant", "color": [0.5, 0.5, 0.5]}},
         "materials": {"w": {"type": "diffuse", "texture_name": "w"}},
-        "shapegroups": {"m": {"objects": [{"type": "mesh", "path": mesh, "material_name": "w"}]}},
         "objects": objects,
-    })
+    });
+    if instanced {
+        v["shapegroups"] = json!({"m": {"objects": [{"type": "mesh", "path": mesh, "material_name": "w"}]}});
+    }
+    v
 }
 
 fn load(v: &Value) -> (Scene, f64) {

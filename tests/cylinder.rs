@@ -110,12 +110,24 @@ fn cylinder_hits_agree_with_a_fine_triangulation() {
                     // rdr's v runs the other way from Mitsuba's (as for meshes)
                     let du = (it.uv.x - uv.x).abs();
                     let dv = (it.uv.y - (1.0 - uv.y)).abs();
-                    assert!(du.min(1.0 - du) < 2e-3 && dv < 2e-3, "case {case} ray {k}: uv {} vs Mitsuba's {uv}", it.uv);
+                    assert!(
+                        du.min(1.0 - du) < 2e-3 && dv < 2e-3,
+                        "case {case} ray {k}: uv {} vs Mitsuba's {uv}",
+                        it.uv
+                    );
                     // ∂p/∂u as Mitsuba's, ∂p/∂v of rdr's v = 1 − h
                     let h = 1e-3;
                     let fu = (mitsuba_point(p0, p1, r, uv.x + h, uv.y) - mitsuba_point(p0, p1, r, uv.x - h, uv.y)) / (2.0 * h);
-                    assert!((it.dpdu - fu).length() < 1e-2 * fu.length(), "case {case} ray {k}: dpdu {} vs {fu}", it.dpdu);
-                    assert!((it.dpdv + (p1 - p0)).length() < 1e-4 * (p1 - p0).length(), "case {case} ray {k}: dpdv {}", it.dpdv);
+                    assert!(
+                        (it.dpdu - fu).length() < 1e-2 * fu.length(),
+                        "case {case} ray {k}: dpdu {} vs {fu}",
+                        it.dpdu
+                    );
+                    assert!(
+                        (it.dpdv + (p1 - p0)).length() < 1e-4 * (p1 - p0).length(),
+                        "case {case} ray {k}: dpdv {}",
+                        it.dpdv
+                    );
                     // outward normal as Mitsuba's (the triangles wind outwards), inward with flip_normals
                     let n = (tri[1] - tri[0]).cross(tri[2] - tri[0]).normalize();
                     let n = if flip { -n } else { n };

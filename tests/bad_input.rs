@@ -222,6 +222,63 @@ fn cases() -> Vec<Case> {
         edit("singular transform", |s| s["objects"][1]["transform"] = json!(vec![0; 16])).err(&["objects[1].transform", "singular"]),
         edit("transform of 15 numbers", |s| s["objects"][1]["transform"] = json!(vec![1; 15])).err(&["objects[1].transform", "16"]),
         edit("negative sphere radius", |s| s["objects"][0]["radius"] = json!(-1)).err(&["objects[0].radius", "positive"]),
+        // --- cylinders, shape groups and instances ------------------------------------------
+        edit("negative cylinder radius", |s| {
+            s["objects"][0] = json!({"type": "cylinder", "radius": -1, "material_name": "matte"})
+        })
+        .err(&["objects[0].radius", "positive"]),
+        edit("cylinder radius as a string", |s| {
+            s["objects"][0] = json!({"type": "cylinder", "radius": "1", "material_name": "matte"})
+        })
+        .err(&["objects[0].radius", "expected a number"]),
+        edit("cylinder p0 = p1", |s| {
+            s["objects"][0] = json!({"type": "cylinder", "p1": [0, 0, 0], "material_name": "matte"})
+        })
+        .err(&["objects[0].p1", "differ from p0"]),
+        edit(
+            "cylinder skewed",
+            |s| {
+                s["objects"][0] =
+                    json!({"type": "cylinder", "transform": [2, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1], "material_name": "matte"})
+            },
+        )
+        .err(&["objects[0].transform", "uniform across its axis"]),
+        edit("instance of an unknown shapegroup", |s| {
+            s["objects"][0] = json!({"type": "instance", "shapegroup": "nope"})
+        })
+        .err(&["objects[0].shapegroup", "no shapegroup named 'nope'"]),
+        edit("instance without a shapegroup", |s| s["objects"][0] = json!({"type": "instance"})).err(&["objects[0].shapegroup", "missing"]),
+        edit("instance shapegroup as a number", |s| {
+            s["objects"][0] = json!({"type": "instance", "shapegroup": 3})
+        })
+        .err(&["objects[0].shapegroup", "expected a string"]),
+        edit("instance singular", |s| {
+            s["shapegroups"] = json!({"g": {"objects": [{"type": "sphere", "material_name": "matte"}]}});
+            s["objects"][0] = json!({"type": "instance", "shapegroup": "g", "transform": vec![0; 16]});
+        })
+        .err(&["objects[0].transform"]),
+        edit("instance with a material", |s| {
+            s["shapegroups"] = json!({"g": {"objects": [{"type": "sphere", "material_name": "matte"}]}});
+            s["objects"][0] = json!({"type": "instance", "shapegroup": "g", "material_name": "matte"});
+        })
+        .err(&["objects[0].material_name", "shapegroup"]),
+        edit("emitter in a shapegroup", |s| {
+            s["shapegroups"] = json!({"g": {"objects": [{"type": "sphere", "light": {"radiance": [1, 1, 1]}}]}});
+        })
+        .err(&["shapegroups.g.objects[0].light", "emitters inside a shapegroup"]),
+        edit("instance in a shapegroup", |s| {
+            s["shapegroups"] = json!({"g": {"objects": [{"type": "instance", "shapegroup": "g"}]}});
+        })
+        .err(&["shapegroups.g.objects[0].type", "nested instancing"]),
+        {
+            let mut c = edit("cylinder under --compat rdr171", |s| {
+                s["objects"][0] = json!({"type": "cylinder", "material_name": "matte"})
+            })
+            .err(&["objects[0].type", "--compat rdr171", "cylinders"]);
+            c.args.extend(["--compat".to_string(), "rdr171".to_string()]);
+            c
+        },
+        edit("shapegroup objects not a list", |s| s["shapegroups"] = json!({"g": {"objects": 3}})).err(&["shapegroups.g.objects"]),
         edit("negative legacy flux", |s| s["integrator"]["point_light_flux"] = json!([1, -1, 1])).err(&["integrator.point_light_flux"]),
         edit("negative list flux", |s| {
             s["integrator"]["lights"] = json!([{"type": "point", "position": [0, 1, 0], "flux": [1, -1, 1]}])

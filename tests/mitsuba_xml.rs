@@ -218,6 +218,15 @@ fn objects(s: &rdr::Scene) -> Vec<(Vec<[f32; 18]>, String, String)> {
                     a[3] = sp.radius;
                     a
                 }],
+                Shape::Cylinder(c) => vec![{
+                    let c = c.cylinder;
+                    let mut a = [0.0; 18];
+                    a[..3].copy_from_slice(&c.p0.to_array());
+                    a[3..6].copy_from_slice(&c.axis.to_array());
+                    a[6..9].copy_from_slice(&c.x.to_array());
+                    a[9] = c.radius;
+                    a
+                }],
             };
             let material = o.material.map_or("none".to_string(), |m| {
                 let m = s.materials[m as usize]
@@ -408,6 +417,17 @@ fn bad_xml_gives_one_line_errors_with_file_line_and_column() {
         ("roughdielectric alpha_u alone", scene(r#"  <shape type="sphere"><bsdf type="roughdielectric"><float name="alpha_u" value="0.1"/></bsdf></shape>"#), "line 6, column 24", "both alpha_u and alpha_v"),
         ("negative alpha", scene(r#"  <shape type="sphere"><bsdf type="roughplastic"><float name="alpha" value="-1"/></bsdf></shape>"#), "line 6, column 50", "between 0 and 10"),
         ("negative radiance", scene(r#"  <emitter type="constant"><rgb name="radiance" value="-1"/></emitter>"#), "line 6, column 28", "must not be negative"),
+        ("cylinder radius as a string", scene(r#"  <shape type="cylinder"><string name="radius" value="1"/></shape>"#), "line 6, column 26", "expected a float, found a string"),
+        ("cylinder p0 = p1", scene(r#"  <shape type="cylinder"><point name="p1" value="0, 0, 0"/></shape>"#), "line 6, column 26", "must differ from p0"),
+        ("cylinder negative radius", scene(r#"  <shape type="cylinder"><float name="radius" value="-2"/></shape>"#), "line 6, column 26", "must be positive"),
+        ("cylinder skewed", scene(r#"  <shape type="cylinder"><transform name="to_world"><scale x="2"/></transform></shape>"#), "line 6, column 26", "uniform across its axis"),
+        ("instance of an unknown shapegroup", scene(r#"  <shape type="instance"><ref id="nope"/></shape>"#), "line 6, column 26", "unknown id \"nope\""),
+        ("instance without a shapegroup", scene(r#"  <shape type="instance"/>"#), "line 6, column 3", "needs a <ref> to a shapegroup"),
+        ("instance of a sphere", scene(r#"  <shape type="sphere" id="s"/><shape type="instance"><ref id="s"/></shape>"#), "line 6, column 55", "must refer to a shapegroup"),
+        ("instance matrix as a string", scene(r#"  <shape type="shapegroup" id="g"><shape type="sphere"/></shape><shape type="instance"><ref id="g"/><string name="to_world" value="1"/></shape>"#), "line 6, column 101", "expected a transform"),
+        ("shapegroup without an id", scene(r#"  <shape type="shapegroup"><shape type="sphere"/></shape>"#), "line 6, column 3", "needs an \"id\""),
+        ("emitter in a shapegroup", scene(r#"  <shape type="shapegroup" id="g"><shape type="sphere"><emitter type="area"/></shape></shape>"#), "line 6, column 56", "emitters inside a shapegroup"),
+        ("nested instancing", scene(r#"  <shape type="shapegroup" id="g"><shape type="instance"><ref id="g"/></shape></shape>"#), "line 6, column 35", "nested instancing"),
         ("mirrored camera", "<scene version=\"3.0.0\">\n  <sensor type=\"perspective\">\n    <transform name=\"to_world\"><scale x=\"-1\"/></transform>\n  </sensor>\n</scene>\n".into(), "line 3, column 5", "mirroring"),
     ];
     let mut failures = Vec::new();

@@ -133,6 +133,7 @@ fn check_prims(label: &str, rng: &mut Rng, prims: Vec<Prim>, rays: usize) -> (Wi
                 [0; 3],
             ],
         ),
+        _ => unreachable!("triangles and spheres only"),
     };
     let ray_list = scene_rays(rng, &prims, rays);
     let (returned, bvh) = build_bvh(prims.clone());

@@ -2,6 +2,7 @@
 
 pub mod build;
 pub mod bvh;
+pub mod instance;
 pub mod photon_map;
 pub mod reference;
 pub mod wide;

@@ -35,7 +35,7 @@ impl Tracer for Reference<'_> {
         self.bvh.traverse(ray, |i, t_max| {
             if let Some((t, b)) = self.prims[i as usize].intersect(ray, *t_max) {
                 *t_max = t;
-                best = Some(Hit { t, prim: i, b });
+                best = Some(Hit { t, prim: i, b, sub: 0 });
             }
             false
         });

@@ -203,12 +203,18 @@ pub fn build(desc: &SceneDesc, opts: BuildOptions) -> Result<Scene> {
     }
 
     // Meshes load in parallel; errors are reported for the first failing object.
-    let shapes: Vec<Result<(Shape, Vec<String>)>> = desc
+    // The scene's own objects, then the members of each shape group (in order).
+    let all: Vec<&super::ObjectDesc> = desc
         .objects
+        .iter()
+        .chain(desc.shapegroups.iter().flat_map(|g| g.objects.iter()))
+        .collect();
+    let shapes: Vec<Result<(Shape, Vec<String>)>> = all
         .par_iter()
         .map(|o| match &o.shape {
             Shape::Mesh(file) => load_mesh(desc, file, opts).map(|(m, w)| (Shape::Mesh(m), w)),
             Shape::Sphere(s) => Ok((Shape::Sphere(*s), Vec::new())),
+            Shape::Cylinder(c) => Ok((Shape::Cylinder(*c), Vec::new())),
         })
         .collect();
     let mut objects = Vec::with_capacity(desc.objects.len());
@@ -222,7 +228,7 @@ pub fn build(desc: &SceneDesc, opts: BuildOptions) -> Result<Scene> {
         })
         .chain(desc.integrator.delta_lights.iter().map(|l| l.light.clone()))
         .collect();
-    for (oi, (o, shape)) in desc.objects.iter().zip(shapes).enumerate() {
+    for (oi, (o, shape)) in all.iter().zip(shapes).enumerate() {
         let (shape, w) = shape?;
         warnings.extend(w);
         let material = o
@@ -234,6 +240,7 @@ pub fn build(desc: &SceneDesc, opts: BuildOptions) -> Result<Scene> {
             lights.push(Light::Area(match &shape {
                 Shape::Mesh(m) => AreaLight::mesh(oi as u32, l.radiance, (0..m.triangles.len()).map(|i| m.vertices(i)).collect()),
                 Shape::Sphere(s) => AreaLight::sphere(oi as u32, l.radiance, s.center, s.radius),
+                Shape::Cylinder(c) => AreaLight::cylinder(oi as u32, l.radiance, c.cylinder, c.flip_normals),
             }));
             lights.len() as u32 - 1
         });
@@ -268,21 +275,41 @@ pub fn build(desc: &SceneDesc, opts: BuildOptions) -> Result<Scene> {
         }
     };
 
+    let n_top = desc.objects.len();
     let mut prims = Vec::new();
-    for (oi, o) in objects.iter().enumerate() {
-        match &o.shape {
-            Shape::Mesh(m) => prims.extend((0..m.triangles.len()).map(|i| Prim::Triangle {
-                p: m.vertices(i),
-                object: oi as u32,
-                index: i as u32,
-            })),
-            Shape::Sphere(s) => prims.push(Prim::Sphere {
-                sphere: *s,
-                object: oi as u32,
-            }),
-        }
+    for (oi, o) in objects.iter().enumerate().take(n_top) {
+        object_prims(&mut prims, oi as u32, &o.shape);
     }
     let bvh_start = std::time::Instant::now();
+    // shape groups: one bottom level each; instances: one top-level entry each
+    let mut groups = Vec::with_capacity(desc.shapegroups.len());
+    let mut first = n_top;
+    for g in &desc.shapegroups {
+        let mut gp = Vec::new();
+        for (oi, o) in objects.iter().enumerate().skip(first).take(g.objects.len()) {
+            object_prims(&mut gp, oi as u32, &o.shape);
+        }
+        first += g.objects.len();
+        groups.push(crate::accel::instance::Group::new(gp));
+    }
+    let group_names: HashMap<&str, u32> = desc
+        .shapegroups
+        .iter()
+        .enumerate()
+        .map(|(i, g)| (g.name.as_str(), i as u32))
+        .collect();
+    let mut instances = Vec::with_capacity(desc.instances.len());
+    for d in &desc.instances {
+        let gi = lookup(&group_names, &d.shapegroup.value, "shapegroup", desc, &d.shapegroup.source)?;
+        let Some(inst) = crate::accel::instance::Instance::new(&d.transform, gi) else {
+            return Err(d.source.error(&desc.file, "an instance's transform must be affine and invertible"));
+        };
+        prims.push(Prim::Instance {
+            bounds: inst.world_bounds(groups[gi as usize].bvh.bounds()),
+            instance: instances.len() as u32,
+        });
+        instances.push(inst);
+    }
     let (prims, bvh) = build_bvh(prims);
     let bvh_seconds = bvh_start.elapsed().as_secs_f64();
 
@@ -306,10 +333,28 @@ pub fn build(desc: &SceneDesc, opts: BuildOptions) -> Result<Scene> {
         radius,
         prims,
         bvh,
+        instances,
+        groups,
         warnings,
         bvh_seconds,
         texture_convention: opts.textures,
     })
+}
+
+/// Appends the primitives of object `oi`'s shape.
+fn object_prims(prims: &mut Vec<Prim>, oi: u32, shape: &Shape) {
+    match shape {
+        Shape::Mesh(m) => prims.extend((0..m.triangles.len()).map(|i| Prim::Triangle {
+            p: m.vertices(i),
+            object: oi,
+            index: i as u32,
+        })),
+        Shape::Sphere(s) => prims.push(Prim::Sphere { sphere: *s, object: oi }),
+        Shape::Cylinder(c) => prims.push(Prim::Cylinder {
+            cylinder: c.cylinder,
+            object: oi,
+        }),
+    }
 }
 
 /// Index of a material's texture; inline colours become constant textures.

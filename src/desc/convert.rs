@@ -300,9 +300,33 @@ pub fn to_json(desc: &SceneDesc, out: &Path) -> Result<Converted> {
         .map(|s| s.to_string_lossy().into_owned())
         .unwrap_or_else(|| "scene".into());
     let mut objects = Vec::new();
-    for (i, o) in desc.objects.iter().enumerate() {
+    let mut groups: Vec<Vec<Value>> = vec![Vec::new(); desc.shapegroups.len()];
+    // the scene's objects, then each group's members (their meshes' files named by group)
+    let entries =
+        desc.objects
+            .iter()
+            .enumerate()
+            .map(|(i, o)| (i.to_string(), o, None))
+            .chain(desc.shapegroups.iter().enumerate().flat_map(|(g, gd)| {
+                gd.objects
+                    .iter()
+                    .enumerate()
+                    .map(move |(j, o)| (format!("group{g}_{j}"), o, Some(g)))
+            }));
+    for (i, o, group) in entries {
         let mut v = match &o.shape {
             Shape::Sphere(s) => json!({"type": "sphere", "center": vec3(s.center), "radius": num(s.radius)}),
+            Shape::Cylinder(c) => {
+                let (p0, p1, r, m) = cylinder_params(c);
+                let mut v = json!({"type": "cylinder", "p0": vec3(p0), "p1": vec3(p1), "radius": num(r)});
+                if let Some(m) = m {
+                    v["transform"] = Value::Array(row_major(&m).into_iter().map(num).collect());
+                }
+                if c.flip_normals {
+                    v["flip_normals"] = true.into();
+                }
+                v
+            }
             Shape::Mesh(m) => {
                 let as_is = match (&m.options.format, m.options.normals, m.options.flip_normals, m.options.flip_uv) {
                     (MeshFormat::Obj, MeshNormals::AsInFile, false, false) => true,
@@ -334,6 +358,16 @@ pub fn to_json(desc: &SceneDesc, out: &Path) -> Result<Converted> {
         if let Some(l) = &o.light {
             v["light"] = json!({"type": "area", "radiance": vec3(l.radiance)});
         }
+        match group {
+            None => objects.push(v),
+            Some(g) => groups[g].push(v),
+        }
+    }
+    for inst in &desc.instances {
+        let mut v = json!({"type": "instance", "shapegroup": inst.shapegroup.value.clone()});
+        if inst.transform != Mat4::IDENTITY {
+            v["transform"] = Value::Array(row_major(&inst.transform).into_iter().map(num).collect());
+        }
         objects.push(v);
     }
     let mut root = json!({
@@ -344,6 +378,15 @@ pub fn to_json(desc: &SceneDesc, out: &Path) -> Result<Converted> {
         "materials": Value::Object(materials),
         "objects": objects,
     });
+    if !desc.shapegroups.is_empty() {
+        let g: Map<String, Value> = desc
+            .shapegroups
+            .iter()
+            .zip(groups)
+            .map(|(d, objects)| (d.name.clone(), json!({ "objects": objects })))
+            .collect();
+        root["shapegroups"] = Value::Object(g);
+    }
     if let Some(e) = &desc.environment_map {
         let mut env = json!({"texture_name": e.texture.value.clone(), "scale": num(e.scale)});
         if e.transform != Mat4::IDENTITY {
@@ -607,6 +650,25 @@ fn material_xml(
     }
 }
 
+/// A cylinder as Mitsuba's parameters: `p0`, `p1`, `radius` and, when its `u = 0`
+/// direction is not the one Mitsuba's frame of the axis gives, a `to_world` that
+/// places the unit cylinder ((0,0,0)–(0,0,1), radius 1) exactly.
+fn cylinder_params(c: &crate::geometry::cylinder::CylinderShape) -> (Vec3, Vec3, f32, Option<Mat4>) {
+    let c = &c.cylinder;
+    let (x, _) = crate::geometry::cylinder::mitsuba_frame(c.axis.normalize());
+    if (x - c.x).length() < 1e-6 {
+        return (c.p0, c.p0 + c.axis, c.radius, None);
+    }
+    let (_, y) = c.frame();
+    let m = Mat4::from_cols(
+        (c.x * c.radius).extend(0.0),
+        (y * c.radius).extend(0.0),
+        c.axis.extend(0.0),
+        c.p0.extend(1.0),
+    );
+    (Vec3::ZERO, Vec3::Z, 1.0, Some(m))
+}
+
 fn esc(s: &str) -> String {
     s.replace('&', "&amp;")
         .replace('"', "&quot;")
@@ -812,7 +874,18 @@ pub fn to_xml(desc: &SceneDesc, out: &Path) -> Result<Converted> {
         s += "\n";
         material_ids.insert(m.name.clone(), id);
     }
-    for o in &desc.objects {
+    // shape groups first (instances refer to them), their members indented one more step
+    let group_ids: Vec<String> = desc.shapegroups.iter().map(|g| id_for(&g.name, "group-")).collect();
+    let entries = desc
+        .shapegroups
+        .iter()
+        .enumerate()
+        .flat_map(|(g, gd)| gd.objects.iter().enumerate().map(move |(j, o)| (o, Some((g, j, gd)))))
+        .chain(desc.objects.iter().map(|o| (o, None)));
+    for (o, group) in entries {
+        if let Some((g, 0, _)) = group {
+            let _ = writeln!(s, "  <shape type=\"shapegroup\" id=\"{}\">", esc(&group_ids[g]));
+        }
         let mut inner = String::new();
         let head = match &o.shape {
             Shape::Sphere(sp) => format!(
@@ -820,6 +893,22 @@ pub fn to_xml(desc: &SceneDesc, out: &Path) -> Result<Converted> {
                 v3(sp.center),
                 sp.radius
             ),
+            Shape::Cylinder(c) => {
+                let (p0, p1, r, m) = cylinder_params(c);
+                let mut h = format!(
+                    "  <shape type=\"cylinder\">\n    <point name=\"p0\" value=\"{}\"/>\n    <point name=\"p1\" value=\"{}\"/>\n    <float name=\"radius\" value=\"{}\"/>\n",
+                    v3(p0),
+                    v3(p1),
+                    r
+                );
+                if c.flip_normals {
+                    h += "    <boolean name=\"flip_normals\" value=\"true\"/>\n";
+                }
+                if let Some(m) = m {
+                    let _ = writeln!(h, "    <transform name=\"to_world\"><matrix value=\"{}\"/></transform>", matrix(&m));
+                }
+                h
+            }
             Shape::Mesh(m) => {
                 let MeshOptions {
                     format,
@@ -888,9 +977,30 @@ pub fn to_xml(desc: &SceneDesc, out: &Path) -> Result<Converted> {
                 v3(l.radiance)
             );
         }
-        s += &head;
-        s += &inner;
-        s += "  </shape>\n";
+        let body = head + &inner + "  </shape>\n";
+        match group {
+            None => s += &body,
+            Some((_, j, gd)) => {
+                for line in body.lines() {
+                    let _ = writeln!(s, "  {line}");
+                }
+                if j + 1 == gd.objects.len() {
+                    s += "  </shape>\n";
+                }
+            }
+        }
+    }
+    for inst in &desc.instances {
+        let _ = writeln!(
+            s,
+            "  <shape type=\"instance\">\n    <ref id=\"{}\"/>\n    <transform name=\"to_world\"><matrix value=\"{}\"/></transform>\n  </shape>",
+            esc(desc
+                .shapegroups
+                .iter()
+                .position(|g| g.name == inst.shapegroup.value)
+                .map_or(inst.shapegroup.value.as_str(), |g| group_ids[g].as_str())),
+            matrix(&inst.transform)
+        );
     }
     for l in &desc.integrator.point_lights {
         // rdr's flux Φ is Mitsuba's intensity Φ/4π

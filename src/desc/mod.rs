@@ -34,7 +34,7 @@ use serde_json::Value;
 use std::path::{Path, PathBuf};
 
 /// The whole scene. Top-level keys: `integrator`, `film`, `camera` (required),
-/// `textures`, `materials`, `objects`, `environment_map`.
+/// `textures`, `materials`, `objects`, `shapegroups`, `environment_map`.
 #[derive(Clone, Debug)]
 pub struct SceneDesc {
     pub file: PathBuf,
@@ -46,8 +46,102 @@ pub struct SceneDesc {
     pub textures: Vec<TextureDesc>,
     pub materials: Vec<MaterialDesc>,
     pub objects: Vec<ObjectDesc>,
+    /// Named groups of objects shown by `instances` ([`ShapeGroupDesc`]).
+    pub shapegroups: Vec<ShapeGroupDesc>,
+    /// The `instance` entries of `objects` ([`InstanceDesc`]).
+    pub instances: Vec<InstanceDesc>,
     pub environment_map: Option<EnvMapDesc>,
     pub warnings: Vec<String>,
+}
+
+/// `shapegroups.NAME`: `objects` (a list as the top-level one: meshes, spheres,
+/// cylinders with their `material_name`; no `light`, as Mitsuba refuses emitters in
+/// shape groups, and no `instance`). A group renders only through its instances,
+/// which share one bottom-level BVH of it (Mitsuba's `shapegroup`).
+///
+/// ```json
+/// "shapegroups": {"bunny": {"objects": [{"type": "mesh", "path": "bunny.obj", "material_name": "white"}]}}
+/// ```
+#[derive(Clone, Debug)]
+pub struct ShapeGroupDesc {
+    pub name: String,
+    pub source: Source,
+    pub objects: Vec<ObjectDesc>,
+}
+
+/// `objects[i]` of `type` `"instance"`: `shapegroup` (a name in `shapegroups`,
+/// required), `transform` (16 numbers row-major, identity; affine and invertible),
+/// `translate` ((0,0,0), added after `transform`). No `material_name` or `light`:
+/// the group's objects bring theirs (Mitsuba's `instance`).
+///
+/// ```json
+/// {"type": "instance", "shapegroup": "bunny", "translate": [2, 0, 0]}
+/// ```
+#[derive(Clone, Debug)]
+pub struct InstanceDesc {
+    pub source: Source,
+    pub shapegroup: Located<String>,
+    /// Object → world, `translate` included.
+    pub transform: Mat4,
+}
+
+/// A cylinder from Mitsuba's parameters, checked: the segment `p0`–`p1` and `radius`
+/// placed by `to_world`, which must keep it a circular cylinder (rotation,
+/// translation, a scale uniform across the axis, no mirroring). `Err((key, why))`.
+pub fn cylinder_shape(
+    p0: Vec3,
+    p1: Vec3,
+    radius: f32,
+    flip_normals: bool,
+    to_world: &Mat4,
+) -> std::result::Result<crate::geometry::cylinder::CylinderShape, (&'static str, String)> {
+    use crate::geometry::cylinder::{mitsuba_frame, Cylinder, CylinderShape};
+    if !(radius > 0.0 && radius <= crate::limits::MAX_COORD) {
+        return Err(("radius", format!("must be positive, found {radius}")));
+    }
+    let axis = p1 - p0;
+    if axis.length() <= 0.0 || axis.is_nan() {
+        return Err(("p1", "must differ from p0".into()));
+    }
+    let (x, y) = mitsuba_frame(axis.normalize());
+    let (wp0, wp1) = (to_world.transform_point3(p0), to_world.transform_point3(p1));
+    let (wx, wy, wa) = (
+        to_world.transform_vector3(x * radius),
+        to_world.transform_vector3(y * radius),
+        wp1 - wp0,
+    );
+    let r = wx.length();
+    let (ux, uy, ua) = (wx / r, wy / wy.length(), wa / wa.length());
+    let skew = ux.dot(uy).abs() + ux.dot(ua).abs() + uy.dot(ua).abs();
+    if !(r.is_finite() && (wy.length() - r).abs() <= 1e-4 * r && skew < 1e-4 && wa.length().is_finite()) {
+        return Err((
+            "transform",
+            "a cylinder's transform must be a rotation, translation and a scale uniform across its axis".into(),
+        ));
+    }
+    if ux.cross(uy).dot(ua) < 0.0 {
+        return Err(("transform", "a cylinder's transform must not mirror".into()));
+    }
+    for v in [wp0, wp1] {
+        if v.abs().max_element() > crate::limits::MAX_COORD || r > crate::limits::MAX_COORD {
+            return Err((
+                "transform",
+                format!(
+                    "the cylinder is out of range (coordinates must be within ±{:e})",
+                    crate::limits::MAX_COORD
+                ),
+            ));
+        }
+    }
+    Ok(CylinderShape {
+        cylinder: Cylinder {
+            p0: wp0,
+            axis: wa,
+            x: ux,
+            radius: r,
+        },
+        flip_normals,
+    })
 }
 
 use crate::integrator::{
@@ -222,8 +316,14 @@ pub enum TextureRef {
     Color(Vec3),
 }
 
-/// `objects[i]`: `type` (`"mesh"` | `"sphere"`, required; see [`Shape`]), `material_name`,
-/// `light`; at least one of the last two.
+/// `objects[i]`: `type` (`"mesh"` | `"sphere"` | `"cylinder"`, required; see [`Shape`]),
+/// `material_name`, `light`; at least one of the last two. (`"instance"` entries are
+/// [`InstanceDesc`]s.) A cylinder (Mitsuba's, open, uv `(φ/2π, height)`):
+///
+/// ```json
+/// {"type": "cylinder", "p0": [0, 0, 0], "p1": [0, 2, 0], "radius": 0.5, "flip_normals": false,
+///  "transform": [1,0,0,0, 0,1,0,0, 0,0,1,0, 0,0,0,1], "material_name": "white"}
+/// ```
 #[derive(Clone, Debug)]
 pub struct ObjectDesc {
     pub source: Source,
@@ -377,7 +477,20 @@ impl SceneDesc {
             .map(|(n, p)| parse_texture(n, p))
             .collect::<Result<Vec<_>>>()?;
         let materials = parse_materials(&root)?;
-        let objects = root.objects("objects")?.iter().map(parse_object).collect::<Result<Vec<_>>>()?;
+        let mut objects = Vec::new();
+        let mut instances = Vec::new();
+        for p in root.objects("objects")? {
+            if p.string_opt("type")?.as_deref() == Some("instance") {
+                instances.push(parse_instance(&p)?);
+            } else {
+                objects.push(parse_object(&p)?);
+            }
+        }
+        let shapegroups = root
+            .named_objects("shapegroups")?
+            .iter()
+            .map(|(n, p)| parse_shapegroup(n, p))
+            .collect::<Result<Vec<_>>>()?;
         let environment_map = root.object_opt("environment_map")?.map(|p| parse_env(&p)).transpose()?;
         root.finish();
         let warnings = ctx.warnings.borrow().clone();
@@ -390,10 +503,56 @@ impl SceneDesc {
             textures,
             materials,
             objects,
+            shapegroups,
+            instances,
             environment_map,
             warnings,
         })
     }
+}
+
+fn parse_instance(p: &Props) -> Result<InstanceDesc> {
+    p.string("type")?;
+    let shapegroup = p.located("shapegroup", p.string("shapegroup")?);
+    let transform = p.mat4_or("transform", Mat4::IDENTITY)?;
+    let translate = point(p, "translate", p.vec3_or("translate", Vec3::ZERO)?)?;
+    let transform = Mat4::from_translation(translate) * transform;
+    if crate::accel::instance::Instance::new(&transform, 0).is_none() {
+        return Err(p.error("transform", "an instance's transform must be affine and invertible"));
+    }
+    for k in ["material_name", "light"] {
+        if p.contains(k) {
+            return Err(p.error(k, "an instance takes its objects' materials (give them in the shapegroup)"));
+        }
+    }
+    p.finish();
+    Ok(InstanceDesc {
+        source: p.own_source(),
+        shapegroup,
+        transform,
+    })
+}
+
+fn parse_shapegroup(name: &str, p: &Props) -> Result<ShapeGroupDesc> {
+    let mut objects = Vec::new();
+    for o in p.objects("objects")? {
+        if o.string_opt("type")?.as_deref() == Some("instance") {
+            return Err(o.error(
+                "type",
+                "an instance inside a shapegroup (nested instancing is not supported, as in Mitsuba)",
+            ));
+        }
+        if o.contains("light") {
+            return Err(o.error("light", "emitters inside a shapegroup are not supported (Mitsuba refuses them too)"));
+        }
+        objects.push(parse_object(&o)?);
+    }
+    p.finish();
+    Ok(ShapeGroupDesc {
+        name: name.to_string(),
+        source: p.own_source(),
+        objects,
+    })
 }
 
 fn parse_integrator(p: &Props) -> Result<IntegratorDesc> {
@@ -1157,7 +1316,20 @@ fn parse_object(p: &Props) -> Result<ObjectDesc> {
                 radius,
             })
         }
-        _ => return Err(p.error("type", format!("unknown object type '{ty}' (available: mesh, sphere)"))),
+        "cylinder" => {
+            let p0 = point(p, "p0", p.vec3_or("p0", Vec3::ZERO)?)?;
+            let p1 = point(p, "p1", p.vec3_or("p1", Vec3::Z)?)?;
+            let radius = p.f32_or("radius", 1.0)?;
+            let flip = p.bool_or("flip_normals", false)?;
+            let m = p.mat4_or("transform", Mat4::IDENTITY)?;
+            Shape::Cylinder(cylinder_shape(p0, p1, radius, flip, &m).map_err(|(k, e)| p.error(k, e))?)
+        }
+        _ => {
+            return Err(p.error(
+                "type",
+                format!("unknown object type '{ty}' (available: mesh, sphere, cylinder, instance)"),
+            ))
+        }
     };
     let material = p.string_opt("material_name")?.map(|m| p.located("material_name", m));
     let light = match p.object_opt("light")? {

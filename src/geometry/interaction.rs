@@ -1,6 +1,7 @@
 //! Surface interactions: the point a ray hit with its normals, texture
 //! coordinates and shading frame, and their screen-space derivatives.
 
+use super::cylinder::Cylinder;
 use super::mesh::Mesh;
 use super::prim::{Hit, Prim};
 use super::sphere::Sphere;
@@ -50,6 +51,8 @@ impl Interaction {
         match prim {
             Prim::Triangle { p, object, index } => Interaction::on_triangle(p, hit.b, mesh(*object), *index, *object, wo),
             Prim::Sphere { sphere, object } => Interaction::on_sphere(sphere, ray.at(hit.t), sphere_uv, *object, wo),
+            Prim::Cylinder { cylinder, object } => Interaction::on_cylinder(cylinder, ray.at(hit.t), *object, wo),
+            Prim::Instance { .. } => unreachable!("an instance's hit is resolved in its group (Scene::interaction)"),
         }
     }
 
@@ -107,6 +110,29 @@ impl Interaction {
         }
         Interaction {
             p: pos,
+            ng: n,
+            ns: n,
+            uv,
+            dpdu,
+            dpdv,
+            duvdx: Vec2::ZERO,
+            duvdy: Vec2::ZERO,
+            wo,
+            object,
+        }
+    }
+
+    /// The point of `cylinder` nearest `hit_point`; the normal points outwards (the
+    /// scene flips it for `flip_normals`). Texture coordinates are Mitsuba's
+    /// `(φ/2π, h)` ([`Cylinder::surface`]) in rdr's orientation, `(φ/2π, 1 − h)`: rdr's
+    /// `v` runs the other way from Mitsuba's (an OBJ's coordinates are used as they
+    /// are where Mitsuba flips them, and the XML reader rewrites `to_uv` for that), so
+    /// a texture shows on the cylinder as Mitsuba shows it.
+    pub fn on_cylinder(cylinder: &Cylinder, hit_point: Vec3, object: u32, wo: Vec3) -> Interaction {
+        let (p, n, uv, dpdu, dpdv) = cylinder.surface(hit_point);
+        let (uv, dpdv) = (Vec2::new(uv.x, 1.0 - uv.y), -dpdv);
+        Interaction {
+            p,
             ng: n,
             ns: n,
             uv,

@@ -2,6 +2,7 @@
 //! surface interactions, meshes and OBJ/PLY/serialized loading, generated meshes.
 
 pub mod aabb;
+pub mod cylinder;
 pub mod interaction;
 pub mod mesh;
 pub mod obj;

@@ -1,6 +1,7 @@
 //! Primitives as the acceleration structures hold them: their kinds, bounds and
 //! intersection, and the hit record the queries return.
 
+use super::cylinder::Cylinder;
 use super::sphere::Sphere;
 use super::triangle::intersect_watertight;
 use super::{Aabb, Ray};
@@ -9,8 +10,27 @@ use crate::math::Vec3;
 /// A primitive as the BVH's leaves hold it.
 #[derive(Clone, Copy, Debug)]
 pub enum Prim {
-    Triangle { p: [Vec3; 3], object: u32, index: u32 },
-    Sphere { sphere: Sphere, object: u32 },
+    Triangle {
+        p: [Vec3; 3],
+        object: u32,
+        index: u32,
+    },
+    Sphere {
+        sphere: Sphere,
+        object: u32,
+    },
+    /// An open cylinder ([`Cylinder`]), tested analytically in a generic leaf.
+    Cylinder {
+        cylinder: Cylinder,
+        object: u32,
+    },
+    /// An entry of a two-level structure's top level: instance `instance` with its
+    /// world box. Its test needs the instance and its group
+    /// ([`crate::accel::instance::TwoLevel`]); [`Prim::intersect`] misses it.
+    Instance {
+        bounds: Aabb,
+        instance: u32,
+    },
 }
 
 impl Prim {
@@ -18,7 +38,8 @@ impl Prim {
     pub fn order_key(&self) -> (u32, u32) {
         match *self {
             Prim::Triangle { object, index, .. } => (object, index),
-            Prim::Sphere { object, .. } => (object, 0),
+            Prim::Sphere { object, .. } | Prim::Cylinder { object, .. } => (object, 0),
+            Prim::Instance { instance, .. } => (u32::MAX, instance),
         }
     }
 
@@ -28,7 +49,7 @@ impl Prim {
     pub fn is_triangle(&self) -> bool {
         match self {
             Prim::Triangle { .. } => true,
-            Prim::Sphere { .. } => false,
+            Prim::Sphere { .. } | Prim::Cylinder { .. } | Prim::Instance { .. } => false,
         }
     }
 
@@ -40,6 +61,8 @@ impl Prim {
                 let r = Vec3::splat(sphere.radius * (1.0 + 1e-6) + 1e-6);
                 Aabb::new(sphere.center - r, sphere.center + r)
             }
+            Prim::Cylinder { cylinder, .. } => cylinder.bounds(),
+            Prim::Instance { bounds, .. } => *bounds,
         }
     }
 
@@ -51,6 +74,8 @@ impl Prim {
         match self {
             Prim::Triangle { p, .. } => intersect_watertight(ray.o, ray.d, ray.t_min, t_max, p).map(|h| (h.t, h.b)),
             Prim::Sphere { sphere, .. } => sphere.intersect(ray.o, ray.d, ray.t_min, t_max).map(|t| (t, [0.0; 3])),
+            Prim::Cylinder { cylinder, .. } => cylinder.intersect(ray.o, ray.d, ray.t_min, t_max).map(|t| (t, [0.0; 3])),
+            Prim::Instance { .. } => None,
         }
     }
 }
@@ -64,6 +89,9 @@ pub fn prim_bounds(p: &Prim) -> Aabb {
 pub struct Hit {
     pub t: f32,
     pub prim: u32,
-    /// Barycentrics for triangles (unused for spheres).
+    /// Barycentrics for triangles (unused for spheres and cylinders).
     pub b: [f32; 3],
+    /// When `prim` is a [`Prim::Instance`]: the primitive hit inside the instance's
+    /// group (an index into the group's primitives); 0 otherwise.
+    pub sub: u32,
 }

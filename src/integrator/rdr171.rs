@@ -32,6 +32,8 @@ pub fn intersect(scene: &Scene, ray: &Ray) -> Option<Hit> {
                 intersect_moller_trumbore_f64(ray.o, ray.d, ray.t_min as f64, best as f64, p).map(|h| (h.t, h.bary()))
             }
             Prim::Sphere { sphere, .. } => sphere.intersect(ray.o, ray.d, ray.t_min, best).map(|t| (t as f64, [0.0; 3])),
+            // the course had neither (`RenderJob::from_desc` refuses them under --compat rdr171)
+            Prim::Cylinder { .. } | Prim::Instance { .. } => None,
         };
         if let Some((t, b)) = found {
             cands.push(Candidate {
@@ -56,6 +58,7 @@ pub fn intersect(scene: &Scene, ray: &Ray) -> Option<Hit> {
                 t: t_max,
                 prim: c.prim,
                 b: c.b,
+                sub: 0,
             });
         }
     }

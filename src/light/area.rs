@@ -17,6 +17,11 @@ pub enum Emitter {
         center: Vec3,
         radius: f32,
     },
+    /// An open cylinder, sampled uniformly by area; `flip`: it emits inwards.
+    Cylinder {
+        cylinder: crate::geometry::cylinder::Cylinder,
+        flip: bool,
+    },
 }
 
 #[derive(Clone, Debug)]
@@ -49,10 +54,25 @@ impl AreaLight {
         }
     }
 
+    pub fn cylinder(object: u32, radiance: Vec3, cylinder: crate::geometry::cylinder::Cylinder, flip: bool) -> Self {
+        AreaLight {
+            radiance,
+            object,
+            emitter: Emitter::Cylinder { cylinder, flip },
+        }
+    }
+
+    /// A uniform point on a cylinder emitter and its emitting normal.
+    pub(super) fn cylinder_point(cylinder: &crate::geometry::cylinder::Cylinder, flip: bool, u: Vec2) -> (Vec3, Vec3) {
+        let (q, n) = cylinder.at(u);
+        (q, if flip { -n } else { n })
+    }
+
     pub fn area(&self) -> f32 {
         match &self.emitter {
             Emitter::Mesh { total_area, .. } => *total_area,
             Emitter::Sphere { radius, .. } => 4.0 * PI * radius * radius,
+            Emitter::Cylinder { cylinder, .. } => cylinder.area(),
         }
     }
 
@@ -113,6 +133,10 @@ impl AreaLight {
                 let n = (t[1] - t[0]).cross(t[2] - t[0]).normalize();
                 self.light_sample_from_area_point(p, q, n, pdf_tri)
             }
+            Emitter::Cylinder { cylinder, flip } => {
+                let (q, n) = Self::cylinder_point(cylinder, *flip, u);
+                self.light_sample_from_area_point(p, q, n, 1.0 / self.area())
+            }
             Emitter::Sphere { center, radius } => {
                 let dc2 = (*center - p).length_squared();
                 if mode == LightSampling::Uniform || dc2 <= radius * radius {
@@ -172,6 +196,7 @@ impl AreaLight {
                     tri.map_or(0.0, |a| area_to_solid(1.0 / (triangles.len() as f32 * a)))
                 }
             },
+            Emitter::Cylinder { .. } => area_to_solid(1.0 / self.area()),
             Emitter::Sphere { center, radius } => {
                 let dc2 = (*center - p).length_squared();
                 if mode == LightSampling::Uniform || dc2 <= radius * radius {

@@ -138,6 +138,10 @@ impl AreaLight {
                 let n = uniform_sphere(u);
                 Some((*center + n * *radius, n, 1.0 / area))
             }
+            super::area::Emitter::Cylinder { cylinder, flip } => {
+                let (q, n) = AreaLight::cylinder_point(cylinder, *flip, u);
+                Some((q, n, 1.0 / area))
+            }
         }
     }
 }

@@ -49,7 +49,7 @@ impl RenderIdentity {
                 paths.push(img.path.value.clone());
             }
         }
-        for o in &desc.objects {
+        for o in desc.objects.iter().chain(desc.shapegroups.iter().flat_map(|g| g.objects.iter())) {
             match &o.shape {
                 Shape::Mesh(m) if m.options.format.reads_file() => paths.push(m.path.value.clone()),
                 _ => {}

@@ -46,6 +46,27 @@ impl RenderJob {
                 ))
             }
         };
+        if profile == Profile::Rdr171 {
+            let cylinder = desc
+                .objects
+                .iter()
+                .position(|o| matches!(o.shape, crate::scene::Shape::Cylinder(_)));
+            let key = match (cylinder, desc.instances.first()) {
+                (Some(i), _) => Some(format!("objects[{i}].type")),
+                (None, Some(inst)) => Some(match &inst.source {
+                    crate::desc::Source::Json(p) => p.clone(),
+                    _ => "instance".to_string(),
+                }),
+                (None, None) => None,
+            };
+            if let Some(key) = key {
+                return Err(SceneError::new(
+                    &desc.file,
+                    Some(&key),
+                    "--compat rdr171 has the course renderer's meshes and spheres only (no cylinders or instances)",
+                ));
+            }
+        }
         if let Some(l) = desc.integrator.delta_lights.first() {
             let traces_from_lights = matches!(
                 integrator,

@@ -5,7 +5,9 @@
 //! [`Material`], [`Texture`], [`Shape`], [`crate::film::Filter`],
 //! [`crate::camera::CameraParams`] and [`crate::texture::UvMapping`].
 
+use crate::accel::instance::{Group, Instance, TwoLevel};
 use crate::accel::WideBvh;
+use crate::geometry::cylinder::CylinderShape;
 pub use crate::geometry::interaction::Interaction;
 use crate::geometry::interaction::SphereUv;
 use crate::geometry::mesh::Mesh;
@@ -27,6 +29,10 @@ pub enum Shape<M = Mesh> {
     Mesh(M),
     /// `sphere`: `center` (vec3, (0,0,0)), `radius` (> 0, 1).
     Sphere(Sphere),
+    /// `cylinder`: Mitsuba's open cylinder, `p0` ((0,0,0)), `p1` ((0,0,1)), `radius` (1),
+    /// `flip_normals` (false), `transform` (16 numbers row-major, identity; a rotation,
+    /// translation and a scale uniform across the axis); see [`crate::desc`]'s `parse_cylinder`.
+    Cylinder(CylinderShape),
 }
 
 /// One entry of the scene's `objects` list, resolved.
@@ -69,6 +75,12 @@ pub struct Scene {
     /// Primitives in BVH leaf order; the BVH's primitive indices index this.
     pub prims: Vec<Prim>,
     pub bvh: WideBvh,
+    /// Placed groups ([`Prim::Instance`] entries of `prims` index this); empty
+    /// without instancing, and then the BVH is traversed as a one-level tree.
+    pub instances: Vec<Instance>,
+    /// The instances' shared bottom levels; their primitives' `object`s index
+    /// `objects` (the group members, after the scene's own objects).
+    pub groups: Vec<Group>,
     pub warnings: Vec<String>,
     /// Seconds spent building the BVH.
     pub bvh_seconds: f64,
@@ -80,13 +92,31 @@ impl Scene {
     /// Closest hit in `[ray.t_min, ray.t_max]`.
     #[inline]
     pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
-        self.bvh.intersect(&self.prims, ray)
+        if self.instances.is_empty() {
+            self.bvh.intersect(&self.prims, ray)
+        } else {
+            self.two_level().intersect(&self.bvh, ray)
+        }
+    }
+
+    /// The two-level view of the top level's primitives.
+    #[inline]
+    pub fn two_level(&self) -> TwoLevel<'_> {
+        TwoLevel {
+            prims: &self.prims,
+            instances: &self.instances,
+            groups: &self.groups,
+        }
     }
 
     /// Whether anything lies on the ray within `[t_min, t_max]`.
     #[inline]
     pub fn occluded(&self, ray: &Ray) -> bool {
-        self.bvh.occluded(&self.prims, ray)
+        if self.instances.is_empty() {
+            self.bvh.occluded(&self.prims, ray)
+        } else {
+            self.two_level().occluded(&self.bvh, ray)
+        }
     }
 
     /// The surface point of a hit ([`Interaction::of_hit`]); spheres' uv order
@@ -99,9 +129,37 @@ impl Scene {
         };
         let mesh = |object: u32| match &self.objects[object as usize].shape {
             Shape::Mesh(mesh) => mesh,
-            Shape::Sphere(_) => unreachable!("triangle of a non-mesh"),
+            _ => unreachable!("triangle of a non-mesh"),
         };
-        Interaction::of_hit(&self.prims[hit.prim as usize], ray, hit, mesh, sphere_uv)
+        let mut it = match &self.prims[hit.prim as usize] {
+            Prim::Instance { instance, .. } => {
+                // made in the group's frame, then carried to the world
+                let inst = &self.instances[*instance as usize];
+                let group = &self.groups[inst.group as usize];
+                let local_ray = inst.ray_to_object(ray);
+                let local_hit = Hit {
+                    prim: hit.sub,
+                    sub: 0,
+                    ..*hit
+                };
+                let l = Interaction::of_hit(&group.prims[hit.sub as usize], &local_ray, &local_hit, mesh, sphere_uv);
+                Interaction {
+                    p: inst.point_to_world(l.p),
+                    ng: inst.normal_to_world(l.ng),
+                    ns: inst.normal_to_world(l.ns),
+                    dpdu: inst.vector_to_world(l.dpdu),
+                    dpdv: inst.vector_to_world(l.dpdv),
+                    wo: -ray.d,
+                    ..l
+                }
+            }
+            prim => Interaction::of_hit(prim, ray, hit, mesh, sphere_uv),
+        };
+        if let Shape::Cylinder(CylinderShape { flip_normals: true, .. }) = self.objects[it.object as usize].shape {
+            it.ng = -it.ng;
+            it.ns = -it.ns;
+        }
+        it
     }
 
     /// The area light on the surface of `it`, if any.
@@ -134,6 +192,7 @@ impl Scene {
         self.objects[it.object as usize].material.map(|m| &self.materials[m as usize])
     }
 
+    /// Triangles in the top level (instanced ones not counted).
     pub fn triangle_count(&self) -> usize {
         self.prims.iter().filter(|p| p.is_triangle()).count()
     }

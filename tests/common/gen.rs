@@ -66,6 +66,8 @@ pub fn scene_rays(rng: &mut Rng, prims: &[Prim], count: usize) -> Vec<Ray> {
                     p[0] * b[0] + p[1] * b[1] + p[2] * b[2]
                 }
                 Prim::Sphere { sphere, .. } => sphere.center + rng.dir() * sphere.radius * rng.rangef(0.0, 1.0),
+                Prim::Cylinder { cylinder, .. } => cylinder.at(rdr::math::Vec2::new(rng.rangef(0.0, 1.0), rng.rangef(0.0, 1.0))).0,
+                Prim::Instance { bounds, .. } => rng.in_box(&bounds),
             }
         };
         let (o, d) = match rng.below(5) {

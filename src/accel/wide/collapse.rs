@@ -113,7 +113,7 @@ impl<'a> Collapser<'a> {
                     let i = chunk[lane.min(chunk.len() - 1)];
                     let p = match &self.prims[i as usize] {
                         Prim::Triangle { p, .. } => p,
-                        Prim::Sphere { .. } => unreachable!("mixed leaf"),
+                        _ => unreachable!("mixed leaf"),
                     };
                     for (k, v) in p.iter().enumerate() {
                         for a in 0..3 {

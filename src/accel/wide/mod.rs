@@ -32,6 +32,7 @@ use crate::geometry::prim::{Hit, Prim};
 use crate::geometry::{Aabb, Ray};
 use node::{decode, EMPTY};
 use std::sync::atomic::{AtomicU64, Ordering};
+pub use traverse::Leaves;
 use traverse::{any, closest, Portable};
 
 /// Stack sizes: the small one serves every tree whose worst path needs it.
@@ -129,25 +130,25 @@ macro_rules! dispatch {
             // SAFETY: `isa` is only ever set to an instruction set the CPU has (`set_isa`, `Isa::detect`).
             Isa::Avx512 => unsafe {
                 if small {
-                    x86::$avx512::<STACK_SMALL>($($arg),*)
+                    x86::$avx512::<_, STACK_SMALL>($($arg),*)
                 } else {
-                    x86::$avx512::<STACK_LARGE>($($arg),*)
+                    x86::$avx512::<_, STACK_LARGE>($($arg),*)
                 }
             },
             #[cfg(target_arch = "x86_64")]
             // SAFETY: as above.
             Isa::Avx2 => unsafe {
                 if small {
-                    x86::$avx2::<STACK_SMALL>($($arg),*)
+                    x86::$avx2::<_, STACK_SMALL>($($arg),*)
                 } else {
-                    x86::$avx2::<STACK_LARGE>($($arg),*)
+                    x86::$avx2::<_, STACK_LARGE>($($arg),*)
                 }
             },
             _ => {
                 if small {
-                    $portable::<Portable, STACK_SMALL>($($arg),*)
+                    $portable::<Portable, _, STACK_SMALL>($($arg),*)
                 } else {
-                    $portable::<Portable, STACK_LARGE>($($arg),*)
+                    $portable::<Portable, _, STACK_LARGE>($($arg),*)
                 }
             }
         }
@@ -239,19 +240,33 @@ impl WideBvh {
     }
 
     /// Closest hit in `[ray.t_min, ray.t_max]`; `prims` is the slice the tree was built over.
+    #[inline]
     pub fn intersect(&self, prims: &[Prim], ray: &Ray) -> Option<Hit> {
-        if self.nodes.is_empty() || !usable(ray) {
-            return None;
-        }
-        dispatch!(self, closest, closest_avx2, closest_avx512, (self, prims, ray))
+        self.intersect_with(prims, ray)
     }
 
     /// Whether anything lies on the ray within `[ray.t_min, ray.t_max]`.
+    #[inline]
     pub fn occluded(&self, prims: &[Prim], ray: &Ray) -> bool {
+        self.occluded_with(prims, ray)
+    }
+
+    /// [`WideBvh::intersect`] with the generic leaves' primitives tested by `leaves`
+    /// (triangle blocks are tested as always): the top level of a two-level
+    /// structure, whose generic leaves are instances.
+    pub fn intersect_with<L: Leaves + ?Sized>(&self, leaves: &L, ray: &Ray) -> Option<Hit> {
+        if self.nodes.is_empty() || !usable(ray) {
+            return None;
+        }
+        dispatch!(self, closest, closest_avx2, closest_avx512, (self, leaves, ray))
+    }
+
+    /// [`WideBvh::occluded`] with the generic leaves tested by `leaves`.
+    pub fn occluded_with<L: Leaves + ?Sized>(&self, leaves: &L, ray: &Ray) -> bool {
         if self.nodes.is_empty() || !usable(ray) {
             return false;
         }
-        dispatch!(self, any, any_avx2, any_avx512, (self, prims, ray))
+        dispatch!(self, any, any_avx2, any_avx512, (self, leaves, ray))
     }
 
     /// Every child reference: `(node, slot, child)` for checks and statistics.

@@ -20,6 +20,27 @@ use crate::geometry::Ray;
 use crate::math::{gamma, Vec3};
 use std::mem::MaybeUninit;
 
+/// The tests of the primitives in generic leaves (those that are not triangles):
+/// the slice the tree was built over for a one-level tree; a top level's
+/// instances for a two-level one ([`crate::accel::instance`]).
+pub trait Leaves {
+    /// Nearest hit of primitive `p` in `[ray.t_min, t_max]`.
+    fn closest(&self, p: u32, ray: &Ray, t_max: f32) -> Option<Hit>;
+    /// Whether primitive `p` is hit in `[ray.t_min, t_max]`.
+    fn any(&self, p: u32, ray: &Ray, t_max: f32) -> bool;
+}
+
+impl Leaves for [Prim] {
+    #[inline(always)]
+    fn closest(&self, p: u32, ray: &Ray, t_max: f32) -> Option<Hit> {
+        self[p as usize].intersect(ray, t_max).map(|(t, b)| Hit { t, prim: p, b, sub: 0 })
+    }
+    #[inline(always)]
+    fn any(&self, p: u32, ray: &Ray, t_max: f32) -> bool {
+        self[p as usize].intersect(ray, t_max).is_some()
+    }
+}
+
 /// Far distances are widened by this, as in the scalar slab test.
 pub(super) const FAR_SCALE: f32 = 1.0 + 2.0 * gamma(3);
 
@@ -238,7 +259,7 @@ fn key(d: f32, child: u32) -> u64 {
 
 /// Closest hit; the generic body of every instruction set's entry point.
 #[inline(always)]
-pub(super) fn closest<K: Kernel, const S: usize>(bvh: &WideBvh, prims: &[Prim], ray: &Ray) -> Option<Hit> {
+pub(super) fn closest<K: Kernel, L: Leaves + ?Sized, const S: usize>(bvh: &WideBvh, prims: &L, ray: &Ray) -> Option<Hit> {
     let r = RayData::new(ray);
     let mut t_max = ray.t_max;
     let mut best: Option<Hit> = None;
@@ -297,9 +318,9 @@ pub(super) fn closest<K: Kernel, const S: usize>(bvh: &WideBvh, prims: &[Prim], 
             let (first, count) = leaf_range(cur);
             if cur & GENERIC != 0 {
                 for &p in &bvh.generic[first..first + count] {
-                    if let Some((t, b)) = prims[p as usize].intersect(ray, t_max) {
-                        t_max = t;
-                        best = Some(Hit { t, prim: p, b });
+                    if let Some(h) = prims.closest(p, ray, t_max) {
+                        t_max = h.t;
+                        best = Some(h);
                     }
                 }
             } else if r.tri_ok {
@@ -320,6 +341,7 @@ pub(super) fn closest<K: Kernel, const S: usize>(bvh: &WideBvh, prims: &[Prim], 
                             t: t_max,
                             prim: blk.prim[lane],
                             b: [h.b[0][lane], h.b[1][lane], h.b[2][lane]],
+                            sub: 0,
                         });
                     }
                 }
@@ -342,7 +364,7 @@ pub(super) fn closest<K: Kernel, const S: usize>(bvh: &WideBvh, prims: &[Prim], 
 
 /// Any hit; the generic body of every instruction set's entry point.
 #[inline(always)]
-pub(super) fn any<K: Kernel, const S: usize>(bvh: &WideBvh, prims: &[Prim], ray: &Ray) -> bool {
+pub(super) fn any<K: Kernel, L: Leaves + ?Sized, const S: usize>(bvh: &WideBvh, prims: &L, ray: &Ray) -> bool {
     let r = RayData::new(ray);
     let t_max = ray.t_max;
     // not zeroed for every ray; entries `..sp` are initialised
@@ -371,7 +393,7 @@ pub(super) fn any<K: Kernel, const S: usize>(bvh: &WideBvh, prims: &[Prim], ray:
             let (first, count) = leaf_range(cur);
             if cur & GENERIC != 0 {
                 for &p in &bvh.generic[first..first + count] {
-                    if prims[p as usize].intersect(ray, t_max).is_some() {
+                    if prims.any(p, ray, t_max) {
                         return true;
                     }
                 }

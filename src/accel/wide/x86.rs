@@ -14,9 +14,9 @@
 //! decides them in f64).
 
 use super::node::{TriBlock, WideNode, LANES, WIDTH};
-use super::traverse::{any, closest, BlockHits, Kernel, RayData, FAR_SCALE};
+use super::traverse::{any, closest, BlockHits, Kernel, Leaves, RayData, FAR_SCALE};
 use super::WideBvh;
-use crate::geometry::prim::{Hit, Prim};
+use crate::geometry::prim::Hit;
 use crate::geometry::triangle::intersect_watertight;
 use crate::geometry::Ray;
 use crate::math::gamma;
@@ -28,20 +28,20 @@ use std::arch::x86_64::*;
 // time (`super::Isa::available`).
 
 #[target_feature(enable = "avx2,fma")]
-pub(super) fn closest_avx2<const S: usize>(bvh: &WideBvh, prims: &[Prim], ray: &Ray) -> Option<Hit> {
-    closest::<Avx2, S>(bvh, prims, ray)
+pub(super) fn closest_avx2<L: Leaves + ?Sized, const S: usize>(bvh: &WideBvh, prims: &L, ray: &Ray) -> Option<Hit> {
+    closest::<Avx2, L, S>(bvh, prims, ray)
 }
 #[target_feature(enable = "avx2,fma")]
-pub(super) fn any_avx2<const S: usize>(bvh: &WideBvh, prims: &[Prim], ray: &Ray) -> bool {
-    any::<Avx2, S>(bvh, prims, ray)
+pub(super) fn any_avx2<L: Leaves + ?Sized, const S: usize>(bvh: &WideBvh, prims: &L, ray: &Ray) -> bool {
+    any::<Avx2, L, S>(bvh, prims, ray)
 }
 #[target_feature(enable = "avx2,fma,avx512f,avx512vl")]
-pub(super) fn closest_avx512<const S: usize>(bvh: &WideBvh, prims: &[Prim], ray: &Ray) -> Option<Hit> {
-    closest::<Avx512, S>(bvh, prims, ray)
+pub(super) fn closest_avx512<L: Leaves + ?Sized, const S: usize>(bvh: &WideBvh, prims: &L, ray: &Ray) -> Option<Hit> {
+    closest::<Avx512, L, S>(bvh, prims, ray)
 }
 #[target_feature(enable = "avx2,fma,avx512f,avx512vl")]
-pub(super) fn any_avx512<const S: usize>(bvh: &WideBvh, prims: &[Prim], ray: &Ray) -> bool {
-    any::<Avx512, S>(bvh, prims, ray)
+pub(super) fn any_avx512<L: Leaves + ?Sized, const S: usize>(bvh: &WideBvh, prims: &L, ray: &Ray) -> bool {
+    any::<Avx512, L, S>(bvh, prims, ray)
 }
 
 /// The AVX2+FMA kernels. Private to this module and named only in

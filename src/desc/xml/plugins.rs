@@ -8,7 +8,7 @@
 //! | `<film>` | `hdrfilm`: `width` 768, `height` 576, `rfilter` (default `gaussian`); `pixel_format`, `component_format`, `file_format`, `banner` noted. |
 //! | `<rfilter>` | `box` (`radius` 0.5), `tent` (`radius` 1), `gaussian` (`stddev` 0.5, radius 4·stddev), `mitchell` (`B`, `C` 1/3, radius 2) |
 //! | `<sampler>` | any type: `sample_count` (4) → spp; the type is noted, rdr uses its own sampler. |
-//! | `<shape>` | `obj`, `ply` (`filename`, `face_normals` false: else smooth vertex normals when the file has none; `flip_normals`; `flip_tex_coords`, true for OBJ, false for PLY), `serialized` (`filename`, `shape_index` 0), `rectangle`, `cube`, `disk` (generated meshes), `sphere` (`center` 0, `radius` 1); all take `to_world`, one `<bsdf>` and one `area` `<emitter>`. A shape with neither gets Mitsuba's default, a diffuse 0.5. |
+//! | `<shape>` | `obj`, `ply` (`filename`, `face_normals` false: else smooth vertex normals when the file has none; `flip_normals`; `flip_tex_coords`, true for OBJ, false for PLY), `serialized` (`filename`, `shape_index` 0), `rectangle`, `cube`, `disk` (generated meshes), `sphere` (`center` 0, `radius` 1), `cylinder` (open, analytic: `p0` (0,0,0), `p1` (0,0,1), `radius` 1, `flip_normals`; Mitsuba's uv (φ/2π, height), which rdr holds as (φ/2π, 1 − height) like a mesh's; `to_world` a rotation, translation and scale uniform across the axis); all take `to_world`, one `<bsdf>` and one `area` `<emitter>`. A shape with neither gets Mitsuba's default, a diffuse 0.5. `shapegroup` (an `id`, plain shapes inside, no emitters: Mitsuba refuses them too; rendered only through instances) and `instance` (a `<ref>` to a shapegroup, `to_world` affine and invertible): a two-level BVH, one bottom level per group shared by its instances. Example: `<shape type="shapegroup" id="g"><shape type="obj">…</shape></shape> <shape type="instance"><ref id="g"/><transform name="to_world"><translate x="2"/></transform></shape>`. |
 //! | `<bsdf>` | `diffuse` (`reflectance` 0.5, a colour or texture); `dielectric`, `thindielectric` (`int_ior` "bk7", `ext_ior` "air": numbers or names, η = int/ext; `specular_reflectance`, `specular_transmittance` 1, colours); `roughdielectric` (as `dielectric`, and `distribution` beckmann \| ggx, `alpha` 0.1 or `alpha_u`+`alpha_v`); `conductor` and `roughconductor` (`material` "none", or a name from [`values::NAMED_CONDUCTORS`] such as "Au"; else `eta` 0 / `k` 1 (a perfect mirror); `specular_reflectance` 1, a colour or texture; `roughconductor`'s `alpha`, `alpha_u`/`alpha_v`, `distribution` as `roughdielectric`; the 0.6 `ext_eta` folded into η and k); `plastic` (`diffuse_reflectance` 0.5, a colour or texture; `specular_reflectance` 1; `int_ior` "polypropylene" (1.49), `ext_ior` "air"; `nonlinear` false), `roughplastic` (as `plastic`, and `alpha` 0.1 (isotropic), `distribution` beckmann); `twosided` (one or two nested non-transmitting bsdfs: around one `diffuse` it is rdr's two-sided diffuse, around one `roughconductor` that material (rdr's is two-sided), otherwise rdr's `twosided` with the second as the back). Example: `<bsdf type="twosided"><bsdf type="roughplastic"><float name="alpha" value="0.2"/></bsdf></bsdf>`. |
 //! | `<emitter>` | `area` (in a shape: `radiance` 1), `point` (`position` or `to_world`; `intensity` I (1) → flux 4πI), `spot` (`to_world`: at its origin, along its +z; `intensity` 1, `cutoff_angle` 20°, `beam_width` ¾ of it; linear falloff in angle), `directional` (`direction` or `to_world`'s +z, of travel; `irradiance` 1) — these two for `path`, `direct` and guided only, `constant` (`radiance` 1), `envmap` (`filename`, `scale` 1, `to_world`) |
 //! | `<texture>` | `bitmap` (`filename`, `to_uv`; `filter_type`, `wrap_mode`, `raw` noted), `checkerboard` (`color0` 0.4, `color1` 0.2, `to_uv`); the 0.6 `uoffset`, `voffset`, `uscale`, `vscale` become `to_uv` |
@@ -26,8 +26,8 @@ use super::props::{where_is, Colour, Ids, Plugin};
 use super::values;
 use crate::camera::CameraParams;
 use crate::desc::{
-    AreaLightDesc, EnvMapDesc, FilmDesc, ImageFile, IntegratorDesc, Located, MaterialDesc, MeshFile, MeshFormat, MeshNormals, MeshOptions,
-    ObjectDesc, PointLightDesc, SceneDesc, Source, TextureDesc, TextureRef, MAX_DEPTH, MAX_FILTER_RADIUS,
+    AreaLightDesc, EnvMapDesc, FilmDesc, ImageFile, InstanceDesc, IntegratorDesc, Located, MaterialDesc, MeshFile, MeshFormat, MeshNormals,
+    MeshOptions, ObjectDesc, PointLightDesc, SceneDesc, ShapeGroupDesc, Source, TextureDesc, TextureRef, MAX_DEPTH, MAX_FILTER_RADIUS,
 };
 use crate::error::Result;
 use crate::film::Filter;
@@ -40,7 +40,7 @@ use crate::texture::{Texture, UvMapping};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
-const SHAPES: &str = "obj, ply, serialized, rectangle, cube, disk, sphere";
+const SHAPES: &str = "obj, ply, serialized, rectangle, cube, disk, sphere, cylinder, shapegroup, instance";
 const BSDFS: &str = "diffuse, dielectric, thindielectric, roughdielectric, conductor, roughconductor, plastic, roughplastic, twosided";
 const EMITTERS: &str = "point, spot, directional, constant, envmap (and area inside a <shape>)";
 const TEXTURES: &str = "bitmap, checkerboard";
@@ -104,8 +104,45 @@ pub fn scene(root: &Element, file: &Path) -> Result<SceneDesc> {
         r.texture(el)?;
     }
     let mut objects = Vec::new();
+    let mut shapegroups: Vec<ShapeGroupDesc> = Vec::new();
+    let mut group_of: HashMap<*const Element, String> = HashMap::new();
+    let mut instances = Vec::new();
     for (el, _) in top.objects("shape") {
-        objects.push(r.shape(el)?);
+        match el.attr("type") {
+            Some("shapegroup") => {
+                r.shapegroup(el, &mut shapegroups, &mut group_of)?;
+            }
+            Some("instance") => {
+                let p = Plugin::new(el, &ids)?;
+                let shapes = p.objects("shape");
+                let (g, at) = match shapes.as_slice() {
+                    [one] => *one,
+                    [] => return Err(p.error("an instance needs a <ref> to a shapegroup")),
+                    [_, (_, second), ..] => return Err(second.error("an instance takes one shapegroup")),
+                };
+                if g.attr("type") != Some("shapegroup") {
+                    return Err(at.error(format!(
+                        "an instance must refer to a shapegroup, found <shape type=\"{}\">",
+                        g.attr("type").unwrap_or("")
+                    )));
+                }
+                let name = r.shapegroup(g, &mut shapegroups, &mut group_of)?;
+                let to_world = p.transform_opt("to_world")?.unwrap_or(Mat4::IDENTITY);
+                if crate::accel::instance::Instance::new(&to_world, 0).is_none() {
+                    return Err(p.value_error("to_world", "an instance's transform must be affine and invertible"));
+                }
+                p.finish(&["shape"])?;
+                instances.push(InstanceDesc {
+                    source: source(el),
+                    shapegroup: Located {
+                        value: name,
+                        source: source(at),
+                    },
+                    transform: to_world,
+                });
+            }
+            _ => objects.push(r.shape(el)?),
+        }
     }
     let mut point_lights = Vec::new();
     let mut delta_lights = Vec::new();
@@ -190,6 +227,8 @@ pub fn scene(root: &Element, file: &Path) -> Result<SceneDesc> {
         textures: r.textures,
         materials: r.materials,
         objects,
+        shapegroups,
+        instances,
         environment_map,
         warnings,
     })
@@ -667,6 +706,17 @@ impl<'a> Reader<'a> {
                 check_point(&p, "center", center)?;
                 Shape::Sphere(Sphere { center, radius })
             }
+            "cylinder" => {
+                let p0 = p.point_opt("p0")?.unwrap_or(Vec3::ZERO);
+                let p1 = p.point_opt("p1")?.unwrap_or(Vec3::Z);
+                check_point(&p, "p0", p0)?;
+                check_point(&p, "p1", p1)?;
+                let c = crate::desc::cylinder_shape(p0, p1, p.float("radius", 1.0)?, flip_normals, &to_world).map_err(|(k, e)| {
+                    let k = if k == "transform" { "to_world" } else { k };
+                    p.value_error(k, e)
+                })?;
+                Shape::Cylinder(c)
+            }
             other => return Err(p.error(format!("unsupported shape \"{other}\" (supported: {SHAPES})"))),
         };
         let bsdfs = p.objects("bsdf");
@@ -721,6 +771,45 @@ impl<'a> Reader<'a> {
             material,
             light,
         })
+    }
+
+    /// Reads a `<shape type="shapegroup">` once (however often instanced); returns its name.
+    fn shapegroup(
+        &mut self,
+        el: &'a Element,
+        groups: &mut Vec<ShapeGroupDesc>,
+        group_of: &mut HashMap<*const Element, String>,
+    ) -> Result<String> {
+        if let Some(n) = group_of.get(&(el as *const Element)) {
+            return Ok(n.clone());
+        }
+        let p = Plugin::new(el, self.ids)?;
+        let Some(id) = el.attr("id") else {
+            return Err(p.error("a shapegroup needs an \"id\" (its instances refer to it)"));
+        };
+        let mut objects = Vec::new();
+        for (m, at) in p.objects("shape") {
+            if matches!(m.attr("type"), Some("shapegroup" | "instance")) {
+                return Err(at.error("nested instancing is not supported (a shapegroup holds plain shapes, as in Mitsuba)"));
+            }
+            let o = self.shape(m)?;
+            if let Some(l) = &o.light {
+                return Err(l.source.error(
+                    &PathBuf::new(),
+                    "emitters inside a shapegroup are not supported (Mitsuba refuses them too)",
+                ));
+            }
+            objects.push(o);
+        }
+        p.finish(&["shape"])?;
+        let name = id.to_string();
+        groups.push(ShapeGroupDesc {
+            name: name.clone(),
+            source: source(el),
+            objects,
+        });
+        group_of.insert(el as *const Element, name.clone());
+        Ok(name)
     }
 
     fn default_material(&mut self) -> String {

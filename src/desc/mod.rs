@@ -71,8 +71,7 @@ use crate::integrator::{
 ///   the legacy single point light; present when either key is given or when
 ///   there is no `lights` list.
 /// * `lights` — list of `{"type": "point", "position": [..], "flux": [..]}`, and (for
-///   `path`, `guided` and `intersection_test`; the integrators that trace from the lights
-///   refuse them) Mitsuba's delta lights:
+///   every integrator; `--compat rdr171` refuses them) Mitsuba's delta lights:
 ///   `{"type": "spot", "position": [..], "look_at": [..] (or "direction": [..]), "intensity": [..]
 ///   ((1,1,1), radiant intensity on the axis), "cutoff_angle": 20, "beam_width": ¾ of
 ///   cutoff_angle}` (degrees, half-angles; linear falloff in angle between them) and

@@ -1180,3 +1180,57 @@ fn bitmap_textures_face_the_way_mitsuba_shows_them() {
         }
     }
 }
+
+/// The film-state identity covers what an XML scene's `<include>`s read: a `--resume`
+/// after an included file changed is refused (in one line naming the scene), one with
+/// everything as it was goes on.
+#[test]
+fn resume_is_refused_when_an_included_file_changed() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(
+        d.join("main.xml"),
+        r#"<scene version="3.0.0">
+<integrator type="path"><integer name="max_depth" value="2"/></integrator>
+<sensor type="perspective"><float name="fov" value="40"/>
+<transform name="to_world"><lookat origin="0,0,4" target="0,0,0" up="0,1,0"/></transform>
+<film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="8"/><rfilter type="box"/></film>
+<sampler type="independent"><integer name="sample_count" value="4"/></sampler></sensor>
+<include filename="parts/ball.xml"/>
+<emitter type="constant"><rgb name="radiance" value="1"/></emitter>
+</scene>"#,
+    )
+    .unwrap();
+    std::fs::create_dir(d.join("parts")).unwrap();
+    let ball = |albedo: &str| {
+        std::fs::write(
+            d.join("parts/ball.xml"),
+            format!(r#"<scene version="3.0.0"><shape type="sphere"><bsdf type="diffuse"><rgb name="reflectance" value="{albedo}"/></bsdf></shape></scene>"#),
+        )
+        .unwrap()
+    };
+    ball("0.5");
+    let out = d.join("out.exr");
+    let render = |spp: &str, resume: bool| {
+        let mut c = std::process::Command::new(env!("CARGO_BIN_EXE_rdr"));
+        c.args(["render", "-q", "--spp", spp, "-o"]).arg(&out).arg(d.join("main.xml"));
+        if resume {
+            c.arg("--resume");
+        }
+        c.output().unwrap()
+    };
+    let o = render("2", false);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let o = render("4", true);
+    assert!(o.status.success(), "unchanged: {}", String::from_utf8_lossy(&o.stderr));
+    ball("0.6");
+    let before = std::fs::read(&out).unwrap();
+    let o = render("8", true);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        !o.status.success() && err.lines().count() == 1 && err.contains("scene"),
+        "resume after the included file changed: {} {err}",
+        o.status
+    );
+    assert_eq!(std::fs::read(&out).unwrap(), before, "a refused resume leaves the file");
+}

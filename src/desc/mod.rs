@@ -48,6 +48,9 @@ pub struct SceneDesc {
     pub objects: Vec<ObjectDesc>,
     pub environment_map: Option<EnvMapDesc>,
     pub warnings: Vec<String>,
+    /// The files a Mitsuba XML scene's `<include>`s read, in the order read (empty
+    /// for JSON): part of what made the image (see `render::identity`).
+    pub included: Vec<PathBuf>,
 }
 
 use crate::integrator::{
@@ -391,6 +394,7 @@ impl SceneDesc {
             objects,
             environment_map,
             warnings,
+            included: Vec::new(),
         })
     }
 }

@@ -192,6 +192,7 @@ pub fn scene(root: &Element, file: &Path) -> Result<SceneDesc> {
         objects,
         environment_map,
         warnings,
+        included: Vec::new(),
     })
 }
 

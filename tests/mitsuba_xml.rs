@@ -1234,3 +1234,56 @@ fn resume_is_refused_when_an_included_file_changed() {
     );
     assert_eq!(std::fs::read(&out).unwrap(), before, "a refused resume leaves the file");
 }
+
+/// `rdr convert` of `twosided`: around a `diffuse`, a `conductor` and a `roughconductor`
+/// (rdr's is two-sided, so the JSON has no wrapper and the XML written from it gets one
+/// back) the round trip keeps it; around a `dielectric` (read as the dielectric alone)
+/// it is lost, and the conversion says so in one line naming the element.
+#[test]
+fn convert_keeps_twosided_or_says_it_is_lost() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let scene = r#"<scene version="3.0.0">
+<integrator type="path"><integer name="max_depth" value="4"/></integrator>
+<sensor type="perspective"><float name="fov" value="40"/>
+<film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="8"/></film></sensor>
+<shape type="sphere"><bsdf type="twosided"><bsdf type="roughconductor"><float name="alpha" value="0.2"/></bsdf></bsdf></shape>
+<shape type="sphere"><point name="center" value="3,0,0"/><bsdf type="twosided"><bsdf type="dielectric"/></bsdf></shape>
+<shape type="sphere"><point name="center" value="6,0,0"/><bsdf type="twosided"><bsdf type="diffuse"/></bsdf></shape>
+<shape type="sphere"><point name="center" value="9,0,0"/><bsdf type="twosided"><bsdf type="conductor"/></bsdf></shape>
+<emitter type="constant"/>
+</scene>"#;
+    std::fs::write(d.join("ts.xml"), scene).unwrap();
+    let convert = |from: &str, to: &str| {
+        let o = std::process::Command::new(env!("CARGO_BIN_EXE_rdr"))
+            .arg("convert")
+            .arg(d.join(from))
+            .arg("-o")
+            .arg(d.join(to))
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        String::from_utf8_lossy(&o.stderr).into_owned()
+    };
+    let err = convert("ts.xml", "ts.json");
+    let notes: Vec<&str> = err.lines().filter(|l| l.contains("twosided")).collect();
+    assert!(
+        notes.len() == 1 && notes[0].contains("ts.xml: line 6, column") && notes[0].contains("dielectric"),
+        "{err}"
+    );
+    let err = convert("ts.json", "back.xml");
+    assert!(!err.contains("twosided"), "{err}");
+    let back = std::fs::read_to_string(d.join("back.xml")).unwrap();
+    let wrapped = |inner: &str| {
+        back.lines()
+            .any(|l| l.contains(r#"<bsdf type="twosided""#) && l.contains(&format!(r#"<bsdf type="{inner}">"#)))
+    };
+    for inner in ["roughconductor", "diffuse", "conductor"] {
+        assert!(wrapped(inner), "{inner} lost its twosided:\n{back}");
+    }
+    assert!(!wrapped("dielectric"), "{back}");
+    // the scene read back is the scene converted
+    let a = xml_desc(&d.join("ts.xml"), &[]);
+    let b = xml_desc(&d.join("back.xml"), &[]);
+    assert_same_scene("twosided XML → JSON → XML", &a, &b);
+}

@@ -352,6 +352,11 @@ pub fn to_json(desc: &SceneDesc, out: &Path) -> Result<Converted> {
         warnings.push("a shape without a material got Mitsuba's default diffuse 0.5 ('__default_diffuse')".into());
     }
     let text = serde_json::to_string_pretty(&root).expect("a JSON value prints") + "\n";
+    for n in &desc.convert_notes {
+        if !warnings.contains(n) {
+            warnings.push(n.clone());
+        }
+    }
     Ok(Converted { text, files, warnings })
 }
 
@@ -528,14 +533,22 @@ fn material_xml(
             alpha_x,
             alpha_y,
             distribution,
-        } => format!(
-            "{}{}<rgb name=\"eta\" value=\"{}\"/><rgb name=\"k\" value=\"{}\"/>{}</bsdf>",
-            open("roughconductor"),
-            alphas(*alpha_x, *alpha_y, *distribution),
-            v3(*eta_t / *eta_i),
-            v3(*k / *eta_i),
-            colour("specular_reflectance", texture)
-        ),
+        } => {
+            let bsdf = format!(
+                "<bsdf type=\"roughconductor\">{}<rgb name=\"eta\" value=\"{}\"/><rgb name=\"k\" value=\"{}\"/>{}</bsdf>",
+                alphas(*alpha_x, *alpha_y, *distribution),
+                v3(*eta_t / *eta_i),
+                v3(*k / *eta_i),
+                colour("specular_reflectance", texture)
+            );
+            // rdr's roughconductor reflects on both sides, Mitsuba's on the front only:
+            // wrapped in a twosided (unless it is one side of a twosided already)
+            if id.is_some() {
+                format!("{}{bsdf}</bsdf>", open("twosided"))
+            } else {
+                bsdf
+            }
+        }
         Material::Conductor { texture, eta, k } => format!(
             "{}<rgb name=\"eta\" value=\"{}\"/><rgb name=\"k\" value=\"{}\"/>{}</bsdf>",
             open("conductor"),

@@ -51,6 +51,9 @@ pub struct SceneDesc {
     /// The files a Mitsuba XML scene's `<include>`s read, in the order read (empty
     /// for JSON): part of what made the image (see `render::identity`).
     pub included: Vec<PathBuf>,
+    /// What `rdr convert` to the other format loses that the reader saw (one line
+    /// each, naming the element): a Mitsuba `twosided` the JSON cannot keep.
+    pub convert_notes: Vec<String>,
 }
 
 use crate::integrator::{
@@ -395,6 +398,7 @@ impl SceneDesc {
             environment_map,
             warnings,
             included: Vec::new(),
+            convert_notes: Vec::new(),
         })
     }
 }

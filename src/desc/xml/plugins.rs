@@ -175,6 +175,7 @@ pub fn scene(root: &Element, file: &Path) -> Result<SceneDesc> {
         ids.warn(el, msg);
     }
     let warnings = ids.warnings.borrow().clone();
+    let convert_notes = ids.convert_notes.borrow().clone();
     Ok(SceneDesc {
         file: file.to_path_buf(),
         base_dir: r.base_dir.clone(),
@@ -193,6 +194,7 @@ pub fn scene(root: &Element, file: &Path) -> Result<SceneDesc> {
         environment_map,
         warnings,
         included: Vec::new(),
+        convert_notes,
     })
 }
 
@@ -809,7 +811,13 @@ impl<'a> Reader<'a> {
                     (Material::Diffuse { texture, .. }, None) => Material::Diffuse { texture, twosided: true },
                     (m @ Material::RoughConductor { .. }, None) => m,
                     // smooth glass is the same from both sides (the 0.6 course files wrap it)
-                    (m @ (Material::Glass { .. } | Material::Refraction { .. }), None) => m,
+                    (m @ (Material::Glass { .. } | Material::Refraction { .. }), None) => {
+                        self.ids.convert_note(
+                            el,
+                            "<bsdf type=\"twosided\"> around a dielectric is read as the dielectric alone: the JSON has no twosided, and converting back writes the dielectric unwrapped",
+                        );
+                        m
+                    }
                     (front, back) => Material::TwoSided {
                         front: Box::new(front),
                         back: back.map(Box::new),

@@ -409,6 +409,15 @@ fn bad_xml_gives_one_line_errors_with_file_line_and_column() {
         ("negative alpha", scene(r#"  <shape type="sphere"><bsdf type="roughplastic"><float name="alpha" value="-1"/></bsdf></shape>"#), "line 6, column 50", "between 0 and 10"),
         ("negative radiance", scene(r#"  <emitter type="constant"><rgb name="radiance" value="-1"/></emitter>"#), "line 6, column 28", "must not be negative"),
         ("mirrored camera", "<scene version=\"3.0.0\">\n  <sensor type=\"perspective\">\n    <transform name=\"to_world\"><scale x=\"-1\"/></transform>\n  </sensor>\n</scene>\n".into(), "line 3, column 5", "mirroring"),
+        ("unknown sensor", "<scene version=\"3.0.0\">\n  <sensor type=\"fisheye\">\n    <float name=\"fov\" value=\"40\"/>\n  </sensor>\n</scene>\n".into(), "line 2, column 3", "unsupported sensor \"fisheye\" (supported: perspective, thinlens, orthographic)"),
+        ("thinlens without aperture", "<scene version=\"3.0.0\">\n  <sensor type=\"thinlens\">\n    <float name=\"focus_distance\" value=\"3\"/>\n  </sensor>\n</scene>\n".into(), "line 2, column 3", "needs the property \"aperture_radius\""),
+        ("thinlens aperture as a string", "<scene version=\"3.0.0\">\n  <sensor type=\"thinlens\">\n    <string name=\"aperture_radius\" value=\"wide\"/>\n  </sensor>\n</scene>\n".into(), "line 3, column 5", "expected a float, found a string"),
+        ("thinlens negative aperture", "<scene version=\"3.0.0\">\n  <sensor type=\"thinlens\">\n    <float name=\"aperture_radius\" value=\"-1\"/>\n  </sensor>\n</scene>\n".into(), "line 3, column 5", "must be at least 0"),
+        ("thinlens focus as a string", "<scene version=\"3.0.0\">\n  <sensor type=\"thinlens\">\n    <float name=\"aperture_radius\" value=\"0.1\"/><string name=\"focus_distance\" value=\"far\"/>\n  </sensor>\n</scene>\n".into(), "line 3, column 48", "expected a float, found a string"),
+        ("thinlens zero focus", "<scene version=\"3.0.0\">\n  <sensor type=\"thinlens\">\n    <float name=\"aperture_radius\" value=\"0.1\"/><float name=\"focus_distance\" value=\"0\"/>\n  </sensor>\n</scene>\n".into(), "line 3, column 48", "must be positive"),
+        ("thinlens scaled", "<scene version=\"3.0.0\">\n  <sensor type=\"thinlens\">\n    <float name=\"aperture_radius\" value=\"0.1\"/><transform name=\"to_world\"><scale value=\"2\"/></transform>\n  </sensor>\n</scene>\n".into(), "line 3, column 48", "cannot scale"),
+        ("orthographic anisotropic", "<scene version=\"3.0.0\">\n  <sensor type=\"orthographic\">\n    <transform name=\"to_world\"><scale x=\"1\" y=\"2\"/></transform>\n  </sensor>\n</scene>\n".into(), "line 3, column 5", "scaled differently in x"),
+        ("orthographic to_world as a float", "<scene version=\"3.0.0\">\n  <sensor type=\"orthographic\">\n    <float name=\"to_world\" value=\"2\"/>\n  </sensor>\n</scene>\n".into(), "line 3, column 5", "expected a transform"),
     ];
     let mut failures = Vec::new();
     for (name, text, at, words) in &cases {

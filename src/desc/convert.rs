@@ -247,8 +247,26 @@ pub fn to_json(desc: &SceneDesc, out: &Path) -> Result<Converted> {
         Filter::Mitchell { radius, b, c } => json!({"type": "mitchell", "radius": num(radius), "B": num(b), "C": num(c)}),
     };
     let c = &desc.camera;
-    if c.projection != crate::camera::Projection::Pinhole || c.near_clip != 0.0 || c.far_clip != f32::INFINITY {
-        warnings.push("the camera's projection and clipping are left out (a pinhole is written)".into());
+    let mut camera = json!({"position": vec3(c.position), "look_at": vec3(c.look_at), "ref_up": vec3(c.ref_up), "fov": num(c.fov), "focal_length": num(c.focal_length)});
+    match c.projection {
+        crate::camera::Projection::Pinhole => {}
+        crate::camera::Projection::ThinLens {
+            aperture_radius,
+            focus_distance,
+        } => {
+            camera["type"] = "thinlens".into();
+            camera["aperture_radius"] = num(aperture_radius);
+            camera["focus_distance"] = num(focus_distance);
+        }
+        crate::camera::Projection::Orthographic { height } => {
+            camera = json!({"type": "orthographic", "position": vec3(c.position), "look_at": vec3(c.look_at), "ref_up": vec3(c.ref_up), "height": num(height)});
+        }
+    }
+    if c.near_clip != 0.0 {
+        camera["near_clip"] = num(c.near_clip);
+    }
+    if c.far_clip != f32::INFINITY {
+        camera["far_clip"] = num(c.far_clip);
     }
     let mut textures = Map::new();
     let mapping = |m: &UvMapping| json!({"type": "uvmapping2d", "scale": vec2(m.scale), "delta": vec2(m.delta)});
@@ -336,7 +354,7 @@ pub fn to_json(desc: &SceneDesc, out: &Path) -> Result<Converted> {
     let mut root = json!({
         "integrator": Value::Object(integ),
         "film": {"resolution": [f.width, f.height], "block_side_length": f.block_size, "filter": filter},
-        "camera": {"position": vec3(c.position), "look_at": vec3(c.look_at), "ref_up": vec3(c.ref_up), "fov": num(c.fov), "focal_length": num(c.focal_length)},
+        "camera": camera,
         "textures": Value::Object(textures),
         "materials": Value::Object(materials),
         "objects": objects,
@@ -617,6 +635,11 @@ fn material_xml(
     }
 }
 
+/// A perspective or thin-lens sensor's field of view, vertical as rdr's.
+fn fov_keys(fov: f32) -> String {
+    format!("    <float name=\"fov\" value=\"{fov}\"/>\n    <string name=\"fov_axis\" value=\"y\"/>\n")
+}
+
 fn esc(s: &str) -> String {
     s.replace('&', "&amp;")
         .replace('"', "&quot;")
@@ -702,12 +725,6 @@ pub fn to_xml(desc: &SceneDesc, out: &Path) -> Result<Converted> {
     };
     let c = &desc.camera;
     let f = &desc.film;
-    if c.projection != crate::camera::Projection::Pinhole {
-        w.push(format!(
-            "the camera's {:?} projection is written as a pinhole (perspective)",
-            c.projection
-        ));
-    }
     if c.near_clip != 0.0 || c.far_clip != f32::INFINITY {
         w.push("the camera's near_clip and far_clip are left out".into());
     }
@@ -731,10 +748,33 @@ pub fn to_xml(desc: &SceneDesc, out: &Path) -> Result<Converted> {
             format!("<rfilter type=\"mitchell\"><float name=\"B\" value=\"{b}\"/><float name=\"C\" value=\"{c}\"/></rfilter>")
         }
     };
+    // the sensor's own keys, and a scale before the lookat (an orthographic window)
+    let (sensor, keys, scale) = match c.projection {
+        crate::camera::Projection::Pinhole => ("perspective", fov_keys(c.fov), String::new()),
+        crate::camera::Projection::ThinLens {
+            aperture_radius,
+            focus_distance,
+        } => (
+            "thinlens",
+            format!(
+                "{}    <float name=\"aperture_radius\" value=\"{aperture_radius}\"/>\n    <float name=\"focus_distance\" value=\"{focus_distance}\"/>\n",
+                fov_keys(c.fov)
+            ),
+            String::new(),
+        ),
+        // Mitsuba's window is 2s wide and 2s·h/w tall
+        crate::camera::Projection::Orthographic { height } => (
+            "orthographic",
+            String::new(),
+            format!(
+                "      <scale x=\"{0}\" y=\"{0}\"/>\n",
+                height * f.width as f32 / (2.0 * f.height as f32)
+            ),
+        ),
+    };
     let _ = write!(
         s,
-        "  <sensor type=\"perspective\">\n    <float name=\"fov\" value=\"{}\"/>\n    <string name=\"fov_axis\" value=\"y\"/>\n    <transform name=\"to_world\">\n      <lookat origin=\"{}\" target=\"{}\" up=\"{}\"/>\n    </transform>\n    <film type=\"hdrfilm\">\n      <integer name=\"width\" value=\"{}\"/>\n      <integer name=\"height\" value=\"{}\"/>\n      <string name=\"pixel_format\" value=\"rgb\"/>\n      {filter}\n    </film>\n    <sampler type=\"independent\">\n      <integer name=\"sample_count\" value=\"{}\"/>\n    </sampler>\n  </sensor>\n",
-        c.fov,
+        "  <sensor type=\"{sensor}\">\n{keys}    <transform name=\"to_world\">\n{scale}      <lookat origin=\"{}\" target=\"{}\" up=\"{}\"/>\n    </transform>\n    <film type=\"hdrfilm\">\n      <integer name=\"width\" value=\"{}\"/>\n      <integer name=\"height\" value=\"{}\"/>\n      <string name=\"pixel_format\" value=\"rgb\"/>\n      {filter}\n    </film>\n    <sampler type=\"independent\">\n      <integer name=\"sample_count\" value=\"{}\"/>\n    </sampler>\n  </sensor>\n",
         v3(c.position),
         v3(c.look_at),
         v3(c.ref_up),

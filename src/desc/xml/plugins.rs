@@ -4,7 +4,7 @@
 //! | element | plugins and properties (defaults) |
 //! |---|---|
 //! | `<integrator>` | `path` (`max_depth` −1 = unbounded, capped at [`MAX_DEPTH`]; `rr_depth` 5, read and checked: rdr's Russian roulette is its own and unbiased; `hide_emitters` false, only false), `direct` (= `path` with `max_depth` 2: light at the first surface by emitter and BSDF sampling; `emitter_samples`, `bsdf_samples` noted), `ptracer`, `bdpt` (`max_depth`), `photonmapper`/`photon` (`global_photons` 100000, `lookup_size` 64 … rdr's `photon`), `sppm` (`photon_count`, `initial_radius`, `alpha` 0.7). No integrator: `path`. |
-//! | `<sensor>` | `perspective`: `fov` (or `focal_length`, "50mm" on the 36×24 mm diagonal), `fov_axis` (`x` \| `y` \| `diagonal` \| `smaller` \| `larger`, `x`), `to_world` (a rigid transform, no mirroring); `near_clip`, `far_clip`, `focus_distance` are read and not applied (rdr's pinhole clips nothing). One sensor; more are ignored with a warning. |
+//! | `<sensor>` | `perspective`: `fov` (or `focal_length`, "50mm" on the 36×24 mm diagonal), `fov_axis` (`x` \| `y` \| `diagonal` \| `smaller` \| `larger`, `x`), `to_world` (a rigid transform, no mirroring); `thinlens`: as `perspective`, and `aperture_radius` (required; 0 is a pinhole), `focus_distance` (`far_clip`, 10⁴), no scale in `to_world` (JSON `camera.type` `thinlens`); `orthographic`: `to_world` whose scale s (equal in x and y) sizes the window as Mitsuba's, 2s wide and 2s·height/width tall (JSON `orthographic` with that `height`); `near_clip`, `far_clip` are read and not applied. One sensor; more are ignored with a warning. Example: `<sensor type="orthographic"><transform name="to_world"><scale value="1.1"/><lookat origin="0, 1, 6.8" target="0, 1, 0" up="0, 1, 0"/></transform></sensor>`. |
 //! | `<film>` | `hdrfilm`: `width` 768, `height` 576, `rfilter` (default `gaussian`); `pixel_format`, `component_format`, `file_format`, `banner` noted. |
 //! | `<rfilter>` | `box` (`radius` 0.5), `tent` (`radius` 1), `gaussian` (`stddev` 0.5, radius 4·stddev), `mitchell` (`B`, `C` 1/3, radius 2) |
 //! | `<sampler>` | any type: `sample_count` (4) → spp; the type is noted, rdr uses its own sampler. |
@@ -88,7 +88,7 @@ pub fn scene(root: &Element, file: &Path) -> Result<SceneDesc> {
     };
     let sensors = top.objects("sensor");
     let Some((sensor, _)) = sensors.first() else {
-        return Err(root.error("the scene has no <sensor> (rdr needs a perspective camera)"));
+        return Err(root.error("the scene has no <sensor> (rdr needs a perspective, thinlens or orthographic camera)"));
     };
     for (s, at) in sensors.iter().skip(1) {
         ids.warn(
@@ -404,8 +404,11 @@ impl<'a> Reader<'a> {
 
     fn sensor(&self, el: &'a Element) -> Result<(CameraParams, FilmDesc, u32)> {
         let p = Plugin::new(el, self.ids)?;
-        if p.ty != "perspective" {
-            return Err(p.error(format!("unsupported sensor \"{}\" (supported: perspective)", p.ty)));
+        if !["perspective", "thinlens", "orthographic"].contains(&p.ty.as_str()) {
+            return Err(p.error(format!(
+                "unsupported sensor \"{}\" (supported: perspective, thinlens, orthographic)",
+                p.ty
+            )));
         }
         let films = p.objects("film");
         let film = match films.first() {
@@ -435,6 +438,15 @@ impl<'a> Reader<'a> {
             }
             None => 4,
         };
+        if p.ty == "orthographic" {
+            for k in ["fov", "fov_axis", "focal_length"] {
+                if p.has(k) {
+                    self.ids.warn(el, format!("{k} is ignored by an orthographic sensor"));
+                    p.ignore(k);
+                }
+            }
+            return self.camera(&p, 45.0, "x", film, spp);
+        }
         let axis = p.string("fov_axis", "x")?;
         let fov_deg = match p.float_opt("fov")? {
             Some(f) => f as f64,
@@ -484,7 +496,7 @@ impl<'a> Reader<'a> {
             "diagonal" => t * h / w.hypot(h),
             other => return Err(p.value_error("fov_axis", format!("unknown axis \"{other}\" (x, y, diagonal, smaller, larger)"))),
         };
-        for k in ["near_clip", "far_clip", "focus_distance", "aperture_radius"] {
+        for k in ["near_clip", "far_clip"] {
             p.ignore(k);
         }
         for k in ["principal_point_offset_x", "principal_point_offset_y"] {
@@ -503,12 +515,58 @@ impl<'a> Reader<'a> {
         if left.dot(up.cross(dir)) < 0.0 {
             return Err(p.value_error("to_world", "a mirroring camera transform (negative scale) is not supported"));
         }
+        let projection = match p.ty.as_str() {
+            "thinlens" => {
+                // Mitsuba: aperture_radius required (0 becomes a tiny one), focus_distance
+                // defaulting to far_clip (10⁴); no scale in to_world
+                let aperture_radius = p
+                    .float_opt("aperture_radius")?
+                    .ok_or_else(|| p.error(format!("{} needs the property \"aperture_radius\"", p.describe())))?;
+                if !(0.0..1e15).contains(&aperture_radius) {
+                    return Err(p.value_error("aperture_radius", format!("must be at least 0, found {aperture_radius}")));
+                }
+                let focus_distance = p.float("focus_distance", p.float("far_clip", 1e4)?)?;
+                if !(focus_distance > 0.0 && focus_distance < 1e15) {
+                    return Err(p.value_error("focus_distance", format!("must be positive, found {focus_distance}")));
+                }
+                let scaled = |v: Vec3| (v.length() - 1.0).abs() > 1e-4;
+                if scaled(dir) || scaled(up) || scaled(left) {
+                    return Err(p.value_error("to_world", "a thinlens sensor's transform cannot scale (Mitsuba refuses it too)"));
+                }
+                if aperture_radius == 0.0 {
+                    crate::camera::Projection::Pinhole
+                } else {
+                    crate::camera::Projection::ThinLens {
+                        aperture_radius,
+                        focus_distance,
+                    }
+                }
+            }
+            "orthographic" => {
+                // Mitsuba's window is x ∈ [−1, 1], y ∈ [−1/aspect, 1/aspect] in camera
+                // space, scaled by to_world: height 2·s_y·h/w (and width 2·s_x)
+                let (sx, sy) = (left.length(), up.length());
+                if (sx - sy).abs() > 1e-4 * sx.max(sy) {
+                    return Err(p.value_error(
+                        "to_world",
+                        format!("an orthographic sensor scaled differently in x ({sx}) and y ({sy}) is not supported"),
+                    ));
+                }
+                let height = 2.0 * sy * film.height as f32 / film.width as f32;
+                if !(height > 1e-6 && height < 1e15) {
+                    return Err(p.value_error("to_world", format!("the orthographic window's height {height} is out of range")));
+                }
+                crate::camera::Projection::Orthographic { height }
+            }
+            _ => crate::camera::Projection::Pinhole,
+        };
         let camera = CameraParams {
             position: origin,
             look_at: origin + dir.normalize(),
             ref_up: up.normalize(),
             fov: (2.0 * vt.atan()).to_degrees() as f32,
             focal_length: 1.0,
+            projection,
             ..CameraParams::default()
         };
         if origin.abs().max_element() > crate::limits::MAX_COORD || !crate::camera::Camera::new(&camera, 1, 1).is_finite() {

@@ -363,6 +363,7 @@ fn bad_xml_gives_one_line_errors_with_file_line_and_column() {
         "<scene version=\"3.0.0\">\n  <include filename=\"a.xml\"/>\n</scene>\n",
     )
     .unwrap();
+    rdr::imageio::write_png(&d.join("t.png"), 1, 1, &[rdr::math::Vec3::ONE]).unwrap();
     let sphere = r#"<shape type="sphere"><float name="radius" value="1"/></shape>"#;
     // (case, file text, expected "line L, column C", expected words)
     let cases: Vec<(&str, String, &str, &str)> = vec![
@@ -417,6 +418,8 @@ fn bad_xml_gives_one_line_errors_with_file_line_and_column() {
         ("thinlens zero focus", "<scene version=\"3.0.0\">\n  <sensor type=\"thinlens\">\n    <float name=\"aperture_radius\" value=\"0.1\"/><float name=\"focus_distance\" value=\"0\"/>\n  </sensor>\n</scene>\n".into(), "line 3, column 48", "must be positive"),
         ("thinlens scaled", "<scene version=\"3.0.0\">\n  <sensor type=\"thinlens\">\n    <float name=\"aperture_radius\" value=\"0.1\"/><transform name=\"to_world\"><scale value=\"2\"/></transform>\n  </sensor>\n</scene>\n".into(), "line 3, column 48", "cannot scale"),
         ("orthographic anisotropic", "<scene version=\"3.0.0\">\n  <sensor type=\"orthographic\">\n    <transform name=\"to_world\"><scale x=\"1\" y=\"2\"/></transform>\n  </sensor>\n</scene>\n".into(), "line 3, column 5", "scaled differently in x"),
+        ("bitmap filter_type unknown", scene(r#"  <shape type="sphere"><bsdf type="diffuse"><texture type="bitmap" name="reflectance"><string name="filename" value="t.png"/><string name="filter_type" value="ewa"/></texture></bsdf></shape>"#), "line 6, column 126", "unknown filter_type \"ewa\" (bilinear, nearest)"),
+        ("bitmap raw as a string", scene(r#"  <shape type="sphere"><bsdf type="diffuse"><texture type="bitmap" name="reflectance"><string name="filename" value="t.png"/><string name="raw" value="yes"/></texture></bsdf></shape>"#), "line 6, column 126", "expected a boolean"),
         ("orthographic to_world as a float", "<scene version=\"3.0.0\">\n  <sensor type=\"orthographic\">\n    <float name=\"to_world\" value=\"2\"/>\n  </sensor>\n</scene>\n".into(), "line 3, column 5", "expected a transform"),
     ];
     let mut failures = Vec::new();
@@ -1295,4 +1298,94 @@ fn convert_keeps_twosided_or_says_it_is_lost() {
     let a = xml_desc(&d.join("ts.xml"), &[]);
     let b = xml_desc(&d.join("back.xml"), &[]);
     assert_same_scene("twosided XML → JSON → XML", &a, &b);
+}
+
+/// Mitsuba's bitmap `filter_type` and `raw`, against what a 2×2 image must give (v = 0
+/// at its top row, as Mitsuba reads a bitmap): its
+/// top row black | white, its bottom row 8-bit 128 | 64. Halfway between the top
+/// texels' centres `bilinear` is their mean, ½, and `nearest` the right one, 1; at the
+/// bottom-left texel's centre a `raw` read is 128/255, an sRGB-decoded one 0.2158
+/// (the sRGB curve). The JSON `image` texture's `filter` and `raw` say the same, and
+/// `rdr convert` carries both either way.
+#[test]
+fn bitmap_filter_type_and_raw_are_honoured() {
+    use rdr::math::{Vec2, Vec3};
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let grey = |v: f32| Vec3::splat(v);
+    // write_png encodes linear values to sRGB: pick the linear values of the 8-bit codes
+    let code = |c: u8| {
+        let v = c as f32 / 255.0;
+        if v <= 0.04045 {
+            v / 12.92
+        } else {
+            ((v + 0.055) / 1.055).powf(2.4)
+        }
+    };
+    rdr::imageio::write_png(&d.join("t.png"), 2, 2, &[grey(0.0), grey(1.0), grey(code(128)), grey(code(64))]).unwrap();
+    let bitmap = |filter: &str, raw: bool| {
+        format!(
+            r#"<shape type="sphere"><bsdf type="diffuse"><texture type="bitmap" name="reflectance"><string name="filename" value="t.png"/><string name="filter_type" value="{filter}"/><boolean name="raw" value="{raw}"/></texture></bsdf></shape>"#
+        )
+    };
+    let xml = scene(
+        &[
+            bitmap("bilinear", false),
+            bitmap("nearest", false),
+            bitmap("bilinear", true),
+            bitmap("nearest", true),
+        ]
+        .join("\n"),
+    );
+    std::fs::write(d.join("t.xml"), xml).unwrap();
+    let json = d.join("t.json");
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_rdr"))
+        .args(["convert", "-q"])
+        .arg(d.join("t.xml"))
+        .arg("-o")
+        .arg(&json)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let text = std::fs::read_to_string(&json).unwrap();
+    assert!(text.contains(r#""filter": "nearest""#) && text.contains(r#""raw": true"#), "{text}");
+    let back = d.join("back.xml");
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_rdr"))
+        .args(["convert", "-q"])
+        .arg(&json)
+        .arg("-o")
+        .arg(&back)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let srgb_128 = code(128);
+    for file in [d.join("t.xml"), json, back] {
+        let l = rdr::load(&file, &[], rdr::Profile::Physical).unwrap_or_else(|e| panic!("{e}"));
+        let t = &l.scene.textures;
+        assert_eq!(t.len(), 4, "{}", file.display());
+        // (rdr's uv: v = 1 at the image's top row, the XML mapping turning Mitsuba's v)
+        let at = |i: usize, u: f32, v: f32| t[i].eval(Vec2::new(u, 1.0 - v)).x;
+        let expect = [
+            // (texture, u, v, value): top row halfway, bottom-left centre
+            (0, 0.5, 0.25, 0.5),
+            (1, 0.5, 0.25, 1.0),
+            (2, 0.5, 0.25, 0.5),
+            (3, 0.5, 0.25, 1.0),
+            (0, 0.25, 0.75, srgb_128),
+            (1, 0.25, 0.75, srgb_128),
+            (2, 0.25, 0.75, 128.0 / 255.0),
+            (3, 0.25, 0.75, 128.0 / 255.0),
+            // nearest stays on its texel up to the edge
+            (1, 0.49, 0.49, 0.0),
+            (1, 0.51, 0.51, code(64)),
+        ];
+        for (i, u, v, want) in expect {
+            let got = at(i, u, v);
+            assert!(
+                (got - want).abs() < 2e-3,
+                "{}: texture {i} at ({u}, {v}): {got}, not {want}",
+                file.display()
+            );
+        }
+    }
 }

@@ -281,7 +281,17 @@ pub fn to_json(desc: &SceneDesc, out: &Path) -> Result<Converted> {
                 json!({"type": "checkerboard", "color0": vec3(*color0), "color1": vec3(*color1), "tex_coordinate_generator": mapping(m)})
             }
             Texture::Image(img) => {
-                json!({"type": "image", "path": rebase(desc, &img.path.value, out), "tex_coordinate_generator": mapping(&img.mapping)})
+                let mut v =
+                    json!({"type": "image", "path": rebase(desc, &img.path.value, out), "tex_coordinate_generator": mapping(&img.mapping)});
+                match img.filter {
+                    crate::texture::image::ImageFilter::Trilinear => {}
+                    crate::texture::image::ImageFilter::Bilinear => v["filter"] = "bilinear".into(),
+                    crate::texture::image::ImageFilter::Nearest => v["filter"] = "nearest".into(),
+                }
+                if img.raw {
+                    v["raw"] = true.into();
+                }
+                v
             }
         };
         textures.insert(t.name.clone(), v);
@@ -827,11 +837,23 @@ pub fn to_xml(desc: &SceneDesc, out: &Path) -> Result<Converted> {
                 let id = id_for(&t.name, "texture-");
                 let m = img.mapping;
                 let (sm, om) = (m.scale, Vec2::new(m.delta.x, 1.0 - m.scale.y - m.delta.y));
+                let filter = match img.filter {
+                    crate::texture::image::ImageFilter::Trilinear => {
+                        w.push(format!(
+                            "texture '{}': Mitsuba has no MIP maps: the trilinear filter is written as bilinear",
+                            t.name
+                        ));
+                        "bilinear"
+                    }
+                    crate::texture::image::ImageFilter::Bilinear => "bilinear",
+                    crate::texture::image::ImageFilter::Nearest => "nearest",
+                };
                 let _ = writeln!(
                     s,
-                    "  <texture type=\"bitmap\" id=\"{}\">\n    <string name=\"filename\" value=\"{}\"/>\n    {}\n  </texture>",
+                    "  <texture type=\"bitmap\" id=\"{}\">\n    <string name=\"filename\" value=\"{}\"/>\n    <string name=\"filter_type\" value=\"{filter}\"/>\n    <boolean name=\"raw\" value=\"{}\"/>\n    {}\n  </texture>",
                     esc(&id),
                     esc(&rebase(desc, &img.path.value, out)),
+                    img.raw,
                     to_uv(sm, om)
                 );
                 texture_ids.insert(t.name.clone(), id);

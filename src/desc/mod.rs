@@ -173,7 +173,13 @@ pub struct FilmDesc {
 
 /// `textures.<name>`: `type` = `constant` (`color`, required) | `checkerboard`
 /// (`color0` (0.4), `color1` (0.2), `tex_coordinate_generator`) | `image` (`path`,
-/// `tex_coordinate_generator`); see [`Texture`] and [`UvMapping`].
+/// `tex_coordinate_generator`, `filter` (`"trilinear"`), `raw` (false); see
+/// [`ImageFile`]); see [`Texture`] and [`UvMapping`].
+///
+/// ```json
+/// "textures": {"normals": {"type": "image", "path": "n.png", "filter": "nearest", "raw": true,
+///              "tex_coordinate_generator": {"type": "uvmapping2d"}}}
+/// ```
 #[derive(Clone, Debug)]
 pub struct TextureDesc {
     pub name: String,
@@ -187,6 +193,12 @@ pub struct TextureDesc {
 pub struct ImageFile {
     pub path: Located<String>,
     pub mapping: UvMapping,
+    /// `filter`: `"trilinear"` (default: MIP-mapped by the ray footprint) | `"bilinear"`
+    /// (the full-resolution image, Mitsuba's `filter_type` `bilinear`) | `"nearest"`.
+    pub filter: crate::texture::image::ImageFilter,
+    /// `raw` (false): PNG and JPEG values as they are, not decoded from sRGB
+    /// (Mitsuba's `raw`; EXR and HDR are linear either way).
+    pub raw: bool,
 }
 
 /// `materials.<name>`: `type` (`"diffuse"`) and per type:
@@ -914,6 +926,18 @@ fn parse_texture(name: &str, p: &Props) -> Result<TextureDesc> {
         "image" => Texture::Image(ImageFile {
             path: p.located("path", p.string("path")?),
             mapping: parse_mapping(p)?,
+            filter: match p.string_or("filter", "trilinear")?.as_str() {
+                "trilinear" => crate::texture::image::ImageFilter::Trilinear,
+                "bilinear" => crate::texture::image::ImageFilter::Bilinear,
+                "nearest" => crate::texture::image::ImageFilter::Nearest,
+                other => {
+                    return Err(p.error(
+                        "filter",
+                        format!("unknown image filter '{other}' (available: trilinear, bilinear, nearest)"),
+                    ))
+                }
+            },
+            raw: p.bool_or("raw", false)?,
         }),
         _ => {
             return Err(p.error(

@@ -11,7 +11,7 @@
 //! | `<shape>` | `obj`, `ply` (`filename`, `face_normals` false: else smooth vertex normals when the file has none; `flip_normals`; `flip_tex_coords`, true for OBJ, false for PLY), `serialized` (`filename`, `shape_index` 0), `rectangle`, `cube`, `disk` (generated meshes), `sphere` (`center` 0, `radius` 1); all take `to_world`, one `<bsdf>` and one `area` `<emitter>`. A shape with neither gets Mitsuba's default, a diffuse 0.5. |
 //! | `<bsdf>` | `diffuse` (`reflectance` 0.5, a colour or texture); `dielectric`, `thindielectric` (`int_ior` "bk7", `ext_ior` "air": numbers or names, η = int/ext; `specular_reflectance`, `specular_transmittance` 1, colours); `roughdielectric` (as `dielectric`, and `distribution` beckmann \| ggx, `alpha` 0.1 or `alpha_u`+`alpha_v`); `conductor` and `roughconductor` (`material` "none", or a name from [`values::NAMED_CONDUCTORS`] such as "Au"; else `eta` 0 / `k` 1 (a perfect mirror); `specular_reflectance` 1, a colour or texture; `roughconductor`'s `alpha`, `alpha_u`/`alpha_v`, `distribution` as `roughdielectric`; the 0.6 `ext_eta` folded into η and k); `plastic` (`diffuse_reflectance` 0.5, a colour or texture; `specular_reflectance` 1; `int_ior` "polypropylene" (1.49), `ext_ior` "air"; `nonlinear` false), `roughplastic` (as `plastic`, and `alpha` 0.1 (isotropic), `distribution` beckmann); `twosided` (one or two nested non-transmitting bsdfs: around one `diffuse` it is rdr's two-sided diffuse, around one `roughconductor` that material (rdr's is two-sided), otherwise rdr's `twosided` with the second as the back). Example: `<bsdf type="twosided"><bsdf type="roughplastic"><float name="alpha" value="0.2"/></bsdf></bsdf>`. |
 //! | `<emitter>` | `area` (in a shape: `radiance` 1), `point` (`position` or `to_world`; `intensity` I (1) → flux 4πI), `spot` (`to_world`: at its origin, along its +z; `intensity` 1, `cutoff_angle` 20°, `beam_width` ¾ of it; linear falloff in angle), `directional` (`direction` or `to_world`'s +z, of travel; `irradiance` 1) — these two for every integrator, `constant` (`radiance` 1), `envmap` (`filename`, `scale` 1, `to_world`) |
-//! | `<texture>` | `bitmap` (`filename`, `to_uv`; `filter_type`, `wrap_mode`, `raw` noted), `checkerboard` (`color0` 0.4, `color1` 0.2, `to_uv`); the 0.6 `uoffset`, `voffset`, `uscale`, `vscale` become `to_uv` |
+//! | `<texture>` | `bitmap` (`filename`, `to_uv`; `filter_type` `bilinear` (the full-resolution image: Mitsuba has no MIP maps) \| `nearest`; `raw` false (true: 8-bit PNG/JPEG values as they are, not decoded from sRGB); `wrap_mode` noted), `checkerboard` (`color0` 0.4, `color1` 0.2, `to_uv`); the 0.6 `uoffset`, `voffset`, `uscale`, `vscale` become `to_uv` |
 //!
 //! Anything else is an error naming the plugin and what is supported. Colours are
 //! `<rgb>`, `<spectrum>` (a constant or wavelength:value pairs, see
@@ -1035,21 +1035,18 @@ impl<'a> Reader<'a> {
         let t = match p.ty.as_str() {
             "bitmap" => {
                 let path = self.file(el, &p, "filename")?;
-                if let Some(f) = p.string_opt("filter_type")? {
-                    if f != "bilinear" {
-                        self.ids
-                            .warn(el, format!("filter_type \"{f}\" noted: rdr filters images trilinearly"));
-                    }
-                }
+                // Mitsuba has no MIP maps: its bilinear reads the full-resolution image
+                let filter = match p.string("filter_type", "bilinear")?.as_str() {
+                    "bilinear" => crate::texture::image::ImageFilter::Bilinear,
+                    "nearest" => crate::texture::image::ImageFilter::Nearest,
+                    other => return Err(p.value_error("filter_type", format!("unknown filter_type \"{other}\" (bilinear, nearest)"))),
+                };
                 if let Some(w) = p.string_opt("wrap_mode")? {
                     if w != "repeat" {
                         self.ids.warn(el, format!("wrap_mode \"{w}\" noted: rdr repeats images"));
                     }
                 }
-                if p.boolean("raw", false)? {
-                    self.ids
-                        .warn(el, "raw noted: rdr decodes PNG and JPEG from sRGB and reads EXR and HDR as linear");
-                }
+                let raw = p.boolean("raw", false)?;
                 // Mitsuba's row 0 is v = 0, rdr's is v = 1
                 Texture::Image(ImageFile {
                     path,
@@ -1057,6 +1054,8 @@ impl<'a> Reader<'a> {
                         scale: to_uv.0,
                         delta: Vec2::new(to_uv.1.x, 1.0 - to_uv.0.y - to_uv.1.y),
                     },
+                    filter,
+                    raw,
                 })
             }
             "checkerboard" => Texture::Checkerboard {
@@ -1117,6 +1116,8 @@ impl<'a> Reader<'a> {
                         scale: Vec2::ONE,
                         delta: Vec2::ZERO,
                     },
+                    filter: crate::texture::image::ImageFilter::Trilinear,
+                    raw: false,
                 }),
             });
             for k in ["filter_type", "mis_compensation"] {

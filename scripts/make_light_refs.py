@@ -8,7 +8,10 @@ independent passes of Mitsuba's `path` integrator, pass p with seed p) and <name
 images / K, as ../shared/refs/README.md describes).
 
 The scene: a diffuse sphere on a diffuse floor (a large sphere) lit only by the emitter;
-the spot's beam edge and falloff lie on the floor in view.
+the spot's beam edge and falloff lie on the floor in view. `directional_small` is
+`directional` with a small floor (a sphere of radius 2.5 whose top is where the large
+one's is): the scene's bounding sphere, which a directional light's rays start from in
+the integrators that trace from the lights, is then a few units across rather than 200.
 
 Run from the repository root with the venv that has Mitsuba:
     /work/venv-mi/bin/python scripts/make_light_refs.py [--passes 8] [--spp 256] [NAME...]
@@ -24,6 +27,12 @@ HERE = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "tests", "
 
 CAMERA = {"position": [0.0, 1.5, -4.5], "look_at": [0.0, -0.5, 0.0], "ref_up": [0.0, 1.0, 0.0], "fov": 35.0}
 FLOOR = {"center": [0.0, -101.0, 0.0], "radius": 100.0, "albedo": [0.5, 0.5, 0.5]}
+SMALL_FLOOR = {"center": [0.0, -3.5, 0.0], "radius": 2.5, "albedo": [0.5, 0.5, 0.5]}
+NAMES = ["spot", "directional", "directional_small"]
+
+
+def floor(name):
+    return SMALL_FLOOR if name.endswith("_small") else FLOOR
 BALL = {"center": [-0.6, -0.5, 0.0], "radius": 0.5, "albedo": [0.8, 0.4, 0.2]}
 
 SPOT = {"position": [0.3, 3.0, 0.2], "look_at": [0.3, -1.0, 0.0], "intensity": [30.0, 30.0, 30.0],
@@ -42,13 +51,14 @@ def emitter_xml(name):
                 f'target="{v(s["look_at"])}" up="1, 0, 0"/></transform>'
                 f'<rgb name="intensity" value="{v(s["intensity"])}"/>'
                 f'<float name="cutoff_angle" value="{s["cutoff_angle"]}"/><float name="beam_width" value="{s["beam_width"]}"/></emitter>')
-    d = DIRECTIONAL
+    d = DIRECTIONAL  # directional, directional_small
     return (f'  <emitter type="directional"><vector name="direction" value="{v(d["direction"])}"/>'
             f'<rgb name="irradiance" value="{v(d["irradiance"])}"/></emitter>')
 
 
 def scene_xml(name):
     c = CAMERA
+    fl = floor(name)
     return f"""<?xml version="1.0" encoding="utf-8"?>
 <!-- tests/refs/lights/{name}: made by scripts/make_light_refs.py (do not edit; rerun it).
      {RES}x{RES}, box filter, path max_depth {MAX_DEPTH}; twin: {name}.json -->
@@ -68,8 +78,8 @@ def scene_xml(name):
     <sampler type="independent"><integer name="sample_count" value="$spp"/></sampler>
   </sensor>
   <shape type="sphere">
-    <point name="center" value="{v(FLOOR['center'])}"/><float name="radius" value="{FLOOR['radius']}"/>
-    <bsdf type="diffuse"><rgb name="reflectance" value="{v(FLOOR['albedo'])}"/></bsdf>
+    <point name="center" value="{v(fl['center'])}"/><float name="radius" value="{fl['radius']}"/>
+    <bsdf type="diffuse"><rgb name="reflectance" value="{v(fl['albedo'])}"/></bsdf>
   </shape>
   <shape type="sphere">
     <point name="center" value="{v(BALL['center'])}"/><float name="radius" value="{BALL['radius']}"/>
@@ -82,16 +92,17 @@ def scene_xml(name):
 
 def scene_json(name):
     light = dict(SPOT, type="spot") if name == "spot" else dict(DIRECTIONAL, type="directional")
+    fl = floor(name)
     return {
         "integrator": {"type": "path", "spp": 64, "max_depth": MAX_DEPTH, "lights": [light]},
         "film": {"resolution": [RES, RES], "filter": {"type": "box", "radius": 0.5}},
         "camera": dict(CAMERA, focal_length=1.0),
-        "textures": {"floor": {"type": "constant", "color": FLOOR["albedo"]},
+        "textures": {"floor": {"type": "constant", "color": fl["albedo"]},
                      "ball": {"type": "constant", "color": BALL["albedo"]}},
         "materials": {"floor": {"type": "diffuse", "texture_name": "floor"},
                       "ball": {"type": "diffuse", "texture_name": "ball"}},
         "objects": [
-            {"type": "sphere", "center": FLOOR["center"], "radius": FLOOR["radius"], "material_name": "floor"},
+            {"type": "sphere", "center": fl["center"], "radius": fl["radius"], "material_name": "floor"},
             {"type": "sphere", "center": BALL["center"], "radius": BALL["radius"], "material_name": "ball"},
         ],
     }
@@ -108,7 +119,7 @@ def main():
     import numpy as np
     mi.set_variant(args.variant)
     os.makedirs(HERE, exist_ok=True)
-    for name in ["spot", "directional"]:
+    for name in NAMES:
         if args.names and name not in args.names:
             continue
         xml_path = os.path.join(HERE, f"{name}.xml")

@@ -603,12 +603,24 @@ pub fn read_texture_image(path: &Path) -> Result<RgbImage> {
     decode_texture_image(&read_input(path)?, path)
 }
 
+/// [`read_texture_image`], PNG and JPEG read `raw` if asked ([`decode_texture_image_as`]).
+pub fn read_texture_image_as(path: &Path, raw: bool) -> Result<RgbImage> {
+    decode_texture_image_as(&read_input(path)?, path, raw)
+}
+
 /// Bytes a texture keeps per pixel after decoding: linear RGB and its MIP pyramid.
 const TEXTURE_BYTES_PER_PIXEL: u64 = 12 + 16;
 
 /// [`read_texture_image`] of bytes already read; `path` gives the format (its
 /// extension, unless the content says otherwise) and names the file in messages.
 pub fn decode_texture_image(bytes: &[u8], path: &Path) -> Result<RgbImage> {
+    decode_texture_image_as(bytes, path, false)
+}
+
+/// [`decode_texture_image`], with PNG and JPEG values taken as they are (`raw`, as
+/// Mitsuba's bitmap `raw`: for data such as normal or roughness maps) rather than
+/// decoded from sRGB.
+pub fn decode_texture_image_as(bytes: &[u8], path: &Path, raw: bool) -> Result<RgbImage> {
     let ext = path
         .extension()
         .and_then(|e| e.to_str())
@@ -646,7 +658,8 @@ pub fn decode_texture_image(bytes: &[u8], path: &Path) -> Result<RgbImage> {
     let pixels: Vec<Vec3> = match format {
         Some(image::ImageFormat::Hdr) => img.into_rgb32f().pixels().map(|p| Vec3::new(p[0], p[1], p[2])).collect(),
         Some(image::ImageFormat::Png) | Some(image::ImageFormat::Jpeg) => {
-            let lut: Vec<f32> = (0..=255).map(|i| srgb_to_linear(i as f32 / 255.0)).collect();
+            let decode = |v: f32| if raw { v } else { srgb_to_linear(v) };
+            let lut: Vec<f32> = (0..=255).map(|i| decode(i as f32 / 255.0)).collect();
             match img {
                 image::DynamicImage::ImageRgb16(_)
                 | image::DynamicImage::ImageRgba16(_)
@@ -654,7 +667,7 @@ pub fn decode_texture_image(bytes: &[u8], path: &Path) -> Result<RgbImage> {
                 | image::DynamicImage::ImageLumaA16(_) => img
                     .into_rgb32f()
                     .pixels()
-                    .map(|p| Vec3::new(srgb_to_linear(p[0]), srgb_to_linear(p[1]), srgb_to_linear(p[2])))
+                    .map(|p| Vec3::new(decode(p[0]), decode(p[1]), decode(p[2])))
                     .collect(),
                 _ => img
                     .into_rgb8()

@@ -178,6 +178,20 @@ pub fn uniform_sphere(u: Vec2) -> Vec3 {
     Vec3::new(r * phi.cos(), r * phi.sin(), z)
 }
 
+/// Uniform direction in the cone of half-angle arccos(`cos_max`) about +z; pdf
+/// [`uniform_cone_pdf`].
+pub fn uniform_cone(u: Vec2, cos_max: f32) -> Vec3 {
+    let z = 1.0 - u.x * (1.0 - cos_max);
+    let r = (1.0 - z * z).max(0.0).sqrt();
+    let phi = 2.0 * PI * u.y;
+    Vec3::new(r * phi.cos(), r * phi.sin(), z)
+}
+
+/// Solid-angle density of [`uniform_cone`]: 1/(2π(1 − cos_max)).
+pub fn uniform_cone_pdf(cos_max: f32) -> f32 {
+    1.0 / (2.0 * PI * (1.0 - cos_max))
+}
+
 /// Uniform barycentrics on a triangle: `(1 − √u₁, u₂√u₁, rest)`.
 pub fn uniform_triangle(u: Vec2) -> [f32; 3] {
     let s = u.x.sqrt();

@@ -216,6 +216,20 @@ fn cases() -> Vec<Case> {
         edit("image texture file missing", |s| s["textures"]["white"] = image_texture("a.png")).err(&["textures.white.path", "a.png"]),
         edit("image texture not an image", |s| s["textures"]["white"] = image_texture("tri.obj")).err(&["textures.white.path", "tri.obj"]),
         edit("image texture is a folder", |s| s["textures"]["white"] = image_texture(".")).err(&["textures.white.path"]),
+        edit("image texture unknown filter", |s| {
+            s["textures"]["white"] = image_texture("tex.png");
+            s["textures"]["white"]["filter"] = json!("bicubic");
+        })
+        .err(&[
+            "textures.white.filter",
+            "unknown image filter 'bicubic'",
+            "trilinear, bilinear, nearest",
+        ]),
+        edit("image texture raw not a bool", |s| {
+            s["textures"]["white"] = image_texture("tex.png");
+            s["textures"]["white"]["raw"] = json!("yes");
+        })
+        .err(&["textures.white.raw"]),
         // --- geometry and camera values ----------------------------------------------------
         edit("look_at equals position", |s| s["camera"]["look_at"] = json!([0, 0, 5])).err(&["camera.look_at", "position"]),
         edit("ref_up along the view", |s| s["camera"]["ref_up"] = json!([0, 0, 1])).err(&["camera.ref_up"]),
@@ -326,6 +340,12 @@ fn cases() -> Vec<Case> {
         .ok(&["degenerate", "line 5"]),
         obj("OBJ unknown statement warns", "v 0 0 0\nv 1 0 0\nv 0 1 0\nbevel 1\nf 1 2 3\n").ok(&["bevel"]),
         edit("image texture", |s| s["textures"]["white"] = image_texture("tex.png")).ok(&[]),
+        edit("image texture nearest, raw", |s| {
+            s["textures"]["white"] = image_texture("tex.png");
+            s["textures"]["white"]["filter"] = json!("nearest");
+            s["textures"]["white"]["raw"] = json!(true);
+        })
+        .ok(&[]),
         unchanged("png output").out("png-output.png").ok(&[]),
         unchanged("upper-case extension").out("upper.EXR").ok(&[]),
     ]

@@ -165,3 +165,59 @@ fn bad_camera_keys_are_one_line_errors() {
         "{err}"
     );
 }
+
+/// Mitsuba's `thinlens` and `orthographic` sensors through the XML reader: the
+/// references' own scenes (tests/refs/cameras/*.xml) build the cameras of their JSON
+/// twins (the orthographic window from the to_world scale: 2·1.1 tall) and converge
+/// to the references; `rdr convert` carries both cameras to JSON and back.
+#[test]
+fn mitsuba_thinlens_and_orthographic_sensors_read_and_converge() {
+    use rdr::camera::Projection;
+    let Some(_shared) = shared() else { return };
+    let dir = temp_dir("camera-convert");
+    for (name, want) in [
+        (
+            "cbox_thinlens",
+            Projection::ThinLens {
+                aperture_radius: 0.1,
+                focus_distance: 6.0,
+            },
+        ),
+        ("cbox_ortho", Projection::Orthographic { height: 2.2 }),
+    ] {
+        let xml = refs().join(format!("{name}.xml"));
+        let desc = rdr::desc::SceneDesc::load(&xml, &[]).unwrap_or_else(|e| panic!("{e}"));
+        let close = |a: Projection| match (a, want) {
+            (
+                Projection::ThinLens {
+                    aperture_radius: r,
+                    focus_distance: f,
+                },
+                Projection::ThinLens {
+                    aperture_radius: r0,
+                    focus_distance: f0,
+                },
+            ) => (r - r0).abs() < 1e-5 && (f - f0).abs() < 1e-4,
+            (Projection::Orthographic { height: h }, Projection::Orthographic { height: h0 }) => (h - h0).abs() < 1e-5,
+            _ => false,
+        };
+        assert!(close(desc.camera.projection), "{name}: {:?}", desc.camera.projection);
+        for (from, to) in [
+            (xml.clone(), dir.path().join(format!("{name}.json"))),
+            (dir.path().join(format!("{name}.json")), dir.path().join(format!("{name}_back.xml"))),
+        ] {
+            let out = std::process::Command::new(env!("CARGO_BIN_EXE_rdr"))
+                .args(["convert", "-q"])
+                .arg(&from)
+                .arg("-o")
+                .arg(&to)
+                .output()
+                .unwrap();
+            assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+            let d = rdr::desc::SceneDesc::load(&to, &[]).unwrap_or_else(|e| panic!("{}: {e}", to.display()));
+            assert!(close(d.camera.projection), "{}: {:?}", to.display(), d.camera.projection);
+        }
+        let c = check(&format!("{name}.xml path"), &load_scene(&xml, &[], Profile::Physical), 128, name);
+        assert!(converges(&c), "{name}: {c:?}");
+    }
+}

@@ -372,6 +372,7 @@ fn bad_xml_gives_one_line_errors_with_file_line_and_column() {
         "<scene version=\"3.0.0\">\n  <include filename=\"a.xml\"/>\n</scene>\n",
     )
     .unwrap();
+    rdr::imageio::write_png(&d.join("t.png"), 1, 1, &[rdr::math::Vec3::ONE]).unwrap();
     let sphere = r#"<shape type="sphere"><float name="radius" value="1"/></shape>"#;
     // (case, file text, expected "line L, column C", expected words)
     let cases: Vec<(&str, String, &str, &str)> = vec![
@@ -429,6 +430,17 @@ fn bad_xml_gives_one_line_errors_with_file_line_and_column() {
         ("emitter in a shapegroup", scene(r#"  <shape type="shapegroup" id="g"><shape type="sphere"><emitter type="area"/></shape></shape>"#), "line 6, column 56", "emitters inside a shapegroup"),
         ("nested instancing", scene(r#"  <shape type="shapegroup" id="g"><shape type="instance"><ref id="g"/></shape></shape>"#), "line 6, column 35", "nested instancing"),
         ("mirrored camera", "<scene version=\"3.0.0\">\n  <sensor type=\"perspective\">\n    <transform name=\"to_world\"><scale x=\"-1\"/></transform>\n  </sensor>\n</scene>\n".into(), "line 3, column 5", "mirroring"),
+        ("unknown sensor", "<scene version=\"3.0.0\">\n  <sensor type=\"fisheye\">\n    <float name=\"fov\" value=\"40\"/>\n  </sensor>\n</scene>\n".into(), "line 2, column 3", "unsupported sensor \"fisheye\" (supported: perspective, thinlens, orthographic)"),
+        ("thinlens without aperture", "<scene version=\"3.0.0\">\n  <sensor type=\"thinlens\">\n    <float name=\"focus_distance\" value=\"3\"/>\n  </sensor>\n</scene>\n".into(), "line 2, column 3", "needs the property \"aperture_radius\""),
+        ("thinlens aperture as a string", "<scene version=\"3.0.0\">\n  <sensor type=\"thinlens\">\n    <string name=\"aperture_radius\" value=\"wide\"/>\n  </sensor>\n</scene>\n".into(), "line 3, column 5", "expected a float, found a string"),
+        ("thinlens negative aperture", "<scene version=\"3.0.0\">\n  <sensor type=\"thinlens\">\n    <float name=\"aperture_radius\" value=\"-1\"/>\n  </sensor>\n</scene>\n".into(), "line 3, column 5", "must be at least 0"),
+        ("thinlens focus as a string", "<scene version=\"3.0.0\">\n  <sensor type=\"thinlens\">\n    <float name=\"aperture_radius\" value=\"0.1\"/><string name=\"focus_distance\" value=\"far\"/>\n  </sensor>\n</scene>\n".into(), "line 3, column 48", "expected a float, found a string"),
+        ("thinlens zero focus", "<scene version=\"3.0.0\">\n  <sensor type=\"thinlens\">\n    <float name=\"aperture_radius\" value=\"0.1\"/><float name=\"focus_distance\" value=\"0\"/>\n  </sensor>\n</scene>\n".into(), "line 3, column 48", "must be positive"),
+        ("thinlens scaled", "<scene version=\"3.0.0\">\n  <sensor type=\"thinlens\">\n    <float name=\"aperture_radius\" value=\"0.1\"/><transform name=\"to_world\"><scale value=\"2\"/></transform>\n  </sensor>\n</scene>\n".into(), "line 3, column 48", "cannot scale"),
+        ("orthographic anisotropic", "<scene version=\"3.0.0\">\n  <sensor type=\"orthographic\">\n    <transform name=\"to_world\"><scale x=\"1\" y=\"2\"/></transform>\n  </sensor>\n</scene>\n".into(), "line 3, column 5", "scaled differently in x"),
+        ("bitmap filter_type unknown", scene(r#"  <shape type="sphere"><bsdf type="diffuse"><texture type="bitmap" name="reflectance"><string name="filename" value="t.png"/><string name="filter_type" value="ewa"/></texture></bsdf></shape>"#), "line 6, column 126", "unknown filter_type \"ewa\" (bilinear, nearest)"),
+        ("bitmap raw as a string", scene(r#"  <shape type="sphere"><bsdf type="diffuse"><texture type="bitmap" name="reflectance"><string name="filename" value="t.png"/><string name="raw" value="yes"/></texture></bsdf></shape>"#), "line 6, column 126", "expected a boolean"),
+        ("orthographic to_world as a float", "<scene version=\"3.0.0\">\n  <sensor type=\"orthographic\">\n    <float name=\"to_world\" value=\"2\"/>\n  </sensor>\n</scene>\n".into(), "line 3, column 5", "expected a transform"),
     ];
     let mut failures = Vec::new();
     for (name, text, at, words) in &cases {
@@ -1197,6 +1209,203 @@ fn bitmap_textures_face_the_way_mitsuba_shows_them() {
             let got = at(x, y);
             // unoccluded constant sky on an albedo-1 (or 0) surface: radiance = albedo, noise aside
             assert!((got - want).abs().max_element() < 0.25, "{shape} {label}: {got} not {want}");
+        }
+    }
+}
+
+/// The film-state identity covers what an XML scene's `<include>`s read: a `--resume`
+/// after an included file changed is refused (in one line naming the scene), one with
+/// everything as it was goes on.
+#[test]
+fn resume_is_refused_when_an_included_file_changed() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(
+        d.join("main.xml"),
+        r#"<scene version="3.0.0">
+<integrator type="path"><integer name="max_depth" value="2"/></integrator>
+<sensor type="perspective"><float name="fov" value="40"/>
+<transform name="to_world"><lookat origin="0,0,4" target="0,0,0" up="0,1,0"/></transform>
+<film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="8"/><rfilter type="box"/></film>
+<sampler type="independent"><integer name="sample_count" value="4"/></sampler></sensor>
+<include filename="parts/ball.xml"/>
+<emitter type="constant"><rgb name="radiance" value="1"/></emitter>
+</scene>"#,
+    )
+    .unwrap();
+    std::fs::create_dir(d.join("parts")).unwrap();
+    let ball = |albedo: &str| {
+        std::fs::write(
+            d.join("parts/ball.xml"),
+            format!(r#"<scene version="3.0.0"><shape type="sphere"><bsdf type="diffuse"><rgb name="reflectance" value="{albedo}"/></bsdf></shape></scene>"#),
+        )
+        .unwrap()
+    };
+    ball("0.5");
+    let out = d.join("out.exr");
+    let render = |spp: &str, resume: bool| {
+        let mut c = std::process::Command::new(env!("CARGO_BIN_EXE_rdr"));
+        c.args(["render", "-q", "--spp", spp, "-o"]).arg(&out).arg(d.join("main.xml"));
+        if resume {
+            c.arg("--resume");
+        }
+        c.output().unwrap()
+    };
+    let o = render("2", false);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let o = render("4", true);
+    assert!(o.status.success(), "unchanged: {}", String::from_utf8_lossy(&o.stderr));
+    ball("0.6");
+    let before = std::fs::read(&out).unwrap();
+    let o = render("8", true);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        !o.status.success() && err.lines().count() == 1 && err.contains("scene"),
+        "resume after the included file changed: {} {err}",
+        o.status
+    );
+    assert_eq!(std::fs::read(&out).unwrap(), before, "a refused resume leaves the file");
+}
+
+/// `rdr convert` of `twosided`: around a `diffuse`, a `conductor` and a `roughconductor`
+/// (rdr's is two-sided, so the JSON has no wrapper and the XML written from it gets one
+/// back) the round trip keeps it; around a `dielectric` (read as the dielectric alone)
+/// it is lost, and the conversion says so in one line naming the element.
+#[test]
+fn convert_keeps_twosided_or_says_it_is_lost() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let scene = r#"<scene version="3.0.0">
+<integrator type="path"><integer name="max_depth" value="4"/></integrator>
+<sensor type="perspective"><float name="fov" value="40"/>
+<film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="8"/></film></sensor>
+<shape type="sphere"><bsdf type="twosided"><bsdf type="roughconductor"><float name="alpha" value="0.2"/></bsdf></bsdf></shape>
+<shape type="sphere"><point name="center" value="3,0,0"/><bsdf type="twosided"><bsdf type="dielectric"/></bsdf></shape>
+<shape type="sphere"><point name="center" value="6,0,0"/><bsdf type="twosided"><bsdf type="diffuse"/></bsdf></shape>
+<shape type="sphere"><point name="center" value="9,0,0"/><bsdf type="twosided"><bsdf type="conductor"/></bsdf></shape>
+<emitter type="constant"/>
+</scene>"#;
+    std::fs::write(d.join("ts.xml"), scene).unwrap();
+    let convert = |from: &str, to: &str| {
+        let o = std::process::Command::new(env!("CARGO_BIN_EXE_rdr"))
+            .arg("convert")
+            .arg(d.join(from))
+            .arg("-o")
+            .arg(d.join(to))
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        String::from_utf8_lossy(&o.stderr).into_owned()
+    };
+    let err = convert("ts.xml", "ts.json");
+    let notes: Vec<&str> = err.lines().filter(|l| l.contains("twosided")).collect();
+    assert!(
+        notes.len() == 1 && notes[0].contains("ts.xml: line 6, column") && notes[0].contains("dielectric"),
+        "{err}"
+    );
+    let err = convert("ts.json", "back.xml");
+    assert!(!err.contains("twosided"), "{err}");
+    let back = std::fs::read_to_string(d.join("back.xml")).unwrap();
+    let wrapped = |inner: &str| {
+        back.lines()
+            .any(|l| l.contains(r#"<bsdf type="twosided""#) && l.contains(&format!(r#"<bsdf type="{inner}">"#)))
+    };
+    for inner in ["roughconductor", "diffuse", "conductor"] {
+        assert!(wrapped(inner), "{inner} lost its twosided:\n{back}");
+    }
+    assert!(!wrapped("dielectric"), "{back}");
+    // the scene read back is the scene converted
+    let a = xml_desc(&d.join("ts.xml"), &[]);
+    let b = xml_desc(&d.join("back.xml"), &[]);
+    assert_same_scene("twosided XML → JSON → XML", &a, &b);
+}
+
+/// Mitsuba's bitmap `filter_type` and `raw`, against what a 2×2 image must give (v = 0
+/// at its top row, as Mitsuba reads a bitmap): its
+/// top row black | white, its bottom row 8-bit 128 | 64. Halfway between the top
+/// texels' centres `bilinear` is their mean, ½, and `nearest` the right one, 1; at the
+/// bottom-left texel's centre a `raw` read is 128/255, an sRGB-decoded one 0.2158
+/// (the sRGB curve). The JSON `image` texture's `filter` and `raw` say the same, and
+/// `rdr convert` carries both either way.
+#[test]
+fn bitmap_filter_type_and_raw_are_honoured() {
+    use rdr::math::{Vec2, Vec3};
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let grey = |v: f32| Vec3::splat(v);
+    // write_png encodes linear values to sRGB: pick the linear values of the 8-bit codes
+    let code = |c: u8| {
+        let v = c as f32 / 255.0;
+        if v <= 0.04045 {
+            v / 12.92
+        } else {
+            ((v + 0.055) / 1.055).powf(2.4)
+        }
+    };
+    rdr::imageio::write_png(&d.join("t.png"), 2, 2, &[grey(0.0), grey(1.0), grey(code(128)), grey(code(64))]).unwrap();
+    let bitmap = |filter: &str, raw: bool| {
+        format!(
+            r#"<shape type="sphere"><bsdf type="diffuse"><texture type="bitmap" name="reflectance"><string name="filename" value="t.png"/><string name="filter_type" value="{filter}"/><boolean name="raw" value="{raw}"/></texture></bsdf></shape>"#
+        )
+    };
+    let xml = scene(
+        &[
+            bitmap("bilinear", false),
+            bitmap("nearest", false),
+            bitmap("bilinear", true),
+            bitmap("nearest", true),
+        ]
+        .join("\n"),
+    );
+    std::fs::write(d.join("t.xml"), xml).unwrap();
+    let json = d.join("t.json");
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_rdr"))
+        .args(["convert", "-q"])
+        .arg(d.join("t.xml"))
+        .arg("-o")
+        .arg(&json)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let text = std::fs::read_to_string(&json).unwrap();
+    assert!(text.contains(r#""filter": "nearest""#) && text.contains(r#""raw": true"#), "{text}");
+    let back = d.join("back.xml");
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_rdr"))
+        .args(["convert", "-q"])
+        .arg(&json)
+        .arg("-o")
+        .arg(&back)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let srgb_128 = code(128);
+    for file in [d.join("t.xml"), json, back] {
+        let l = rdr::load(&file, &[], rdr::Profile::Physical).unwrap_or_else(|e| panic!("{e}"));
+        let t = &l.scene.textures;
+        assert_eq!(t.len(), 4, "{}", file.display());
+        // (rdr's uv: v = 1 at the image's top row, the XML mapping turning Mitsuba's v)
+        let at = |i: usize, u: f32, v: f32| t[i].eval(Vec2::new(u, 1.0 - v)).x;
+        let expect = [
+            // (texture, u, v, value): top row halfway, bottom-left centre
+            (0, 0.5, 0.25, 0.5),
+            (1, 0.5, 0.25, 1.0),
+            (2, 0.5, 0.25, 0.5),
+            (3, 0.5, 0.25, 1.0),
+            (0, 0.25, 0.75, srgb_128),
+            (1, 0.25, 0.75, srgb_128),
+            (2, 0.25, 0.75, 128.0 / 255.0),
+            (3, 0.25, 0.75, 128.0 / 255.0),
+            // nearest stays on its texel up to the edge
+            (1, 0.49, 0.49, 0.0),
+            (1, 0.51, 0.51, code(64)),
+        ];
+        for (i, u, v, want) in expect {
+            let got = at(i, u, v);
+            assert!(
+                (got - want).abs() < 2e-3,
+                "{}: texture {i} at ({u}, {v}): {got}, not {want}",
+                file.display()
+            );
         }
     }
 }

@@ -154,18 +154,18 @@ pub fn build(desc: &SceneDesc, opts: BuildOptions) -> Result<Scene> {
 
     let texture_names: HashMap<&str, u32> = desc.textures.iter().enumerate().map(|(i, t)| (t.name.as_str(), i as u32)).collect();
     // Image files load first (once per distinct file, in parallel).
-    let image_paths: Vec<(std::path::PathBuf, &Source)> = desc
+    let image_paths: Vec<(std::path::PathBuf, bool, &Source)> = desc
         .textures
         .iter()
         .filter_map(|t| match &t.texture {
-            Texture::Image(file) => Some((desc.base_dir.join(&file.path.value), &file.path.source)),
+            Texture::Image(file) => Some((desc.base_dir.join(&file.path.value), file.raw, &file.path.source)),
             _ => None,
         })
         .collect();
     let mut images = ImageCache::default();
-    let files: Vec<std::path::PathBuf> = image_paths.iter().map(|(p, _)| p.clone()).collect();
+    let files: Vec<(std::path::PathBuf, bool)> = image_paths.iter().map(|(p, raw, _)| (p.clone(), *raw)).collect();
     images.load_all(&files, opts.textures, opts.mipmap).map_err(|(i, e)| {
-        let (full, source) = &image_paths[i];
+        let (full, _, source) = &image_paths[i];
         // the loader's messages name the file already; name it here only when not
         let (e, full) = (format!("{e:#}"), full.display().to_string());
         let msg = if e.contains(&full) {
@@ -179,8 +179,9 @@ pub fn build(desc: &SceneDesc, opts: BuildOptions) -> Result<Scene> {
     for t in &desc.textures {
         textures.push(t.texture.try_map_image(|file| {
             Ok::<_, SceneError>(ImageTexture {
-                mipmap: images.get(&desc.base_dir.join(&file.path.value)).expect("loaded above"),
+                mipmap: images.get(&desc.base_dir.join(&file.path.value), file.raw).expect("loaded above"),
                 mapping: file.mapping,
+                filter: file.filter,
             })
         })?);
     }

@@ -250,8 +250,26 @@ pub fn to_json(desc: &SceneDesc, out: &Path) -> Result<Converted> {
         Filter::Mitchell { radius, b, c } => json!({"type": "mitchell", "radius": num(radius), "B": num(b), "C": num(c)}),
     };
     let c = &desc.camera;
-    if c.projection != crate::camera::Projection::Pinhole || c.near_clip != 0.0 || c.far_clip != f32::INFINITY {
-        warnings.push("the camera's projection and clipping are left out (a pinhole is written)".into());
+    let mut camera = json!({"position": vec3(c.position), "look_at": vec3(c.look_at), "ref_up": vec3(c.ref_up), "fov": num(c.fov), "focal_length": num(c.focal_length)});
+    match c.projection {
+        crate::camera::Projection::Pinhole => {}
+        crate::camera::Projection::ThinLens {
+            aperture_radius,
+            focus_distance,
+        } => {
+            camera["type"] = "thinlens".into();
+            camera["aperture_radius"] = num(aperture_radius);
+            camera["focus_distance"] = num(focus_distance);
+        }
+        crate::camera::Projection::Orthographic { height } => {
+            camera = json!({"type": "orthographic", "position": vec3(c.position), "look_at": vec3(c.look_at), "ref_up": vec3(c.ref_up), "height": num(height)});
+        }
+    }
+    if c.near_clip != 0.0 {
+        camera["near_clip"] = num(c.near_clip);
+    }
+    if c.far_clip != f32::INFINITY {
+        camera["far_clip"] = num(c.far_clip);
     }
     let mut textures = Map::new();
     let mapping = |m: &UvMapping| json!({"type": "uvmapping2d", "scale": vec2(m.scale), "delta": vec2(m.delta)});
@@ -266,7 +284,17 @@ pub fn to_json(desc: &SceneDesc, out: &Path) -> Result<Converted> {
                 json!({"type": "checkerboard", "color0": vec3(*color0), "color1": vec3(*color1), "tex_coordinate_generator": mapping(m)})
             }
             Texture::Image(img) => {
-                json!({"type": "image", "path": rebase(desc, &img.path.value, out), "tex_coordinate_generator": mapping(&img.mapping)})
+                let mut v =
+                    json!({"type": "image", "path": rebase(desc, &img.path.value, out), "tex_coordinate_generator": mapping(&img.mapping)});
+                match img.filter {
+                    crate::texture::image::ImageFilter::Trilinear => {}
+                    crate::texture::image::ImageFilter::Bilinear => v["filter"] = "bilinear".into(),
+                    crate::texture::image::ImageFilter::Nearest => v["filter"] = "nearest".into(),
+                }
+                if img.raw {
+                    v["raw"] = true.into();
+                }
+                v
             }
         };
         textures.insert(t.name.clone(), v);
@@ -373,7 +401,7 @@ pub fn to_json(desc: &SceneDesc, out: &Path) -> Result<Converted> {
     let mut root = json!({
         "integrator": Value::Object(integ),
         "film": {"resolution": [f.width, f.height], "block_side_length": f.block_size, "filter": filter},
-        "camera": {"position": vec3(c.position), "look_at": vec3(c.look_at), "ref_up": vec3(c.ref_up), "fov": num(c.fov), "focal_length": num(c.focal_length)},
+        "camera": camera,
         "textures": Value::Object(textures),
         "materials": Value::Object(materials),
         "objects": objects,
@@ -398,6 +426,11 @@ pub fn to_json(desc: &SceneDesc, out: &Path) -> Result<Converted> {
         warnings.push("a shape without a material got Mitsuba's default diffuse 0.5 ('__default_diffuse')".into());
     }
     let text = serde_json::to_string_pretty(&root).expect("a JSON value prints") + "\n";
+    for n in &desc.convert_notes {
+        if !warnings.contains(n) {
+            warnings.push(n.clone());
+        }
+    }
     Ok(Converted { text, files, warnings })
 }
 
@@ -574,14 +607,22 @@ fn material_xml(
             alpha_x,
             alpha_y,
             distribution,
-        } => format!(
-            "{}{}<rgb name=\"eta\" value=\"{}\"/><rgb name=\"k\" value=\"{}\"/>{}</bsdf>",
-            open("roughconductor"),
-            alphas(*alpha_x, *alpha_y, *distribution),
-            v3(*eta_t / *eta_i),
-            v3(*k / *eta_i),
-            colour("specular_reflectance", texture)
-        ),
+        } => {
+            let bsdf = format!(
+                "<bsdf type=\"roughconductor\">{}<rgb name=\"eta\" value=\"{}\"/><rgb name=\"k\" value=\"{}\"/>{}</bsdf>",
+                alphas(*alpha_x, *alpha_y, *distribution),
+                v3(*eta_t / *eta_i),
+                v3(*k / *eta_i),
+                colour("specular_reflectance", texture)
+            );
+            // rdr's roughconductor reflects on both sides, Mitsuba's on the front only:
+            // wrapped in a twosided (unless it is one side of a twosided already)
+            if id.is_some() {
+                format!("{}{bsdf}</bsdf>", open("twosided"))
+            } else {
+                bsdf
+            }
+        }
         Material::Conductor { texture, eta, k } => format!(
             "{}<rgb name=\"eta\" value=\"{}\"/><rgb name=\"k\" value=\"{}\"/>{}</bsdf>",
             open("conductor"),
@@ -667,6 +708,11 @@ fn cylinder_params(c: &crate::geometry::cylinder::CylinderShape) -> (Vec3, Vec3,
         c.p0.extend(1.0),
     );
     (Vec3::ZERO, Vec3::Z, 1.0, Some(m))
+}
+
+/// A perspective or thin-lens sensor's field of view, vertical as rdr's.
+fn fov_keys(fov: f32) -> String {
+    format!("    <float name=\"fov\" value=\"{fov}\"/>\n    <string name=\"fov_axis\" value=\"y\"/>\n")
 }
 
 fn esc(s: &str) -> String {
@@ -758,12 +804,6 @@ pub fn to_xml(desc: &SceneDesc, out: &Path) -> Result<Converted> {
     };
     let c = &desc.camera;
     let f = &desc.film;
-    if c.projection != crate::camera::Projection::Pinhole {
-        w.push(format!(
-            "the camera's {:?} projection is written as a pinhole (perspective)",
-            c.projection
-        ));
-    }
     if c.near_clip != 0.0 || c.far_clip != f32::INFINITY {
         w.push("the camera's near_clip and far_clip are left out".into());
     }
@@ -787,10 +827,33 @@ pub fn to_xml(desc: &SceneDesc, out: &Path) -> Result<Converted> {
             format!("<rfilter type=\"mitchell\"><float name=\"B\" value=\"{b}\"/><float name=\"C\" value=\"{c}\"/></rfilter>")
         }
     };
+    // the sensor's own keys, and a scale before the lookat (an orthographic window)
+    let (sensor, keys, scale) = match c.projection {
+        crate::camera::Projection::Pinhole => ("perspective", fov_keys(c.fov), String::new()),
+        crate::camera::Projection::ThinLens {
+            aperture_radius,
+            focus_distance,
+        } => (
+            "thinlens",
+            format!(
+                "{}    <float name=\"aperture_radius\" value=\"{aperture_radius}\"/>\n    <float name=\"focus_distance\" value=\"{focus_distance}\"/>\n",
+                fov_keys(c.fov)
+            ),
+            String::new(),
+        ),
+        // Mitsuba's window is 2s wide and 2s·h/w tall
+        crate::camera::Projection::Orthographic { height } => (
+            "orthographic",
+            String::new(),
+            format!(
+                "      <scale x=\"{0}\" y=\"{0}\"/>\n",
+                height * f.width as f32 / (2.0 * f.height as f32)
+            ),
+        ),
+    };
     let _ = write!(
         s,
-        "  <sensor type=\"perspective\">\n    <float name=\"fov\" value=\"{}\"/>\n    <string name=\"fov_axis\" value=\"y\"/>\n    <transform name=\"to_world\">\n      <lookat origin=\"{}\" target=\"{}\" up=\"{}\"/>\n    </transform>\n    <film type=\"hdrfilm\">\n      <integer name=\"width\" value=\"{}\"/>\n      <integer name=\"height\" value=\"{}\"/>\n      <string name=\"pixel_format\" value=\"rgb\"/>\n      {filter}\n    </film>\n    <sampler type=\"independent\">\n      <integer name=\"sample_count\" value=\"{}\"/>\n    </sampler>\n  </sensor>\n",
-        c.fov,
+        "  <sensor type=\"{sensor}\">\n{keys}    <transform name=\"to_world\">\n{scale}      <lookat origin=\"{}\" target=\"{}\" up=\"{}\"/>\n    </transform>\n    <film type=\"hdrfilm\">\n      <integer name=\"width\" value=\"{}\"/>\n      <integer name=\"height\" value=\"{}\"/>\n      <string name=\"pixel_format\" value=\"rgb\"/>\n      {filter}\n    </film>\n    <sampler type=\"independent\">\n      <integer name=\"sample_count\" value=\"{}\"/>\n    </sampler>\n  </sensor>\n",
         v3(c.position),
         v3(c.look_at),
         v3(c.ref_up),
@@ -843,11 +906,23 @@ pub fn to_xml(desc: &SceneDesc, out: &Path) -> Result<Converted> {
                 let id = id_for(&t.name, "texture-");
                 let m = img.mapping;
                 let (sm, om) = (m.scale, Vec2::new(m.delta.x, 1.0 - m.scale.y - m.delta.y));
+                let filter = match img.filter {
+                    crate::texture::image::ImageFilter::Trilinear => {
+                        w.push(format!(
+                            "texture '{}': Mitsuba has no MIP maps: the trilinear filter is written as bilinear",
+                            t.name
+                        ));
+                        "bilinear"
+                    }
+                    crate::texture::image::ImageFilter::Bilinear => "bilinear",
+                    crate::texture::image::ImageFilter::Nearest => "nearest",
+                };
                 let _ = writeln!(
                     s,
-                    "  <texture type=\"bitmap\" id=\"{}\">\n    <string name=\"filename\" value=\"{}\"/>\n    {}\n  </texture>",
+                    "  <texture type=\"bitmap\" id=\"{}\">\n    <string name=\"filename\" value=\"{}\"/>\n    <string name=\"filter_type\" value=\"{filter}\"/>\n    <boolean name=\"raw\" value=\"{}\"/>\n    {}\n  </texture>",
                     esc(&id),
                     esc(&rebase(desc, &img.path.value, out)),
+                    img.raw,
                     to_uv(sm, om)
                 );
                 texture_ids.insert(t.name.clone(), id);

@@ -52,6 +52,12 @@ pub struct SceneDesc {
     pub instances: Vec<InstanceDesc>,
     pub environment_map: Option<EnvMapDesc>,
     pub warnings: Vec<String>,
+    /// The files a Mitsuba XML scene's `<include>`s read, in the order read (empty
+    /// for JSON): part of what made the image (see `render::identity`).
+    pub included: Vec<PathBuf>,
+    /// What `rdr convert` to the other format loses that the reader saw (one line
+    /// each, naming the element): a Mitsuba `twosided` the JSON cannot keep.
+    pub convert_notes: Vec<String>,
 }
 
 /// `shapegroups.NAME`: `objects` (a list as the top-level one: meshes, spheres,
@@ -165,8 +171,7 @@ use crate::integrator::{
 ///   the legacy single point light; present when either key is given or when
 ///   there is no `lights` list.
 /// * `lights` — list of `{"type": "point", "position": [..], "flux": [..]}`, and (for
-///   `path`, `guided` and `intersection_test`; the integrators that trace from the lights
-///   refuse them) Mitsuba's delta lights:
+///   every integrator; `--compat rdr171` refuses them) Mitsuba's delta lights:
 ///   `{"type": "spot", "position": [..], "look_at": [..] (or "direction": [..]), "intensity": [..]
 ///   ((1,1,1), radiant intensity on the axis), "cutoff_angle": 20, "beam_width": ¾ of
 ///   cutoff_angle}` (degrees, half-angles; linear falloff in angle between them) and
@@ -262,7 +267,13 @@ pub struct FilmDesc {
 
 /// `textures.<name>`: `type` = `constant` (`color`, required) | `checkerboard`
 /// (`color0` (0.4), `color1` (0.2), `tex_coordinate_generator`) | `image` (`path`,
-/// `tex_coordinate_generator`); see [`Texture`] and [`UvMapping`].
+/// `tex_coordinate_generator`, `filter` (`"trilinear"`), `raw` (false); see
+/// [`ImageFile`]); see [`Texture`] and [`UvMapping`].
+///
+/// ```json
+/// "textures": {"normals": {"type": "image", "path": "n.png", "filter": "nearest", "raw": true,
+///              "tex_coordinate_generator": {"type": "uvmapping2d"}}}
+/// ```
 #[derive(Clone, Debug)]
 pub struct TextureDesc {
     pub name: String,
@@ -276,6 +287,12 @@ pub struct TextureDesc {
 pub struct ImageFile {
     pub path: Located<String>,
     pub mapping: UvMapping,
+    /// `filter`: `"trilinear"` (default: MIP-mapped by the ray footprint) | `"bilinear"`
+    /// (the full-resolution image, Mitsuba's `filter_type` `bilinear`) | `"nearest"`.
+    pub filter: crate::texture::image::ImageFilter,
+    /// `raw` (false): PNG and JPEG values as they are, not decoded from sRGB
+    /// (Mitsuba's `raw`; EXR and HDR are linear either way).
+    pub raw: bool,
 }
 
 /// `materials.<name>`: `type` (`"diffuse"`) and per type:
@@ -507,6 +524,8 @@ impl SceneDesc {
             instances,
             environment_map,
             warnings,
+            included: Vec::new(),
+            convert_notes: Vec::new(),
         })
     }
 }
@@ -1073,6 +1092,18 @@ fn parse_texture(name: &str, p: &Props) -> Result<TextureDesc> {
         "image" => Texture::Image(ImageFile {
             path: p.located("path", p.string("path")?),
             mapping: parse_mapping(p)?,
+            filter: match p.string_or("filter", "trilinear")?.as_str() {
+                "trilinear" => crate::texture::image::ImageFilter::Trilinear,
+                "bilinear" => crate::texture::image::ImageFilter::Bilinear,
+                "nearest" => crate::texture::image::ImageFilter::Nearest,
+                other => {
+                    return Err(p.error(
+                        "filter",
+                        format!("unknown image filter '{other}' (available: trilinear, bilinear, nearest)"),
+                    ))
+                }
+            },
+            raw: p.bool_or("raw", false)?,
         }),
         _ => {
             return Err(p.error(

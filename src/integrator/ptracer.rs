@@ -3,8 +3,8 @@
 //! projects to — bidirectional path tracing's t = 1 strategies alone, unweighted
 //! (the machinery is [`super::bdpt`]'s). Area lights seen directly come from their
 //! emission points connected to the camera (s = 1); the environment, which no
-//! light path can connect to a pinhole, from camera rays that escape; point lights
-//! stay invisible, as in `path`.
+//! light path can connect to a pinhole, from camera rays that escape; point, spot
+//! and directional lights stay invisible, as in `path`.
 
 use super::CameraSample;
 use crate::camera::Camera;

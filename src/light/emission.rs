@@ -9,13 +9,15 @@
 //! | mesh area light | uniform by area over all triangles (1/A) | cosine about the normal (cos/π) | radiance |
 //! | sphere area light | uniform over the sphere (1/4πr²) | cosine about the outward normal | radiance |
 //! | environment | uniform on a disk of the scene's radius facing the direction (1/πR²) | the environment's own importance sampling | radiance |
+//! | spot | its position (delta: 1) | uniform in the cone out to the cutoff (1/2π(1 − cos θc)) | intensity × falloff (Mitsuba's `spot`) |
+//! | directional | uniform on a disk of the scene's radius, perpendicular to the direction, on the side the light comes from (1/πR²) | its direction (delta: 1) | irradiance |
 //!
 //! Emission sampling always uses the lights' own importance (by area for meshes,
 //! never the uniform-triangle comparison mode of [`super::LightSampling`]).
 
 use super::{AreaLight, Light, LightSampling};
 use crate::math::{Frame, Vec2, Vec3, INV_4PI, INV_PI, PI};
-use crate::sampling::{concentric_disk, cosine_hemisphere, uniform_sphere, uniform_triangle};
+use crate::sampling::{concentric_disk, cosine_hemisphere, uniform_cone, uniform_cone_pdf, uniform_sphere, uniform_triangle};
 
 /// A ray leaving a light.
 #[derive(Clone, Copy, Debug)]
@@ -44,7 +46,7 @@ pub struct SceneBounds {
 }
 
 impl Light {
-    /// Whether emission starts at a single point (a delta position).
+    /// Whether emission starts at a single point (a delta position: point and spot).
     pub fn is_delta_position(&self) -> bool {
         matches!(self, Light::Point { .. } | Light::Spot { .. })
     }
@@ -65,9 +67,40 @@ impl Light {
                 pdf_pos: 1.0,
                 pdf_dir: INV_4PI,
             }),
-            // spot and directional lights are refused by the integrators that trace
-            // from the lights (`RenderJob::from_desc`): they emit nothing here
-            Light::Spot { .. } | Light::Directional { .. } => None,
+            Light::Spot {
+                position,
+                axis,
+                intensity,
+                cutoff,
+                beam_width,
+            } => {
+                let cos_max = cutoff.cos();
+                let local = uniform_cone(u_dir, cos_max);
+                let falloff = super::spot_falloff(local.z, *cutoff, *beam_width);
+                (falloff > 0.0).then(|| EmissionSample {
+                    p: *position,
+                    n: None,
+                    dir: Frame::from_normal(*axis).to_world(local),
+                    le: *intensity * falloff,
+                    pdf_pos: 1.0,
+                    pdf_dir: uniform_cone_pdf(cos_max),
+                })
+            }
+            Light::Directional { direction, irradiance } => {
+                // the disk through the bounding sphere's centre, moved out to its
+                // surface on the side the light comes from
+                let d = concentric_disk(u_pos) * bounds.radius;
+                let frame = Frame::from_normal(*direction);
+                let p = bounds.center - *direction * bounds.radius + frame.s * d.x + frame.t * d.y;
+                Some(EmissionSample {
+                    p,
+                    n: Some(*direction),
+                    dir: *direction,
+                    le: *irradiance,
+                    pdf_pos: 1.0 / (PI * bounds.radius * bounds.radius),
+                    pdf_dir: 1.0,
+                })
+            }
             Light::Area(a) => {
                 let (p, n, pdf_pos) = a.sample_point(u_pos)?;
                 let local = cosine_hemisphere(u_dir);
@@ -106,11 +139,24 @@ impl Light {
 
     /// Densities `(pdf_pos, pdf_dir)` with which [`Light::sample_emission`] would
     /// leave point `p` (normal `n`; ignored by point lights and the environment) in
-    /// direction `dir`.
+    /// direction `dir`. A delta part (the position of point and spot lights, the
+    /// direction of a directional light) is 0 here, as in pbrt-v4's `PDF_Le`.
     pub fn pdf_emission(&self, n: Vec3, dir: Vec3, bounds: SceneBounds) -> (f32, f32) {
         match self {
             Light::Point { .. } => (0.0, INV_4PI),
-            Light::Spot { .. } | Light::Directional { .. } => (0.0, 0.0),
+            Light::Spot { axis, cutoff, .. } => {
+                let cos_max = cutoff.cos();
+                // (a hair of slack: a sampled direction at the cone's edge, rounded)
+                (
+                    0.0,
+                    if dir.dot(*axis) >= cos_max - 1e-6 {
+                        uniform_cone_pdf(cos_max)
+                    } else {
+                        0.0
+                    },
+                )
+            }
+            Light::Directional { .. } => (1.0 / (PI * bounds.radius * bounds.radius), 0.0),
             Light::Area(a) => (1.0 / a.area(), n.dot(dir).max(0.0) * INV_PI),
             Light::Environment(e) => (1.0 / (PI * bounds.radius * bounds.radius), e.pdf(-dir, LightSampling::Importance)),
         }
@@ -169,8 +215,11 @@ mod tests {
                 if !light.is_delta_position() {
                     assert!((pp - s.pdf_pos).abs() <= 1e-4 * s.pdf_pos, "{pp} vs {}", s.pdf_pos);
                 }
-                // (the environment's uv round trip can land in the neighbouring row)
-                assert!((pd - s.pdf_dir).abs() <= 1e-2 * s.pdf_dir, "{pd} vs {}", s.pdf_dir);
+                // (the environment's uv round trip can land in the neighbouring row;
+                // a directional light's direction is a delta, 0 there)
+                if !matches!(light, Light::Directional { .. }) {
+                    assert!((pd - s.pdf_dir).abs() <= 1e-2 * s.pdf_dir, "{pd} vs {}", s.pdf_dir);
+                }
             }
         }
         sum / n as f32
@@ -215,5 +264,32 @@ mod tests {
         let p = estimated_power(&sky, bounds);
         let expected = 4.0 * PI * PI * 4.0 * 0.5;
         assert!((p.x - expected).abs() < 0.02 * expected, "sky: {p} vs {expected}");
+
+        // a spot of intensity 3, beam 10°, cutoff 25°: 2πI [(1 − cos θb) +
+        // ((θc − θb) cos θb + sin θb − sin θc)/(θc − θb)] (the linear falloff integrated)
+        let (tb, tc) = (10f32.to_radians(), 25f32.to_radians());
+        let spot = Light::Spot {
+            position: Vec3::ONE,
+            axis: Vec3::new(1.0, -2.0, 0.5).normalize(),
+            intensity: Vec3::splat(3.0),
+            cutoff: tc,
+            beam_width: tb,
+        };
+        let p = estimated_power(&spot, bounds);
+        let expected = 2.0 * PI * 3.0 * ((1.0 - tb.cos()) + ((tc - tb) * tb.cos() + tb.sin() - tc.sin()) / (tc - tb));
+        assert!((p.x - expected).abs() < 0.01 * expected, "spot: {p} vs {expected}");
+
+        // a directional light of irradiance 2 through the disk of radius R: 2πR²
+        let sun = Light::Directional {
+            direction: Vec3::new(0.3, -1.0, 0.2).normalize(),
+            irradiance: Vec3::splat(2.0),
+        };
+        let p = estimated_power(&sun, bounds);
+        let expected = 2.0 * PI * 4.0;
+        assert!((p.x - expected).abs() < 1e-3 * expected, "directional: {p} vs {expected}");
+        // its rays start outside the bounding sphere, on the side the light comes from
+        let es = sun.sample_emission(Vec2::new(0.3, 0.8), Vec2::splat(0.5), bounds).unwrap();
+        let along = (es.p - bounds.center).dot(es.dir);
+        assert!((along + bounds.radius).abs() < 1e-4 && (es.p - bounds.center).length() <= 2f32.sqrt() * bounds.radius * 1.0001);
     }
 }

@@ -13,7 +13,8 @@ use std::path::Path;
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct RenderIdentity {
     /// SHA-256 of the description (overrides applied, `integrator.spp` left out: it is
-    /// the render's length, not what a pass computes), canonical JSON.
+    /// the render's length, not what a pass computes), canonical JSON; for Mitsuba XML
+    /// the top file's bytes, the `-D` defines and every `<include>`d file's bytes.
     pub scene: String,
     /// SHA-256 over every asset file's path (as written) and bytes, in scene order.
     pub assets: String,
@@ -38,6 +39,16 @@ impl RenderIdentity {
         if !defines.is_empty() {
             let d: serde_json::Map<String, Value> = defines.iter().map(|(k, v)| (k.clone(), Value::String(v.clone()))).collect();
             value = serde_json::json!({"file": value, "defines": d});
+        }
+        if !desc.included.is_empty() {
+            // an XML scene's included files are part of its description: their bytes
+            let mut files = Vec::new();
+            for p in &desc.included {
+                let bytes = crate::limits::read_input_file(p, crate::limits::max_input_file())
+                    .map_err(|e| anyhow::anyhow!("cannot read {}: {e}", p.display()))?;
+                files.push(serde_json::json!([p.to_string_lossy(), Sha256::digest_hex(&bytes)]));
+            }
+            value = serde_json::json!({"file": value, "included": files});
         }
         let integrator = value.get("integrator").map_or_else(|| "{}".into(), canonical);
         let scene = Sha256::digest_hex(canonical(&value).as_bytes());

@@ -67,23 +67,12 @@ impl RenderJob {
                 ));
             }
         }
-        if let Some(l) = desc.integrator.delta_lights.first() {
-            let traces_from_lights = matches!(
-                integrator,
-                Integrator::Bdpt(_) | Integrator::Ptracer(_) | Integrator::Photon(_) | Integrator::Sppm(_) | Integrator::Rdr171(_)
-            );
-            if traces_from_lights {
-                let name = if profile == Profile::Rdr171 {
-                    "--compat rdr171"
-                } else {
-                    integrator.name()
-                };
-                return Err(SceneError::new(
-                    &desc.file,
-                    Some(&l.key),
-                    format!("{name} does not support spot and directional lights (path, guided and intersection_test do)"),
-                ));
-            }
+        if let (Some(l), Profile::Rdr171) = (desc.integrator.delta_lights.first(), profile) {
+            return Err(SceneError::new(
+                &desc.file,
+                Some(&l.key),
+                "--compat rdr171 does not support spot and directional lights (the course renderer had point lights only)",
+            ));
         }
         let projection = desc.camera.projection;
         let refuse = |why: String| Err(SceneError::new(&desc.file, Some("camera.type"), why));

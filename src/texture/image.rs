@@ -17,20 +17,38 @@ use std::sync::Arc;
 pub struct ImageTexture {
     pub mipmap: Arc<MipMap>,
     pub mapping: UvMapping,
+    pub filter: ImageFilter,
+}
+
+/// How an image texture is looked up (JSON `filter`, Mitsuba's `filter_type`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum ImageFilter {
+    /// MIP-mapped, the level from the ray footprint (rdr's default, spec §8).
+    #[default]
+    Trilinear,
+    /// Bilinear on the full-resolution image (Mitsuba's `bilinear`: it has no MIP maps).
+    Bilinear,
+    /// The texel the point falls in (Mitsuba's `nearest`).
+    Nearest,
 }
 
 impl ImageTexture {
-    /// Trilinear lookup; the st footprint is `scale ⊙` the uv derivatives (spec §8).
+    /// The lookup its filter asks for; the trilinear footprint is `scale ⊙` the uv
+    /// derivatives (spec §8).
     #[inline]
     pub fn eval(&self, tc: &TexCoord) -> Vec3 {
         let st = self.mapping.map(tc.uv);
-        self.mipmap.lookup(st, self.mapping.scale * tc.duvdx, self.mapping.scale * tc.duvdy)
+        match self.filter {
+            ImageFilter::Trilinear => self.mipmap.lookup(st, self.mapping.scale * tc.duvdx, self.mapping.scale * tc.duvdy),
+            ImageFilter::Bilinear => self.mipmap.bilinear(0, st),
+            ImageFilter::Nearest => self.mipmap.nearest(st),
+        }
     }
 }
 
-/// Reads `path` and builds its pyramid.
-pub fn load_mipmap(path: &Path, convention: TextureConvention, mipmap: bool) -> anyhow::Result<MipMap> {
-    let img = crate::imageio::read_texture_image(path)?;
+/// Reads `path` (PNG and JPEG decoded from sRGB unless `raw`) and builds its pyramid.
+pub fn load_mipmap(path: &Path, convention: TextureConvention, mipmap: bool, raw: bool) -> anyhow::Result<MipMap> {
+    let img = crate::imageio::read_texture_image_as(path, raw)?;
     Ok(MipMap::new(Level::new(img.width, img.height, img.pixels), convention, mipmap))
 }
 
@@ -50,24 +68,31 @@ fn file_key(path: &Path) -> PathBuf {
 /// Pyramids by file, so a file used by several textures is read once.
 #[derive(Default)]
 pub struct ImageCache {
-    loaded: HashMap<PathBuf, Arc<MipMap>>,
+    /// By file and whether it is read `raw`.
+    loaded: HashMap<(PathBuf, bool), Arc<MipMap>>,
 }
 
 impl ImageCache {
     /// Loads every distinct path (in parallel); the first failure is returned with
     /// the index of the path that caused it.
-    pub fn load_all(&mut self, paths: &[PathBuf], convention: TextureConvention, mipmap: bool) -> Result<(), (usize, anyhow::Error)> {
+    /// `paths`: each file and whether to read it `raw` (see [`load_mipmap`]).
+    pub fn load_all(
+        &mut self,
+        paths: &[(PathBuf, bool)],
+        convention: TextureConvention,
+        mipmap: bool,
+    ) -> Result<(), (usize, anyhow::Error)> {
         use rayon::prelude::*;
-        let mut todo: Vec<(usize, &PathBuf, PathBuf)> = Vec::new();
-        for (i, p) in paths.iter().enumerate() {
-            let key = file_key(p);
+        let mut todo: Vec<(usize, &PathBuf, (PathBuf, bool))> = Vec::new();
+        for (i, (p, raw)) in paths.iter().enumerate() {
+            let key = (file_key(p), *raw);
             if !self.loaded.contains_key(&key) && !todo.iter().any(|(_, _, k)| *k == key) {
                 todo.push((i, p, key));
             }
         }
         let results: Vec<_> = todo
             .par_iter()
-            .map(|(i, p, key)| (*i, key.clone(), load_mipmap(p, convention, mipmap)))
+            .map(|(i, p, key)| (*i, key.clone(), load_mipmap(p, convention, mipmap, key.1)))
             .collect();
         for (i, key, r) in results {
             match r {
@@ -80,8 +105,8 @@ impl ImageCache {
         Ok(())
     }
 
-    pub fn get(&self, path: &Path) -> Option<Arc<MipMap>> {
-        self.loaded.get(&file_key(path)).cloned()
+    pub fn get(&self, path: &Path, raw: bool) -> Option<Arc<MipMap>> {
+        self.loaded.get(&(file_key(path), raw)).cloned()
     }
 
     /// Number of distinct files loaded.

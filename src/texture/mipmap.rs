@@ -125,6 +125,19 @@ impl MipMap {
         }
     }
 
+    /// The level-0 texel `st` falls in (repeat wrapping; the same orientation as
+    /// [`MipMap::bilinear`]).
+    pub fn nearest(&self, st: Vec2) -> Vec3 {
+        let l = &self.levels[0];
+        let y = match self.convention {
+            TextureConvention::Physical => 1.0 - st.y,
+            TextureConvention::Rdr171 => st.y,
+        };
+        // saturating float → int casts keep absurd coordinates finite
+        let (i, j) = ((st.x * l.width as f32).floor() as i64, (y * l.height as f32).floor() as i64);
+        l.texel(i.rem_euclid(l.width as i64) as usize, j.rem_euclid(l.height as i64) as usize)
+    }
+
     /// The levels and weights a trilinear lookup with footprint width `width` (in st
     /// units) blends; the second weight is 0 when only one level is used.
     pub fn level_weights(&self, width: f32) -> [(usize, f32); 2] {

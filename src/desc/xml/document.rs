@@ -73,6 +73,8 @@ pub struct Params {
     /// Names given on the command line, and those that were substituted somewhere.
     defined: Vec<String>,
     used: std::cell::RefCell<Vec<String>>,
+    /// The files `<include>`s read, in order.
+    pub included: Vec<PathBuf>,
 }
 
 impl Params {
@@ -332,6 +334,7 @@ impl Reader<'_> {
                         return Err(c.error(format!("<include> nested deeper than {MAX_INCLUDE_DEPTH} files")));
                     }
                     let search = self.search.clone();
+                    self.params.included.push(path.clone());
                     let inc = read_file(&path, self.params, self.stack, &search, Some(&c.source))?;
                     if inc.tag == "scene" {
                         el.children.extend(inc.children);

@@ -32,6 +32,7 @@ pub fn load(file: &Path, defines: &[(String, String)]) -> Result<SceneDesc> {
     let mut params = document::Params::new(defines);
     let root = document::read(file, &mut params)?;
     let mut desc = plugins::scene(&root, file)?;
+    desc.included = std::mem::take(&mut params.included);
     for name in params.unused() {
         desc.warnings
             .push(format!("{}: -D {name}=… is not used by the scene", file.display()));

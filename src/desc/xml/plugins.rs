@@ -4,14 +4,14 @@
 //! | element | plugins and properties (defaults) |
 //! |---|---|
 //! | `<integrator>` | `path` (`max_depth` −1 = unbounded, capped at [`MAX_DEPTH`]; `rr_depth` 5, read and checked: rdr's Russian roulette is its own and unbiased; `hide_emitters` false, only false), `direct` (= `path` with `max_depth` 2: light at the first surface by emitter and BSDF sampling; `emitter_samples`, `bsdf_samples` noted), `ptracer`, `bdpt` (`max_depth`), `photonmapper`/`photon` (`global_photons` 100000, `lookup_size` 64 … rdr's `photon`), `sppm` (`photon_count`, `initial_radius`, `alpha` 0.7). No integrator: `path`. |
-//! | `<sensor>` | `perspective`: `fov` (or `focal_length`, "50mm" on the 36×24 mm diagonal), `fov_axis` (`x` \| `y` \| `diagonal` \| `smaller` \| `larger`, `x`), `to_world` (a rigid transform, no mirroring); `near_clip`, `far_clip`, `focus_distance` are read and not applied (rdr's pinhole clips nothing). One sensor; more are ignored with a warning. |
+//! | `<sensor>` | `perspective`: `fov` (or `focal_length`, "50mm" on the 36×24 mm diagonal), `fov_axis` (`x` \| `y` \| `diagonal` \| `smaller` \| `larger`, `x`), `to_world` (a rigid transform, no mirroring); `thinlens`: as `perspective`, and `aperture_radius` (required; 0 is a pinhole), `focus_distance` (`far_clip`, 10⁴), no scale in `to_world` (JSON `camera.type` `thinlens`); `orthographic`: `to_world` whose scale s (equal in x and y) sizes the window as Mitsuba's, 2s wide and 2s·height/width tall (JSON `orthographic` with that `height`); `near_clip`, `far_clip` are read and not applied. One sensor; more are ignored with a warning. Example: `<sensor type="orthographic"><transform name="to_world"><scale value="1.1"/><lookat origin="0, 1, 6.8" target="0, 1, 0" up="0, 1, 0"/></transform></sensor>`. |
 //! | `<film>` | `hdrfilm`: `width` 768, `height` 576, `rfilter` (default `gaussian`); `pixel_format`, `component_format`, `file_format`, `banner` noted. |
 //! | `<rfilter>` | `box` (`radius` 0.5), `tent` (`radius` 1), `gaussian` (`stddev` 0.5, radius 4·stddev), `mitchell` (`B`, `C` 1/3, radius 2) |
 //! | `<sampler>` | any type: `sample_count` (4) → spp; the type is noted, rdr uses its own sampler. |
 //! | `<shape>` | `obj`, `ply` (`filename`, `face_normals` false: else smooth vertex normals when the file has none; `flip_normals`; `flip_tex_coords`, true for OBJ, false for PLY), `serialized` (`filename`, `shape_index` 0), `rectangle`, `cube`, `disk` (generated meshes), `sphere` (`center` 0, `radius` 1), `cylinder` (open, analytic: `p0` (0,0,0), `p1` (0,0,1), `radius` 1, `flip_normals`; Mitsuba's uv (φ/2π, height), which rdr holds as (φ/2π, 1 − height) like a mesh's; `to_world` a rotation, translation and scale uniform across the axis); all take `to_world`, one `<bsdf>` and one `area` `<emitter>`. A shape with neither gets Mitsuba's default, a diffuse 0.5. `shapegroup` (an `id`, plain shapes inside, no emitters: Mitsuba refuses them too; rendered only through instances) and `instance` (a `<ref>` to a shapegroup, `to_world` affine and invertible): a two-level BVH, one bottom level per group shared by its instances. Example: `<shape type="shapegroup" id="g"><shape type="obj">…</shape></shape> <shape type="instance"><ref id="g"/><transform name="to_world"><translate x="2"/></transform></shape>`. |
 //! | `<bsdf>` | `diffuse` (`reflectance` 0.5, a colour or texture); `dielectric`, `thindielectric` (`int_ior` "bk7", `ext_ior` "air": numbers or names, η = int/ext; `specular_reflectance`, `specular_transmittance` 1, colours); `roughdielectric` (as `dielectric`, and `distribution` beckmann \| ggx, `alpha` 0.1 or `alpha_u`+`alpha_v`); `conductor` and `roughconductor` (`material` "none", or a name from [`values::NAMED_CONDUCTORS`] such as "Au"; else `eta` 0 / `k` 1 (a perfect mirror); `specular_reflectance` 1, a colour or texture; `roughconductor`'s `alpha`, `alpha_u`/`alpha_v`, `distribution` as `roughdielectric`; the 0.6 `ext_eta` folded into η and k); `plastic` (`diffuse_reflectance` 0.5, a colour or texture; `specular_reflectance` 1; `int_ior` "polypropylene" (1.49), `ext_ior` "air"; `nonlinear` false), `roughplastic` (as `plastic`, and `alpha` 0.1 (isotropic), `distribution` beckmann); `twosided` (one or two nested non-transmitting bsdfs: around one `diffuse` it is rdr's two-sided diffuse, around one `roughconductor` that material (rdr's is two-sided), otherwise rdr's `twosided` with the second as the back). Example: `<bsdf type="twosided"><bsdf type="roughplastic"><float name="alpha" value="0.2"/></bsdf></bsdf>`. |
-//! | `<emitter>` | `area` (in a shape: `radiance` 1), `point` (`position` or `to_world`; `intensity` I (1) → flux 4πI), `spot` (`to_world`: at its origin, along its +z; `intensity` 1, `cutoff_angle` 20°, `beam_width` ¾ of it; linear falloff in angle), `directional` (`direction` or `to_world`'s +z, of travel; `irradiance` 1) — these two for `path`, `direct` and guided only, `constant` (`radiance` 1), `envmap` (`filename`, `scale` 1, `to_world`) |
-//! | `<texture>` | `bitmap` (`filename`, `to_uv`; `filter_type`, `wrap_mode`, `raw` noted), `checkerboard` (`color0` 0.4, `color1` 0.2, `to_uv`); the 0.6 `uoffset`, `voffset`, `uscale`, `vscale` become `to_uv` |
+//! | `<emitter>` | `area` (in a shape: `radiance` 1), `point` (`position` or `to_world`; `intensity` I (1) → flux 4πI), `spot` (`to_world`: at its origin, along its +z; `intensity` 1, `cutoff_angle` 20°, `beam_width` ¾ of it; linear falloff in angle), `directional` (`direction` or `to_world`'s +z, of travel; `irradiance` 1) — these two for every integrator, `constant` (`radiance` 1), `envmap` (`filename`, `scale` 1, `to_world`) |
+//! | `<texture>` | `bitmap` (`filename`, `to_uv`; `filter_type` `bilinear` (the full-resolution image: Mitsuba has no MIP maps) \| `nearest`; `raw` false (true: 8-bit PNG/JPEG values as they are, not decoded from sRGB); `wrap_mode` noted), `checkerboard` (`color0` 0.4, `color1` 0.2, `to_uv`); the 0.6 `uoffset`, `voffset`, `uscale`, `vscale` become `to_uv` |
 //!
 //! Anything else is an error naming the plugin and what is supported. Colours are
 //! `<rgb>`, `<spectrum>` (a constant or wavelength:value pairs, see
@@ -88,7 +88,7 @@ pub fn scene(root: &Element, file: &Path) -> Result<SceneDesc> {
     };
     let sensors = top.objects("sensor");
     let Some((sensor, _)) = sensors.first() else {
-        return Err(root.error("the scene has no <sensor> (rdr needs a perspective camera)"));
+        return Err(root.error("the scene has no <sensor> (rdr needs a perspective, thinlens or orthographic camera)"));
     };
     for (s, at) in sensors.iter().skip(1) {
         ids.warn(
@@ -212,6 +212,7 @@ pub fn scene(root: &Element, file: &Path) -> Result<SceneDesc> {
         ids.warn(el, msg);
     }
     let warnings = ids.warnings.borrow().clone();
+    let convert_notes = ids.convert_notes.borrow().clone();
     Ok(SceneDesc {
         file: file.to_path_buf(),
         base_dir: r.base_dir.clone(),
@@ -231,6 +232,8 @@ pub fn scene(root: &Element, file: &Path) -> Result<SceneDesc> {
         instances,
         environment_map,
         warnings,
+        included: Vec::new(),
+        convert_notes,
     })
 }
 
@@ -441,8 +444,11 @@ impl<'a> Reader<'a> {
 
     fn sensor(&self, el: &'a Element) -> Result<(CameraParams, FilmDesc, u32)> {
         let p = Plugin::new(el, self.ids)?;
-        if p.ty != "perspective" {
-            return Err(p.error(format!("unsupported sensor \"{}\" (supported: perspective)", p.ty)));
+        if !["perspective", "thinlens", "orthographic"].contains(&p.ty.as_str()) {
+            return Err(p.error(format!(
+                "unsupported sensor \"{}\" (supported: perspective, thinlens, orthographic)",
+                p.ty
+            )));
         }
         let films = p.objects("film");
         let film = match films.first() {
@@ -472,6 +478,15 @@ impl<'a> Reader<'a> {
             }
             None => 4,
         };
+        if p.ty == "orthographic" {
+            for k in ["fov", "fov_axis", "focal_length"] {
+                if p.has(k) {
+                    self.ids.warn(el, format!("{k} is ignored by an orthographic sensor"));
+                    p.ignore(k);
+                }
+            }
+            return self.camera(&p, 45.0, "x", film, spp);
+        }
         let axis = p.string("fov_axis", "x")?;
         let fov_deg = match p.float_opt("fov")? {
             Some(f) => f as f64,
@@ -521,7 +536,7 @@ impl<'a> Reader<'a> {
             "diagonal" => t * h / w.hypot(h),
             other => return Err(p.value_error("fov_axis", format!("unknown axis \"{other}\" (x, y, diagonal, smaller, larger)"))),
         };
-        for k in ["near_clip", "far_clip", "focus_distance", "aperture_radius"] {
+        for k in ["near_clip", "far_clip"] {
             p.ignore(k);
         }
         for k in ["principal_point_offset_x", "principal_point_offset_y"] {
@@ -540,12 +555,58 @@ impl<'a> Reader<'a> {
         if left.dot(up.cross(dir)) < 0.0 {
             return Err(p.value_error("to_world", "a mirroring camera transform (negative scale) is not supported"));
         }
+        let projection = match p.ty.as_str() {
+            "thinlens" => {
+                // Mitsuba: aperture_radius required (0 becomes a tiny one), focus_distance
+                // defaulting to far_clip (10⁴); no scale in to_world
+                let aperture_radius = p
+                    .float_opt("aperture_radius")?
+                    .ok_or_else(|| p.error(format!("{} needs the property \"aperture_radius\"", p.describe())))?;
+                if !(0.0..1e15).contains(&aperture_radius) {
+                    return Err(p.value_error("aperture_radius", format!("must be at least 0, found {aperture_radius}")));
+                }
+                let focus_distance = p.float("focus_distance", p.float("far_clip", 1e4)?)?;
+                if !(focus_distance > 0.0 && focus_distance < 1e15) {
+                    return Err(p.value_error("focus_distance", format!("must be positive, found {focus_distance}")));
+                }
+                let scaled = |v: Vec3| (v.length() - 1.0).abs() > 1e-4;
+                if scaled(dir) || scaled(up) || scaled(left) {
+                    return Err(p.value_error("to_world", "a thinlens sensor's transform cannot scale (Mitsuba refuses it too)"));
+                }
+                if aperture_radius == 0.0 {
+                    crate::camera::Projection::Pinhole
+                } else {
+                    crate::camera::Projection::ThinLens {
+                        aperture_radius,
+                        focus_distance,
+                    }
+                }
+            }
+            "orthographic" => {
+                // Mitsuba's window is x ∈ [−1, 1], y ∈ [−1/aspect, 1/aspect] in camera
+                // space, scaled by to_world: height 2·s_y·h/w (and width 2·s_x)
+                let (sx, sy) = (left.length(), up.length());
+                if (sx - sy).abs() > 1e-4 * sx.max(sy) {
+                    return Err(p.value_error(
+                        "to_world",
+                        format!("an orthographic sensor scaled differently in x ({sx}) and y ({sy}) is not supported"),
+                    ));
+                }
+                let height = 2.0 * sy * film.height as f32 / film.width as f32;
+                if !(height > 1e-6 && height < 1e15) {
+                    return Err(p.value_error("to_world", format!("the orthographic window's height {height} is out of range")));
+                }
+                crate::camera::Projection::Orthographic { height }
+            }
+            _ => crate::camera::Projection::Pinhole,
+        };
         let camera = CameraParams {
             position: origin,
             look_at: origin + dir.normalize(),
             ref_up: up.normalize(),
             fov: (2.0 * vt.atan()).to_degrees() as f32,
             focal_length: 1.0,
+            projection,
             ..CameraParams::default()
         };
         if origin.abs().max_element() > crate::limits::MAX_COORD || !crate::camera::Camera::new(&camera, 1, 1).is_finite() {
@@ -898,7 +959,13 @@ impl<'a> Reader<'a> {
                     (Material::Diffuse { texture, .. }, None) => Material::Diffuse { texture, twosided: true },
                     (m @ Material::RoughConductor { .. }, None) => m,
                     // smooth glass is the same from both sides (the 0.6 course files wrap it)
-                    (m @ (Material::Glass { .. } | Material::Refraction { .. }), None) => m,
+                    (m @ (Material::Glass { .. } | Material::Refraction { .. }), None) => {
+                        self.ids.convert_note(
+                            el,
+                            "<bsdf type=\"twosided\"> around a dielectric is read as the dielectric alone: the JSON has no twosided, and converting back writes the dielectric unwrapped",
+                        );
+                        m
+                    }
                     (front, back) => Material::TwoSided {
                         front: Box::new(front),
                         back: back.map(Box::new),
@@ -1058,21 +1125,18 @@ impl<'a> Reader<'a> {
         let t = match p.ty.as_str() {
             "bitmap" => {
                 let path = self.file(el, &p, "filename")?;
-                if let Some(f) = p.string_opt("filter_type")? {
-                    if f != "bilinear" {
-                        self.ids
-                            .warn(el, format!("filter_type \"{f}\" noted: rdr filters images trilinearly"));
-                    }
-                }
+                // Mitsuba has no MIP maps: its bilinear reads the full-resolution image
+                let filter = match p.string("filter_type", "bilinear")?.as_str() {
+                    "bilinear" => crate::texture::image::ImageFilter::Bilinear,
+                    "nearest" => crate::texture::image::ImageFilter::Nearest,
+                    other => return Err(p.value_error("filter_type", format!("unknown filter_type \"{other}\" (bilinear, nearest)"))),
+                };
                 if let Some(w) = p.string_opt("wrap_mode")? {
                     if w != "repeat" {
                         self.ids.warn(el, format!("wrap_mode \"{w}\" noted: rdr repeats images"));
                     }
                 }
-                if p.boolean("raw", false)? {
-                    self.ids
-                        .warn(el, "raw noted: rdr decodes PNG and JPEG from sRGB and reads EXR and HDR as linear");
-                }
+                let raw = p.boolean("raw", false)?;
                 // Mitsuba's row 0 is v = 0, rdr's is v = 1
                 Texture::Image(ImageFile {
                     path,
@@ -1080,6 +1144,8 @@ impl<'a> Reader<'a> {
                         scale: to_uv.0,
                         delta: Vec2::new(to_uv.1.x, 1.0 - to_uv.0.y - to_uv.1.y),
                     },
+                    filter,
+                    raw,
                 })
             }
             "checkerboard" => Texture::Checkerboard {
@@ -1140,6 +1206,8 @@ impl<'a> Reader<'a> {
                         scale: Vec2::ONE,
                         delta: Vec2::ZERO,
                     },
+                    filter: crate::texture::image::ImageFilter::Trilinear,
+                    raw: false,
                 }),
             });
             for k in ["filter_type", "mis_compensation"] {

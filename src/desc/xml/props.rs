@@ -31,6 +31,8 @@ pub const OBJECT_TAGS: [&str; 13] = [
 pub struct Ids<'a> {
     pub by_id: HashMap<String, &'a Element>,
     pub warnings: RefCell<Vec<String>>,
+    /// What converting to RDR171 JSON loses (see `SceneDesc::convert_notes`).
+    pub convert_notes: RefCell<Vec<String>>,
 }
 
 impl<'a> Ids<'a> {
@@ -38,6 +40,7 @@ impl<'a> Ids<'a> {
         let mut ids = Ids {
             by_id: HashMap::new(),
             warnings: RefCell::new(Vec::new()),
+            convert_notes: RefCell::new(Vec::new()),
         };
         ids.walk(root)?;
         Ok(ids)
@@ -72,6 +75,11 @@ impl<'a> Ids<'a> {
 
     pub fn warn(&self, el: &Element, msg: impl AsRef<str>) {
         self.warnings.borrow_mut().push(format!("{}: {}", where_is(el), msg.as_ref()));
+    }
+
+    /// Notes what `rdr convert` to JSON loses at `el` (not a rendering warning).
+    pub fn convert_note(&self, el: &Element, msg: impl AsRef<str>) {
+        self.convert_notes.borrow_mut().push(format!("{}: {}", where_is(el), msg.as_ref()));
     }
 }
 

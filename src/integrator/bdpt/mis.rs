@@ -28,7 +28,7 @@ pub struct PathDensities {
     pub camera: Vec<f32>,
     /// Specular vertices.
     pub delta: Vec<bool>,
-    /// x₀ is a point light (no camera subpath can hit it).
+    /// x₀ is a delta light: point, spot or directional (no camera subpath can hit it).
     pub delta_light: bool,
 }
 

@@ -16,8 +16,13 @@
 //! Paths of one segment come from s = 0 alone (emitters seen directly); s = 1,
 //! t = 1 is the light tracer's alone. Strategies are weighted by the power (or
 //! balance) heuristic over area-measure densities ([`mis`]); specular vertices
-//! (glass, refraction) and point lights take part with Dirac densities, i.e.
-//! strategies that would have to connect at them are left out of the sum.
+//! (glass, refraction) and delta lights take part with Dirac densities, i.e.
+//! strategies that would have to connect at them are left out of the sum: no
+//! camera subpath reaches a point or spot light (a delta position) or a
+//! directional light (a delta direction), so s = 0 is impossible for them, and the
+//! camera cannot see them either (no s = 1, t = 1). As in pbrt-v4, a directional
+//! light's subpath starts on a disk covering the scene, and the density of its
+//! first surface vertex is the disk's 1/πR² times the cosine there.
 //!
 //! Light subpaths carry importance: their BSDFs are adjoint — `glass` refraction
 //! without the radiance's (η_o/η_i)², `refraction` with it — and corrected for
@@ -581,7 +586,7 @@ impl Engine<'_> {
             (None, None) => {}
         }
         let x0 = if s > 0 { c.lv(0) } else { pt };
-        c.delta_light = x0.light().is_some_and(|i| ctx.scene.lights[i as usize].is_delta_position());
+        c.delta_light = x0.light().is_some_and(|i| ctx.scene.lights[i as usize].is_delta());
         c
     }
 
@@ -674,7 +679,7 @@ fn recomputed(ctx: &Ctx, x: &[&Vertex]) -> PathDensities {
         };
         d.push(pl, pe, x[i].delta && i > 0 && i < n - 1);
     }
-    d.delta_light = x[0].light().is_some_and(|i| ctx.scene.lights[i as usize].is_delta_position());
+    d.delta_light = x[0].light().is_some_and(|i| ctx.scene.lights[i as usize].is_delta());
     d
 }
 

@@ -201,14 +201,15 @@ impl Ctx<'_> {
     pub fn pdf_light(&self, light: &Vertex, next: &Vertex) -> f32 {
         let Some(i) = light.light() else { return 0.0 };
         match &self.scene.lights[i as usize] {
-            Light::Environment(_) => {
+            // the disk's density projected onto `next` (pbrt-v4 treats its distant light,
+            // a delta direction, as its infinite lights here)
+            Light::Environment(_) | Light::Directional { .. } => {
                 let r = self.bounds.radius;
                 let cos = if next.on_surface() { next.ng.dot(light.ng).abs() } else { 1.0 };
                 cos / (PI * r * r)
             }
             Light::Point { .. } => self.convert(INV_4PI, light, next),
-            // refused for bdpt (RenderJob::from_desc)
-            Light::Spot { .. } | Light::Directional { .. } => 0.0,
+            l @ Light::Spot { .. } => self.convert(l.pdf_emission(Vec3::ZERO, light.dir_to(next), self.bounds).1, light, next),
             Light::Area(_) => {
                 let w = light.dir_to(next);
                 self.convert(light.ng.dot(w).max(0.0) * INV_PI, light, next)
@@ -217,27 +218,39 @@ impl Ctx<'_> {
     }
 
     /// Density of `light` as the origin of a light subpath (light choice and
-    /// position; the direction for the environment, `light.ng` pointing to the sky).
+    /// position; the direction for the environment, `light.ng` pointing to the sky;
+    /// the choice alone for delta lights).
     pub fn pdf_light_origin(&self, light: &Vertex) -> f32 {
         let Some(i) = light.light() else { return 0.0 };
         let pmf = self.scene.light_sampler.pmf(i as usize);
         let l = &self.scene.lights[i as usize];
         match l {
-            Light::Point { .. } => pmf,
-            Light::Spot { .. } | Light::Directional { .. } => 0.0,
+            // a delta position (point, spot) or direction (directional): the light's
+            // choice alone (a camera subpath never reaches them, so strategy s = 0,
+            // the only one that compares with this density, is impossible)
+            Light::Point { .. } | Light::Spot { .. } | Light::Directional { .. } => pmf,
             Light::Area(a) => pmf / a.area(),
             Light::Environment(_) => pmf * l.pdf_emission(Vec3::ZERO, -light.ng, self.bounds).1,
         }
     }
 
-    /// Radiance (intensity for point lights) that `light` emits in direction `w`
+    /// Radiance (intensity for point and spot lights, irradiance for a directional
+    /// one) that `light` emits in direction `w`
     /// (of travel, away from it).
     pub fn emitted(&self, light: &Vertex, w: Vec3) -> Vec3 {
         let Some(i) = light.light() else { return Vec3::ZERO };
         match &self.scene.lights[i as usize] {
             Light::Environment(e) => e.radiance(light.ng),
             Light::Point { flux, .. } => *flux * INV_4PI,
-            Light::Spot { .. } | Light::Directional { .. } => Vec3::ZERO,
+            Light::Spot {
+                axis,
+                intensity,
+                cutoff,
+                beam_width,
+                ..
+            } => *intensity * crate::light::spot_falloff(w.dot(*axis), *cutoff, *beam_width),
+            // along its direction only (`light.ng` points back to where it comes from)
+            Light::Directional { irradiance, .. } => *irradiance,
             Light::Area(a) => a.emitted(light.ng, w),
         }
     }

@@ -268,6 +268,14 @@ pub fn build(desc: &SceneDesc, opts: BuildOptions) -> Result<Scene> {
         }
     };
 
+    // a masked emitter would hide its emission from some rays and not from light sampling
+    let masked = |o: &Object| o.material.is_some_and(|m| materials[m as usize].mask_opacity().is_some());
+    if let Some((o, _)) = desc.objects.iter().zip(&objects).find(|(_, o)| o.light.is_some() && masked(o)) {
+        let source = o.material.as_ref().map_or(&o.source, |m| &m.source);
+        return Err(source.error(&desc.file, "a mask material on an emitting object is not supported"));
+    }
+    let has_masks = objects.iter().any(masked);
+
     let mut prims = Vec::new();
     for (oi, o) in objects.iter().enumerate() {
         match &o.shape {
@@ -309,6 +317,7 @@ pub fn build(desc: &SceneDesc, opts: BuildOptions) -> Result<Scene> {
         warnings,
         bvh_seconds,
         texture_convention: opts.textures,
+        has_masks,
     })
 }
 

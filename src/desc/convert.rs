@@ -464,6 +464,59 @@ fn material_json(
             }
             v
         }
+        Material::BumpMap {
+            height,
+            scale,
+            options,
+            inner,
+        } => {
+            let inner = wrapped_json(inner, name, textures, materials, texture_name);
+            let mut v = json!({"type": "bumpmap", "material_name": inner, "texture_name": texture_name(height, name, textures),
+                               "scale": num(*scale)});
+            perturb_json(&mut v, options);
+            v
+        }
+        Material::NormalMap { normals, options, inner } => {
+            let inner = wrapped_json(inner, name, textures, materials, texture_name);
+            let mut v = json!({"type": "normalmap", "material_name": inner, "texture_name": texture_name(normals, name, textures)});
+            perturb_json(&mut v, options);
+            v
+        }
+        Material::Mask { opacity, inner } => {
+            let inner = wrapped_json(inner, name, textures, materials, texture_name);
+            match opacity {
+                TextureRef::Color(c) if c.x == c.y && c.y == c.z => json!({"type": "mask", "material_name": inner, "opacity": num(c.x)}),
+                t => json!({"type": "mask", "material_name": inner, "texture_name": texture_name(t, name, textures)}),
+            }
+        }
+    }
+}
+
+/// The material a bump map, normal map or mask wraps, as a material of its own
+/// (`<name>_inner`); its name.
+fn wrapped_json(
+    m: &Material<TextureRef>,
+    name: &str,
+    textures: &mut Map<String, Value>,
+    materials: &mut Map<String, Value>,
+    texture_name: &TextureNamer,
+) -> String {
+    let n = (0..)
+        .map(|i| if i == 0 { format!("{name}_inner") } else { format!("{name}_inner_{i}") })
+        .find(|n| !materials.contains_key(n))
+        .expect("a free name");
+    let v = material_json(m, &n, textures, materials, texture_name);
+    materials.insert(n.clone(), v);
+    n
+}
+
+/// The bump and normal maps' switches, when not their defaults.
+fn perturb_json(v: &mut Value, o: &crate::material::bump::PerturbOptions) {
+    if !o.flip_invalid_normals {
+        v["flip_invalid_normals"] = false.into();
+    }
+    if !o.use_shadowing_function {
+        v["use_shadowing_function"] = false.into();
     }
 }
 
@@ -601,7 +654,45 @@ fn material_xml(
             }
             format!("{}{inner}</bsdf>", open("twosided"))
         }
+        Material::BumpMap {
+            height,
+            scale,
+            options,
+            inner,
+        } => format!(
+            "{}{}<float name=\"scale\" value=\"{scale}\"/>{}{}</bsdf>",
+            open("bumpmap"),
+            colour("height", height),
+            perturb_xml(options),
+            material_xml(inner, name, None, colour, w)
+        ),
+        Material::NormalMap { normals, options, inner } => format!(
+            "{}{}{}{}</bsdf>",
+            open("normalmap"),
+            colour("normalmap", normals),
+            perturb_xml(options),
+            material_xml(inner, name, None, colour, w)
+        ),
+        Material::Mask { opacity, inner } => {
+            let o = match opacity {
+                TextureRef::Color(c) if c.x == c.y && c.y == c.z => format!("<float name=\"opacity\" value=\"{}\"/>", c.x),
+                t => colour("opacity", t),
+            };
+            format!("{}{o}{}</bsdf>", open("mask"), material_xml(inner, name, None, colour, w))
+        }
     }
+}
+
+/// The bump and normal maps' switches, when not their defaults.
+fn perturb_xml(o: &crate::material::bump::PerturbOptions) -> String {
+    let mut s = String::new();
+    if !o.flip_invalid_normals {
+        s += "<boolean name=\"flip_invalid_normals\" value=\"false\"/>";
+    }
+    if !o.use_shadowing_function {
+        s += "<boolean name=\"use_shadowing_function\" value=\"false\"/>";
+    }
+    s
 }
 
 fn esc(s: &str) -> String {

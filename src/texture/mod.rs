@@ -135,6 +135,16 @@ impl Texture {
         }
     }
 
+    /// The uv gradient of the texture's luminance at `uv` (Mitsuba's `eval_1_grad`):
+    /// of an image, the bilinear interpolation of its full-resolution texels (through
+    /// the uv mapping); constants and checkerboards are flat almost everywhere (zero).
+    pub fn luminance_gradient(&self, uv: Vec2) -> Vec2 {
+        match self {
+            Texture::Constant(_) | Texture::Checkerboard { .. } => Vec2::ZERO,
+            Texture::Image(t) => t.mipmap.luminance_gradient(t.mapping.map(uv)) * t.mapping.scale,
+        }
+    }
+
     /// The texture's value at `tc` (a [`TexCoord`], or a bare `uv` for a lookup
     /// without footprint).
     #[inline]
@@ -154,6 +164,12 @@ impl Texture {
             Texture::Image(t) => t.eval(&tc),
         }
     }
+}
+
+/// Rec. 709 luminance (Mitsuba's `luminance`, what its `eval_1` gives of a colour).
+#[inline]
+pub fn luminance(c: Vec3) -> f32 {
+    0.212671 * c.x + 0.715160 * c.y + 0.072169 * c.z
 }
 
 #[cfg(test)]

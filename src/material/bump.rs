@@ -107,6 +107,19 @@ pub struct ShadingGeometry {
     pub wo: Vec3,
 }
 
+/// The shading frame the perturbation is relative to, as Mitsuba builds it: `n = ns`,
+/// the first tangent `∂p/∂u` made orthogonal to it (Gram–Schmidt), `t = n × s`; an
+/// arbitrary frame around `ns` where `∂p/∂u` is parallel to it.
+pub fn shading_frame(ns: Vec3, dpdu: Vec3) -> Frame {
+    let s = dpdu - ns * ns.dot(dpdu);
+    let l2 = s.length_squared();
+    if !(l2 > 0.0 && l2.is_finite()) {
+        return Frame::from_normal(ns);
+    }
+    let s = s / l2.sqrt();
+    Frame { s, t: ns.cross(s), n: ns }
+}
+
 /// A bump map's perturbed normal (unnormalised, in `base`'s local coordinates) for the
 /// height gradient `grad` (already times `scale`).
 pub fn bump_normal(g: &ShadingGeometry, base: &Frame, grad: glam::Vec2) -> Vec3 {

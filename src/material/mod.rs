@@ -534,7 +534,7 @@ impl Material {
                 options,
                 ref inner,
             } => {
-                let base = Frame::from_normal(ns);
+                let base = bump::shading_frame(ns, g.dpdu);
                 let n = bump::bump_normal(g, &base, scale * lookup.gradient(height));
                 return perturbed(inner, g, lookup, base, n, options);
             }
@@ -543,7 +543,7 @@ impl Material {
                 options,
                 ref inner,
             } => {
-                let base = Frame::from_normal(ns);
+                let base = bump::shading_frame(ns, g.dpdu);
                 let n = bump::decode_normal(lookup.eval_unfiltered(normals));
                 return perturbed(inner, g, lookup, base, n, options);
             }

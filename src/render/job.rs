@@ -46,6 +46,15 @@ impl RenderJob {
                 ))
             }
         };
+        if profile == Profile::Rdr171 {
+            if let Some(m) = desc.materials.iter().find(|m| m.material.mask_opacity().is_some()) {
+                return Err(SceneError::new(
+                    &desc.file,
+                    Some(&format!("materials.{}", m.name)),
+                    "--compat rdr171 (the course renderer's intersection_test) cannot render mask materials; render without --compat",
+                ));
+            }
+        }
         if let Some(l) = desc.integrator.delta_lights.first() {
             let traces_from_lights = matches!(
                 integrator,

@@ -41,7 +41,8 @@ use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
 const SHAPES: &str = "obj, ply, serialized, rectangle, cube, disk, sphere";
-const BSDFS: &str = "diffuse, dielectric, thindielectric, roughdielectric, conductor, roughconductor, plastic, roughplastic, twosided";
+const BSDFS: &str =
+    "diffuse, dielectric, thindielectric, roughdielectric, conductor, roughconductor, plastic, roughplastic, twosided, bumpmap, normalmap, mask";
 const EMITTERS: &str = "point, spot, directional, constant, envmap (and area inside a <shape>)";
 const TEXTURES: &str = "bitmap, checkerboard";
 const INTEGRATORS: &str = "path, direct, ptracer, bdpt, photonmapper, sppm";
@@ -796,6 +797,9 @@ impl<'a> Reader<'a> {
                     None => None,
                 };
                 for (m, (_, at)) in std::iter::once(&front).chain(back.as_ref()).zip(&inner) {
+                    if matches!(m, Material::Mask { .. }) {
+                        return Err(at.error("a mask must be the outermost bsdf (put the twosided inside it)"));
+                    }
                     if matches!(m, Material::TwoSided { .. }) || matches!(m, Material::Diffuse { twosided: true, .. }) {
                         return Err(at.error("twosided cannot wrap another twosided bsdf"));
                     }
@@ -815,6 +819,7 @@ impl<'a> Reader<'a> {
                     },
                 }
             }
+            "bumpmap" | "normalmap" | "mask" => return self.wrapper(p),
             "dielectric" => Material::Glass {
                 reflect: colour_of(&p, "specular_reflectance")?,
                 transmit: colour_of(&p, "specular_transmittance")?,
@@ -893,6 +898,81 @@ impl<'a> Reader<'a> {
                 }
             }
             other => return Err(p.error(format!("unsupported bsdf \"{other}\" (supported: {BSDFS})"))),
+        };
+        p.finish(&["bsdf", "texture"])?;
+        Ok(m)
+    }
+
+    /// `bumpmap` (one nested `<texture>`, the heights, any name; `scale` 1),
+    /// `normalmap` (the `<texture name="normalmap">`), each with `flip_invalid_normals`
+    /// and `use_shadowing_function` (true); `mask` (`opacity` 0.5, a float or texture).
+    /// Each wraps exactly one nested `<bsdf>`; a mask must be the outermost.
+    fn wrapper(&mut self, p: Plugin<'a>) -> Result<Material<TextureRef>> {
+        let ty = p.ty.clone();
+        let inner = p.objects("bsdf");
+        let Some((b, _)) = inner.first() else {
+            return Err(p.error(format!("a {ty} bsdf needs a nested <bsdf>")));
+        };
+        if let Some((_, at)) = inner.get(1) {
+            return Err(at.error(format!("a {ty} bsdf takes one nested <bsdf>")));
+        }
+        let nested = self.material_value(b)?;
+        let at = inner[0].1;
+        if matches!(nested, Material::Mask { .. }) {
+            return Err(at.error("a mask must be the outermost bsdf (put the others inside it)"));
+        }
+        if ty != "mask" && matches!(nested, Material::BumpMap { .. } | Material::NormalMap { .. }) {
+            return Err(at.error("bump and normal maps cannot wrap each other"));
+        }
+        let inner = Box::new(nested);
+        let options = || -> Result<crate::material::bump::PerturbOptions> {
+            Ok(crate::material::bump::PerturbOptions {
+                flip_invalid_normals: p.boolean("flip_invalid_normals", true)?,
+                use_shadowing_function: p.boolean("use_shadowing_function", true)?,
+            })
+        };
+        let m = match ty.as_str() {
+            "bumpmap" => {
+                let textures = p.objects("texture");
+                let Some((t, _)) = textures.first() else {
+                    return Err(p.error("a bumpmap bsdf needs a nested <texture> (the height field)"));
+                };
+                if let Some((_, at)) = textures.get(1) {
+                    return Err(at.error("a bumpmap bsdf takes one nested <texture>"));
+                }
+                let scale = p.float("scale", 1.0)?;
+                if !scale.is_finite() {
+                    return Err(p.value_error("scale", "must be a finite number"));
+                }
+                Material::BumpMap {
+                    height: TextureRef::Named(Located {
+                        value: self.texture(t)?,
+                        source: source(t),
+                    }),
+                    scale,
+                    options: options()?,
+                    inner,
+                }
+            }
+            "normalmap" => {
+                if !p.has("normalmap") {
+                    return Err(p.error("a normalmap bsdf needs the texture \"normalmap\""));
+                }
+                Material::NormalMap {
+                    normals: self.texture_ref(&p, "normalmap", Vec3::new(0.5, 0.5, 1.0))?,
+                    options: options()?,
+                    inner,
+                }
+            }
+            _ => {
+                let opacity = self.texture_ref(&p, "opacity", Vec3::splat(0.5))?;
+                if let TextureRef::Color(c) = opacity {
+                    if c.max_element() > 1.0 {
+                        return Err(p.value_error("opacity", "must be between 0 and 1"));
+                    }
+                }
+                Material::Mask { opacity, inner }
+            }
         };
         p.finish(&["bsdf", "texture"])?;
         Ok(m)

@@ -237,6 +237,39 @@ pub fn build(desc: &SceneDesc, opts: BuildOptions) -> Result<Scene> {
             }));
             lights.len() as u32 - 1
         });
+        if let Some(m) = material {
+            // a mesh_attribute texture needs its colours on this object's mesh
+            let mut needs = (false, false);
+            let _ = materials[m as usize].try_map_textures(|&t| {
+                if let Texture::MeshAttribute { face, .. } = textures[t as usize] {
+                    if face {
+                        needs.1 = true;
+                    } else {
+                        needs.0 = true;
+                    }
+                }
+                Ok::<(), ()>(())
+            });
+            let (vertex, face) = match &shape {
+                Shape::Mesh(mesh) => (!mesh.vertex_colors.is_empty(), !mesh.face_colors.is_empty()),
+                Shape::Sphere(_) => (false, false),
+            };
+            let missing = if needs.0 && !vertex {
+                Some("vertex_color")
+            } else if needs.1 && !face {
+                Some("face_color")
+            } else {
+                None
+            };
+            if let Some(a) = missing {
+                let source = o.material.as_ref().map_or(&o.source, |m| &m.source);
+                return Err(source.error(
+                    &desc.file,
+                    format!("material '{}' reads the mesh attribute {a}, which this object's mesh has not (a PLY file with red, green, blue per {})",
+                        desc.materials[m as usize].name, if a == "face_color" { "face" } else { "vertex" }),
+                ));
+            }
+        }
         objects.push(Object { shape, material, light });
     }
 
@@ -256,7 +289,7 @@ pub fn build(desc: &SceneDesc, opts: BuildOptions) -> Result<Scene> {
                         mapping: img.mapping,
                     }
                 }
-                Texture::Checkerboard { .. } => {
+                Texture::Checkerboard { .. } | Texture::MeshAttribute { .. } => {
                     return Err(env
                         .texture
                         .source

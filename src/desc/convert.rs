@@ -265,6 +265,9 @@ pub fn to_json(desc: &SceneDesc, out: &Path) -> Result<Converted> {
             Texture::Image(img) => {
                 json!({"type": "image", "path": rebase(desc, &img.path.value, out), "tex_coordinate_generator": mapping(&img.mapping)})
             }
+            Texture::MeshAttribute { face, scale } => {
+                json!({"type": "mesh_attribute", "name": if *face { "face_color" } else { "vertex_color" }, "scale": num(*scale)})
+            }
         };
         textures.insert(t.name.clone(), v);
     }
@@ -855,6 +858,16 @@ pub fn to_xml(desc: &SceneDesc, out: &Path) -> Result<Converted> {
                     v3(*color0),
                     v3(*color1),
                     to_uv(sm, om)
+                );
+                texture_ids.insert(t.name.clone(), id);
+            }
+            Texture::MeshAttribute { face, scale } => {
+                let id = id_for(&t.name, "texture-");
+                let _ = writeln!(
+                    s,
+                    "  <texture type=\"mesh_attribute\" id=\"{}\">\n    <string name=\"name\" value=\"{}\"/>\n    <float name=\"scale\" value=\"{scale}\"/>\n  </texture>",
+                    esc(&id),
+                    if *face { "face_color" } else { "vertex_color" }
                 );
                 texture_ids.insert(t.name.clone(), id);
             }

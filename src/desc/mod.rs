@@ -903,6 +903,18 @@ fn parse_mapping(p: &Props) -> Result<UvMapping> {
     Ok(m)
 }
 
+/// A `mesh_attribute`'s `name`: whether it is `face_color` (else `vertex_color`).
+fn mesh_attribute_name(p: &Props, name: &str) -> Result<bool> {
+    match name {
+        "vertex_color" => Ok(false),
+        "face_color" => Ok(true),
+        other => Err(p.error(
+            "name",
+            format!("unknown mesh attribute '{other}' (available: vertex_color, face_color: a PLY file's red, green, blue)"),
+        )),
+    }
+}
+
 fn parse_texture(name: &str, p: &Props) -> Result<TextureDesc> {
     let ty = p.string("type")?;
     let texture = match ty.as_str() {
@@ -916,10 +928,14 @@ fn parse_texture(name: &str, p: &Props) -> Result<TextureDesc> {
             path: p.located("path", p.string("path")?),
             mapping: parse_mapping(p)?,
         }),
+        "mesh_attribute" => Texture::MeshAttribute {
+            face: mesh_attribute_name(p, &p.string("name")?)?,
+            scale: finite(p, "scale", p.f32_or("scale", 1.0)?)?,
+        },
         _ => {
             return Err(p.error(
                 "type",
-                format!("unknown texture type '{ty}' (available: constant, checkerboard, image)"),
+                format!("unknown texture type '{ty}' (available: constant, checkerboard, image, mesh_attribute)"),
             ))
         }
     };

@@ -14,7 +14,7 @@ use crate::geometry::sphere::Sphere;
 use crate::geometry::Ray;
 use crate::light::Light;
 use crate::material::Material;
-use crate::math::Vec3;
+use crate::math::{Vec2, Vec3};
 use crate::texture::{TexCoord, Texture, TextureConvention};
 
 /// An object's geometry, chosen by `objects[i].type`. The mesh is `M`: a file to
@@ -46,6 +46,8 @@ impl Interaction {
             uv: self.uv,
             duvdx: self.duvdx,
             duvdy: self.duvdy,
+            vertex_color: self.vertex_color,
+            face_color: self.face_color,
         }
     }
 }
@@ -134,7 +136,8 @@ impl Scene {
                 hit.t += start;
                 return Some(hit);
             };
-            let alpha = crate::texture::luminance(self.textures[t as usize].eval(it.uv));
+            let tc = crate::texture::TexCoord { duvdx: Vec2::ZERO, duvdy: Vec2::ZERO, ..it.tex_coord() };
+            let alpha = crate::texture::luminance(self.textures[t as usize].eval(tc));
             if alpha >= 1.0 || (alpha > 0.0 && mask_sample(&r, hit.prim) < alpha) {
                 hit.t += start;
                 return Some(hit);

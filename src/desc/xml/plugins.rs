@@ -11,7 +11,7 @@
 //! | `<shape>` | `obj`, `ply` (`filename`, `face_normals` false: else smooth vertex normals when the file has none; `flip_normals`; `flip_tex_coords`, true for OBJ, false for PLY), `serialized` (`filename`, `shape_index` 0), `rectangle`, `cube`, `disk` (generated meshes), `sphere` (`center` 0, `radius` 1); all take `to_world`, one `<bsdf>` and one `area` `<emitter>`. A shape with neither gets Mitsuba's default, a diffuse 0.5. |
 //! | `<bsdf>` | `diffuse` (`reflectance` 0.5, a colour or texture); `dielectric`, `thindielectric` (`int_ior` "bk7", `ext_ior` "air": numbers or names, η = int/ext; `specular_reflectance`, `specular_transmittance` 1, colours); `roughdielectric` (as `dielectric`, and `distribution` beckmann \| ggx, `alpha` 0.1 or `alpha_u`+`alpha_v`); `conductor` and `roughconductor` (`material` "none", or a name from [`values::NAMED_CONDUCTORS`] such as "Au"; else `eta` 0 / `k` 1 (a perfect mirror); `specular_reflectance` 1, a colour or texture; `roughconductor`'s `alpha`, `alpha_u`/`alpha_v`, `distribution` as `roughdielectric`; the 0.6 `ext_eta` folded into η and k); `plastic` (`diffuse_reflectance` 0.5, a colour or texture; `specular_reflectance` 1; `int_ior` "polypropylene" (1.49), `ext_ior` "air"; `nonlinear` false), `roughplastic` (as `plastic`, and `alpha` 0.1 (isotropic), `distribution` beckmann); `twosided` (one or two nested non-transmitting bsdfs: around one `diffuse` it is rdr's two-sided diffuse, around one `roughconductor` that material (rdr's is two-sided), otherwise rdr's `twosided` with the second as the back). `bumpmap` (one nested `<texture>`, the heights; `scale` 1; `flip_invalid_normals`, `use_shadowing_function` true), `normalmap` (`<texture name="normalmap">`, the same two switches), `mask` (`opacity` 0.5, a float or texture; outermost only), each around one nested `<bsdf>`; see [`crate::material::bump`] and [`Material::Mask`]. Example: `<bsdf type="twosided"><bsdf type="roughplastic"><float name="alpha" value="0.2"/></bsdf></bsdf>`. |
 //! | `<emitter>` | `area` (in a shape: `radiance` 1), `point` (`position` or `to_world`; `intensity` I (1) → flux 4πI), `spot` (`to_world`: at its origin, along its +z; `intensity` 1, `cutoff_angle` 20°, `beam_width` ¾ of it; linear falloff in angle), `directional` (`direction` or `to_world`'s +z, of travel; `irradiance` 1) — these two for `path`, `direct` and guided only, `constant` (`radiance` 1), `envmap` (`filename`, `scale` 1, `to_world`) |
-//! | `<texture>` | `bitmap` (`filename`, `to_uv`; `filter_type`, `wrap_mode`, `raw` noted), `checkerboard` (`color0` 0.4, `color1` 0.2, `to_uv`); the 0.6 `uoffset`, `voffset`, `uscale`, `vscale` become `to_uv` |
+//! | `<texture>` | `bitmap` (`filename`, `to_uv`; `filter_type`, `wrap_mode`, `raw` noted), `checkerboard` (`color0` 0.4, `color1` 0.2, `to_uv`), `mesh_attribute` (`name` "vertex_color" | "face_color", required: a PLY file's `red green blue`; `scale` 1); the 0.6 `uoffset`, `voffset`, `uscale`, `vscale` become `to_uv` |
 //!
 //! Anything else is an error naming the plugin and what is supported. Colours are
 //! `<rgb>`, `<spectrum>` (a constant or wavelength:value pairs, see
@@ -44,7 +44,7 @@ const SHAPES: &str = "obj, ply, serialized, rectangle, cube, disk, sphere";
 const BSDFS: &str =
     "diffuse, dielectric, thindielectric, roughdielectric, conductor, roughconductor, plastic, roughplastic, twosided, bumpmap, normalmap, mask";
 const EMITTERS: &str = "point, spot, directional, constant, envmap (and area inside a <shape>)";
-const TEXTURES: &str = "bitmap, checkerboard";
+const TEXTURES: &str = "bitmap, checkerboard, mesh_attribute";
 const INTEGRATORS: &str = "path, volpath (without media), direct, ptracer, bdpt, photonmapper, sppm";
 const FILTERS: &str = "box, tent, gaussian, mitchell";
 
@@ -1083,6 +1083,24 @@ impl<'a> Reader<'a> {
                     delta: Vec2::new(to_uv.1.x, to_uv.0.y + to_uv.1.y),
                 },
             },
+            "mesh_attribute" => {
+                let name = p.required_string("name")?;
+                let face = match name.as_str() {
+                    "vertex_color" => false,
+                    "face_color" => true,
+                    other => {
+                        return Err(p.value_error(
+                            "name",
+                            format!("unsupported mesh attribute \"{other}\" (supported: vertex_color, face_color)"),
+                        ))
+                    }
+                };
+                let scale = p.float("scale", 1.0)?;
+                if !scale.is_finite() {
+                    return Err(p.value_error("scale", "must be a finite number"));
+                }
+                Texture::MeshAttribute { face, scale }
+            }
             other => return Err(p.error(format!("unsupported texture \"{other}\" (supported: {TEXTURES})"))),
         };
         p.finish(&[])?;

@@ -505,7 +505,13 @@ fn wrapped_json(
     texture_name: &TextureNamer,
 ) -> String {
     let n = (0..)
-        .map(|i| if i == 0 { format!("{name}_inner") } else { format!("{name}_inner_{i}") })
+        .map(|i| {
+            if i == 0 {
+                format!("{name}_inner")
+            } else {
+                format!("{name}_inner_{i}")
+            }
+        })
         .find(|n| !materials.contains_key(n))
         .expect("a free name");
     let v = material_json(m, &n, textures, materials, texture_name);

@@ -148,7 +148,9 @@ pub fn parse_ply(bytes: &[u8]) -> Result<ObjData> {
     let colour_names = |element: &str| -> Option<[&'static str; 3]> {
         let props: &[Prop] = elements.iter().find(|e| e.0 == element).map_or(&[], |e| &e.2);
         let has = |n: &str| props.iter().any(|p| p.2 == n && p.1.is_none());
-        [["red", "green", "blue"], ["r", "g", "b"]].into_iter().find(|c| c.iter().all(|n| has(n)))
+        [["red", "green", "blue"], ["r", "g", "b"]]
+            .into_iter()
+            .find(|c| c.iter().all(|n| has(n)))
     };
     let (vertex_colour, face_colour) = (colour_names("vertex"), colour_names("face"));
     let colour_scale = |t: &str| match t {
@@ -166,7 +168,13 @@ pub fn parse_ply(bytes: &[u8]) -> Result<ObjData> {
         for _ in 0..*count {
             let (mut xyz, mut n, mut uv) = ([0.0f32; 3], [0.0f32; 3], [0.0f32; 2]);
             let mut rgb = [0.0f32; 3];
-            let colour = if name == "vertex" { vertex_colour } else if name == "face" { face_colour } else { None };
+            let colour = if name == "vertex" {
+                vertex_colour
+            } else if name == "face" {
+                face_colour
+            } else {
+                None
+            };
             let mut face: Vec<u32> = Vec::new();
             for (t, list, pname) in props {
                 match list {

@@ -170,7 +170,9 @@ impl Bsdf {
         let s = self.sample_frame(wo, u, uc, mode)?;
         match self.perturbed {
             None => Some(s),
-            Some(p) => p.sample_weight(self.frame.n, s.wi).map(|k| BsdfSample { weight: s.weight * k, ..s }),
+            Some(p) => p
+                .sample_weight(self.frame.n, s.wi)
+                .map(|k| BsdfSample { weight: s.weight * k, ..s }),
         }
     }
 

@@ -29,8 +29,8 @@ pub use microfacet::Distribution;
 pub use sample::{BsdfSample, TransportMode};
 
 use crate::math::{Frame, Vec2, Vec3};
-use bump::{PerturbOptions, ShadingGeometry};
 use crate::texture::{TexCoord, Texture};
+use bump::{PerturbOptions, ShadingGeometry};
 use plastic::CoatingTables;
 
 /// A material, `materials.<name>` in a scene: `type` (`"diffuse"`) and the keys of
@@ -394,7 +394,13 @@ impl Material {
     /// around `ns` and a flat height field (use [`Material::bsdf_at`] for them).
     pub fn bsdf(&self, ns: Vec3, wo: Vec3, tint: impl Fn(u32) -> Vec3) -> Bsdf {
         let (dpdu, dpdv) = crate::math::coordinate_system(ns);
-        let g = ShadingGeometry { ns, ng: ns, dpdu, dpdv, wo };
+        let g = ShadingGeometry {
+            ns,
+            ng: ns,
+            dpdu,
+            dpdv,
+            wo,
+        };
         self.bsdf_with(&g, &Tint(tint))
     }
 
@@ -408,7 +414,13 @@ impl Material {
             dpdv: it.dpdv,
             wo: it.wo,
         };
-        self.bsdf_with(&g, &SceneTextures { textures, tc: it.tex_coord() })
+        self.bsdf_with(
+            &g,
+            &SceneTextures {
+                textures,
+                tc: it.tex_coord(),
+            },
+        )
     }
 
     fn bsdf_with<L: TextureLookup>(&self, g: &ShadingGeometry, lookup: &L) -> Bsdf {
@@ -603,7 +615,11 @@ impl TextureLookup for SceneTextures<'_> {
         self.textures[t as usize].eval(self.tc)
     }
     fn eval_unfiltered(&self, t: u32) -> Vec3 {
-        self.textures[t as usize].eval(TexCoord { duvdx: Vec2::ZERO, duvdy: Vec2::ZERO, ..self.tc })
+        self.textures[t as usize].eval(TexCoord {
+            duvdx: Vec2::ZERO,
+            duvdy: Vec2::ZERO,
+            ..self.tc
+        })
     }
     fn gradient(&self, t: u32) -> Vec2 {
         self.textures[t as usize].luminance_gradient(self.tc.uv)

@@ -136,7 +136,11 @@ impl Scene {
                 hit.t += start;
                 return Some(hit);
             };
-            let tc = crate::texture::TexCoord { duvdx: Vec2::ZERO, duvdy: Vec2::ZERO, ..it.tex_coord() };
+            let tc = crate::texture::TexCoord {
+                duvdx: Vec2::ZERO,
+                duvdy: Vec2::ZERO,
+                ..it.tex_coord()
+            };
             let alpha = crate::texture::luminance(self.textures[t as usize].eval(tc));
             if alpha >= 1.0 || (alpha > 0.0 && mask_sample(&r, hit.prim) < alpha) {
                 hit.t += start;
@@ -200,7 +204,9 @@ impl Scene {
     /// The material at `it`, any `mask` around it taken off (masks act in
     /// [`Scene::intersect`]: a point that was hit is opaque).
     pub fn material_of(&self, it: &Interaction) -> Option<&Material> {
-        self.objects[it.object as usize].material.map(|m| self.materials[m as usize].unmasked())
+        self.objects[it.object as usize]
+            .material
+            .map(|m| self.materials[m as usize].unmasked())
     }
 
     pub fn triangle_count(&self) -> usize {

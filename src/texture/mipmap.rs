@@ -140,7 +140,10 @@ impl MipMap {
             let (ya, yb) = (y0.rem_euclid(hi) as usize, (y0 + 1).rem_euclid(hi) as usize);
             let (f00, f10) = (lum(l.texel(xa, ya)), lum(l.texel(xb, ya)));
             let (f01, f11) = (lum(l.texel(xa, yb)), lum(l.texel(xb, yb)));
-            Vec2::new((1.0 - fy) * (f10 - f00) + fy * (f11 - f01), (1.0 - fx) * (f01 - f00) + fx * (f11 - f10))
+            Vec2::new(
+                (1.0 - fy) * (f10 - f00) + fy * (f11 - f01),
+                (1.0 - fx) * (f01 - f00) + fx * (f11 - f10),
+            )
         };
         match self.convention {
             TextureConvention::Physical => {

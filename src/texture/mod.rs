@@ -136,7 +136,10 @@ impl<I> Texture<I> {
                 mapping: *mapping,
             },
             Texture::Image(i) => Texture::Image(f(i)?),
-            Texture::MeshAttribute { face, scale } => Texture::MeshAttribute { face: *face, scale: *scale },
+            Texture::MeshAttribute { face, scale } => Texture::MeshAttribute {
+                face: *face,
+                scale: *scale,
+            },
         })
     }
 }

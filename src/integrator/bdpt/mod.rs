@@ -279,9 +279,7 @@ impl Engine<'_> {
             v.wo = it.wo;
             v.emitter = scene.area_light_of(&it).map(|(i, _)| i);
             v.pdf_fwd = self.ctx.convert(pdf_dir, &path[path.len() - 1], &v);
-            v.bsdf = scene.material_of(&it).map(|m| {
-                m.bsdf_at(&it, &scene.textures)
-            });
+            v.bsdf = scene.material_of(&it).map(|m| m.bsdf_at(&it, &scene.textures));
             path.push(v);
             let Some(bsdf) = v.bsdf else { break };
             if path.len() >= max_vertices {

@@ -149,7 +149,7 @@ impl Scene {
             let side = if r.d.dot(it.ng) >= 0.0 { it.ng } else { -it.ng };
             let o = crate::math::offset_ray_origin(it.p, side);
             let advanced = (o - ray.o).dot(ray.d) / ray.d.length_squared();
-            if !(advanced > start) || advanced >= ray.t_max {
+            if advanced.partial_cmp(&start) != Some(std::cmp::Ordering::Greater) || advanced >= ray.t_max {
                 return None;
             }
             start = advanced;

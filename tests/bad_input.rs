@@ -157,6 +157,78 @@ fn cases() -> Vec<Case> {
         edit("resolution too large", |s| s["film"]["resolution"] = json!([100000, 100000])).err(&["film.resolution", "too large"]),
         edit("resolution one number", |s| s["film"]["resolution"] = json!(8)).err(&["film.resolution", "array of 2"]),
         edit("twosided is a string", |s| s["materials"]["matte"]["twosided"] = json!("yes")).err(&["materials.matte.twosided"]),
+        // --- bumpmap, normalmap, mask, mesh_attribute (issue 17) -------------------------------
+        edit("bumpmap without texture_name", |s| {
+            s["materials"]["b"] = json!({"type": "bumpmap", "material_name": "matte"})
+        })
+        .err(&["materials.b.texture_name", "missing"]),
+        edit(
+            "bumpmap scale is a string",
+            |s| s["materials"]["b"] = json!({"type": "bumpmap", "material_name": "matte", "texture_name": "white", "scale": "big"}),
+        )
+        .err(&["materials.b.scale", "number"]),
+        edit("bumpmap of an unknown material", |s| {
+            s["materials"]["b"] = json!({"type": "bumpmap", "material_name": "nothing", "texture_name": "white"})
+        })
+        .err(&["materials.b.material_name", "no material named 'nothing'"]),
+        edit("bumpmap of an unknown texture", |s| {
+            s["materials"]["b"] = json!({"type": "bumpmap", "material_name": "matte", "texture_name": "nothing"})
+        })
+        .err(&["materials.b.texture_name", "no texture named 'nothing'"]),
+        edit("normalmap without material_name", |s| {
+            s["materials"]["n"] = json!({"type": "normalmap", "texture_name": "white"})
+        })
+        .err(&["materials.n.material_name", "missing"]),
+        edit(
+            "normalmap flip is a number",
+            |s| {
+                s["materials"]["n"] =
+                    json!({"type": "normalmap", "material_name": "matte", "texture_name": "white", "flip_invalid_normals": 1})
+            },
+        )
+        .err(&["materials.n.flip_invalid_normals"]),
+        edit("bump and normal maps in a cycle", |s| {
+            s["materials"]["n"] = json!({"type": "normalmap", "material_name": "m", "texture_name": "white"});
+            s["materials"]["m"] = json!({"type": "mask", "material_name": "n"});
+        })
+        .err(&["material_name"]),
+        edit("mask opacity above 1", |s| {
+            s["materials"]["m"] = json!({"type": "mask", "material_name": "matte", "opacity": 1.5})
+        })
+        .err(&["materials.m.opacity"]),
+        edit("mask opacity is a string", |s| {
+            s["materials"]["m"] = json!({"type": "mask", "material_name": "matte", "opacity": "half"})
+        })
+        .err(&["materials.m.opacity", "number"]),
+        edit(
+            "mask with opacity and texture",
+            |s| s["materials"]["m"] = json!({"type": "mask", "material_name": "matte", "opacity": 0.5, "texture_name": "white"}),
+        )
+        .err(&["materials.m.opacity", "not both"]),
+        edit("mask inside a twosided", |s| {
+            s["materials"]["m"] = json!({"type": "mask", "material_name": "matte"});
+            s["materials"]["t"] = json!({"type": "twosided", "material_name": "m"});
+        })
+        .err(&["materials.t.material_name", "outermost"]),
+        edit("mask on an emitter", |s| {
+            s["materials"]["m"] = json!({"type": "mask", "material_name": "matte"});
+            s["objects"][0]["material_name"] = json!("m");
+            s["objects"][0]["light"] = json!({"type": "area", "radiance": [1, 1, 1]});
+        })
+        .err(&["objects[0].material_name", "emitting object"]),
+        edit("mesh_attribute without name", |s| {
+            s["textures"]["attr"] = json!({"type": "mesh_attribute"})
+        })
+        .err(&["textures.attr.name", "missing"]),
+        edit("mesh_attribute of an unknown name", |s| {
+            s["textures"]["attr"] = json!({"type": "mesh_attribute", "name": "vertex_uv"})
+        })
+        .err(&["textures.attr.name", "vertex_uv"]),
+        edit("mesh_attribute on a mesh without colours", |s| {
+            s["textures"]["attr"] = json!({"type": "mesh_attribute", "name": "vertex_color"});
+            s["materials"]["matte"]["texture_name"] = json!("attr");
+        })
+        .err(&["objects[0].material_name", "vertex_color"]),
         edit("block size zero", |s| s["film"]["block_side_length"] = json!(0)).err(&["film.block_side_length"]),
         edit("filter radius negative", |s| s["film"]["filter"]["radius"] = json!(-1)).err(&["film.filter.radius"]),
         // --- structure ------------------------------------------------------------------

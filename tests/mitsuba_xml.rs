@@ -407,6 +407,18 @@ fn bad_xml_gives_one_line_errors_with_file_line_and_column() {
         ("conductor named and given", scene(r#"  <shape type="sphere"><bsdf type="conductor"><string name="material" value="Au"/><rgb name="eta" value="1"/></bsdf></shape>"#), "line 6, column 47", "either material or eta and k"),
         ("conductor eta as a string", scene(r#"  <shape type="sphere"><bsdf type="conductor"><string name="eta" value="gold"/></bsdf></shape>"#), "line 6, column 47", "expected a colour"),
         ("twosided without a bsdf", scene(r#"  <shape type="sphere"><bsdf type="twosided"/></shape>"#), "line 6, column 24", "needs a nested <bsdf>"),
+        ("bumpmap without a bsdf", scene(r#"  <shape type="sphere"><bsdf type="bumpmap"><texture type="checkerboard"/></bsdf></shape>"#), "line 6, column 24", "a bumpmap bsdf needs a nested <bsdf>"),
+        ("bumpmap without a texture", scene(r#"  <shape type="sphere"><bsdf type="bumpmap"><bsdf type="diffuse"/></bsdf></shape>"#), "line 6, column 24", "needs a nested <texture>"),
+        ("bumpmap scale as a string", scene(r#"  <shape type="sphere"><bsdf type="bumpmap"><string name="scale" value="big"/><texture type="checkerboard"/><bsdf type="diffuse"/></bsdf></shape>"#), "line 6, column 45", "expected a float, found a string"),
+        ("normalmap without its texture", scene(r#"  <shape type="sphere"><bsdf type="normalmap"><bsdf type="diffuse"/></bsdf></shape>"#), "line 6, column 24", "needs the texture \"normalmap\""),
+        ("normalmap flip as a string", scene(r#"  <shape type="sphere"><bsdf type="normalmap"><string name="flip_invalid_normals" value="no"/><texture name="normalmap" type="checkerboard"/><bsdf type="diffuse"/></bsdf></shape>"#), "line 6, column 47", "expected a boolean, found a string"),
+        ("mask without a bsdf", scene(r#"  <shape type="sphere"><bsdf type="mask"><float name="opacity" value="0.5"/></bsdf></shape>"#), "line 6, column 24", "a mask bsdf needs a nested <bsdf>"),
+        ("mask opacity as a string", scene(r#"  <shape type="sphere"><bsdf type="mask"><string name="opacity" value="half"/><bsdf type="diffuse"/></bsdf></shape>"#), "line 6, column 42", "expected a colour"),
+        ("mask opacity above 1", scene(r#"  <shape type="sphere"><bsdf type="mask"><float name="opacity" value="2"/><bsdf type="diffuse"/></bsdf></shape>"#), "line 6, column 42", "between 0 and 1"),
+        ("mask inside twosided", scene(r#"  <shape type="sphere"><bsdf type="twosided"><bsdf type="mask"><bsdf type="diffuse"/></bsdf></bsdf></shape>"#), "line 6, column 46", "outermost"),
+        ("mesh_attribute without a name", scene(r#"  <shape type="sphere"><bsdf type="diffuse"><texture name="reflectance" type="mesh_attribute"/></bsdf></shape>"#), "line 6, column 45", "needs the property \"name\""),
+        ("mesh_attribute of an unknown name", scene(r#"  <shape type="sphere"><bsdf type="diffuse"><texture name="reflectance" type="mesh_attribute"><string name="name" value="vertex_uv"/></texture></bsdf></shape>"#), "line 6, column 95", "unsupported mesh attribute \"vertex_uv\""),
+        ("mesh_attribute on a sphere", scene(r#"  <shape type="sphere"><bsdf type="diffuse"><texture name="reflectance" type="mesh_attribute"><string name="name" value="vertex_color"/></texture></bsdf></shape>"#), "line 6, column 24", "vertex_color, which this object's mesh has not"),
         ("twosided around a pane", scene(r#"  <shape type="sphere"><bsdf type="twosided"><bsdf type="thindielectric"/></bsdf></shape>"#), "line 6, column 46", "transmits light"),
         ("twosided in twosided", scene(r#"  <shape type="sphere"><bsdf type="twosided"><bsdf type="twosided"><bsdf type="diffuse"/></bsdf></bsdf></shape>"#), "line 6, column 46", "cannot wrap another twosided"),
         ("plastic ior as rgb", scene(r#"  <shape type="sphere"><bsdf type="plastic"><rgb name="int_ior" value="1, 2, 3"/></bsdf></shape>"#), "line 6, column 45", "expected a float or the name of a material"),
@@ -1112,7 +1124,7 @@ fn convert_round_trips_the_mitsuba_materials() {
         assert_same_scene(&format!("{name} XML → JSON → XML"), &original, &xml_desc(&z, &[]));
     }
     // non-default parameters and a twosided around one material survive both ways
-    let objects: Vec<serde_json::Value> = ["a", "b", "c", "d", "e", "f"]
+    let objects: Vec<serde_json::Value> = ["a", "b", "c", "d", "e", "f", "g", "h", "i"]
         .iter()
         .enumerate()
         .map(|(i, m)| serde_json::json!({"type": "sphere", "center": [i as f32 * 3.0, 0, 5], "radius": 1, "material_name": m}))
@@ -1129,7 +1141,10 @@ fn convert_round_trips_the_mitsuba_materials() {
             "c": {"type": "roughplastic", "eta": 1.3, "alpha": 0.4, "distribution": "ggx"},
             "d": {"type": "conductor", "texture_name": "c", "eta": [0.2, 0.9, 1.1], "k": [3.9, 2.4, 2.1]},
             "e": {"type": "thindielectric", "R": [0.5, 1, 1], "eta": 1.2},
-            "f": {"type": "twosided", "material_name": "d"}
+            "f": {"type": "twosided", "material_name": "d"},
+            "g": {"type": "bumpmap", "material_name": "c", "texture_name": "c", "scale": 0.3, "use_shadowing_function": false},
+            "h": {"type": "normalmap", "material_name": "b", "texture_name": "c", "flip_invalid_normals": false},
+            "i": {"type": "mask", "material_name": "f", "opacity": 0.25}
         },
         "objects": objects
     });

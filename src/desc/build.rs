@@ -245,6 +245,39 @@ pub fn build(desc: &SceneDesc, opts: BuildOptions) -> Result<Scene> {
             }));
             lights.len() as u32 - 1
         });
+        if let Some(m) = material {
+            // a mesh_attribute texture needs its colours on this object's mesh
+            let mut needs = (false, false);
+            let _ = materials[m as usize].try_map_textures(|&t| {
+                if let Texture::MeshAttribute { face, .. } = textures[t as usize] {
+                    if face {
+                        needs.1 = true;
+                    } else {
+                        needs.0 = true;
+                    }
+                }
+                Ok::<(), ()>(())
+            });
+            let (vertex, face) = match &shape {
+                Shape::Mesh(mesh) => (!mesh.vertex_colors.is_empty(), !mesh.face_colors.is_empty()),
+                Shape::Sphere(_) | Shape::Cylinder(_) => (false, false),
+            };
+            let missing = if needs.0 && !vertex {
+                Some("vertex_color")
+            } else if needs.1 && !face {
+                Some("face_color")
+            } else {
+                None
+            };
+            if let Some(a) = missing {
+                let source = o.material.as_ref().map_or(&o.source, |m| &m.source);
+                return Err(source.error(
+                    &desc.file,
+                    format!("material '{}' reads the mesh attribute {a}, which this object's mesh has not (a PLY file with red, green, blue per {})",
+                        desc.materials[m as usize].name, if a == "face_color" { "face" } else { "vertex" }),
+                ));
+            }
+        }
         objects.push(Object { shape, material, light });
     }
 
@@ -264,7 +297,7 @@ pub fn build(desc: &SceneDesc, opts: BuildOptions) -> Result<Scene> {
                         mapping: img.mapping,
                     }
                 }
-                Texture::Checkerboard { .. } => {
+                Texture::Checkerboard { .. } | Texture::MeshAttribute { .. } => {
                     return Err(env
                         .texture
                         .source
@@ -277,6 +310,14 @@ pub fn build(desc: &SceneDesc, opts: BuildOptions) -> Result<Scene> {
     };
 
     let n_top = desc.objects.len();
+    // a masked emitter would hide its emission from some rays and not from light sampling
+    let masked = |o: &Object| o.material.is_some_and(|m| materials[m as usize].mask_opacity().is_some());
+    if let Some((o, _)) = desc.objects.iter().zip(&objects).find(|(_, o)| o.light.is_some() && masked(o)) {
+        let source = o.material.as_ref().map_or(&o.source, |m| &m.source);
+        return Err(source.error(&desc.file, "a mask material on an emitting object is not supported"));
+    }
+    let has_masks = objects.iter().any(masked);
+
     let mut prims = Vec::new();
     for (oi, o) in objects.iter().enumerate().take(n_top) {
         object_prims(&mut prims, oi as u32, &o.shape);
@@ -339,6 +380,7 @@ pub fn build(desc: &SceneDesc, opts: BuildOptions) -> Result<Scene> {
         warnings,
         bvh_seconds,
         texture_convention: opts.textures,
+        has_masks,
     })
 }
 

@@ -296,6 +296,9 @@ pub fn to_json(desc: &SceneDesc, out: &Path) -> Result<Converted> {
                 }
                 v
             }
+            Texture::MeshAttribute { face, scale } => {
+                json!({"type": "mesh_attribute", "name": if *face { "face_color" } else { "vertex_color" }, "scale": num(*scale)})
+            }
         };
         textures.insert(t.name.clone(), v);
     }
@@ -543,6 +546,65 @@ fn material_json(
             }
             v
         }
+        Material::BumpMap {
+            height,
+            scale,
+            options,
+            inner,
+        } => {
+            let inner = wrapped_json(inner, name, textures, materials, texture_name);
+            let mut v = json!({"type": "bumpmap", "material_name": inner, "texture_name": texture_name(height, name, textures),
+                               "scale": num(*scale)});
+            perturb_json(&mut v, options);
+            v
+        }
+        Material::NormalMap { normals, options, inner } => {
+            let inner = wrapped_json(inner, name, textures, materials, texture_name);
+            let mut v = json!({"type": "normalmap", "material_name": inner, "texture_name": texture_name(normals, name, textures)});
+            perturb_json(&mut v, options);
+            v
+        }
+        Material::Mask { opacity, inner } => {
+            let inner = wrapped_json(inner, name, textures, materials, texture_name);
+            match opacity {
+                TextureRef::Color(c) if c.x == c.y && c.y == c.z => json!({"type": "mask", "material_name": inner, "opacity": num(c.x)}),
+                t => json!({"type": "mask", "material_name": inner, "texture_name": texture_name(t, name, textures)}),
+            }
+        }
+    }
+}
+
+/// The material a bump map, normal map or mask wraps, as a material of its own
+/// (`<name>_inner`); its name.
+fn wrapped_json(
+    m: &Material<TextureRef>,
+    name: &str,
+    textures: &mut Map<String, Value>,
+    materials: &mut Map<String, Value>,
+    texture_name: &TextureNamer,
+) -> String {
+    let n = (0..)
+        .map(|i| {
+            if i == 0 {
+                format!("{name}_inner")
+            } else {
+                format!("{name}_inner_{i}")
+            }
+        })
+        .find(|n| !materials.contains_key(n))
+        .expect("a free name");
+    let v = material_json(m, &n, textures, materials, texture_name);
+    materials.insert(n.clone(), v);
+    n
+}
+
+/// The bump and normal maps' switches, when not their defaults.
+fn perturb_json(v: &mut Value, o: &crate::material::bump::PerturbOptions) {
+    if !o.flip_invalid_normals {
+        v["flip_invalid_normals"] = false.into();
+    }
+    if !o.use_shadowing_function {
+        v["use_shadowing_function"] = false.into();
     }
 }
 
@@ -688,6 +750,32 @@ fn material_xml(
             }
             format!("{}{inner}</bsdf>", open("twosided"))
         }
+        Material::BumpMap {
+            height,
+            scale,
+            options,
+            inner,
+        } => format!(
+            "{}{}<float name=\"scale\" value=\"{scale}\"/>{}{}</bsdf>",
+            open("bumpmap"),
+            colour("height", height),
+            perturb_xml(options),
+            material_xml(inner, name, None, colour, w)
+        ),
+        Material::NormalMap { normals, options, inner } => format!(
+            "{}{}{}{}</bsdf>",
+            open("normalmap"),
+            colour("normalmap", normals),
+            perturb_xml(options),
+            material_xml(inner, name, None, colour, w)
+        ),
+        Material::Mask { opacity, inner } => {
+            let o = match opacity {
+                TextureRef::Color(c) if c.x == c.y && c.y == c.z => format!("<float name=\"opacity\" value=\"{}\"/>", c.x),
+                t => colour("opacity", t),
+            };
+            format!("{}{o}{}</bsdf>", open("mask"), material_xml(inner, name, None, colour, w))
+        }
     }
 }
 
@@ -713,6 +801,18 @@ fn cylinder_params(c: &crate::geometry::cylinder::CylinderShape) -> (Vec3, Vec3,
 /// A perspective or thin-lens sensor's field of view, vertical as rdr's.
 fn fov_keys(fov: f32) -> String {
     format!("    <float name=\"fov\" value=\"{fov}\"/>\n    <string name=\"fov_axis\" value=\"y\"/>\n")
+}
+
+/// The bump and normal maps' switches, when not their defaults.
+fn perturb_xml(o: &crate::material::bump::PerturbOptions) -> String {
+    let mut s = String::new();
+    if !o.flip_invalid_normals {
+        s += "<boolean name=\"flip_invalid_normals\" value=\"false\"/>";
+    }
+    if !o.use_shadowing_function {
+        s += "<boolean name=\"use_shadowing_function\" value=\"false\"/>";
+    }
+    s
 }
 
 fn esc(s: &str) -> String {
@@ -896,6 +996,16 @@ pub fn to_xml(desc: &SceneDesc, out: &Path) -> Result<Converted> {
                     v3(*color0),
                     v3(*color1),
                     to_uv(sm, om)
+                );
+                texture_ids.insert(t.name.clone(), id);
+            }
+            Texture::MeshAttribute { face, scale } => {
+                let id = id_for(&t.name, "texture-");
+                let _ = writeln!(
+                    s,
+                    "  <texture type=\"mesh_attribute\" id=\"{}\">\n    <string name=\"name\" value=\"{}\"/>\n    <float name=\"scale\" value=\"{scale}\"/>\n  </texture>",
+                    esc(&id),
+                    if *face { "face_color" } else { "vertex_color" }
                 );
                 texture_ids.insert(t.name.clone(), id);
             }

@@ -309,6 +309,12 @@ pub struct ImageFile {
 ///   `specular_reflectance` ((1,1,1)), `eta` (1.49, not 1), `nonlinear` (false);
 /// * `roughplastic`: as `plastic`, and `alpha` (0.1), `distribution` (`"beckmann"`);
 /// * `twosided`: `material_name` (required), `back_material_name` (optional);
+/// * `bumpmap`: `material_name`, `texture_name` (both required; heights), `scale` (1),
+///   `flip_invalid_normals`, `use_shadowing_function` (true each);
+/// * `normalmap`: `material_name`, `texture_name` (both required; tangent-space
+///   normals as `(n + 1)/2`), `flip_invalid_normals`, `use_shadowing_function` (true);
+/// * `mask`: `material_name` (required), `opacity` (in [0, 1], 0.5) or `texture_name`
+///   (an opacity texture); outermost only;
 ///
 /// see [`Material`], which also names the Mitsuba parameter behind each key.
 ///
@@ -316,7 +322,9 @@ pub struct ImageFile {
 /// "materials": {
 ///   "red": {"type": "roughplastic", "texture_name": "red", "alpha": 0.2, "distribution": "ggx"},
 ///   "mirror": {"type": "conductor"},
-///   "card": {"type": "twosided", "material_name": "red"}
+///   "card": {"type": "twosided", "material_name": "red"},
+///   "bumpy": {"type": "bumpmap", "material_name": "card", "texture_name": "heights", "scale": 0.5},
+///   "leaf": {"type": "mask", "material_name": "bumpy", "texture_name": "leaf_alpha"}
 /// }
 /// ```
 #[derive(Clone, Debug)]
@@ -1080,6 +1088,18 @@ fn parse_mapping(p: &Props) -> Result<UvMapping> {
     Ok(m)
 }
 
+/// A `mesh_attribute`'s `name`: whether it is `face_color` (else `vertex_color`).
+fn mesh_attribute_name(p: &Props, name: &str) -> Result<bool> {
+    match name {
+        "vertex_color" => Ok(false),
+        "face_color" => Ok(true),
+        other => Err(p.error(
+            "name",
+            format!("unknown mesh attribute '{other}' (available: vertex_color, face_color: a PLY file's red, green, blue)"),
+        )),
+    }
+}
+
 fn parse_texture(name: &str, p: &Props) -> Result<TextureDesc> {
     let ty = p.string("type")?;
     let texture = match ty.as_str() {
@@ -1105,10 +1125,14 @@ fn parse_texture(name: &str, p: &Props) -> Result<TextureDesc> {
             },
             raw: p.bool_or("raw", false)?,
         }),
+        "mesh_attribute" => Texture::MeshAttribute {
+            face: mesh_attribute_name(p, &p.string("name")?)?,
+            scale: finite(p, "scale", p.f32_or("scale", 1.0)?)?,
+        },
         _ => {
             return Err(p.error(
                 "type",
-                format!("unknown texture type '{ty}' (available: constant, checkerboard, image)"),
+                format!("unknown texture type '{ty}' (available: constant, checkerboard, image, mesh_attribute)"),
             ))
         }
     };
@@ -1141,7 +1165,7 @@ fn texture_ref(p: &Props, legacy: &str) -> Result<TextureRef> {
 }
 
 /// Every material type, as the error for an unknown one lists them.
-const MATERIAL_TYPES: [&str; 10] = [
+const MATERIAL_TYPES: [&str; 13] = [
     "diffuse",
     "refraction",
     "glass",
@@ -1152,54 +1176,135 @@ const MATERIAL_TYPES: [&str; 10] = [
     "plastic",
     "roughplastic",
     "twosided",
+    "bumpmap",
+    "normalmap",
+    "mask",
 ];
 
-/// `materials`: every entry by [`parse_material`]; then each `twosided` gets a copy
-/// of the materials it names (which must be defined, and neither `twosided` nor
-/// transmitting).
+/// The material types that wrap others by name (`material_name`).
+const WRAPPERS: [&str; 4] = ["twosided", "bumpmap", "normalmap", "mask"];
+
+/// `materials`: every entry by [`parse_material`]; then each wrapper (`twosided`,
+/// `bumpmap`, `normalmap`, `mask`) gets a copy of the materials it names, wrappers
+/// of wrappers once those are built. The rules: the named materials must be defined
+/// and not form a cycle; `twosided` wraps neither a `twosided` nor a transmitting
+/// material; a `mask` is outermost (nothing wraps it); bump and normal maps do not
+/// wrap each other.
 fn parse_materials(root: &Props) -> Result<Vec<MaterialDesc>> {
     let entries = root.named_objects("materials")?;
     let mut slots: Vec<Option<MaterialDesc>> = Vec::with_capacity(entries.len());
+    let mut types = Vec::with_capacity(entries.len());
     for (name, p) in &entries {
         let ty = p.string_or("type", "diffuse")?;
-        slots.push(if ty == "twosided" {
+        slots.push(if WRAPPERS.contains(&ty.as_str()) {
             None
         } else {
             Some(parse_material(name, p, &ty)?)
         });
+        types.push(ty);
     }
-    for i in 0..entries.len() {
-        if slots[i].is_some() {
-            continue;
-        }
-        let (name, p) = &entries[i];
-        let named = |key: &str, target: Option<String>| -> Result<Option<Box<Material<TextureRef>>>> {
-            let Some(target) = target else { return Ok(None) };
-            let Some(j) = entries.iter().position(|(n, _)| *n == target) else {
-                let known: Vec<&str> = entries.iter().map(|(n, _)| n.as_str()).collect();
-                return Err(p.error(key, format!("no material named '{target}' (defined: {})", known.join(", "))));
-            };
-            match &slots[j] {
-                None => Err(p.error(key, format!("'{target}' is a twosided material itself; twosided cannot nest"))),
-                Some(m) if matches!(m.material, Material::TwoSided { .. }) => {
-                    Err(p.error(key, format!("'{target}' is a twosided material itself; twosided cannot nest")))
-                }
-                Some(m) if m.material.transmits() => {
-                    Err(p.error(key, format!("'{target}' transmits light; twosided wraps only reflecting materials")))
-                }
-                Some(m) => Ok(Some(Box::new(m.material.clone()))),
+    loop {
+        let mut progress = false;
+        let mut waiting = None;
+        for i in 0..entries.len() {
+            if slots[i].is_some() {
+                continue;
             }
-        };
-        let front = named("material_name", Some(p.string("material_name")?))?.expect("given");
-        let back = named("back_material_name", p.string_opt("back_material_name")?)?;
-        p.finish();
-        slots[i] = Some(MaterialDesc {
-            name: name.clone(),
-            source: p.own_source(),
-            material: Material::TwoSided { front, back },
-        });
+            let (name, p) = &entries[i];
+            let ty = types[i].as_str();
+            // the materials it names, by index; None: one of them is not built yet
+            let target = |key: &str, target: Option<String>| -> Result<Option<usize>> {
+                let Some(target) = target else { return Ok(None) };
+                match entries.iter().position(|(n, _)| *n == target) {
+                    Some(j) => Ok(Some(j)),
+                    None => {
+                        let known: Vec<&str> = entries.iter().map(|(n, _)| n.as_str()).collect();
+                        Err(p.error(key, format!("no material named '{target}' (defined: {})", known.join(", "))))
+                    }
+                }
+            };
+            let front = target("material_name", Some(p.string("material_name")?))?.expect("given");
+            let back = if ty == "twosided" {
+                target("back_material_name", p.string_opt("back_material_name")?)?
+            } else {
+                None
+            };
+            if [Some(front), back].iter().flatten().any(|&j| slots[j].is_none()) {
+                waiting.get_or_insert(i);
+                continue;
+            }
+            let get = |key: &str, j: usize| -> Result<Box<Material<TextureRef>>> {
+                let (target, m) = (&entries[j].0, &slots[j].as_ref().expect("built").material);
+                let wrapped = |why: &str| Err(p.error(key, format!("'{target}' {why}")));
+                match (ty, m) {
+                    (_, Material::Mask { .. }) => wrapped("is a mask; a mask must be the outermost material (put the others inside it)")?,
+                    ("twosided", Material::TwoSided { .. }) => wrapped("is a twosided material itself; twosided cannot nest")?,
+                    ("twosided", m) if m.transmits() => wrapped("transmits light; twosided wraps only reflecting materials")?,
+                    ("bumpmap" | "normalmap", Material::BumpMap { .. } | Material::NormalMap { .. }) => {
+                        wrapped("is a bump or normal map itself; they cannot wrap each other")?
+                    }
+                    _ => Ok(Box::new(m.clone())),
+                }
+            };
+            let inner = get("material_name", front)?;
+            let material = match ty {
+                "twosided" => Material::TwoSided {
+                    front: inner,
+                    back: back.map(|j| get("back_material_name", j)).transpose()?,
+                },
+                "bumpmap" => Material::BumpMap {
+                    height: TextureRef::Named(p.located("texture_name", p.string("texture_name")?)),
+                    scale: finite(p, "scale", p.f32_or("scale", 1.0)?)?,
+                    options: perturb_options(p)?,
+                    inner,
+                },
+                "normalmap" => Material::NormalMap {
+                    normals: TextureRef::Named(p.located("texture_name", p.string("texture_name")?)),
+                    options: perturb_options(p)?,
+                    inner,
+                },
+                _ => Material::Mask {
+                    opacity: match (p.string_opt("texture_name")?, p.contains("opacity")) {
+                        (Some(_), true) => return Err(p.error("opacity", "give an 'opacity' or a 'texture_name', not both")),
+                        (Some(t), false) => TextureRef::Named(p.located("texture_name", t)),
+                        (None, _) => TextureRef::Color(Vec3::splat(in_range(p, "opacity", p.f32_or("opacity", 0.5)?, 0.0, 1.0)?)),
+                    },
+                    inner,
+                },
+            };
+            p.finish();
+            slots[i] = Some(MaterialDesc {
+                name: name.clone(),
+                source: p.own_source(),
+                material,
+            });
+            progress = true;
+        }
+        match waiting {
+            None => break,
+            Some(i) if !progress => {
+                return Err(entries[i].1.error("material_name", "materials that wrap each other form a cycle"));
+            }
+            Some(_) => {}
+        }
     }
     Ok(slots.into_iter().flatten().collect())
+}
+
+/// `flip_invalid_normals` and `use_shadowing_function` (both true) of a bump or normal map.
+fn perturb_options(p: &Props) -> Result<crate::material::bump::PerturbOptions> {
+    Ok(crate::material::bump::PerturbOptions {
+        flip_invalid_normals: p.bool_or("flip_invalid_normals", true)?,
+        use_shadowing_function: p.bool_or("use_shadowing_function", true)?,
+    })
+}
+
+/// A finite number.
+fn finite(p: &Props, key: &str, v: f32) -> Result<f32> {
+    if !v.is_finite() {
+        return Err(p.error(key, format!("must be a finite number, found {v}")));
+    }
+    Ok(v)
 }
 
 /// `distribution`: `"beckmann"` (the default) or `"ggx"`.

@@ -28,6 +28,10 @@ pub struct Interaction {
     /// Direction back along the incoming ray.
     pub wo: Vec3,
     pub object: u32,
+    /// The mesh's vertex colour interpolated with the barycentrics, and its face
+    /// colour (zero where the mesh has none; spheres have none).
+    pub vertex_color: Vec3,
+    pub face_color: Vec3,
 }
 
 /// Order of a sphere's texture coordinates (which one is the azimuth).
@@ -79,6 +83,13 @@ impl Interaction {
         };
         let uv = uvs[0] * b[0] + uvs[1] * b[1] + uvs[2] * b[2];
         let (dpdu, dpdv) = triangle_dpduv(p, &uvs).unwrap_or_else(|| fallback_dpduv(ng));
+        let vertex_color = if mesh.vertex_colors.is_empty() {
+            Vec3::ZERO
+        } else {
+            let c = tri.p.map(|i| mesh.vertex_colors[i as usize]);
+            (c[0] * b[0] + c[1] * b[1]) + c[2] * b[2]
+        };
+        let face_color = mesh.face_colors.get(index as usize).copied().unwrap_or(Vec3::ZERO);
         Interaction {
             p: pos,
             ng,
@@ -90,6 +101,8 @@ impl Interaction {
             duvdy: Vec2::ZERO,
             wo,
             object,
+            vertex_color,
+            face_color,
         }
     }
 
@@ -119,6 +132,8 @@ impl Interaction {
             duvdy: Vec2::ZERO,
             wo,
             object,
+            vertex_color: Vec3::ZERO,
+            face_color: Vec3::ZERO,
         }
     }
 
@@ -142,6 +157,8 @@ impl Interaction {
             duvdy: Vec2::ZERO,
             wo,
             object,
+            vertex_color: Vec3::ZERO,
+            face_color: Vec3::ZERO,
         }
     }
 

@@ -9,6 +9,10 @@ pub struct Mesh {
     pub normals: Vec<Vec3>,
     pub uvs: Vec<Vec2>,
     pub triangles: Vec<ObjTriangle>,
+    /// Per-vertex colours (indexed like `positions`) and per-triangle colours (like
+    /// `triangles`) from a PLY file; empty when it had none (the `mesh_attribute` texture).
+    pub vertex_colors: Vec<Vec3>,
+    pub face_colors: Vec<Vec3>,
 }
 
 /// What [`Mesh::from_obj`] dropped or changed, for the caller's warnings.
@@ -49,7 +53,8 @@ impl Mesh {
             .collect();
         let mut report = MeshReport::default();
         let mut triangles = Vec::with_capacity(obj.triangles.len());
-        for mut t in obj.triangles {
+        let mut face_colors = Vec::with_capacity(obj.face_colors.len());
+        for (i, mut t) in obj.triangles.into_iter().enumerate() {
             let p = t.p.map(|i| positions[i as usize]);
             let c = (p[1] - p[0]).cross(p[2] - p[0]);
             let max = crate::limits::MAX_COORD;
@@ -79,6 +84,9 @@ impl Mesh {
                 }
             }
             triangles.push(t);
+            if let Some(&c) = obj.face_colors.get(i) {
+                face_colors.push(c);
+            }
         }
         (
             Mesh {
@@ -86,6 +94,8 @@ impl Mesh {
                 normals,
                 uvs: obj.uvs,
                 triangles,
+                vertex_colors: obj.vertex_colors,
+                face_colors,
             },
             report,
         )

@@ -33,6 +33,11 @@ pub struct ObjData {
     pub uvs: Vec<Vec2>,
     pub triangles: Vec<ObjTriangle>,
     pub warnings: Vec<String>,
+    /// Colours a PLY file gives its vertices (`red green blue`: Mitsuba's
+    /// `vertex_color`), one per position, or none.
+    pub vertex_colors: Vec<Vec3>,
+    /// Colours a PLY file gives its faces (Mitsuba's `face_color`), one per triangle.
+    pub face_colors: Vec<Vec3>,
 }
 
 #[derive(Debug, thiserror::Error)]

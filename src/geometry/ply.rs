@@ -143,6 +143,21 @@ pub fn parse_ply(bytes: &[u8]) -> Result<ObjData> {
     let uv_names = [("u", "v"), ("s", "t"), ("texture_u", "texture_v"), ("texture_s", "texture_t")]
         .into_iter()
         .find(|(a, b)| has(a) && has(b));
+    // colours (Mitsuba's `vertex_color` / `face_color` attributes): `red green blue`
+    // or `r g b`, integers scaled by their type's maximum (uchar: 1/255), floats as they are
+    let colour_names = |element: &str| -> Option<[&'static str; 3]> {
+        let props: &[Prop] = elements.iter().find(|e| e.0 == element).map_or(&[], |e| &e.2);
+        let has = |n: &str| props.iter().any(|p| p.2 == n && p.1.is_none());
+        [["red", "green", "blue"], ["r", "g", "b"]]
+            .into_iter()
+            .find(|c| c.iter().all(|n| has(n)))
+    };
+    let (vertex_colour, face_colour) = (colour_names("vertex"), colour_names("face"));
+    let colour_scale = |t: &str| match t {
+        "uchar" | "uint8" => 1.0 / 255.0,
+        "ushort" | "uint16" => 1.0 / 65535.0,
+        _ => 1.0,
+    };
     if vertex_props.iter().all(|p| p.2 != "x") && elements.iter().any(|e| e.0 == "vertex" && e.1 > 0) {
         bail!("element 'vertex' has no property 'x'");
     }
@@ -152,6 +167,14 @@ pub fn parse_ply(bytes: &[u8]) -> Result<ObjData> {
         }
         for _ in 0..*count {
             let (mut xyz, mut n, mut uv) = ([0.0f32; 3], [0.0f32; 3], [0.0f32; 2]);
+            let mut rgb = [0.0f32; 3];
+            let colour = if name == "vertex" {
+                vertex_colour
+            } else if name == "face" {
+                face_colour
+            } else {
+                None
+            };
             let mut face: Vec<u32> = Vec::new();
             for (t, list, pname) in props {
                 match list {
@@ -166,7 +189,11 @@ pub fn parse_ply(bytes: &[u8]) -> Result<ObjData> {
                             "nz" => n[2] = v,
                             p if uv_names.is_some_and(|(a, _)| a == p) => uv[0] = v,
                             p if uv_names.is_some_and(|(_, b)| b == p) => uv[1] = v,
-                            _ => {}
+                            p => {
+                                if let Some(k) = colour.and_then(|c| c.iter().position(|c| *c == p)) {
+                                    rgb[k] = v * colour_scale(t);
+                                }
+                            }
                         }
                     }
                     Some(ct) => {
@@ -197,6 +224,9 @@ pub fn parse_ply(bytes: &[u8]) -> Result<ObjData> {
                 if uv_names.is_some() {
                     data.uvs.push(Vec2::from_array(uv));
                 }
+                if vertex_colour.is_some() {
+                    data.vertex_colors.push(Vec3::from_array(rgb));
+                }
             } else if name == "face" {
                 for k in 2..face.len() {
                     let idx = [face[0], face[k - 1], face[k]];
@@ -206,6 +236,9 @@ pub fn parse_ply(bytes: &[u8]) -> Result<ObjData> {
                         uv: uv_names.is_some().then_some(idx),
                         line: 0,
                     });
+                    if face_colour.is_some() {
+                        data.face_colors.push(Vec3::from_array(rgb));
+                    }
                 }
             }
         }

@@ -252,6 +252,7 @@ mod tests {
                 line: 0,
             }],
             warnings: Vec::new(),
+            ..Default::default()
         };
         let bytes = write(&[("a", &d), ("b", &d)]);
         let m = parse(&bytes, 1).unwrap();

@@ -24,6 +24,7 @@ pub fn rectangle() -> ObjData {
         uvs: c.iter().map(|&(x, y)| Vec2::new((x + 1.0) / 2.0, 1.0 - (y + 1.0) / 2.0)).collect(),
         triangles: vec![tri([0, 1, 2]), tri([2, 3, 0])],
         warnings: Vec::new(),
+        ..Default::default()
     }
 }
 

@@ -81,8 +81,7 @@ pub fn features(scene: &Scene, ray: &Ray, sampler: &mut PixelSampler) -> AovSamp
             out.normal = it.ns;
             break;
         };
-        let tc = it.tex_coord();
-        let bsdf = material.bsdf(it.ns, it.wo, |t| scene.textures[t as usize].eval(tc));
+        let bsdf = material.bsdf_at(&it, &scene.textures);
         let uc = sampler.next_1d();
         let bs = bsdf.sample(it.wo, Vec2::from(sampler.next_2d()), uc);
         if !bsdf.is_delta() {

@@ -112,8 +112,7 @@ fn li(
         }
         // an emitter without a material does not reflect (Mitsuba gives it a black BSDF)
         let Some(material) = scene.material_of(&it) else { break };
-        let tc = it.tex_coord();
-        let bsdf = material.bsdf(it.ns, it.wo, |t| scene.textures[t as usize].eval(tc));
+        let bsdf = material.bsdf_at(&it, &scene.textures);
 
         if profile != PathProfile::RandomWalk && !bsdf.is_delta() && !scene.lights.is_empty() {
             let (index, pmf, _) = scene.light_sampler.sample(sampler.next_1d());

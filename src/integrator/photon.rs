@@ -163,8 +163,7 @@ fn trace_photon(scene: &Scene, s: Shooting, rng: &mut SplitMix64, store: &mut im
         let Some(hit) = scene.intersect(&ray) else { break };
         let it = scene.interaction(&ray, &hit);
         let Some(material) = scene.material_of(&it) else { break };
-        let tc = it.tex_coord();
-        let bsdf = material.bsdf(it.ns, it.wo, |t| scene.textures[t as usize].eval(tc));
+        let bsdf = material.bsdf_at(&it, &scene.textures);
         if !bsdf.is_delta() && segments >= 2 {
             store(
                 it.p,
@@ -284,8 +283,7 @@ pub fn camera_path(
             return (l, None);
         }
         let Some(material) = scene.material_of(&it) else { return (l, None) };
-        let tc = it.tex_coord();
-        let bsdf = material.bsdf(it.ns, it.wo, |t| scene.textures[t as usize].eval(tc));
+        let bsdf = material.bsdf_at(&it, &scene.textures);
         if !bsdf.is_delta() {
             l += beta * direct_light(scene, &it, &bsdf, sampler, counts);
             if !(through_glossy && is_glossy(&bsdf)) {

@@ -38,6 +38,11 @@ pub enum BsdfKind {
 pub struct Bsdf {
     pub frame: Frame,
     pub kind: BsdfKind,
+    /// Set by `bumpmap` and `normalmap` ([`super::bump`]): `frame` is then the perturbed
+    /// frame and this holds the surface's own shading normal, for Mitsuba's side test,
+    /// its shadow-terminator factor and the change of cosine (integrators weight by the
+    /// cosine to the interaction's shading normal).
+    pub perturbed: Option<super::bump::Perturbation>,
 }
 
 impl Bsdf {
@@ -60,6 +65,17 @@ impl Bsdf {
     /// f(wo, wi) for radiance or importance transport: they differ only where light
     /// is refracted (`roughdielectric`).
     pub fn eval_mode(&self, wo: Vec3, wi: Vec3, mode: TransportMode) -> Vec3 {
+        match self.perturbed {
+            None => self.eval_frame(wo, wi, mode),
+            Some(p) => match p.eval_factor(self.frame.n, wi) {
+                Some(k) => self.eval_frame(wo, wi, mode) * k,
+                None => Vec3::ZERO,
+            },
+        }
+    }
+
+    /// f(wo, wi) in this BSDF's own frame (the perturbed one of a bump or normal map).
+    fn eval_frame(&self, wo: Vec3, wi: Vec3, mode: TransportMode) -> Vec3 {
         match self.kind {
             BsdfKind::RoughDielectric(b) => b.eval(self.frame.to_local(wo), self.frame.to_local(wi), mode),
             BsdfKind::Plastic(b) => b.eval(self.frame.to_local(wo), self.frame.to_local(wi)),
@@ -92,6 +108,14 @@ impl Bsdf {
 
     /// The solid-angle density with which [`Bsdf::sample`] from `wo` returns `wi`.
     pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        match self.perturbed {
+            None => self.pdf_frame(wo, wi),
+            Some(p) if p.same_side(self.frame.n, wi) => self.pdf_frame(wo, wi),
+            Some(_) => 0.0,
+        }
+    }
+
+    fn pdf_frame(&self, wo: Vec3, wi: Vec3) -> f32 {
         match self.kind {
             BsdfKind::Diffuse { .. } => {
                 let (zo, zi) = (wo.dot(self.frame.n), wi.dot(self.frame.n));
@@ -124,7 +148,7 @@ impl Bsdf {
     /// `(pdf(a, b), pdf(b, a))`, sharing the change of frame (bit-identical to two calls).
     pub fn pdf_pair(&self, a: Vec3, b: Vec3) -> (f32, f32) {
         match self.kind {
-            BsdfKind::Diffuse { .. } => {
+            BsdfKind::Diffuse { .. } if self.perturbed.is_none() => {
                 let (za, zb) = (a.dot(self.frame.n), b.dot(self.frame.n));
                 if za > 0.0 && zb > 0.0 {
                     (zb * INV_PI, za * INV_PI)
@@ -143,6 +167,16 @@ impl Bsdf {
 
     /// [`Bsdf::sample`] for radiance or importance transport (see [`TransportMode`]).
     pub fn sample_mode(&self, wo: Vec3, u: Vec2, uc: f32, mode: TransportMode) -> Option<BsdfSample> {
+        let s = self.sample_frame(wo, u, uc, mode)?;
+        match self.perturbed {
+            None => Some(s),
+            Some(p) => p
+                .sample_weight(self.frame.n, s.wi)
+                .map(|k| BsdfSample { weight: s.weight * k, ..s }),
+        }
+    }
+
+    fn sample_frame(&self, wo: Vec3, u: Vec2, uc: f32, mode: TransportMode) -> Option<BsdfSample> {
         let radiance = mode == TransportMode::Radiance;
         let o = self.frame.to_local(wo);
         let world = |l: Vec3| self.frame.to_world(l);

@@ -16,6 +16,7 @@
 //! Mitsuba's bare `roughconductor` is black from behind.
 
 pub mod bsdf;
+pub mod bump;
 pub mod conductor;
 pub mod dielectric;
 pub mod fresnel;
@@ -27,7 +28,9 @@ pub use bsdf::{Bsdf, BsdfKind};
 pub use microfacet::Distribution;
 pub use sample::{BsdfSample, TransportMode};
 
-use crate::math::{Frame, Vec3};
+use crate::math::{Frame, Vec2, Vec3};
+use crate::texture::{TexCoord, Texture};
+use bump::{PerturbOptions, ShadingGeometry};
 use plastic::CoatingTables;
 
 /// A material, `materials.<name>` in a scene: `type` (`"diffuse"`) and the keys of
@@ -132,6 +135,47 @@ pub enum Material<T = u32> {
         front: Box<Material<T>>,
         back: Option<Box<Material<T>>>,
     },
+    /// `bumpmap` (Mitsuba `bumpmap`): `material_name` (required, the wrapped material),
+    /// `texture_name` (required, the height field; its luminance's uv gradient is used,
+    /// bilinear on the full-resolution image as Mitsuba's `bitmap`; constant and
+    /// checkerboard textures have none), `scale` (1, Mitsuba's `scale`),
+    /// `flip_invalid_normals` (true), `use_shadowing_function` (true). The shading frame
+    /// it builds, and what it does about black fringes and light leaks: [`bump`].
+    ///
+    /// ```json
+    /// "bumpy": {"type": "bumpmap", "material_name": "red_plastic", "texture_name": "heights", "scale": 0.5}
+    /// ```
+    BumpMap {
+        height: T,
+        scale: f32,
+        options: PerturbOptions,
+        inner: Box<Material<T>>,
+    },
+    /// `normalmap` (Mitsuba `normalmap`): `material_name` (required), `texture_name`
+    /// (required, tangent-space normals encoded `(n + 1)/2`, read without filtering:
+    /// give an EXR, or a PNG whose values are not sRGB-encoded colours),
+    /// `flip_invalid_normals` (true), `use_shadowing_function` (true); see [`bump`].
+    ///
+    /// ```json
+    /// "tiles": {"type": "normalmap", "material_name": "white", "texture_name": "tile_normals"}
+    /// ```
+    NormalMap {
+        normals: T,
+        options: PerturbOptions,
+        inner: Box<Material<T>>,
+    },
+    /// `mask` (Mitsuba `mask`): alpha cut-outs. `material_name` (required), `opacity`
+    /// (number in [0, 1], 0.5 as Mitsuba's) or `texture_name` (an opacity texture, its
+    /// luminance). A hit is kept with probability `opacity` and otherwise passed through
+    /// as if the surface were not there, by every ray — camera, bounce, shadow and light
+    /// rays alike ([`crate::scene::Scene::intersect`]): Mitsuba's `volpath` semantics
+    /// (its `path` integrator lets shadow rays stop at masked surfaces). Binary masks
+    /// (opacity 0 or 1) are deterministic. An emitting object may not be masked.
+    ///
+    /// ```json
+    /// "leaf": {"type": "mask", "material_name": "leaf_green", "texture_name": "leaf_alpha"}
+    /// ```
+    Mask { opacity: T, inner: Box<Material<T>> },
 }
 impl<T> Material<T> {
     /// Specular materials have a Dirac-delta BSDF.
@@ -139,16 +183,37 @@ impl<T> Material<T> {
         match self {
             Material::Refraction { .. } | Material::Glass { .. } | Material::Conductor { .. } | Material::ThinDielectric { .. } => true,
             Material::TwoSided { front, back } => front.is_delta() && back.as_ref().is_none_or(|b| b.is_delta()),
+            Material::BumpMap { inner, .. } | Material::NormalMap { inner, .. } | Material::Mask { inner, .. } => inner.is_delta(),
             _ => false,
         }
     }
 
     /// Whether light passes through (what `twosided` may not wrap).
     pub fn transmits(&self) -> bool {
-        matches!(
-            self,
-            Material::Refraction { .. } | Material::Glass { .. } | Material::ThinDielectric { .. } | Material::RoughDielectric { .. }
-        )
+        match self {
+            Material::BumpMap { inner, .. } | Material::NormalMap { inner, .. } | Material::Mask { inner, .. } => inner.transmits(),
+            _ => matches!(
+                self,
+                Material::Refraction { .. } | Material::Glass { .. } | Material::ThinDielectric { .. } | Material::RoughDielectric { .. }
+            ),
+        }
+    }
+
+    /// The material with any `mask` around it taken off: masks act when rays are
+    /// intersected ([`crate::scene::Scene::intersect`]), what is hit is the inner material.
+    pub fn unmasked(&self) -> &Material<T> {
+        match self {
+            Material::Mask { inner, .. } => inner.unmasked(),
+            m => m,
+        }
+    }
+
+    /// The opacity texture of a `mask` (the outermost wrapper only).
+    pub fn mask_opacity(&self) -> Option<&T> {
+        match self {
+            Material::Mask { opacity, .. } => Some(opacity),
+            _ => None,
+        }
     }
 
     /// The same material with every texture replaced by `f(texture)` (in declaration
@@ -251,6 +316,26 @@ impl<T> Material<T> {
                     None => None,
                 },
             },
+            Material::BumpMap {
+                height,
+                scale,
+                options,
+                inner,
+            } => Material::BumpMap {
+                height: f(height)?,
+                scale: *scale,
+                options: *options,
+                inner: Box::new(inner.map_with(f)?),
+            },
+            Material::NormalMap { normals, options, inner } => Material::NormalMap {
+                normals: f(normals)?,
+                options: *options,
+                inner: Box::new(inner.map_with(f)?),
+            },
+            Material::Mask { opacity, inner } => Material::Mask {
+                opacity: f(opacity)?,
+                inner: Box::new(inner.map_with(f)?),
+            },
         })
     }
 
@@ -284,6 +369,7 @@ impl<T> Material<T> {
                     b.prepare(mean);
                 }
             }
+            Material::BumpMap { inner, .. } | Material::NormalMap { inner, .. } | Material::Mask { inner, .. } => inner.prepare(mean),
             _ => {}
         }
     }
@@ -304,11 +390,42 @@ impl Material {
     /// evaluates a texture there. One-sided materials keep `ns`; two-sided ones
     /// (`twosided` diffuse, `roughconductor`, dielectrics) face the viewer or handle
     /// both sides themselves.
+    /// Without a surface's uv tangents: bump and normal maps see an arbitrary frame
+    /// around `ns` and a flat height field (use [`Material::bsdf_at`] for them).
     pub fn bsdf(&self, ns: Vec3, wo: Vec3, tint: impl Fn(u32) -> Vec3) -> Bsdf {
-        self.bsdf_with(ns, wo, &tint)
+        let (dpdu, dpdv) = crate::math::coordinate_system(ns);
+        let g = ShadingGeometry {
+            ns,
+            ng: ns,
+            dpdu,
+            dpdv,
+            wo,
+        };
+        self.bsdf_with(&g, &Tint(tint))
     }
 
-    fn bsdf_with<F: Fn(u32) -> Vec3>(&self, ns: Vec3, wo: Vec3, tint: &F) -> Bsdf {
+    /// The BSDF at the surface point `it`, its textures looked up in `textures`: what
+    /// the integrators use (bump and normal maps need the point's uv tangents).
+    pub fn bsdf_at(&self, it: &crate::geometry::interaction::Interaction, textures: &[Texture]) -> Bsdf {
+        let g = ShadingGeometry {
+            ns: it.ns,
+            ng: it.ng,
+            dpdu: it.dpdu,
+            dpdv: it.dpdv,
+            wo: it.wo,
+        };
+        self.bsdf_with(
+            &g,
+            &SceneTextures {
+                textures,
+                tc: it.tex_coord(),
+            },
+        )
+    }
+
+    fn bsdf_with<L: TextureLookup>(&self, g: &ShadingGeometry, lookup: &L) -> Bsdf {
+        let (ns, wo) = (g.ns, g.wo);
+        let tint = &|t: u32| lookup.eval(t);
         let facing = if ns.dot(wo) < 0.0 { -ns } else { ns };
         let (n, kind) = match *self {
             Material::Diffuse { texture, twosided } => (if twosided { facing } else { ns }, BsdfKind::Diffuse { albedo: tint(texture) }),
@@ -416,16 +533,95 @@ impl Material {
             }
             Material::TwoSided { ref front, ref back } => {
                 // the back side is the (back) material's front: its frame flipped
+                let flipped = ShadingGeometry { ns: -ns, ng: -g.ng, ..*g };
                 return match (ns.dot(wo) >= 0.0, back) {
-                    (true, _) => front.bsdf_with(ns, wo, tint),
-                    (false, None) => front.bsdf_with(-ns, wo, tint),
-                    (false, Some(b)) => b.bsdf_with(-ns, wo, tint),
+                    (true, _) => front.bsdf_with(g, lookup),
+                    (false, None) => front.bsdf_with(&flipped, lookup),
+                    (false, Some(b)) => b.bsdf_with(&flipped, lookup),
                 };
             }
+            Material::BumpMap {
+                height,
+                scale,
+                options,
+                ref inner,
+            } => {
+                let base = bump::shading_frame(ns, g.dpdu);
+                let n = bump::bump_normal(g, &base, scale * lookup.gradient(height));
+                return perturbed(inner, g, lookup, base, n, options);
+            }
+            Material::NormalMap {
+                normals,
+                options,
+                ref inner,
+            } => {
+                let base = bump::shading_frame(ns, g.dpdu);
+                let n = bump::decode_normal(lookup.eval_unfiltered(normals));
+                return perturbed(inner, g, lookup, base, n, options);
+            }
+            Material::Mask { ref inner, .. } => return inner.bsdf_with(g, lookup),
         };
         Bsdf {
             frame: Frame::from_normal(n),
             kind,
+            perturbed: None,
         }
+    }
+}
+
+/// `inner`'s BSDF in the frame that the perturbed normal `n` (local to `base`) makes.
+fn perturbed<L: TextureLookup>(inner: &Material, g: &ShadingGeometry, lookup: &L, base: Frame, n: Vec3, options: PerturbOptions) -> Bsdf {
+    let (frame, p) = bump::perturbed_frame(n, &base, base.to_local(g.wo), options);
+    let mut b = inner.bsdf_with(&ShadingGeometry { ns: frame.n, ..*g }, lookup);
+    if b.frame.n == frame.n {
+        b.frame = frame; // Mitsuba's tangent, for anisotropic materials
+    }
+    b.perturbed = Some(p);
+    b
+}
+
+/// How a material reads its textures at the point it is evaluated.
+trait TextureLookup {
+    /// The value, filtered by the point's footprint.
+    fn eval(&self, t: u32) -> Vec3;
+    /// The value on the full-resolution image (bilinear), as Mitsuba's `bitmap`.
+    fn eval_unfiltered(&self, t: u32) -> Vec3;
+    /// The uv gradient of the luminance (zero where the texture has none).
+    fn gradient(&self, t: u32) -> Vec2;
+}
+
+struct Tint<F>(F);
+
+impl<F: Fn(u32) -> Vec3> TextureLookup for Tint<F> {
+    fn eval(&self, t: u32) -> Vec3 {
+        (self.0)(t)
+    }
+    fn eval_unfiltered(&self, t: u32) -> Vec3 {
+        (self.0)(t)
+    }
+    fn gradient(&self, _: u32) -> Vec2 {
+        Vec2::ZERO
+    }
+}
+
+struct SceneTextures<'a> {
+    textures: &'a [Texture],
+    tc: TexCoord,
+}
+
+impl TextureLookup for SceneTextures<'_> {
+    #[inline]
+    fn eval(&self, t: u32) -> Vec3 {
+        self.textures[t as usize].eval(self.tc)
+    }
+    fn eval_unfiltered(&self, t: u32) -> Vec3 {
+        self.textures[t as usize].eval(TexCoord {
+            duvdx: Vec2::ZERO,
+            duvdy: Vec2::ZERO,
+            ..self.tc
+        })
+    }
+    fn gradient(&self, t: u32) -> Vec2 {
+        self.textures[t as usize].luminance_gradient(self.tc.uv)
     }
 }

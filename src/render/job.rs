@@ -66,6 +66,13 @@ impl RenderJob {
                     "--compat rdr171 has the course renderer's meshes and spheres only (no cylinders or instances)",
                 ));
             }
+            if let Some(m) = desc.materials.iter().find(|m| m.material.mask_opacity().is_some()) {
+                return Err(SceneError::new(
+                    &desc.file,
+                    Some(&format!("materials.{}", m.name)),
+                    "--compat rdr171 (the course renderer's intersection_test) cannot render mask materials; render without --compat",
+                ));
+            }
         }
         if let (Some(l), Profile::Rdr171) = (desc.integrator.delta_lights.first(), profile) {
             return Err(SceneError::new(

@@ -16,7 +16,7 @@ use crate::geometry::sphere::Sphere;
 use crate::geometry::Ray;
 use crate::light::Light;
 use crate::material::Material;
-use crate::math::Vec3;
+use crate::math::{Vec2, Vec3};
 use crate::texture::{TexCoord, Texture, TextureConvention};
 
 /// An object's geometry, chosen by `objects[i].type`. The mesh is `M`: a file to
@@ -52,6 +52,8 @@ impl Interaction {
             uv: self.uv,
             duvdx: self.duvdx,
             duvdy: self.duvdy,
+            vertex_color: self.vertex_color,
+            face_color: self.face_color,
         }
     }
 }
@@ -86,12 +88,44 @@ pub struct Scene {
     pub bvh_seconds: f64,
     /// Sphere uv order (and image orientation, baked into the textures).
     pub texture_convention: TextureConvention,
+    /// Some object's material is a `mask`: hits are then tested for pass-through.
+    pub has_masks: bool,
+}
+
+/// Masked surfaces one ray passes through at most (a stack of cut-outs deeper than
+/// this counts as opaque).
+const MAX_MASK_PASSES: u32 = 256;
+
+/// A uniform number in [0, 1) for a mask's pass-through choice: a hash of the ray's
+/// origin, direction and the primitive hit.
+#[inline]
+fn mask_sample(r: &Ray, prim: u32) -> f32 {
+    use crate::sampler::hash_combine;
+    let h = [r.o.x, r.o.y, r.o.z, r.d.x, r.d.y, r.d.z]
+        .iter()
+        .fold(crate::sampler::hash_u32(prim), |h, v| hash_combine(h, v.to_bits()));
+    (h >> 8) as f32 * (1.0 / (1u32 << 24) as f32)
 }
 
 impl Scene {
-    /// Closest hit in `[ray.t_min, ray.t_max]`.
+    /// Closest hit in `[ray.t_min, ray.t_max]`. A hit on a `mask` material of opacity α
+    /// at the point is kept with probability α and otherwise passed through (the ray
+    /// goes on from just behind it; `t` stays the distance along `ray`), so every ray of
+    /// every integrator, shadow rays included, sees cut-outs (Mitsuba's `volpath`
+    /// semantics). The choice is a hash of the ray and the primitive: deterministic,
+    /// independent of threads, and exact for binary masks.
     #[inline]
     pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
+        let hit = self.intersect_unmasked(ray)?;
+        if !self.has_masks {
+            return Some(hit);
+        }
+        self.through_masks(ray, hit)
+    }
+
+    /// Closest hit, masks not applied: the scene's own BVH, or its two levels.
+    #[inline]
+    fn intersect_unmasked(&self, ray: &Ray) -> Option<Hit> {
         if self.instances.is_empty() {
             self.bvh.intersect(&self.prims, ray)
         } else {
@@ -109,14 +143,57 @@ impl Scene {
         }
     }
 
-    /// Whether anything lies on the ray within `[t_min, t_max]`.
+    /// Whether anything lies on the ray within `[t_min, t_max]` (masks as in
+    /// [`Scene::intersect`]).
     #[inline]
     pub fn occluded(&self, ray: &Ray) -> bool {
-        if self.instances.is_empty() {
-            self.bvh.occluded(&self.prims, ray)
-        } else {
-            self.two_level().occluded(&self.bvh, ray)
+        if !self.has_masks {
+            return if self.instances.is_empty() {
+                self.bvh.occluded(&self.prims, ray)
+            } else {
+                self.two_level().occluded(&self.bvh, ray)
+            };
         }
+        self.intersect(ray).is_some()
+    }
+
+    /// The first hit from `hit` on (the closest hit of `ray`) that a mask does not pass.
+    fn through_masks(&self, ray: &Ray, mut hit: Hit) -> Option<Hit> {
+        let mut r = *ray;
+        // distance along `ray` of the current ray's origin
+        let mut start = 0.0f32;
+        for _ in 0..MAX_MASK_PASSES {
+            let it = self.interaction(&r, &hit);
+            let opacity = match self.objects[it.object as usize].material {
+                Some(m) => self.materials[m as usize].mask_opacity(),
+                None => None,
+            };
+            let Some(&t) = opacity else {
+                hit.t += start;
+                return Some(hit);
+            };
+            let tc = crate::texture::TexCoord {
+                duvdx: Vec2::ZERO,
+                duvdy: Vec2::ZERO,
+                ..it.tex_coord()
+            };
+            let alpha = crate::texture::luminance(self.textures[t as usize].eval(tc));
+            if alpha >= 1.0 || (alpha > 0.0 && mask_sample(&r, hit.prim) < alpha) {
+                hit.t += start;
+                return Some(hit);
+            }
+            let side = if r.d.dot(it.ng) >= 0.0 { it.ng } else { -it.ng };
+            let o = crate::math::offset_ray_origin(it.p, side);
+            let advanced = (o - ray.o).dot(ray.d) / ray.d.length_squared();
+            if advanced.partial_cmp(&start) != Some(std::cmp::Ordering::Greater) || advanced >= ray.t_max {
+                return None;
+            }
+            start = advanced;
+            r = Ray::with_range(o, ray.d, (ray.t_min - start).max(0.0), ray.t_max - start);
+            hit = self.intersect_unmasked(&r)?;
+        }
+        hit.t += start;
+        Some(hit)
     }
 
     /// The surface point of a hit ([`Interaction::of_hit`]); spheres' uv order
@@ -188,8 +265,12 @@ impl Scene {
         }
     }
 
+    /// The material at `it`, any `mask` around it taken off (masks act in
+    /// [`Scene::intersect`]: a point that was hit is opaque).
     pub fn material_of(&self, it: &Interaction) -> Option<&Material> {
-        self.objects[it.object as usize].material.map(|m| &self.materials[m as usize])
+        self.objects[it.object as usize]
+            .material
+            .map(|m| self.materials[m as usize].unmasked())
     }
 
     /// Triangles in the top level (instanced ones not counted).

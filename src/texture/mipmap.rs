@@ -138,6 +138,39 @@ impl MipMap {
         l.texel(i.rem_euclid(l.width as i64) as usize, j.rem_euclid(l.height as i64) as usize)
     }
 
+    /// The st gradient of the luminance of [`MipMap::bilinear`] on level 0 (the
+    /// derivative of the bilinear interpolation inside the texel cell at `st`).
+    pub fn luminance_gradient(&self, st: Vec2) -> Vec2 {
+        let l = &self.levels[0];
+        let (w, h) = (l.width as f32, l.height as f32);
+        let lum = super::luminance;
+        let cell = |x: f32, y: f32| {
+            let (x0, y0) = (x.floor(), y.floor());
+            let (fx, fy) = (x - x0, y - y0);
+            let (wi, hi) = (l.width as i64, l.height as i64);
+            let (x0, y0) = (x0 as i64, y0 as i64);
+            let (xa, xb) = (x0.rem_euclid(wi) as usize, (x0 + 1).rem_euclid(wi) as usize);
+            let (ya, yb) = (y0.rem_euclid(hi) as usize, (y0 + 1).rem_euclid(hi) as usize);
+            let (f00, f10) = (lum(l.texel(xa, ya)), lum(l.texel(xb, ya)));
+            let (f01, f11) = (lum(l.texel(xa, yb)), lum(l.texel(xb, yb)));
+            Vec2::new(
+                (1.0 - fy) * (f10 - f00) + fy * (f11 - f01),
+                (1.0 - fx) * (f01 - f00) + fx * (f11 - f10),
+            )
+        };
+        match self.convention {
+            TextureConvention::Physical => {
+                let d = cell(st.x * w - 0.5, (1.0 - st.y) * h - 0.5);
+                // y = (1 − t)·h − ½ runs against t
+                Vec2::new(d.x * w, -d.y * h)
+            }
+            TextureConvention::Rdr171 => {
+                let d = cell((st.x * w - 0.5).max(0.0), (st.y * h - 0.5).max(0.0));
+                Vec2::new(d.x * w, d.y * h)
+            }
+        }
+    }
+
     /// The levels and weights a trilinear lookup with footprint width `width` (in st
     /// units) blends; the second weight is 0 when only one level is used.
     pub fn level_weights(&self, width: f32) -> [(usize, f32); 2] {

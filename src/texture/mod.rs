@@ -37,6 +37,10 @@ pub struct TexCoord {
     pub uv: Vec2,
     pub duvdx: Vec2,
     pub duvdy: Vec2,
+    /// The point's mesh attributes (zero where the mesh has none): what
+    /// [`Texture::MeshAttribute`] returns.
+    pub vertex_color: Vec3,
+    pub face_color: Vec3,
 }
 
 impl TexCoord {
@@ -47,6 +51,8 @@ impl TexCoord {
             uv,
             duvdx: Vec2::ZERO,
             duvdy: Vec2::ZERO,
+            vertex_color: Vec3::ZERO,
+            face_color: Vec3::ZERO,
         }
     }
 }
@@ -105,6 +111,17 @@ pub enum Texture<I = ImageTexture> {
     ///          "tex_coordinate_generator": {"type": "uvmapping2d", "scale": [4, 4]}}
     /// ```
     Image(I),
+    /// `mesh_attribute` (Mitsuba's `mesh_attribute`): a colour the mesh carries, read
+    /// from a PLY file's `red green blue` (or `r g b`) properties (integers divided by
+    /// their type's maximum, 255 for `uchar`; floats as they are). `name` (required):
+    /// `"vertex_color"` (per vertex, interpolated with the barycentrics) or
+    /// `"face_color"` (per face); `scale` (1). An object whose mesh lacks the attribute
+    /// is an error when the scene is built. No filtering, no uv gradient.
+    ///
+    /// ```json
+    /// "paint": {"type": "mesh_attribute", "name": "vertex_color"}
+    /// ```
+    MeshAttribute { face: bool, scale: f32 },
 }
 
 impl<I> Texture<I> {
@@ -119,6 +136,10 @@ impl<I> Texture<I> {
                 mapping: *mapping,
             },
             Texture::Image(i) => Texture::Image(f(i)?),
+            Texture::MeshAttribute { face, scale } => Texture::MeshAttribute {
+                face: *face,
+                scale: *scale,
+            },
         })
     }
 }
@@ -132,6 +153,18 @@ impl Texture {
             Texture::Constant(c) => *c,
             Texture::Checkerboard { color0, color1, .. } => 0.5 * (*color0 + *color1),
             Texture::Image(t) => t.mipmap.levels()[0].mean(),
+            // not known before a point is shaded
+            Texture::MeshAttribute { scale, .. } => Vec3::splat(0.5 * scale),
+        }
+    }
+
+    /// The uv gradient of the texture's luminance at `uv` (Mitsuba's `eval_1_grad`):
+    /// of an image, the bilinear interpolation of its full-resolution texels (through
+    /// the uv mapping); constants and checkerboards are flat almost everywhere (zero).
+    pub fn luminance_gradient(&self, uv: Vec2) -> Vec2 {
+        match self {
+            Texture::Constant(_) | Texture::Checkerboard { .. } | Texture::MeshAttribute { .. } => Vec2::ZERO,
+            Texture::Image(t) => t.mipmap.luminance_gradient(t.mapping.map(uv)) * t.mapping.scale,
         }
     }
 
@@ -152,8 +185,15 @@ impl Texture {
                 }
             }
             Texture::Image(t) => t.eval(&tc),
+            Texture::MeshAttribute { face, scale } => (if *face { tc.face_color } else { tc.vertex_color }) * *scale,
         }
     }
+}
+
+/// Rec. 709 luminance (Mitsuba's `luminance`, what its `eval_1` gives of a colour).
+#[inline]
+pub fn luminance(c: Vec3) -> f32 {
+    0.212671 * c.x + 0.715160 * c.y + 0.072169 * c.z
 }
 
 #[cfg(test)]

@@ -3,15 +3,15 @@
 //!
 //! | element | plugins and properties (defaults) |
 //! |---|---|
-//! | `<integrator>` | `path` (`max_depth` −1 = unbounded, capped at [`MAX_DEPTH`]; `rr_depth` 5, read and checked: rdr's Russian roulette is its own and unbiased; `hide_emitters` false, only false), `direct` (= `path` with `max_depth` 2: light at the first surface by emitter and BSDF sampling; `emitter_samples`, `bsdf_samples` noted), `ptracer`, `bdpt` (`max_depth`), `photonmapper`/`photon` (`global_photons` 100000, `lookup_size` 64 … rdr's `photon`), `sppm` (`photon_count`, `initial_radius`, `alpha` 0.7). No integrator: `path`. |
+//! | `<integrator>` | `path` and `volpath` (rdr has no media: `volpath` is `path`, whose rays pass through `mask`s as volpath's do; `max_depth` −1 = unbounded, capped at [`MAX_DEPTH`]; `rr_depth` 5, read and checked: rdr's Russian roulette is its own and unbiased; `hide_emitters` false, only false), `direct` (= `path` with `max_depth` 2: light at the first surface by emitter and BSDF sampling; `emitter_samples`, `bsdf_samples` noted), `ptracer`, `bdpt` (`max_depth`), `photonmapper`/`photon` (`global_photons` 100000, `lookup_size` 64 … rdr's `photon`), `sppm` (`photon_count`, `initial_radius`, `alpha` 0.7). No integrator: `path`. |
 //! | `<sensor>` | `perspective`: `fov` (or `focal_length`, "50mm" on the 36×24 mm diagonal), `fov_axis` (`x` \| `y` \| `diagonal` \| `smaller` \| `larger`, `x`), `to_world` (a rigid transform, no mirroring); `thinlens`: as `perspective`, and `aperture_radius` (required; 0 is a pinhole), `focus_distance` (`far_clip`, 10⁴), no scale in `to_world` (JSON `camera.type` `thinlens`); `orthographic`: `to_world` whose scale s (equal in x and y) sizes the window as Mitsuba's, 2s wide and 2s·height/width tall (JSON `orthographic` with that `height`); `near_clip`, `far_clip` are read and not applied. One sensor; more are ignored with a warning. Example: `<sensor type="orthographic"><transform name="to_world"><scale value="1.1"/><lookat origin="0, 1, 6.8" target="0, 1, 0" up="0, 1, 0"/></transform></sensor>`. |
 //! | `<film>` | `hdrfilm`: `width` 768, `height` 576, `rfilter` (default `gaussian`); `pixel_format`, `component_format`, `file_format`, `banner` noted. |
 //! | `<rfilter>` | `box` (`radius` 0.5), `tent` (`radius` 1), `gaussian` (`stddev` 0.5, radius 4·stddev), `mitchell` (`B`, `C` 1/3, radius 2) |
 //! | `<sampler>` | any type: `sample_count` (4) → spp; the type is noted, rdr uses its own sampler. |
 //! | `<shape>` | `obj`, `ply` (`filename`, `face_normals` false: else smooth vertex normals when the file has none; `flip_normals`; `flip_tex_coords`, true for OBJ, false for PLY), `serialized` (`filename`, `shape_index` 0), `rectangle`, `cube`, `disk` (generated meshes), `sphere` (`center` 0, `radius` 1), `cylinder` (open, analytic: `p0` (0,0,0), `p1` (0,0,1), `radius` 1, `flip_normals`; Mitsuba's uv (φ/2π, height), which rdr holds as (φ/2π, 1 − height) like a mesh's; `to_world` a rotation, translation and scale uniform across the axis); all take `to_world`, one `<bsdf>` and one `area` `<emitter>`. A shape with neither gets Mitsuba's default, a diffuse 0.5. `shapegroup` (an `id`, plain shapes inside, no emitters: Mitsuba refuses them too; rendered only through instances) and `instance` (a `<ref>` to a shapegroup, `to_world` affine and invertible): a two-level BVH, one bottom level per group shared by its instances. Example: `<shape type="shapegroup" id="g"><shape type="obj">…</shape></shape> <shape type="instance"><ref id="g"/><transform name="to_world"><translate x="2"/></transform></shape>`. |
-//! | `<bsdf>` | `diffuse` (`reflectance` 0.5, a colour or texture); `dielectric`, `thindielectric` (`int_ior` "bk7", `ext_ior` "air": numbers or names, η = int/ext; `specular_reflectance`, `specular_transmittance` 1, colours); `roughdielectric` (as `dielectric`, and `distribution` beckmann \| ggx, `alpha` 0.1 or `alpha_u`+`alpha_v`); `conductor` and `roughconductor` (`material` "none", or a name from [`values::NAMED_CONDUCTORS`] such as "Au"; else `eta` 0 / `k` 1 (a perfect mirror); `specular_reflectance` 1, a colour or texture; `roughconductor`'s `alpha`, `alpha_u`/`alpha_v`, `distribution` as `roughdielectric`; the 0.6 `ext_eta` folded into η and k); `plastic` (`diffuse_reflectance` 0.5, a colour or texture; `specular_reflectance` 1; `int_ior` "polypropylene" (1.49), `ext_ior` "air"; `nonlinear` false), `roughplastic` (as `plastic`, and `alpha` 0.1 (isotropic), `distribution` beckmann); `twosided` (one or two nested non-transmitting bsdfs: around one `diffuse` it is rdr's two-sided diffuse, around one `roughconductor` that material (rdr's is two-sided), otherwise rdr's `twosided` with the second as the back). Example: `<bsdf type="twosided"><bsdf type="roughplastic"><float name="alpha" value="0.2"/></bsdf></bsdf>`. |
+//! | `<bsdf>` | `diffuse` (`reflectance` 0.5, a colour or texture); `dielectric`, `thindielectric` (`int_ior` "bk7", `ext_ior` "air": numbers or names, η = int/ext; `specular_reflectance`, `specular_transmittance` 1, colours); `roughdielectric` (as `dielectric`, and `distribution` beckmann \| ggx, `alpha` 0.1 or `alpha_u`+`alpha_v`); `conductor` and `roughconductor` (`material` "none", or a name from [`values::NAMED_CONDUCTORS`] such as "Au"; else `eta` 0 / `k` 1 (a perfect mirror); `specular_reflectance` 1, a colour or texture; `roughconductor`'s `alpha`, `alpha_u`/`alpha_v`, `distribution` as `roughdielectric`; the 0.6 `ext_eta` folded into η and k); `plastic` (`diffuse_reflectance` 0.5, a colour or texture; `specular_reflectance` 1; `int_ior` "polypropylene" (1.49), `ext_ior` "air"; `nonlinear` false), `roughplastic` (as `plastic`, and `alpha` 0.1 (isotropic), `distribution` beckmann); `twosided` (one or two nested non-transmitting bsdfs: around one `diffuse` it is rdr's two-sided diffuse, around one `roughconductor` that material (rdr's is two-sided), otherwise rdr's `twosided` with the second as the back). `bumpmap` (one nested `<texture>`, the heights; `scale` 1; `flip_invalid_normals`, `use_shadowing_function` true), `normalmap` (`<texture name="normalmap">`, the same two switches), `mask` (`opacity` 0.5, a float or texture; outermost only), each around one nested `<bsdf>`; see [`crate::material::bump`] and [`Material::Mask`]. Example: `<bsdf type="twosided"><bsdf type="roughplastic"><float name="alpha" value="0.2"/></bsdf></bsdf>`. |
 //! | `<emitter>` | `area` (in a shape: `radiance` 1), `point` (`position` or `to_world`; `intensity` I (1) → flux 4πI), `spot` (`to_world`: at its origin, along its +z; `intensity` 1, `cutoff_angle` 20°, `beam_width` ¾ of it; linear falloff in angle), `directional` (`direction` or `to_world`'s +z, of travel; `irradiance` 1) — these two for every integrator, `constant` (`radiance` 1), `envmap` (`filename`, `scale` 1, `to_world`) |
-//! | `<texture>` | `bitmap` (`filename`, `to_uv`; `filter_type` `bilinear` (the full-resolution image: Mitsuba has no MIP maps) \| `nearest`; `raw` false (true: 8-bit PNG/JPEG values as they are, not decoded from sRGB); `wrap_mode` noted), `checkerboard` (`color0` 0.4, `color1` 0.2, `to_uv`); the 0.6 `uoffset`, `voffset`, `uscale`, `vscale` become `to_uv` |
+//! | `<texture>` | `bitmap` (`filename`, `to_uv`; `filter_type` `bilinear` (the full-resolution image: Mitsuba has no MIP maps) \| `nearest`; `raw` false (true: 8-bit PNG/JPEG values as they are, not decoded from sRGB); `wrap_mode` noted), `checkerboard` (`color0` 0.4, `color1` 0.2, `to_uv`); the 0.6 `uoffset`, `voffset`, `uscale`, `vscale` become `to_uv`; `mesh_attribute` (`name` "vertex_color" | "face_color", required: a PLY file's `red green blue`; `scale` 1) |
 //!
 //! Anything else is an error naming the plugin and what is supported. Colours are
 //! `<rgb>`, `<spectrum>` (a constant or wavelength:value pairs, see
@@ -41,10 +41,11 @@ use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
 const SHAPES: &str = "obj, ply, serialized, rectangle, cube, disk, sphere, cylinder, shapegroup, instance";
-const BSDFS: &str = "diffuse, dielectric, thindielectric, roughdielectric, conductor, roughconductor, plastic, roughplastic, twosided";
+const BSDFS: &str =
+    "diffuse, dielectric, thindielectric, roughdielectric, conductor, roughconductor, plastic, roughplastic, twosided, bumpmap, normalmap, mask";
 const EMITTERS: &str = "point, spot, directional, constant, envmap (and area inside a <shape>)";
-const TEXTURES: &str = "bitmap, checkerboard";
-const INTEGRATORS: &str = "path, direct, ptracer, bdpt, photonmapper, sppm";
+const TEXTURES: &str = "bitmap, checkerboard, mesh_attribute";
+const INTEGRATORS: &str = "path, volpath (without media), direct, ptracer, bdpt, photonmapper, sppm";
 const FILTERS: &str = "box, tent, gaussian, mitchell";
 
 /// Nesting of materials and textures before a reference is taken to be circular.
@@ -359,7 +360,9 @@ impl<'a> Reader<'a> {
             Ok(d as u32)
         };
         let integrator = match p.ty.as_str() {
-            "path" => {
+            // rdr has no participating media: `volpath` of a scene without them is `path`
+            // (whose shadow rays pass through masks as volpath's do)
+            "path" | "volpath" => {
                 let max_depth = depth(-1)?;
                 p.integer_in("rr_depth", 5, 1, i32::MAX as i64)?;
                 Integrator::Path(PathTracer {
@@ -947,6 +950,9 @@ impl<'a> Reader<'a> {
                     None => None,
                 };
                 for (m, (_, at)) in std::iter::once(&front).chain(back.as_ref()).zip(&inner) {
+                    if matches!(m, Material::Mask { .. }) {
+                        return Err(at.error("a mask must be the outermost bsdf (put the twosided inside it)"));
+                    }
                     if matches!(m, Material::TwoSided { .. }) || matches!(m, Material::Diffuse { twosided: true, .. }) {
                         return Err(at.error("twosided cannot wrap another twosided bsdf"));
                     }
@@ -972,6 +978,7 @@ impl<'a> Reader<'a> {
                     },
                 }
             }
+            "bumpmap" | "normalmap" | "mask" => return self.wrapper(p),
             "dielectric" => Material::Glass {
                 reflect: colour_of(&p, "specular_reflectance")?,
                 transmit: colour_of(&p, "specular_transmittance")?,
@@ -1050,6 +1057,81 @@ impl<'a> Reader<'a> {
                 }
             }
             other => return Err(p.error(format!("unsupported bsdf \"{other}\" (supported: {BSDFS})"))),
+        };
+        p.finish(&["bsdf", "texture"])?;
+        Ok(m)
+    }
+
+    /// `bumpmap` (one nested `<texture>`, the heights, any name; `scale` 1),
+    /// `normalmap` (the `<texture name="normalmap">`), each with `flip_invalid_normals`
+    /// and `use_shadowing_function` (true); `mask` (`opacity` 0.5, a float or texture).
+    /// Each wraps exactly one nested `<bsdf>`; a mask must be the outermost.
+    fn wrapper(&mut self, p: Plugin<'a>) -> Result<Material<TextureRef>> {
+        let ty = p.ty.clone();
+        let inner = p.objects("bsdf");
+        let Some((b, _)) = inner.first() else {
+            return Err(p.error(format!("a {ty} bsdf needs a nested <bsdf>")));
+        };
+        if let Some((_, at)) = inner.get(1) {
+            return Err(at.error(format!("a {ty} bsdf takes one nested <bsdf>")));
+        }
+        let nested = self.material_value(b)?;
+        let at = inner[0].1;
+        if matches!(nested, Material::Mask { .. }) {
+            return Err(at.error("a mask must be the outermost bsdf (put the others inside it)"));
+        }
+        if ty != "mask" && matches!(nested, Material::BumpMap { .. } | Material::NormalMap { .. }) {
+            return Err(at.error("bump and normal maps cannot wrap each other"));
+        }
+        let inner = Box::new(nested);
+        let options = || -> Result<crate::material::bump::PerturbOptions> {
+            Ok(crate::material::bump::PerturbOptions {
+                flip_invalid_normals: p.boolean("flip_invalid_normals", true)?,
+                use_shadowing_function: p.boolean("use_shadowing_function", true)?,
+            })
+        };
+        let m = match ty.as_str() {
+            "bumpmap" => {
+                let textures = p.objects("texture");
+                let Some((t, _)) = textures.first() else {
+                    return Err(p.error("a bumpmap bsdf needs a nested <texture> (the height field)"));
+                };
+                if let Some((_, at)) = textures.get(1) {
+                    return Err(at.error("a bumpmap bsdf takes one nested <texture>"));
+                }
+                let scale = p.float("scale", 1.0)?;
+                if !scale.is_finite() {
+                    return Err(p.value_error("scale", "must be a finite number"));
+                }
+                Material::BumpMap {
+                    height: TextureRef::Named(Located {
+                        value: self.texture(t)?,
+                        source: source(t),
+                    }),
+                    scale,
+                    options: options()?,
+                    inner,
+                }
+            }
+            "normalmap" => {
+                if !p.has("normalmap") {
+                    return Err(p.error("a normalmap bsdf needs the texture \"normalmap\""));
+                }
+                Material::NormalMap {
+                    normals: self.texture_ref(&p, "normalmap", Vec3::new(0.5, 0.5, 1.0))?,
+                    options: options()?,
+                    inner,
+                }
+            }
+            _ => {
+                let opacity = self.texture_ref(&p, "opacity", Vec3::splat(0.5))?;
+                if let TextureRef::Color(c) = opacity {
+                    if c.max_element() > 1.0 {
+                        return Err(p.value_error("opacity", "must be between 0 and 1"));
+                    }
+                }
+                Material::Mask { opacity, inner }
+            }
         };
         p.finish(&["bsdf", "texture"])?;
         Ok(m)
@@ -1157,6 +1239,24 @@ impl<'a> Reader<'a> {
                     delta: Vec2::new(to_uv.1.x, to_uv.0.y + to_uv.1.y),
                 },
             },
+            "mesh_attribute" => {
+                let name = p.required_string("name")?;
+                let face = match name.as_str() {
+                    "vertex_color" => false,
+                    "face_color" => true,
+                    other => {
+                        return Err(p.value_error(
+                            "name",
+                            format!("unsupported mesh attribute \"{other}\" (supported: vertex_color, face_color)"),
+                        ))
+                    }
+                };
+                let scale = p.float("scale", 1.0)?;
+                if !scale.is_finite() {
+                    return Err(p.value_error("scale", "must be a finite number"));
+                }
+                Texture::MeshAttribute { face, scale }
+            }
             other => return Err(p.error(format!("unsupported texture \"{other}\" (supported: {TEXTURES})"))),
         };
         p.finish(&[])?;

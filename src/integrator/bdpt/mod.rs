@@ -306,10 +306,7 @@ impl Engine<'_> {
             v.wo = it.wo;
             v.emitter = scene.area_light_of(&it).map(|(i, _)| i);
             v.pdf_fwd = self.ctx.convert(pdf_dir, &path[path.len() - 1], &v);
-            v.bsdf = scene.material_of(&it).map(|m| {
-                let tc = it.tex_coord();
-                m.bsdf(it.ns, it.wo, |t| scene.textures[t as usize].eval(tc))
-            });
+            v.bsdf = scene.material_of(&it).map(|m| m.bsdf_at(&it, &scene.textures));
             path.push(v);
             let Some(bsdf) = v.bsdf else { break };
             if path.len() >= max_vertices {

@@ -207,8 +207,7 @@ impl Guiding<'_> {
                 break;
             }
             let Some(material) = scene.material_of(&it) else { break };
-            let tc = it.tex_coord();
-            let bsdf = material.bsdf(it.ns, it.wo, |t| scene.textures[t as usize].eval(tc));
+            let bsdf = material.bsdf_at(&it, &scene.textures);
             let delta = bsdf.is_delta();
             let leaf = if delta { 0 } else { self.tree.leaf_of(it.p) };
             let mixture = Mixture {

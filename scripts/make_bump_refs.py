@@ -1,0 +1,162 @@
+#!/usr/bin/env python3
+"""Regenerates the references in tests/refs/bump/ with Mitsuba 3 (tests/bump_mask.rs).
+
+Writes three small textures it computes itself (EXR, linear):
+  heights.exr  - a height field 0.5 + 0.5 sin(2π·3s) sin(2π·2t), for `bumpmap`;
+  normals.exr  - tangent-space normals (n + 1)/2 tilting mostly along s (stripes in s,
+                 a weaker tilt in t), for `normalmap`;
+  leaf.exr     - a binary leaf-shaped opacity (an ellipse with a round hole), for `mask`;
+and three scenes with their references (<name>.exr the mean of K passes, <name>.var.exr
+the variance of that mean, as scripts/make_material_refs.py):
+  bumpmap.xml   - a rectangle, diffuse under a bump map, lit from the side;
+  normalmap.xml - the same rectangle, roughplastic under a normal map;
+  mask.xml      - a masked leaf quad over a floor under a small light: the leaf-shaped
+                  shadow. Rendered with `volpath` (whose shadow rays pass through masked
+                  surfaces, as rdr's rays do); rdr renders it with `path`.
+
+Run from the repository root with the venv that has Mitsuba:
+    /work/venv-mi/bin/python scripts/make_bump_refs.py [--passes 8] [--spp 256] [NAME...]
+"""
+import argparse
+import os
+import sys
+
+import numpy as np
+
+RES = 64
+HERE = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "tests", "refs", "bump")
+TEX = 64
+
+
+def grid(n):
+    s = (np.arange(n) + 0.5) / n
+    return np.meshgrid(s, s)  # [row][col]: x = column, y = row
+
+
+def heights():
+    x, y = grid(TEX)
+    h = 0.5 + 0.5 * np.sin(2 * np.pi * 3 * x) * np.sin(2 * np.pi * 2 * y)
+    return np.repeat(h[..., None], 3, axis=2)
+
+
+def normals():
+    x, y = grid(TEX)
+    n = np.stack([1.0 * np.sin(2 * np.pi * 3 * x), 0.3 * np.cos(2 * np.pi * 2 * y), np.ones_like(x)], axis=2)
+    n /= np.linalg.norm(n, axis=2, keepdims=True)
+    return (n + 1) / 2
+
+
+def leaf():
+    x, y = grid(TEX)
+    inside = ((x - 0.5) / 0.45) ** 2 + ((y - 0.5) / 0.22) ** 2 < 1
+    hole = (x - 0.68) ** 2 + (y - 0.5) ** 2 < 0.09 ** 2
+    a = (inside & ~hole).astype(np.float64)
+    return np.repeat(a[..., None], 3, axis=2)
+
+
+def header(name, integrator, camera):
+    origin, target = camera
+    return f"""<?xml version="1.0" encoding="utf-8"?>
+<!-- tests/refs/bump/{name}: made by scripts/make_bump_refs.py (do not edit; rerun it). -->
+<scene version="3.0.0">
+  <default name="spp" value="256"/>
+  {integrator}
+  <sensor type="perspective">
+    <float name="fov" value="35"/>
+    <transform name="to_world"><lookat origin="{origin}" target="{target}" up="0, 1, 0"/></transform>
+    <film type="hdrfilm">
+      <integer name="width" value="{RES}"/><integer name="height" value="{RES}"/>
+      <string name="pixel_format" value="rgb"/><rfilter type="box"/>
+    </film>
+    <sampler type="independent"><integer name="sample_count" value="$spp"/></sampler>
+  </sensor>
+"""
+
+
+SIDE_LIGHT = """  <shape type="sphere">
+    <point name="center" x="3" y="0.5" z="1.5"/><float name="radius" value="0.4"/>
+    <emitter type="area"><rgb name="radiance" value="30, 30, 30"/></emitter>
+  </shape>
+  <emitter type="constant"><rgb name="radiance" value="0.15, 0.15, 0.15"/></emitter>
+"""
+
+PATH = '<integrator type="path"><integer name="max_depth" value="6"/></integrator>'
+
+
+def scenes():
+    quad = '<transform name="to_world"><rotate y="1" angle="-20"/></transform>'
+    yield "bumpmap", header("bumpmap", PATH, ("0, 0, 3.0", "0, 0, 0")) + f"""  <shape type="rectangle">
+    {quad}
+    <bsdf type="bumpmap">
+      <texture type="bitmap"><string name="filename" value="heights.exr"/></texture>
+      <float name="scale" value="0.15"/>
+      <bsdf type="diffuse"><rgb name="reflectance" value="0.7, 0.7, 0.7"/></bsdf>
+    </bsdf>
+  </shape>
+{SIDE_LIGHT}</scene>
+"""
+    yield "normalmap", header("normalmap", PATH, ("0, 0, 3.0", "0, 0, 0")) + f"""  <shape type="rectangle">
+    {quad}
+    <bsdf type="normalmap">
+      <texture name="normalmap" type="bitmap"><string name="filename" value="normals.exr"/></texture>
+      <bsdf type="roughplastic">
+        <string name="distribution" value="ggx"/><float name="alpha" value="0.25"/>
+        <rgb name="diffuse_reflectance" value="0.6, 0.5, 0.3"/>
+      </bsdf>
+    </bsdf>
+  </shape>
+{SIDE_LIGHT}</scene>
+"""
+    volpath = '<integrator type="volpath"><integer name="max_depth" value="6"/></integrator>'
+    yield "mask", header("mask", volpath, ("0, 4.5, 3.5", "0, 0, 0")) + """  <shape type="rectangle">
+    <transform name="to_world"><rotate x="1" angle="-90"/><scale value="2.5"/></transform>
+    <bsdf type="diffuse"><rgb name="reflectance" value="0.8, 0.8, 0.8"/></bsdf>
+  </shape>
+  <shape type="rectangle">
+    <transform name="to_world"><rotate x="1" angle="-90"/><scale value="1"/><translate y="1"/></transform>
+    <bsdf type="mask">
+      <texture name="opacity" type="bitmap"><string name="filename" value="leaf.exr"/></texture>
+      <bsdf type="twosided"><bsdf type="diffuse"><rgb name="reflectance" value="0.2, 0.6, 0.1"/></bsdf></bsdf>
+    </bsdf>
+  </shape>
+  <shape type="sphere">
+    <point name="center" x="0" y="4" z="0"/><float name="radius" value="0.15"/>
+    <emitter type="area"><rgb name="radiance" value="400, 400, 400"/></emitter>
+  </shape>
+  <emitter type="constant"><rgb name="radiance" value="0.05, 0.05, 0.05"/></emitter>
+</scene>
+"""
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--passes", type=int, default=8)
+    ap.add_argument("--spp", type=int, default=256)
+    ap.add_argument("--variant", default="scalar_rgb")
+    ap.add_argument("names", nargs="*")
+    args = ap.parse_args()
+    import mitsuba as mi
+    mi.set_variant(args.variant)
+    os.makedirs(HERE, exist_ok=True)
+    for name, img in [("heights", heights()), ("normals", normals()), ("leaf", leaf())]:
+        mi.Bitmap(img.astype(np.float32), mi.Bitmap.PixelFormat.RGB).write(os.path.join(HERE, f"{name}.exr"))
+    for name, xml in scenes():
+        if args.names and name not in args.names:
+            continue
+        path = os.path.join(HERE, f"{name}.xml")
+        with open(path, "w") as f:
+            f.write(xml)
+        scene = mi.load_file(path)
+        print(f"{name}: rendering", file=sys.stderr, flush=True)
+        passes = np.stack([np.array(mi.render(scene, seed=p, spp=args.spp), dtype=np.float64)[..., :3]
+                           for p in range(args.passes)])
+        mean = passes.mean(axis=0)
+        var = passes.var(axis=0, ddof=1) / args.passes
+        mi.Bitmap(mean.astype(np.float32), mi.Bitmap.PixelFormat.RGB).write(os.path.join(HERE, f"{name}.exr"))
+        mi.Bitmap(var.astype(np.float32), mi.Bitmap.PixelFormat.RGB).write(os.path.join(HERE, f"{name}.var.exr"))
+        rel = np.sqrt((var / (mean ** 2 + 0.01)).mean())
+        print(f"{name}: {args.passes}x{args.spp} spp, relMSE-noise {rel:.2e}", file=sys.stderr, flush=True)
+
+
+if __name__ == "__main__":
+    main()

@@ -15,6 +15,7 @@
 pub mod build;
 pub mod convert;
 pub mod json;
+pub mod principled;
 pub mod source;
 pub mod xml;
 
@@ -198,6 +199,12 @@ pub struct ImageFile {
 ///   `specular_reflectance` ((1,1,1)), `eta` (1.49, not 1), `nonlinear` (false);
 /// * `roughplastic`: as `plastic`, and `alpha` (0.1), `distribution` (`"beckmann"`);
 /// * `twosided`: `material_name` (required), `back_material_name` (optional);
+/// * `principled`: `base_color` (0.5), `roughness` (0.5), `metallic`, `specular` (0.5)
+///   or `eta`, `spec_tint`, `anisotropic`, `sheen`, `sheen_tint`, `clearcoat`,
+///   `clearcoat_gloss`, `spec_trans`, `flatness` (0 each; each a number or a texture
+///   name), three sampling rates; see [`principled`];
+/// * `blendbsdf`: `weight` (required, a number or a texture name), `material_names`
+///   (required, two names); see [`principled`];
 ///
 /// see [`Material`], which also names the Mitsuba parameter behind each key.
 ///
@@ -944,7 +951,7 @@ fn texture_ref(p: &Props, legacy: &str) -> Result<TextureRef> {
 }
 
 /// Every material type, as the error for an unknown one lists them.
-const MATERIAL_TYPES: [&str; 10] = [
+const MATERIAL_TYPES: [&str; 12] = [
     "diffuse",
     "refraction",
     "glass",
@@ -955,54 +962,112 @@ const MATERIAL_TYPES: [&str; 10] = [
     "plastic",
     "roughplastic",
     "twosided",
+    "principled",
+    "blendbsdf",
 ];
 
-/// `materials`: every entry by [`parse_material`]; then each `twosided` gets a copy
-/// of the materials it names (which must be defined, and neither `twosided` nor
-/// transmitting).
+/// `materials`: every entry by [`parse_material`]; then each `twosided` and
+/// `blendbsdf` gets a copy of the materials it names (which must be defined; for
+/// `twosided` neither `twosided` nor transmitting; no material may name itself,
+/// directly or through others).
 fn parse_materials(root: &Props) -> Result<Vec<MaterialDesc>> {
     let entries = root.named_objects("materials")?;
     let mut slots: Vec<Option<MaterialDesc>> = Vec::with_capacity(entries.len());
     for (name, p) in &entries {
         let ty = p.string_or("type", "diffuse")?;
-        slots.push(if ty == "twosided" {
+        slots.push(if ty == "twosided" || ty == "blendbsdf" {
             None
         } else {
             Some(parse_material(name, p, &ty)?)
         });
     }
+    let mut visiting = vec![false; entries.len()];
     for i in 0..entries.len() {
-        if slots[i].is_some() {
-            continue;
-        }
-        let (name, p) = &entries[i];
-        let named = |key: &str, target: Option<String>| -> Result<Option<Box<Material<TextureRef>>>> {
-            let Some(target) = target else { return Ok(None) };
-            let Some(j) = entries.iter().position(|(n, _)| *n == target) else {
-                let known: Vec<&str> = entries.iter().map(|(n, _)| n.as_str()).collect();
-                return Err(p.error(key, format!("no material named '{target}' (defined: {})", known.join(", "))));
-            };
-            match &slots[j] {
-                None => Err(p.error(key, format!("'{target}' is a twosided material itself; twosided cannot nest"))),
-                Some(m) if matches!(m.material, Material::TwoSided { .. }) => {
-                    Err(p.error(key, format!("'{target}' is a twosided material itself; twosided cannot nest")))
-                }
-                Some(m) if m.material.transmits() => {
-                    Err(p.error(key, format!("'{target}' transmits light; twosided wraps only reflecting materials")))
-                }
-                Some(m) => Ok(Some(Box::new(m.material.clone()))),
+        resolve_material(i, &entries, &mut slots, &mut visiting)?;
+    }
+    Ok(slots.into_iter().flatten().collect())
+}
+
+/// Fills `slots[i]` for a material that names others (`twosided`, `blendbsdf`),
+/// resolving those first; `visiting` catches a material that names itself.
+fn resolve_material(i: usize, entries: &[(String, Props)], slots: &mut [Option<MaterialDesc>], visiting: &mut [bool]) -> Result<()> {
+    if slots[i].is_some() {
+        return Ok(());
+    }
+    let (name, p) = &entries[i];
+    let find = |key: &str, target: &str| -> Result<usize> {
+        entries.iter().position(|(n, _)| n == target).ok_or_else(|| {
+            let known: Vec<&str> = entries.iter().map(|(n, _)| n.as_str()).collect();
+            p.error(key, format!("no material named '{target}' (defined: {})", known.join(", ")))
+        })
+    };
+    if p.string_or("type", "diffuse")? == "blendbsdf" {
+        visiting[i] = true;
+        let weight = principled::json_weight(p)?;
+        let names = match p.raw("material_names") {
+            Some(Value::Array(a)) if a.len() == 2 && a.iter().all(|v| v.is_string()) => {
+                [a[0].as_str().unwrap_or_default(), a[1].as_str().unwrap_or_default()]
             }
+            Some(_) => return Err(p.error("material_names", "expected an array of two material names")),
+            None => return Err(p.error("material_names", "required key is missing")),
         };
-        let front = named("material_name", Some(p.string("material_name")?))?.expect("given");
-        let back = named("back_material_name", p.string_opt("back_material_name")?)?;
+        let mut nested = Vec::with_capacity(2);
+        for target in names {
+            let j = find("material_names", target)?;
+            if visiting[j] {
+                return Err(p.error("material_names", format!("'{target}' names this blendbsdf itself (a cycle)")));
+            }
+            resolve_material(j, entries, slots, visiting)?;
+            nested.push(Box::new(slots[j].as_ref().expect("resolved").material.clone()));
+        }
+        visiting[i] = false;
+        let second = nested.pop().expect("two");
+        let first = nested.pop().expect("two");
         p.finish();
         slots[i] = Some(MaterialDesc {
             name: name.clone(),
             source: p.own_source(),
-            material: Material::TwoSided { front, back },
+            material: Material::BlendBsdf { weight, first, second },
         });
+        return Ok(());
     }
-    Ok(slots.into_iter().flatten().collect())
+    // twosided
+    let named = |key: &str,
+                 target: Option<String>,
+                 slots: &mut [Option<MaterialDesc>],
+                 visiting: &mut [bool]|
+     -> Result<Option<Box<Material<TextureRef>>>> {
+        let Some(target) = target else { return Ok(None) };
+        let j = find(key, &target)?;
+        if entries[j].1.string_or("type", "diffuse")? == "twosided" {
+            return Err(p.error(key, format!("'{target}' is a twosided material itself; twosided cannot nest")));
+        }
+        if visiting[j] {
+            return Err(p.error(key, format!("'{target}' names this twosided itself (a cycle)")));
+        }
+        visiting[i] = true;
+        resolve_material(j, entries, slots, visiting)?;
+        visiting[i] = false;
+        match &slots[j] {
+            Some(m) if matches!(m.material, Material::TwoSided { .. }) => {
+                Err(p.error(key, format!("'{target}' is a twosided material itself; twosided cannot nest")))
+            }
+            Some(m) if m.material.transmits() => {
+                Err(p.error(key, format!("'{target}' transmits light; twosided wraps only reflecting materials")))
+            }
+            Some(m) => Ok(Some(Box::new(m.material.clone()))),
+            None => unreachable!("resolved"),
+        }
+    };
+    let front = named("material_name", Some(p.string("material_name")?), slots, visiting)?.expect("given");
+    let back = named("back_material_name", p.string_opt("back_material_name")?, slots, visiting)?;
+    p.finish();
+    slots[i] = Some(MaterialDesc {
+        name: name.clone(),
+        source: p.own_source(),
+        material: Material::TwoSided { front, back },
+    });
+    Ok(())
 }
 
 /// `distribution`: `"beckmann"` (the default) or `"ggx"`.
@@ -1115,6 +1180,7 @@ fn parse_material(name: &str, p: &Props, ty: &str) -> Result<MaterialDesc> {
             specular_sampling_weight: None,
             tables: None,
         },
+        "principled" => principled::json_principled(p)?,
         _ => {
             return Err(p.error(
                 "type",

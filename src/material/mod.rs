@@ -15,12 +15,14 @@
 //! on it; Mitsuba scenes wrap it in `twosided`, which then changes nothing), where
 //! Mitsuba's bare `roughconductor` is black from behind.
 
+pub mod blend;
 pub mod bsdf;
 pub mod conductor;
 pub mod dielectric;
 pub mod fresnel;
 pub mod microfacet;
 pub mod plastic;
+pub mod principled;
 pub mod sample;
 
 pub use bsdf::{Bsdf, BsdfKind};
@@ -29,6 +31,7 @@ pub use sample::{BsdfSample, TransportMode};
 
 use crate::math::{Frame, Vec3};
 use plastic::CoatingTables;
+pub use principled::PrincipledParams;
 
 /// A material, `materials.<name>` in a scene: `type` (`"diffuse"`) and the keys of
 /// each variant below. Textures are `T`: references by name (or inline colours) in the
@@ -132,6 +135,17 @@ pub enum Material<T = u32> {
         front: Box<Material<T>>,
         back: Option<Box<Material<T>>>,
     },
+    /// `principled` (Mitsuba `principled`, Burley's Disney BSDF): the parameters in
+    /// [`PrincipledParams`], their keys and defaults in [`principled`]'s reader
+    /// (`crate::desc::principled`).
+    Principled(Box<PrincipledParams<T>>),
+    /// `blendbsdf` (Mitsuba `blendbsdf`): (1 − weight)·first + weight·second, `weight` a
+    /// scalar texture clamped to [0, 1] (see [`blend`]).
+    BlendBsdf {
+        weight: T,
+        first: Box<Material<T>>,
+        second: Box<Material<T>>,
+    },
 }
 impl<T> Material<T> {
     /// Specular materials have a Dirac-delta BSDF.
@@ -139,12 +153,18 @@ impl<T> Material<T> {
         match self {
             Material::Refraction { .. } | Material::Glass { .. } | Material::Conductor { .. } | Material::ThinDielectric { .. } => true,
             Material::TwoSided { front, back } => front.is_delta() && back.as_ref().is_none_or(|b| b.is_delta()),
+            Material::BlendBsdf { first, second, .. } => first.is_delta() && second.is_delta(),
             _ => false,
         }
     }
 
     /// Whether light passes through (what `twosided` may not wrap).
     pub fn transmits(&self) -> bool {
+        match self {
+            Material::Principled(p) => return p.transmits(),
+            Material::BlendBsdf { first, second, .. } => return first.transmits() || second.transmits(),
+            _ => {}
+        }
         matches!(
             self,
             Material::Refraction { .. } | Material::Glass { .. } | Material::ThinDielectric { .. } | Material::RoughDielectric { .. }
@@ -251,6 +271,12 @@ impl<T> Material<T> {
                     None => None,
                 },
             },
+            Material::Principled(p) => Material::Principled(Box::new(p.try_map(f)?)),
+            Material::BlendBsdf { weight, first, second } => Material::BlendBsdf {
+                weight: f(weight)?,
+                first: Box::new(first.map_with(f)?),
+                second: Box::new(second.map_with(f)?),
+            },
         })
     }
 
@@ -283,6 +309,10 @@ impl<T> Material<T> {
                 if let Some(b) = back {
                     b.prepare(mean);
                 }
+            }
+            Material::BlendBsdf { first, second, .. } => {
+                first.prepare(mean);
+                second.prepare(mean);
             }
             _ => {}
         }
@@ -421,6 +451,20 @@ impl Material {
                     (false, None) => front.bsdf_with(-ns, wo, tint),
                     (false, Some(b)) => b.bsdf_with(-ns, wo, tint),
                 };
+            }
+            // Mitsuba's frame: the shading normal, whichever side the viewer is on
+            Material::Principled(ref p) => (ns, BsdfKind::Principled(p.at(tint))),
+            Material::BlendBsdf {
+                weight,
+                ref first,
+                ref second,
+            } => {
+                let blend = blend::BlendBsdf::new(
+                    principled::scalar(tint(weight)),
+                    first.bsdf_with(ns, wo, tint),
+                    second.bsdf_with(ns, wo, tint),
+                );
+                (ns, BsdfKind::Blend(Box::new(blend)))
             }
         };
         Bsdf {

@@ -283,8 +283,9 @@ impl Engine<'_> {
                 let tc = it.tex_coord();
                 m.bsdf(it.ns, it.wo, |t| scene.textures[t as usize].eval(tc))
             });
+            let bsdf = v.bsdf.clone();
             path.push(v);
-            let Some(bsdf) = v.bsdf else { break };
+            let Some(bsdf) = bsdf else { break };
             if path.len() >= max_vertices {
                 break;
             }
@@ -414,7 +415,7 @@ impl Engine<'_> {
                 c.pdf_fwd = 1.0 / ctx.camera.lens_area();
                 c
             } else {
-                cam[0]
+                cam[0].clone()
             };
             let (p, cos_cam) = ctx.camera.project_from(lens.p, qs.p)?;
             let v = lens.p - qs.p;
@@ -723,7 +724,7 @@ pub fn mis_self_check(
                     q.pdf_fwd = e.ctx.pdf_light_origin(&q);
                     sampled = Some(q);
                 } else if t == 1 {
-                    sampled = Some(cam[0]);
+                    sampled = Some(cam[0].clone());
                 }
                 e.densities(&light, &cam, s, t, sampled.as_ref(), &mut d);
                 let mut x: Vec<&Vertex> = Vec::with_capacity(n);

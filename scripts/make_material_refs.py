@@ -102,6 +102,15 @@ LARGE = {
         {"type": "principled", "base_color": [0.9, 0.95, 1.0], "roughness": "rough", "spec_trans": 0.8, "eta": 1.4},
         {"rough": checker_json(0.2, 0.6)},
     ),
+    # black base and specular 0 (η = 1: no main specular lobe), so the sphere shows the
+    # clearcoat and the sheen alone: what the deliberate-error runs of tests/principled.rs
+    # need to be seen
+    "principled_sheen_coat": (
+        '<bsdf type="principled"><rgb name="base_color" value="0, 0, 0"/><float name="specular" value="0"/>'
+        '<float name="clearcoat" value="1"/><float name="clearcoat_gloss" value="0.3"/><float name="sheen" value="1"/></bsdf>',
+        {"type": "principled", "base_color": 0, "specular": 0, "clearcoat": 1, "clearcoat_gloss": 0.3, "sheen": 1},
+        {},
+    ),
     "blendbsdf": (
         '<bsdf type="blendbsdf">' + CHECKER_XML.format(key="weight", a=0.1, b=0.9)
         + '<bsdf type="roughplastic"><string name="distribution" value="ggx"/><float name="alpha" value="0.2"/>'

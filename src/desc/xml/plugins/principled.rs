@@ -12,6 +12,9 @@ impl<'a> Reader<'a> {
     /// read a colour texture's luminance); `eta` or `specular` numbers (not both); the
     /// three sampling rates.
     pub(super) fn principled(&mut self, p: &Plugin<'a>) -> Result<Material<TextureRef>> {
+        if let Some((_, at)) = p.objects("bsdf").first() {
+            return Err(at.error(format!("{} cannot contain a <bsdf>", p.describe())));
+        }
         let mut textures = Vec::with_capacity(TEXTURE_KEYS.len());
         for (key, default) in TEXTURE_KEYS {
             textures.push(self.texture_ref(p, key, Vec3::splat(default))?);

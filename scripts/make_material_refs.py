@@ -111,6 +111,15 @@ LARGE = {
         {"type": "principled", "base_color": 0, "specular": 0, "clearcoat": 1, "clearcoat_gloss": 0.3, "sheen": 1},
         {},
     ),
+    # a thin shell: specular and diffuse transmission through both faces
+    "principledthin": (
+        '<bsdf type="principledthin"><rgb name="base_color" value="0.3, 0.7, 0.2"/><float name="roughness" value="0.4"/>'
+        '<float name="spec_trans" value="0.5"/><float name="diff_trans" value="1.0"/><float name="eta" value="1.4"/>'
+        '<float name="sheen" value="0.5"/></bsdf>',
+        {"type": "principledthin", "base_color": [0.3, 0.7, 0.2], "roughness": 0.4, "spec_trans": 0.5, "diff_trans": 1.0,
+         "eta": 1.4, "sheen": 0.5},
+        {},
+    ),
     "blendbsdf": (
         '<bsdf type="blendbsdf">' + CHECKER_XML.format(key="weight", a=0.1, b=0.9)
         + '<bsdf type="roughplastic"><string name="distribution" value="ggx"/><float name="alpha" value="0.2"/>'

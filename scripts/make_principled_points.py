@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Writes tests/refs/principled/points.json: Mitsuba 3's own principled BSDF evaluated
+"""Writes tests/refs/principled/points.json: Mitsuba 3's own principled (and principledthin) BSDF evaluated
 at random direction pairs for a few parameter sets (eval, which includes |cos θo|, and
 pdf, radiance transport, in the local shading frame), which tests/principled.rs
 compares rdr's implementation with.
@@ -26,6 +26,15 @@ SETS = {
                         "main_specular_sampling_rate": 0.5, "clearcoat_sampling_rate": 2.0,
                         "diffuse_reflectance_sampling_rate": 0.7},
 }
+# principledthin
+THIN_SETS = {
+    "defaults": {},
+    "everything": {"base_color": [0.7, 0.3, 0.2], "roughness": 0.35, "spec_trans": 0.6, "eta": 1.4, "spec_tint": 0.3,
+                   "sheen": 0.5, "sheen_tint": 0.6, "flatness": 0.4, "diff_trans": 0.8, "anisotropic": 0.5},
+    "leaf": {"base_color": [0.2, 0.6, 0.1], "roughness": 0.6, "diff_trans": 1.5,
+             "diffuse_transmittance_sampling_rate": 2.0, "specular_reflectance_sampling_rate": 0.5},
+    "pane": {"base_color": [0.9, 0.9, 0.9], "roughness": 0.3, "spec_trans": 1.0, "eta": 1.6},
+}
 PAIRS = 60
 
 
@@ -41,8 +50,9 @@ def main():
     mi.set_variant("scalar_rgb")
     rng = random.Random(1234)
     out = {}
-    for name, params in SETS.items():
-        d = {"type": "principled"}
+    thin = {}
+    for name, params in list(SETS.items()) + [("thin " + k, v) for k, v in THIN_SETS.items()]:
+        d = {"type": "principledthin" if name.startswith("thin ") else "principled"}
         for k, v in params.items():
             d[k] = {"type": "rgb", "value": v} if isinstance(v, list) else v
         bsdf = mi.load_dict(d)
@@ -60,10 +70,10 @@ def main():
             v = bsdf.eval(ctx, si, mi.Vector3f(wo))
             p = bsdf.pdf(ctx, si, mi.Vector3f(wo))
             rows.append({"wi": wi, "wo": wo, "eval": [float(v[0]), float(v[1]), float(v[2])], "pdf": float(p)})
-        out[name] = {"params": params, "pairs": rows}
+        (thin if name.startswith("thin ") else out)[name.removeprefix("thin ")] = {"params": params, "pairs": rows}
     os.makedirs(HERE, exist_ok=True)
     with open(os.path.join(HERE, "points.json"), "w") as f:
-        json.dump({"mitsuba": mi.__version__, "sets": out}, f, indent=0)
+        json.dump({"mitsuba": mi.__version__, "sets": out, "thin_sets": thin}, f, indent=0)
         f.write("\n")
 
 

@@ -206,6 +206,14 @@ fn cases() -> Vec<Case> {
             s["materials"]["matte"] = json!({"type": "principled", "eta": "glass"})
         })
         .err(&["materials.matte.eta", "number"]),
+        edit("principledthin eta negative", |s| {
+            s["materials"]["matte"] = json!({"type": "principledthin", "eta": -1})
+        })
+        .err(&["materials.matte.eta", "negative"]),
+        edit("principledthin diff_trans a list", |s| {
+            s["materials"]["matte"] = json!({"type": "principledthin", "diff_trans": [1]})
+        })
+        .err(&["materials.matte.diff_trans", "a number or a texture name"]),
         edit("blendbsdf without weight", |s| {
             s["materials"]["b"] = json!({"type": "blendbsdf", "material_names": ["matte", "matte"]})
         })

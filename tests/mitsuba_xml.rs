@@ -413,6 +413,8 @@ fn bad_xml_gives_one_line_errors_with_file_line_and_column() {
         ("principled negative metallic", scene(r#"  <shape type="sphere"><bsdf type="principled"><float name="metallic" value="-1"/></bsdf></shape>"#), "line 6, column 48", "must not be negative"),
         ("principled with a bsdf", scene(r#"  <shape type="sphere"><bsdf type="principled"><bsdf type="diffuse"/></bsdf></shape>"#), "line 6, column 48", "cannot contain a <bsdf>"),
         ("twosided around principled glass", scene(r#"  <shape type="sphere"><bsdf type="twosided"><bsdf type="principled"><float name="spec_trans" value="1"/></bsdf></bsdf></shape>"#), "line 6, column 46", "transmits light"),
+        ("principledthin eta a string", scene(r#"  <shape type="sphere"><bsdf type="principledthin"><string name="eta" value="glass"/></bsdf></shape>"#), "line 6, column 52", "expected a colour"),
+        ("principledthin diff_trans beyond 2", scene(r#"  <shape type="sphere"><bsdf type="principledthin"><float name="diff_trans" value="3"/></bsdf></shape>"#), "line 6, column 52", "at most 2"),
         ("blendbsdf without weight", scene(r#"  <shape type="sphere"><bsdf type="blendbsdf"><bsdf type="diffuse"/><bsdf type="diffuse"/></bsdf></shape>"#), "line 6, column 24", "needs a weight"),
         ("blendbsdf weight a string", scene(r#"  <shape type="sphere"><bsdf type="blendbsdf"><string name="weight" value="half"/><bsdf type="diffuse"/><bsdf type="diffuse"/></bsdf></shape>"#), "line 6, column 47", "expected a colour"),
         ("blendbsdf with one bsdf", scene(r#"  <shape type="sphere"><bsdf type="blendbsdf"><float name="weight" value="0.5"/><bsdf type="diffuse"/></bsdf></shape>"#), "line 6, column 24", "two nested <bsdf>s, found 1"),
@@ -950,6 +952,7 @@ fn mitsuba_material_scenes_build_the_same_scene_as_their_json_twins() {
         "principled_coat",
         "principled_sheen_coat",
         "principled_glass",
+        "principledthin",
         "blendbsdf",
     ] {
         let dir = material_refs();
@@ -1080,6 +1083,7 @@ fn convert_round_trips_the_mitsuba_materials() {
         "principled_coat",
         "principled_sheen_coat",
         "principled_glass",
+        "principledthin",
         "blendbsdf",
     ] {
         let json = material_refs().join(format!("{name}.json"));

@@ -465,6 +465,7 @@ fn material_json(
             v
         }
         Material::Principled(p) => super::principled::to_json(p),
+        Material::PrincipledThin(p) => super::principled::thin_to_json(p),
         Material::BlendBsdf { weight, first, second } => {
             let mut names = Vec::new();
             for (m, suffix) in [(first, "0"), (second, "1")] {
@@ -626,6 +627,11 @@ fn material_xml(
             format!("{}{inner}</bsdf>", open("twosided"))
         }
         Material::Principled(p) => format!("{}{}</bsdf>", open("principled"), super::principled::xml_properties(p, colour)),
+        Material::PrincipledThin(p) => format!(
+            "{}{}</bsdf>",
+            open("principledthin"),
+            super::principled::thin_xml_properties(p, colour)
+        ),
         Material::BlendBsdf { weight, first, second } => format!(
             "{}{}{}{}</bsdf>",
             open("blendbsdf"),

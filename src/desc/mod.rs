@@ -203,6 +203,9 @@ pub struct ImageFile {
 ///   or `eta`, `spec_tint`, `anisotropic`, `sheen`, `sheen_tint`, `clearcoat`,
 ///   `clearcoat_gloss`, `spec_trans`, `flatness` (0 each; each a number or a texture
 ///   name), three sampling rates; see [`principled`];
+/// * `principledthin`: `base_color`, `roughness` (0.5), `anisotropic`, `spec_trans`,
+///   `spec_tint`, `sheen`, `sheen_tint`, `flatness`, `diff_trans` (0), `eta` (1.5), four
+///   sampling rates; see [`principled`];
 /// * `blendbsdf`: `weight` (required, a number or a texture name), `material_names`
 ///   (required, two names); see [`principled`];
 ///
@@ -951,7 +954,7 @@ fn texture_ref(p: &Props, legacy: &str) -> Result<TextureRef> {
 }
 
 /// Every material type, as the error for an unknown one lists them.
-const MATERIAL_TYPES: [&str; 12] = [
+const MATERIAL_TYPES: [&str; 13] = [
     "diffuse",
     "refraction",
     "glass",
@@ -963,6 +966,7 @@ const MATERIAL_TYPES: [&str; 12] = [
     "roughplastic",
     "twosided",
     "principled",
+    "principledthin",
     "blendbsdf",
 ];
 
@@ -1181,6 +1185,7 @@ fn parse_material(name: &str, p: &Props, ty: &str) -> Result<MaterialDesc> {
             tables: None,
         },
         "principled" => principled::json_principled(p)?,
+        "principledthin" => principled::json_principled_thin(p)?,
         _ => {
             return Err(p.error(
                 "type",

@@ -17,6 +17,14 @@
 //! Constants must not be negative; with `spec_trans` given (not 0), `eta` = 1 becomes
 //! 1.001 and `specular` = 0 becomes 0.001, as in Mitsuba.
 //!
+//! `principledthin` (Mitsuba's `principledthin`, a thin sheet; see
+//! [`crate::material::principledthin`]): `base_color` (0.5), `roughness` (0.5),
+//! `anisotropic`, `spec_trans`, `spec_tint`, `sheen`, `sheen_tint`, `flatness` (0),
+//! `eta` (1.5; a texture too), `diff_trans` (0, up to 2: the share of the diffuse
+//! reflection given to diffuse transmission), and the sampling rates
+//! `specular_reflectance_sampling_rate`, `specular_transmittance_sampling_rate`,
+//! `diffuse_reflectance_sampling_rate`, `diffuse_transmittance_sampling_rate` (1 each).
+//!
 //! `blendbsdf` (Mitsuba's `blendbsdf`): `weight` (required: a number or a texture name,
 //! clamped to [0, 1]), `material_names` (required, two material names: the first is
 //! used at weight 0, the second at weight 1; either may be any material, a
@@ -36,7 +44,7 @@ use super::json::Props;
 use super::TextureRef;
 use crate::error::Result;
 use crate::material::principled::eta_from_specular;
-use crate::material::{Material, PrincipledParams};
+use crate::material::{Material, PrincipledParams, PrincipledThinParams};
 use crate::math::Vec3;
 use serde_json::Value;
 
@@ -252,6 +260,123 @@ pub fn xml_properties(p: &PrincipledParams<TextureRef>, texture: &dyn Fn(&str, &
         None => format!("<float name=\"eta\" value=\"{}\"/>", p.eta),
     };
     for (key, r) in RATE_KEYS.iter().zip([p.spec_srate, p.clearcoat_srate, p.diffuse_srate]) {
+        if r != 1.0 {
+            s += &format!("<float name=\"{key}\" value=\"{r}\"/>");
+        }
+    }
+    s
+}
+
+/// The texture keys of `principledthin` in [`PrincipledThinParams`]' order, with their
+/// defaults (`base_color` the colour; `eta` a texture too, as in Mitsuba; `diff_trans`
+/// runs from 0 to 2).
+pub const THIN_TEXTURE_KEYS: [(&str, f32); 10] = [
+    ("base_color", 0.5),
+    ("roughness", 0.5),
+    ("anisotropic", 0.0),
+    ("spec_trans", 0.0),
+    ("eta", 1.5),
+    ("spec_tint", 0.0),
+    ("sheen", 0.0),
+    ("sheen_tint", 0.0),
+    ("flatness", 0.0),
+    ("diff_trans", 0.0),
+];
+
+/// `principledthin`'s sampling-rate keys (numbers, 1 each).
+pub const THIN_RATE_KEYS: [&str; 4] = [
+    "specular_reflectance_sampling_rate",
+    "specular_transmittance_sampling_rate",
+    "diffuse_reflectance_sampling_rate",
+    "diffuse_transmittance_sampling_rate",
+];
+
+/// Checks what a reader found for `principledthin`: constants not negative, a
+/// constant `eta` in [0.001, 1000] and `diff_trans` at most 2, rates ≥ 0.
+pub fn thin_params<E>(
+    textures: [TextureRef; 10],
+    rates: [f32; 4],
+    error: impl Fn(&str, String) -> E,
+) -> std::result::Result<PrincipledThinParams<TextureRef>, E> {
+    for ((key, _), t) in THIN_TEXTURE_KEYS.iter().zip(&textures) {
+        if let TextureRef::Color(c) = t {
+            if !(c.min_element() >= 0.0 && c.is_finite()) {
+                return Err(error(key, format!("must not be negative, found {c}")));
+            }
+            if *key == "eta" && !(1e-3..=1e3).contains(&c.x) {
+                return Err(error(key, format!("must be between 0.001 and 1000, found {}", c.x)));
+            }
+            if *key == "diff_trans" && c.max_element() > 2.0 {
+                return Err(error(key, format!("must be at most 2, found {}", c.max_element())));
+            }
+            if *key == "anisotropic" && c.max_element() > 1.0 {
+                return Err(error(key, format!("must be at most 1, found {}", c.max_element())));
+            }
+        }
+    }
+    for (key, r) in THIN_RATE_KEYS.iter().zip(rates) {
+        if !(r >= 0.0 && r.is_finite()) {
+            return Err(error(key, format!("must be a finite number of at least 0, found {r}")));
+        }
+    }
+    let [base_color, roughness, anisotropic, spec_trans, eta, spec_tint, sheen, sheen_tint, flatness, diff_trans] = textures;
+    Ok(PrincipledThinParams {
+        base_color,
+        roughness,
+        anisotropic,
+        spec_trans,
+        eta,
+        spec_tint,
+        sheen,
+        sheen_tint,
+        flatness,
+        diff_trans,
+        rates,
+    })
+}
+
+/// `principledthin` from JSON: the keys of [`THIN_TEXTURE_KEYS`] (numbers or texture
+/// names; `base_color` also `[r, g, b]`) and [`THIN_RATE_KEYS`].
+pub fn json_principled_thin(p: &Props) -> Result<Material<TextureRef>> {
+    let mut textures = Vec::with_capacity(10);
+    for (i, (key, default)) in THIN_TEXTURE_KEYS.iter().enumerate() {
+        textures.push(json_texture(p, key, *default, i == 0)?);
+    }
+    let mut rates = [1.0; 4];
+    for (r, key) in rates.iter_mut().zip(THIN_RATE_KEYS) {
+        *r = p.f32_or(key, 1.0)?;
+    }
+    let textures: [TextureRef; 10] = textures.try_into().unwrap_or_else(|_| unreachable!("10 keys"));
+    Ok(Material::PrincipledThin(Box::new(thin_params(textures, rates, |k, m| {
+        p.error(k, m)
+    })?)))
+}
+
+/// `principledthin` as JSON.
+pub fn thin_to_json(p: &PrincipledThinParams<TextureRef>) -> Value {
+    let mut m = serde_json::Map::new();
+    m.insert("type".into(), "principledthin".into());
+    for (i, ((key, _), t)) in THIN_TEXTURE_KEYS.iter().zip(p.textures()).enumerate() {
+        m.insert((*key).into(), json_of(t, i == 0));
+    }
+    for (key, r) in THIN_RATE_KEYS.iter().zip(p.rates) {
+        if r != 1.0 {
+            m.insert((*key).into(), serde_json::json!(r));
+        }
+    }
+    Value::Object(m)
+}
+
+/// The properties of a Mitsuba `<bsdf type="principledthin">`.
+pub fn thin_xml_properties(p: &PrincipledThinParams<TextureRef>, texture: &dyn Fn(&str, &TextureRef) -> String) -> String {
+    let mut s = String::new();
+    for (i, ((key, default), t)) in THIN_TEXTURE_KEYS.iter().zip(p.textures()).enumerate() {
+        if matches!(t, TextureRef::Color(c) if *c == Vec3::splat(*default)) {
+            continue;
+        }
+        s += &xml_property(key, t, i == 0, texture);
+    }
+    for (key, r) in THIN_RATE_KEYS.iter().zip(p.rates) {
         if r != 1.0 {
             s += &format!("<float name=\"{key}\" value=\"{r}\"/>");
         }

@@ -8,7 +8,7 @@ use super::fresnel;
 use super::microfacet::Microfacet;
 use super::plastic::{Plastic, RoughPlastic};
 pub use super::sample::{BsdfSample, TransportMode};
-use super::{blend::BlendBsdf, principled::Principled};
+use super::{blend::BlendBsdf, principled::Principled, principledthin::PrincipledThin};
 use crate::math::{Frame, Vec2, Vec3, INV_PI};
 use crate::sampling::cosine_hemisphere;
 
@@ -35,6 +35,8 @@ pub enum BsdfKind {
     RoughPlastic(RoughPlastic),
     /// Burley's Disney BSDF as Mitsuba's `principled`.
     Principled(Principled),
+    /// Its thin-sheet variant, Mitsuba's `principledthin`.
+    PrincipledThin(PrincipledThin),
     /// Mitsuba's `blendbsdf` of two BSDFs with their own frames (boxed: it nests).
     Blend(Box<BlendBsdf>),
 }
@@ -70,6 +72,7 @@ impl Bsdf {
     pub fn eval_mode(&self, wo: Vec3, wi: Vec3, mode: TransportMode) -> Vec3 {
         match &self.kind {
             BsdfKind::Principled(b) => b.eval(self.frame.to_local(wo), self.frame.to_local(wi), mode),
+            BsdfKind::PrincipledThin(b) => b.eval(self.frame.to_local(wo), self.frame.to_local(wi)),
             BsdfKind::Blend(b) => b.eval(wo, wi, mode),
             _ => self.eval_plain(wo, wi, mode),
         }
@@ -103,7 +106,7 @@ impl Bsdf {
                 fresnel::conductor(o.dot(m), eta, k) * tint * (d * g / (4.0 * o.z * i.z))
             }
             BsdfKind::PerfectRefraction { .. } | BsdfKind::Dielectric { .. } => Vec3::ZERO,
-            BsdfKind::Principled(_) | BsdfKind::Blend(_) => unreachable!("evaluated in eval_mode"),
+            BsdfKind::Principled(_) | BsdfKind::PrincipledThin(_) | BsdfKind::Blend(_) => unreachable!("evaluated in eval_mode"),
         }
     }
 
@@ -111,6 +114,7 @@ impl Bsdf {
     pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         match &self.kind {
             BsdfKind::Principled(b) => b.pdf(self.frame.to_local(wo), self.frame.to_local(wi)),
+            BsdfKind::PrincipledThin(b) => b.pdf(self.frame.to_local(wo), self.frame.to_local(wi)),
             BsdfKind::Blend(b) => b.pdf(wo, wi),
             _ => self.pdf_plain(wo, wi),
         }
@@ -143,7 +147,7 @@ impl Bsdf {
                 mf.pdf_visible(o, m) / (4.0 * om)
             }
             BsdfKind::PerfectRefraction { .. } | BsdfKind::Dielectric { .. } => 0.0,
-            BsdfKind::Principled(_) | BsdfKind::Blend(_) => unreachable!("in pdf"),
+            BsdfKind::Principled(_) | BsdfKind::PrincipledThin(_) | BsdfKind::Blend(_) => unreachable!("in pdf"),
         }
     }
 
@@ -175,6 +179,7 @@ impl Bsdf {
         let local = match &self.kind {
             BsdfKind::Blend(b) => return b.sample(wo, u, uc, mode, self.frame.n),
             BsdfKind::Principled(b) => b.sample(o, u, uc, mode),
+            BsdfKind::PrincipledThin(b) => b.sample(o, u, uc),
             BsdfKind::SmoothConductor(b) => b.sample(o),
             BsdfKind::ThinDielectric(b) => b.sample(o, uc),
             BsdfKind::RoughDielectric(b) => b.sample(o, u, uc, mode),

@@ -23,6 +23,7 @@ pub mod fresnel;
 pub mod microfacet;
 pub mod plastic;
 pub mod principled;
+pub mod principledthin;
 pub mod sample;
 
 pub use bsdf::{Bsdf, BsdfKind};
@@ -32,6 +33,7 @@ pub use sample::{BsdfSample, TransportMode};
 use crate::math::{Frame, Vec3};
 use plastic::CoatingTables;
 pub use principled::PrincipledParams;
+pub use principledthin::PrincipledThinParams;
 
 /// A material, `materials.<name>` in a scene: `type` (`"diffuse"`) and the keys of
 /// each variant below. Textures are `T`: references by name (or inline colours) in the
@@ -139,6 +141,9 @@ pub enum Material<T = u32> {
     /// [`PrincipledParams`], their keys and defaults in [`principled`]'s reader
     /// (`crate::desc::principled`).
     Principled(Box<PrincipledParams<T>>),
+    /// `principledthin` (Mitsuba `principledthin`): the thin-sheet variant, see
+    /// [`principledthin`]; always counts as transmitting (Mitsuba's flags).
+    PrincipledThin(Box<PrincipledThinParams<T>>),
     /// `blendbsdf` (Mitsuba `blendbsdf`): (1 − weight)·first + weight·second, `weight` a
     /// scalar texture clamped to [0, 1] (see [`blend`]).
     BlendBsdf {
@@ -162,6 +167,7 @@ impl<T> Material<T> {
     pub fn transmits(&self) -> bool {
         match self {
             Material::Principled(p) => return p.transmits(),
+            Material::PrincipledThin(_) => return true,
             Material::BlendBsdf { first, second, .. } => return first.transmits() || second.transmits(),
             _ => {}
         }
@@ -272,6 +278,7 @@ impl<T> Material<T> {
                 },
             },
             Material::Principled(p) => Material::Principled(Box::new(p.try_map(f)?)),
+            Material::PrincipledThin(p) => Material::PrincipledThin(Box::new(p.try_map(f)?)),
             Material::BlendBsdf { weight, first, second } => Material::BlendBsdf {
                 weight: f(weight)?,
                 first: Box::new(first.map_with(f)?),
@@ -454,6 +461,7 @@ impl Material {
             }
             // Mitsuba's frame: the shading normal, whichever side the viewer is on
             Material::Principled(ref p) => (ns, BsdfKind::Principled(p.at(tint))),
+            Material::PrincipledThin(ref p) => (ns, BsdfKind::PrincipledThin(p.at(tint))),
             Material::BlendBsdf {
                 weight,
                 ref first,

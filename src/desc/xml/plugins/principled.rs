@@ -1,7 +1,7 @@
 //! Mitsuba's `principled` and `blendbsdf` plugins (the keys: [`crate::desc::principled`]).
 
 use super::{Plugin, Reader};
-use crate::desc::principled::{params, Given, RATE_KEYS, TEXTURE_KEYS};
+use crate::desc::principled::{params, thin_params, Given, RATE_KEYS, TEXTURE_KEYS, THIN_RATE_KEYS, THIN_TEXTURE_KEYS};
 use crate::desc::TextureRef;
 use crate::error::Result;
 use crate::material::Material;
@@ -31,6 +31,24 @@ impl<'a> Reader<'a> {
         };
         let params = params(given, |k, m| p.value_error(k, m))?;
         Ok(Material::Principled(Box::new(params)))
+    }
+
+    /// `principledthin`: its texture keys (numbers, colours or `<texture>`s) and four rates.
+    pub(super) fn principled_thin(&mut self, p: &Plugin<'a>) -> Result<Material<TextureRef>> {
+        if let Some((_, at)) = p.objects("bsdf").first() {
+            return Err(at.error(format!("{} cannot contain a <bsdf>", p.describe())));
+        }
+        let mut textures = Vec::with_capacity(THIN_TEXTURE_KEYS.len());
+        for (key, default) in THIN_TEXTURE_KEYS {
+            textures.push(self.texture_ref(p, key, Vec3::splat(default))?);
+        }
+        let mut rates = [1.0; 4];
+        for (r, key) in rates.iter_mut().zip(THIN_RATE_KEYS) {
+            *r = p.float(key, 1.0)?;
+        }
+        let textures: [TextureRef; 10] = textures.try_into().unwrap_or_else(|_| unreachable!("10 keys"));
+        let params = thin_params(textures, rates, |k, m| p.value_error(k, m))?;
+        Ok(Material::PrincipledThin(Box::new(params)))
     }
 
     /// `blendbsdf`: `weight` (required, a number or a `<texture>`) and two nested `<bsdf>`s.

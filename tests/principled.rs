@@ -717,6 +717,7 @@ fn principled_and_blendbsdf_converge_to_mitsubas_images() {
         "principled_coat.json",
         "principled_sheen_coat.json",
         "principled_glass.xml",
+        "principledthin.json",
         "blendbsdf.xml",
     ]
     .into_iter()

@@ -16,6 +16,8 @@ import os
 import sys
 
 RES = 32
+# the principled and blendbsdf scenes (tests/principled.rs) are 64×64
+RES_LARGE = 64
 MAX_DEPTH = 8
 HERE = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "tests", "refs", "materials")
 
@@ -73,6 +75,66 @@ MATERIALS = {
     ),
 }
 
+# principled and blendbsdf (rendered by tests/principled.rs); a checkerboard in Mitsuba's
+# (u, v) is, in rdr's v (which runs the other way), scale (sx, −sy) and delta (0, sy)
+CHECKER_XML = ('<texture type="checkerboard" name="{key}"><float name="color0" value="{a}"/>'
+               '<float name="color1" value="{b}"/><transform name="to_uv"><scale x="4" y="4"/></transform></texture>')
+
+
+def checker_json(a, b):
+    return {"type": "checkerboard", "color0": [a, a, a], "color1": [b, b, b],
+            "tex_coordinate_generator": {"type": "uvmapping2d", "scale": [4, -4], "delta": [0, 4]}}
+
+
+LARGE = {
+    "principled_coat": (
+        '<bsdf type="principled"><rgb name="base_color" value="0.8, 0.3, 0.1"/><float name="roughness" value="0.4"/>'
+        '<float name="metallic" value="0.3"/><float name="clearcoat" value="0.8"/><float name="clearcoat_gloss" value="0.6"/>'
+        '<float name="sheen" value="0.5"/><float name="sheen_tint" value="0.5"/><float name="spec_tint" value="0.4"/></bsdf>',
+        {"type": "principled", "base_color": [0.8, 0.3, 0.1], "roughness": 0.4, "metallic": 0.3, "clearcoat": 0.8,
+         "clearcoat_gloss": 0.6, "sheen": 0.5, "sheen_tint": 0.5, "spec_tint": 0.4},
+        {},
+    ),
+    "principled_glass": (
+        '<bsdf type="principled"><rgb name="base_color" value="0.9, 0.95, 1.0"/>'
+        + CHECKER_XML.format(key="roughness", a=0.2, b=0.6)
+        + '<float name="spec_trans" value="0.8"/><float name="eta" value="1.4"/></bsdf>',
+        {"type": "principled", "base_color": [0.9, 0.95, 1.0], "roughness": "rough", "spec_trans": 0.8, "eta": 1.4},
+        {"rough": checker_json(0.2, 0.6)},
+    ),
+    # black base and specular 0 (η = 1: no main specular lobe), so the sphere shows the
+    # clearcoat and the sheen alone: what the deliberate-error runs of tests/principled.rs
+    # need to be seen
+    "principled_sheen_coat": (
+        '<bsdf type="principled"><rgb name="base_color" value="0, 0, 0"/><float name="specular" value="0"/>'
+        '<float name="clearcoat" value="1"/><float name="clearcoat_gloss" value="0.3"/><float name="sheen" value="1"/></bsdf>',
+        {"type": "principled", "base_color": 0, "specular": 0, "clearcoat": 1, "clearcoat_gloss": 0.3, "sheen": 1},
+        {},
+    ),
+    # a thin shell: specular and diffuse transmission through both faces
+    "principledthin": (
+        '<bsdf type="principledthin"><rgb name="base_color" value="0.3, 0.7, 0.2"/><float name="roughness" value="0.4"/>'
+        '<float name="spec_trans" value="0.5"/><float name="diff_trans" value="1.0"/><float name="eta" value="1.4"/>'
+        '<float name="sheen" value="0.5"/></bsdf>',
+        {"type": "principledthin", "base_color": [0.3, 0.7, 0.2], "roughness": 0.4, "spec_trans": 0.5, "diff_trans": 1.0,
+         "eta": 1.4, "sheen": 0.5},
+        {},
+    ),
+    "blendbsdf": (
+        '<bsdf type="blendbsdf">' + CHECKER_XML.format(key="weight", a=0.1, b=0.9)
+        + '<bsdf type="roughplastic"><string name="distribution" value="ggx"/><float name="alpha" value="0.2"/>'
+        '<rgb name="diffuse_reflectance" value="0.7, 0.1, 0.1"/><float name="int_ior" value="1.5"/><float name="ext_ior" value="1.0"/></bsdf>'
+        '<bsdf type="principled"><rgb name="base_color" value="0.9, 0.7, 0.3"/><float name="metallic" value="1"/>'
+        '<float name="roughness" value="0.3"/></bsdf></bsdf>',
+        {"type": "blendbsdf", "weight": "w", "material_names": ["plastic", "metal"]},
+        {"w": checker_json(0.1, 0.9)},
+    ),
+}
+BLEND_PARTS = {
+    "plastic": {"type": "roughplastic", "distribution": "ggx", "alpha": 0.2, "texture_name": "red", "eta": 1.5},
+    "metal": {"type": "principled", "base_color": [0.9, 0.7, 0.3], "metallic": 1, "roughness": 0.3},
+}
+
 # twosided: two unit quads (quad.obj), one turned to the camera, one away from it
 TWOSIDED_XML = (
     '<bsdf type="twosided"><bsdf type="roughplastic"><string name="distribution" value="ggx"/>'
@@ -92,11 +154,11 @@ def xml_matrix(m):
     return ", ".join(str(float(x)) for x in m)
 
 
-def scene_xml(name, shapes_xml):
+def scene_xml(name, shapes_xml, res=RES):
     c = CAMERA
     return f"""<?xml version="1.0" encoding="utf-8"?>
 <!-- tests/refs/materials/{name}: made by scripts/make_material_refs.py (do not edit; rerun it).
-     {RES}x{RES}, box filter, path max_depth {MAX_DEPTH}; twin: {name}.json -->
+     {res}x{res}, box filter, path max_depth {MAX_DEPTH}; twin: {name}.json -->
 <scene version="3.0.0">
   <default name="spp" value="256"/>
   <integrator type="path"><integer name="max_depth" value="{MAX_DEPTH}"/></integrator>
@@ -107,7 +169,7 @@ def scene_xml(name, shapes_xml):
       <lookat origin="{', '.join(map(str, c['position']))}" target="{', '.join(map(str, c['look_at']))}" up="{', '.join(map(str, c['ref_up']))}"/>
     </transform>
     <film type="hdrfilm">
-      <integer name="width" value="{RES}"/><integer name="height" value="{RES}"/>
+      <integer name="width" value="{res}"/><integer name="height" value="{res}"/>
       <string name="pixel_format" value="rgb"/><rfilter type="box"/>
     </film>
     <sampler type="independent"><integer name="sample_count" value="$spp"/></sampler>
@@ -128,9 +190,9 @@ def scene_xml(name, shapes_xml):
 """
 
 
-def scene_json(material, textures, objects):
+def scene_json(material, textures, objects, res=RES):
     tex = {"floor": {"type": "constant", "color": FLOOR["albedo"]}, "sky": {"type": "constant", "color": SKY}}
-    tex.update({k: {"type": "constant", "color": v} for k, v in textures.items()})
+    tex.update({k: v if isinstance(v, dict) else {"type": "constant", "color": v} for k, v in textures.items()})
     mats = {"floor": {"type": "diffuse", "texture_name": "floor"}}
     mats.update(material)
     objs = [
@@ -141,7 +203,7 @@ def scene_json(material, textures, objects):
     return {
         # no point light: without "lights" RDR171 JSON has a default one, which Mitsuba has not
         "integrator": {"type": "path", "spp": 64, "max_depth": MAX_DEPTH, "lights": []},
-        "film": {"resolution": [RES, RES], "filter": {"type": "box", "radius": 0.5}},
+        "film": {"resolution": [res, res], "filter": {"type": "box", "radius": 0.5}},
         "camera": dict(CAMERA, focal_length=1.0),
         "textures": tex,
         "materials": mats,
@@ -155,6 +217,14 @@ def scenes():
         shapes = f'  <shape type="sphere"><point name="center" x="0" y="0" z="0"/><float name="radius" value="1"/>{bsdf}</shape>'
         yield name, scene_xml(name, shapes), scene_json({"m": mat}, textures,
                                                          [{"type": "sphere", "center": [0, 0, 0], "radius": 1, "material_name": "m"}])
+    for name, (bsdf, mat, textures) in LARGE.items():
+        shapes = f'  <shape type="sphere"><point name="center" x="0" y="0" z="0"/><float name="radius" value="1"/>{bsdf}</shape>'
+        mats = {"m": mat}
+        if name == "blendbsdf":
+            mats.update(BLEND_PARTS)
+            textures = dict(textures, red=[0.7, 0.1, 0.1])
+        yield name, scene_xml(name, shapes, RES_LARGE), scene_json(
+            mats, textures, [{"type": "sphere", "center": [0, 0, 0], "radius": 1, "material_name": "m"}], RES_LARGE)
     shapes = "\n".join(
         f'  <shape type="obj"><string name="filename" value="quad.obj"/>'
         f'<transform name="to_world"><matrix value="{xml_matrix(m)}"/></transform>{TWOSIDED_XML}</shape>'

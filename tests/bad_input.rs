@@ -261,6 +261,56 @@ fn cases() -> Vec<Case> {
         edit("unknown material name", |s| s["objects"][1]["material_name"] = json!("nope")).err(&["objects[1].material_name", "nope"]),
         edit("unknown texture name", |s| s["materials"]["matte"]["texture_name"] = json!("nope"))
             .err(&["materials.matte.texture_name", "nope"]),
+        // principled and blendbsdf
+        edit("principled roughness a bool", |s| {
+            s["materials"]["matte"] = json!({"type": "principled", "roughness": true})
+        })
+        .err(&["materials.matte.roughness", "a number or a texture name"]),
+        edit("principled unknown texture", |s| {
+            s["materials"]["matte"] = json!({"type": "principled", "roughness": "nope"})
+        })
+        .err(&["materials.matte.roughness", "no texture named 'nope'"]),
+        edit("principled eta and specular", |s| {
+            s["materials"]["matte"] = json!({"type": "principled", "eta": 1.5, "specular": 0.5})
+        })
+        .err(&["materials.matte.specular", "either eta or specular"]),
+        edit("principled negative sheen", |s| {
+            s["materials"]["matte"] = json!({"type": "principled", "sheen": -1})
+        })
+        .err(&["materials.matte.sheen", "negative"]),
+        edit("principled eta a string", |s| {
+            s["materials"]["matte"] = json!({"type": "principled", "eta": "glass"})
+        })
+        .err(&["materials.matte.eta", "number"]),
+        edit("principledthin eta negative", |s| {
+            s["materials"]["matte"] = json!({"type": "principledthin", "eta": -1})
+        })
+        .err(&["materials.matte.eta", "negative"]),
+        edit("principledthin diff_trans a list", |s| {
+            s["materials"]["matte"] = json!({"type": "principledthin", "diff_trans": [1]})
+        })
+        .err(&["materials.matte.diff_trans", "a number or a texture name"]),
+        edit("blendbsdf without weight", |s| {
+            s["materials"]["b"] = json!({"type": "blendbsdf", "material_names": ["matte", "matte"]})
+        })
+        .err(&["materials.b.weight", "missing"]),
+        edit("blendbsdf weight a list", |s| {
+            s["materials"]["b"] = json!({"type": "blendbsdf", "weight": [0.5], "material_names": ["matte", "matte"]})
+        })
+        .err(&["materials.b.weight", "a number or a texture name"]),
+        edit("blendbsdf one material", |s| {
+            s["materials"]["b"] = json!({"type": "blendbsdf", "weight": 0.5, "material_names": ["matte"]})
+        })
+        .err(&["materials.b.material_names", "two material names"]),
+        edit("blendbsdf unknown material", |s| {
+            s["materials"]["b"] = json!({"type": "blendbsdf", "weight": 0.5, "material_names": ["matte", "nope"]})
+        })
+        .err(&["materials.b.material_names", "no material named 'nope'"]),
+        edit("blendbsdf cycle", |s| {
+            s["materials"]["b"] = json!({"type": "blendbsdf", "weight": 0.5, "material_names": ["matte", "c"]});
+            s["materials"]["c"] = json!({"type": "blendbsdf", "weight": 0.5, "material_names": ["b", "matte"]})
+        })
+        .err(&["material_names", "a cycle"]),
         edit("unknown environment texture", |s| {
             s["environment_map"] = json!({"texture_name": "sky"})
         })

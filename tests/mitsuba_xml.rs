@@ -429,6 +429,18 @@ fn bad_xml_gives_one_line_errors_with_file_line_and_column() {
         ("roughdielectric distribution", scene(r#"  <shape type="sphere"><bsdf type="roughdielectric"><string name="distribution" value="phong"/></bsdf></shape>"#), "line 6, column 53", "unknown distribution \"phong\""),
         ("roughdielectric alpha_u alone", scene(r#"  <shape type="sphere"><bsdf type="roughdielectric"><float name="alpha_u" value="0.1"/></bsdf></shape>"#), "line 6, column 24", "both alpha_u and alpha_v"),
         ("negative alpha", scene(r#"  <shape type="sphere"><bsdf type="roughplastic"><float name="alpha" value="-1"/></bsdf></shape>"#), "line 6, column 50", "between 0 and 10"),
+        ("principled roughness a string", scene(r#"  <shape type="sphere"><bsdf type="principled"><string name="roughness" value="low"/></bsdf></shape>"#), "line 6, column 48", "expected a colour"),
+        ("principled eta as rgb", scene(r#"  <shape type="sphere"><bsdf type="principled"><rgb name="eta" value="1, 2, 3"/></bsdf></shape>"#), "line 6, column 48", "expected a float, found an rgb"),
+        ("principled eta and specular", scene(r#"  <shape type="sphere"><bsdf type="principled"><float name="eta" value="1.5"/><float name="specular" value="0.5"/></bsdf></shape>"#), "line 6, column 79", "either eta or specular"),
+        ("principled negative metallic", scene(r#"  <shape type="sphere"><bsdf type="principled"><float name="metallic" value="-1"/></bsdf></shape>"#), "line 6, column 48", "must not be negative"),
+        ("principled with a bsdf", scene(r#"  <shape type="sphere"><bsdf type="principled"><bsdf type="diffuse"/></bsdf></shape>"#), "line 6, column 48", "cannot contain a <bsdf>"),
+        ("twosided around principled glass", scene(r#"  <shape type="sphere"><bsdf type="twosided"><bsdf type="principled"><float name="spec_trans" value="1"/></bsdf></bsdf></shape>"#), "line 6, column 46", "transmits light"),
+        ("principledthin eta a string", scene(r#"  <shape type="sphere"><bsdf type="principledthin"><string name="eta" value="glass"/></bsdf></shape>"#), "line 6, column 52", "expected a colour"),
+        ("principledthin diff_trans beyond 2", scene(r#"  <shape type="sphere"><bsdf type="principledthin"><float name="diff_trans" value="3"/></bsdf></shape>"#), "line 6, column 52", "at most 2"),
+        ("blendbsdf without weight", scene(r#"  <shape type="sphere"><bsdf type="blendbsdf"><bsdf type="diffuse"/><bsdf type="diffuse"/></bsdf></shape>"#), "line 6, column 24", "needs a weight"),
+        ("blendbsdf weight a string", scene(r#"  <shape type="sphere"><bsdf type="blendbsdf"><string name="weight" value="half"/><bsdf type="diffuse"/><bsdf type="diffuse"/></bsdf></shape>"#), "line 6, column 47", "expected a colour"),
+        ("blendbsdf with one bsdf", scene(r#"  <shape type="sphere"><bsdf type="blendbsdf"><float name="weight" value="0.5"/><bsdf type="diffuse"/></bsdf></shape>"#), "line 6, column 24", "two nested <bsdf>s, found 1"),
+        ("blendbsdf with three bsdfs", scene(r#"  <shape type="sphere"><bsdf type="blendbsdf"><float name="weight" value="0.5"/><bsdf type="diffuse"/><bsdf type="diffuse"/><bsdf type="diffuse"/></bsdf></shape>"#), "line 6, column 125", "two nested <bsdf>s, found 3"),
         ("negative radiance", scene(r#"  <emitter type="constant"><rgb name="radiance" value="-1"/></emitter>"#), "line 6, column 28", "must not be negative"),
         ("cylinder radius as a string", scene(r#"  <shape type="cylinder"><string name="radius" value="1"/></shape>"#), "line 6, column 26", "expected a float, found a string"),
         ("cylinder p0 = p1", scene(r#"  <shape type="cylinder"><point name="p1" value="0, 0, 0"/></shape>"#), "line 6, column 26", "must differ from p0"),
@@ -981,6 +993,11 @@ fn mitsuba_material_scenes_build_the_same_scene_as_their_json_twins() {
         "plastic",
         "roughplastic",
         "twosided",
+        "principled_coat",
+        "principled_sheen_coat",
+        "principled_glass",
+        "principledthin",
+        "blendbsdf",
     ] {
         let dir = material_refs();
         let xml = xml_desc(&dir.join(format!("{name}.xml")), &[("spp", "64")]);
@@ -1107,6 +1124,11 @@ fn convert_round_trips_the_mitsuba_materials() {
         "plastic",
         "roughplastic",
         "twosided",
+        "principled_coat",
+        "principled_sheen_coat",
+        "principled_glass",
+        "principledthin",
+        "blendbsdf",
     ] {
         let json = material_refs().join(format!("{name}.json"));
         let (x, y) = (d.join(format!("{name}_a.xml")), d.join(format!("{name}_b.json")));

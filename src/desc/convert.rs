@@ -571,6 +571,31 @@ fn material_json(
                 t => json!({"type": "mask", "material_name": inner, "texture_name": texture_name(t, name, textures)}),
             }
         }
+        Material::Principled(p) => super::principled::to_json(p),
+        Material::PrincipledThin(p) => super::principled::thin_to_json(p),
+        Material::BlendBsdf { weight, first, second } => {
+            let mut names = Vec::new();
+            for (m, suffix) in [(first, "0"), (second, "1")] {
+                let n = (0..)
+                    .map(|i| {
+                        if i == 0 {
+                            format!("{name}_{suffix}")
+                        } else {
+                            format!("{name}_{suffix}_{i}")
+                        }
+                    })
+                    .find(|n| !materials.contains_key(n))
+                    .expect("a free name");
+                let v = material_json(m, &n, textures, materials, texture_name);
+                materials.insert(n.clone(), v);
+                names.push(n);
+            }
+            let weight = match weight {
+                TextureRef::Named(n) => Value::String(n.value.clone()),
+                TextureRef::Color(c) => num(c.x),
+            };
+            json!({"type": "blendbsdf", "weight": weight, "material_names": names})
+        }
     }
 }
 
@@ -776,6 +801,19 @@ fn material_xml(
             };
             format!("{}{o}{}</bsdf>", open("mask"), material_xml(inner, name, None, colour, w))
         }
+        Material::Principled(p) => format!("{}{}</bsdf>", open("principled"), super::principled::xml_properties(p, colour)),
+        Material::PrincipledThin(p) => format!(
+            "{}{}</bsdf>",
+            open("principledthin"),
+            super::principled::thin_xml_properties(p, colour)
+        ),
+        Material::BlendBsdf { weight, first, second } => format!(
+            "{}{}{}{}</bsdf>",
+            open("blendbsdf"),
+            super::principled::xml_property("weight", weight, false, colour),
+            material_xml(first, name, None, colour, w),
+            material_xml(second, name, None, colour, w)
+        ),
     }
 }
 

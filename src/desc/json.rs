@@ -112,6 +112,11 @@ impl<'a> Props<'a> {
         Some(v)
     }
 
+    /// The value of `key` as it is (marked as read), for keys that take several types.
+    pub fn raw(&self, key: &str) -> Option<&'a Value> {
+        self.get(key)
+    }
+
     /// Marks a key as known without reading it.
     pub fn ignore(&self, key: &str) {
         self.get(key);

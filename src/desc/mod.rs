@@ -15,6 +15,7 @@
 pub mod build;
 pub mod convert;
 pub mod json;
+pub mod principled;
 pub mod source;
 pub mod xml;
 
@@ -315,6 +316,15 @@ pub struct ImageFile {
 ///   normals as `(n + 1)/2`), `flip_invalid_normals`, `use_shadowing_function` (true);
 /// * `mask`: `material_name` (required), `opacity` (in [0, 1], 0.5) or `texture_name`
 ///   (an opacity texture); outermost only;
+/// * `principled`: `base_color` (0.5), `roughness` (0.5), `metallic`, `specular` (0.5)
+///   or `eta`, `spec_tint`, `anisotropic`, `sheen`, `sheen_tint`, `clearcoat`,
+///   `clearcoat_gloss`, `spec_trans`, `flatness` (0 each; each a number or a texture
+///   name), three sampling rates; see [`principled`];
+/// * `principledthin`: `base_color`, `roughness` (0.5), `anisotropic`, `spec_trans`,
+///   `spec_tint`, `sheen`, `sheen_tint`, `flatness`, `diff_trans` (0), `eta` (1.5), four
+///   sampling rates; see [`principled`];
+/// * `blendbsdf`: `weight` (required, a number or a texture name), `material_names`
+///   (required, two names); see [`principled`];
 ///
 /// see [`Material`], which also names the Mitsuba parameter behind each key.
 ///
@@ -1165,7 +1175,7 @@ fn texture_ref(p: &Props, legacy: &str) -> Result<TextureRef> {
 }
 
 /// Every material type, as the error for an unknown one lists them.
-const MATERIAL_TYPES: [&str; 13] = [
+const MATERIAL_TYPES: [&str; 16] = [
     "diffuse",
     "refraction",
     "glass",
@@ -1179,13 +1189,16 @@ const MATERIAL_TYPES: [&str; 13] = [
     "bumpmap",
     "normalmap",
     "mask",
+    "principled",
+    "principledthin",
+    "blendbsdf",
 ];
 
 /// The material types that wrap others by name (`material_name`).
-const WRAPPERS: [&str; 4] = ["twosided", "bumpmap", "normalmap", "mask"];
+const WRAPPERS: [&str; 5] = ["twosided", "bumpmap", "normalmap", "mask", "blendbsdf"];
 
 /// `materials`: every entry by [`parse_material`]; then each wrapper (`twosided`,
-/// `bumpmap`, `normalmap`, `mask`) gets a copy of the materials it names, wrappers
+/// `bumpmap`, `normalmap`, `mask`, `blendbsdf`) gets a copy of the materials it names, wrappers
 /// of wrappers once those are built. The rules: the named materials must be defined
 /// and not form a cycle; `twosided` wraps neither a `twosided` nor a transmitting
 /// material; a `mask` is outermost (nothing wraps it); bump and normal maps do not
@@ -1223,11 +1236,17 @@ fn parse_materials(root: &Props) -> Result<Vec<MaterialDesc>> {
                     }
                 }
             };
-            let front = target("material_name", Some(p.string("material_name")?))?.expect("given");
-            let back = if ty == "twosided" {
-                target("back_material_name", p.string_opt("back_material_name")?)?
+            let (front_key, front_name) = if ty == "blendbsdf" {
+                let names = blend_names(p)?;
+                ("material_names", names[0].clone())
             } else {
-                None
+                ("material_name", p.string("material_name")?)
+            };
+            let front = target(front_key, Some(front_name))?.expect("given");
+            let back = match ty {
+                "twosided" => target("back_material_name", p.string_opt("back_material_name")?)?,
+                "blendbsdf" => target("material_names", Some(blend_names(p)?[1].clone()))?,
+                _ => None,
             };
             if [Some(front), back].iter().flatten().any(|&j| slots[j].is_none()) {
                 waiting.get_or_insert(i);
@@ -1246,8 +1265,13 @@ fn parse_materials(root: &Props) -> Result<Vec<MaterialDesc>> {
                     _ => Ok(Box::new(m.clone())),
                 }
             };
-            let inner = get("material_name", front)?;
+            let inner = get(front_key, front)?;
             let material = match ty {
+                "blendbsdf" => Material::BlendBsdf {
+                    weight: principled::json_weight(p)?,
+                    first: inner,
+                    second: get("material_names", back.expect("two names"))?,
+                },
                 "twosided" => Material::TwoSided {
                     front: inner,
                     back: back.map(|j| get("back_material_name", j)).transpose()?,
@@ -1283,12 +1307,29 @@ fn parse_materials(root: &Props) -> Result<Vec<MaterialDesc>> {
         match waiting {
             None => break,
             Some(i) if !progress => {
-                return Err(entries[i].1.error("material_name", "materials that wrap each other form a cycle"));
+                let key = if types[i] == "blendbsdf" {
+                    "material_names"
+                } else {
+                    "material_name"
+                };
+                return Err(entries[i].1.error(key, "materials that wrap each other form a cycle"));
             }
             Some(_) => {}
         }
     }
     Ok(slots.into_iter().flatten().collect())
+}
+
+/// A `blendbsdf`'s `material_names`: two names.
+fn blend_names(p: &Props) -> Result<[String; 2]> {
+    match p.raw("material_names") {
+        Some(Value::Array(a)) if a.len() == 2 && a.iter().all(|v| v.is_string()) => Ok([
+            a[0].as_str().unwrap_or_default().to_string(),
+            a[1].as_str().unwrap_or_default().to_string(),
+        ]),
+        Some(_) => Err(p.error("material_names", "expected an array of two material names")),
+        None => Err(p.error("material_names", "required key is missing")),
+    }
 }
 
 /// `flip_invalid_normals` and `use_shadowing_function` (both true) of a bump or normal map.
@@ -1417,6 +1458,8 @@ fn parse_material(name: &str, p: &Props, ty: &str) -> Result<MaterialDesc> {
             specular_sampling_weight: None,
             tables: None,
         },
+        "principled" => principled::json_principled(p)?,
+        "principledthin" => principled::json_principled_thin(p)?,
         _ => {
             return Err(p.error(
                 "type",

@@ -206,7 +206,7 @@ fn trace_photon(scene: &Scene, s: Shooting, rng: &mut SplitMix64, store: &mut im
 }
 
 /// Where a camera path stops to gather photons.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Debug)]
 pub struct VisiblePoint {
     pub p: Vec3,
     pub wo: Vec3,

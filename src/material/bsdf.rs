@@ -8,10 +8,11 @@ use super::fresnel;
 use super::microfacet::Microfacet;
 use super::plastic::{Plastic, RoughPlastic};
 pub use super::sample::{BsdfSample, TransportMode};
+use super::{blend::BlendBsdf, principled::Principled, principledthin::PrincipledThin};
 use crate::math::{Frame, Vec2, Vec3, INV_PI};
 use crate::sampling::cosine_hemisphere;
 
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Debug)]
 pub enum BsdfKind {
     /// Lambertian ρ/π on the frame's front side.
     Diffuse { albedo: Vec3 },
@@ -32,9 +33,15 @@ pub enum BsdfKind {
     Plastic(Plastic),
     /// Coated diffuse, rough coating (Mitsuba `roughplastic`).
     RoughPlastic(RoughPlastic),
+    /// Burley's Disney BSDF as Mitsuba's `principled`.
+    Principled(Principled),
+    /// Its thin-sheet variant, Mitsuba's `principledthin`.
+    PrincipledThin(PrincipledThin),
+    /// Mitsuba's `blendbsdf` of two BSDFs with their own frames (boxed: it nests).
+    Blend(Box<BlendBsdf>),
 }
 
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Debug)]
 pub struct Bsdf {
     pub frame: Frame,
     pub kind: BsdfKind,
@@ -50,6 +57,9 @@ impl Bsdf {
     /// `plastic` is not: its mirror lobe is, its diffuse lobe is not, so its samples
     /// say per sample ([`BsdfSample::delta`]) and `eval`/`pdf` cover the diffuse lobe.
     pub fn is_delta(&self) -> bool {
+        if let BsdfKind::Blend(b) = &self.kind {
+            return b.is_delta();
+        }
         matches!(
             self.kind,
             BsdfKind::PerfectRefraction { .. } | BsdfKind::Dielectric { .. } | BsdfKind::SmoothConductor(_) | BsdfKind::ThinDielectric(_)
@@ -76,6 +86,15 @@ impl Bsdf {
 
     /// f(wo, wi) in this BSDF's own frame (the perturbed one of a bump or normal map).
     fn eval_frame(&self, wo: Vec3, wi: Vec3, mode: TransportMode) -> Vec3 {
+        match &self.kind {
+            BsdfKind::Principled(b) => b.eval(self.frame.to_local(wo), self.frame.to_local(wi), mode),
+            BsdfKind::PrincipledThin(b) => b.eval(self.frame.to_local(wo), self.frame.to_local(wi)),
+            BsdfKind::Blend(b) => b.eval(wo, wi, mode),
+            _ => self.eval_plain(wo, wi, mode),
+        }
+    }
+
+    fn eval_plain(&self, wo: Vec3, wi: Vec3, mode: TransportMode) -> Vec3 {
         match self.kind {
             BsdfKind::RoughDielectric(b) => b.eval(self.frame.to_local(wo), self.frame.to_local(wi), mode),
             BsdfKind::Plastic(b) => b.eval(self.frame.to_local(wo), self.frame.to_local(wi)),
@@ -103,6 +122,7 @@ impl Bsdf {
                 fresnel::conductor(o.dot(m), eta, k) * tint * (d * g / (4.0 * o.z * i.z))
             }
             BsdfKind::PerfectRefraction { .. } | BsdfKind::Dielectric { .. } => Vec3::ZERO,
+            BsdfKind::Principled(_) | BsdfKind::PrincipledThin(_) | BsdfKind::Blend(_) => unreachable!("evaluated in eval_mode"),
         }
     }
 
@@ -116,6 +136,15 @@ impl Bsdf {
     }
 
     fn pdf_frame(&self, wo: Vec3, wi: Vec3) -> f32 {
+        match &self.kind {
+            BsdfKind::Principled(b) => b.pdf(self.frame.to_local(wo), self.frame.to_local(wi)),
+            BsdfKind::PrincipledThin(b) => b.pdf(self.frame.to_local(wo), self.frame.to_local(wi)),
+            BsdfKind::Blend(b) => b.pdf(wo, wi),
+            _ => self.pdf_plain(wo, wi),
+        }
+    }
+
+    fn pdf_plain(&self, wo: Vec3, wi: Vec3) -> f32 {
         match self.kind {
             BsdfKind::Diffuse { .. } => {
                 let (zo, zi) = (wo.dot(self.frame.n), wi.dot(self.frame.n));
@@ -142,6 +171,7 @@ impl Bsdf {
                 mf.pdf_visible(o, m) / (4.0 * om)
             }
             BsdfKind::PerfectRefraction { .. } | BsdfKind::Dielectric { .. } => 0.0,
+            BsdfKind::Principled(_) | BsdfKind::PrincipledThin(_) | BsdfKind::Blend(_) => unreachable!("in pdf"),
         }
     }
 
@@ -180,7 +210,10 @@ impl Bsdf {
         let radiance = mode == TransportMode::Radiance;
         let o = self.frame.to_local(wo);
         let world = |l: Vec3| self.frame.to_world(l);
-        let local = match self.kind {
+        let local = match &self.kind {
+            BsdfKind::Blend(b) => return b.sample(wo, u, uc, mode, self.frame.n),
+            BsdfKind::Principled(b) => b.sample(o, u, uc, mode),
+            BsdfKind::PrincipledThin(b) => b.sample(o, u, uc),
             BsdfKind::SmoothConductor(b) => b.sample(o),
             BsdfKind::ThinDielectric(b) => b.sample(o, uc),
             BsdfKind::RoughDielectric(b) => b.sample(o, u, uc, mode),

@@ -15,6 +15,7 @@
 //! on it; Mitsuba scenes wrap it in `twosided`, which then changes nothing), where
 //! Mitsuba's bare `roughconductor` is black from behind.
 
+pub mod blend;
 pub mod bsdf;
 pub mod bump;
 pub mod conductor;
@@ -22,6 +23,8 @@ pub mod dielectric;
 pub mod fresnel;
 pub mod microfacet;
 pub mod plastic;
+pub mod principled;
+pub mod principledthin;
 pub mod sample;
 
 pub use bsdf::{Bsdf, BsdfKind};
@@ -32,6 +35,8 @@ use crate::math::{Frame, Vec2, Vec3};
 use crate::texture::{TexCoord, Texture};
 use bump::{PerturbOptions, ShadingGeometry};
 use plastic::CoatingTables;
+pub use principled::PrincipledParams;
+pub use principledthin::PrincipledThinParams;
 
 /// A material, `materials.<name>` in a scene: `type` (`"diffuse"`) and the keys of
 /// each variant below. Textures are `T`: references by name (or inline colours) in the
@@ -176,6 +181,20 @@ pub enum Material<T = u32> {
     /// "leaf": {"type": "mask", "material_name": "leaf_green", "texture_name": "leaf_alpha"}
     /// ```
     Mask { opacity: T, inner: Box<Material<T>> },
+    /// `principled` (Mitsuba `principled`, Burley's Disney BSDF): the parameters in
+    /// [`PrincipledParams`], their keys and defaults in [`principled`]'s reader
+    /// (`crate::desc::principled`).
+    Principled(Box<PrincipledParams<T>>),
+    /// `principledthin` (Mitsuba `principledthin`): the thin-sheet variant, see
+    /// [`principledthin`]; always counts as transmitting (Mitsuba's flags).
+    PrincipledThin(Box<PrincipledThinParams<T>>),
+    /// `blendbsdf` (Mitsuba `blendbsdf`): (1 − weight)·first + weight·second, `weight` a
+    /// scalar texture clamped to [0, 1] (see [`blend`]).
+    BlendBsdf {
+        weight: T,
+        first: Box<Material<T>>,
+        second: Box<Material<T>>,
+    },
 }
 impl<T> Material<T> {
     /// Specular materials have a Dirac-delta BSDF.
@@ -184,6 +203,7 @@ impl<T> Material<T> {
             Material::Refraction { .. } | Material::Glass { .. } | Material::Conductor { .. } | Material::ThinDielectric { .. } => true,
             Material::TwoSided { front, back } => front.is_delta() && back.as_ref().is_none_or(|b| b.is_delta()),
             Material::BumpMap { inner, .. } | Material::NormalMap { inner, .. } | Material::Mask { inner, .. } => inner.is_delta(),
+            Material::BlendBsdf { first, second, .. } => first.is_delta() && second.is_delta(),
             _ => false,
         }
     }
@@ -192,6 +212,9 @@ impl<T> Material<T> {
     pub fn transmits(&self) -> bool {
         match self {
             Material::BumpMap { inner, .. } | Material::NormalMap { inner, .. } | Material::Mask { inner, .. } => inner.transmits(),
+            Material::Principled(p) => p.transmits(),
+            Material::PrincipledThin(_) => true,
+            Material::BlendBsdf { first, second, .. } => first.transmits() || second.transmits(),
             _ => matches!(
                 self,
                 Material::Refraction { .. } | Material::Glass { .. } | Material::ThinDielectric { .. } | Material::RoughDielectric { .. }
@@ -336,6 +359,13 @@ impl<T> Material<T> {
                 opacity: f(opacity)?,
                 inner: Box::new(inner.map_with(f)?),
             },
+            Material::Principled(p) => Material::Principled(Box::new(p.try_map(f)?)),
+            Material::PrincipledThin(p) => Material::PrincipledThin(Box::new(p.try_map(f)?)),
+            Material::BlendBsdf { weight, first, second } => Material::BlendBsdf {
+                weight: f(weight)?,
+                first: Box::new(first.map_with(f)?),
+                second: Box::new(second.map_with(f)?),
+            },
         })
     }
 
@@ -370,6 +400,10 @@ impl<T> Material<T> {
                 }
             }
             Material::BumpMap { inner, .. } | Material::NormalMap { inner, .. } | Material::Mask { inner, .. } => inner.prepare(mean),
+            Material::BlendBsdf { first, second, .. } => {
+                first.prepare(mean);
+                second.prepare(mean);
+            }
             _ => {}
         }
     }
@@ -560,6 +594,21 @@ impl Material {
                 return perturbed(inner, g, lookup, base, n, options);
             }
             Material::Mask { ref inner, .. } => return inner.bsdf_with(g, lookup),
+            // Mitsuba's frame: the shading normal, whichever side the viewer is on
+            Material::Principled(ref p) => (ns, BsdfKind::Principled(p.at(tint))),
+            Material::PrincipledThin(ref p) => (ns, BsdfKind::PrincipledThin(p.at(tint))),
+            Material::BlendBsdf {
+                weight,
+                ref first,
+                ref second,
+            } => {
+                let blend = blend::BlendBsdf::new(
+                    principled::scalar(tint(weight)),
+                    first.bsdf_with(g, lookup),
+                    second.bsdf_with(g, lookup),
+                );
+                (ns, BsdfKind::Blend(Box::new(blend)))
+            }
         };
         Bsdf {
             frame: Frame::from_normal(n),

@@ -307,8 +307,9 @@ impl Engine<'_> {
             v.emitter = scene.area_light_of(&it).map(|(i, _)| i);
             v.pdf_fwd = self.ctx.convert(pdf_dir, &path[path.len() - 1], &v);
             v.bsdf = scene.material_of(&it).map(|m| m.bsdf_at(&it, &scene.textures));
+            let bsdf = v.bsdf.clone();
             path.push(v);
-            let Some(bsdf) = v.bsdf else { break };
+            let Some(bsdf) = bsdf else { break };
             if path.len() >= max_vertices {
                 break;
             }
@@ -439,7 +440,7 @@ impl Engine<'_> {
                 c.pdf_fwd = 1.0 / ctx.camera.lens_area();
                 c
             } else {
-                cam[0]
+                cam[0].clone()
             };
             let (p, cos_cam) = ctx.camera.project_from(lens.p, qs.p)?;
             let v = lens.p - qs.p;
@@ -774,7 +775,7 @@ pub fn mis_self_check(
                     q.pdf_fwd = e.ctx.pdf_light_origin(&q);
                     sampled = Some(q);
                 } else if t == 1 {
-                    sampled = Some(cam[0]);
+                    sampled = Some(cam[0].clone());
                 }
                 e.densities(&light, &cam, s, t, sampled.as_ref(), &mut d);
                 let mut x: Vec<&Vertex> = Vec::with_capacity(n);

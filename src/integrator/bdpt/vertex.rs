@@ -20,7 +20,7 @@ pub enum Kind {
 }
 
 /// One vertex of a camera or light subpath.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Debug)]
 pub struct Vertex {
     pub kind: Kind,
     pub p: Vec3,
@@ -84,7 +84,7 @@ impl Vertex {
     pub fn connectible(&self) -> bool {
         match self.kind {
             Kind::Camera | Kind::Light(_) => true,
-            Kind::Surface => self.bsdf.is_some_and(|b| !b.is_delta()),
+            Kind::Surface => self.bsdf.as_ref().is_some_and(|b| !b.is_delta()),
         }
     }
 

@@ -1,0 +1,73 @@
+//! Mitsuba's `principled` and `blendbsdf` plugins (the keys: [`crate::desc::principled`]).
+
+use super::{Plugin, Reader};
+use crate::desc::principled::{params, thin_params, Given, RATE_KEYS, TEXTURE_KEYS, THIN_RATE_KEYS, THIN_TEXTURE_KEYS};
+use crate::desc::TextureRef;
+use crate::error::Result;
+use crate::material::Material;
+use crate::math::Vec3;
+
+impl<'a> Reader<'a> {
+    /// `principled`: each texture key a number, a colour or a `<texture>` (float keys
+    /// read a colour texture's luminance); `eta` or `specular` numbers (not both); the
+    /// three sampling rates.
+    pub(super) fn principled(&mut self, p: &Plugin<'a>) -> Result<Material<TextureRef>> {
+        if let Some((_, at)) = p.objects("bsdf").first() {
+            return Err(at.error(format!("{} cannot contain a <bsdf>", p.describe())));
+        }
+        let mut textures = Vec::with_capacity(TEXTURE_KEYS.len());
+        for (key, default) in TEXTURE_KEYS {
+            textures.push(self.texture_ref(p, key, Vec3::splat(default))?);
+        }
+        let mut rates = [1.0; 3];
+        for (r, key) in rates.iter_mut().zip(RATE_KEYS) {
+            *r = p.float(key, 1.0)?;
+        }
+        let given = Given {
+            textures: textures.try_into().unwrap_or_else(|_| unreachable!("11 keys")),
+            eta: p.float_opt("eta")?,
+            specular: p.float_opt("specular")?,
+            rates,
+        };
+        let params = params(given, |k, m| p.value_error(k, m))?;
+        Ok(Material::Principled(Box::new(params)))
+    }
+
+    /// `principledthin`: its texture keys (numbers, colours or `<texture>`s) and four rates.
+    pub(super) fn principled_thin(&mut self, p: &Plugin<'a>) -> Result<Material<TextureRef>> {
+        if let Some((_, at)) = p.objects("bsdf").first() {
+            return Err(at.error(format!("{} cannot contain a <bsdf>", p.describe())));
+        }
+        let mut textures = Vec::with_capacity(THIN_TEXTURE_KEYS.len());
+        for (key, default) in THIN_TEXTURE_KEYS {
+            textures.push(self.texture_ref(p, key, Vec3::splat(default))?);
+        }
+        let mut rates = [1.0; 4];
+        for (r, key) in rates.iter_mut().zip(THIN_RATE_KEYS) {
+            *r = p.float(key, 1.0)?;
+        }
+        let textures: [TextureRef; 10] = textures.try_into().unwrap_or_else(|_| unreachable!("10 keys"));
+        let params = thin_params(textures, rates, |k, m| p.value_error(k, m))?;
+        Ok(Material::PrincipledThin(Box::new(params)))
+    }
+
+    /// `blendbsdf`: `weight` (required, a number or a `<texture>`) and two nested `<bsdf>`s.
+    pub(super) fn blendbsdf(&mut self, p: &Plugin<'a>) -> Result<Material<TextureRef>> {
+        if !p.has("weight") {
+            return Err(p.error("a blendbsdf needs a weight (a float or a texture)"));
+        }
+        let weight = self.texture_ref(p, "weight", Vec3::splat(0.5))?;
+        let inner = p.objects("bsdf");
+        if inner.len() != 2 {
+            let at = inner.get(2).map_or(p.el, |(_, at)| *at);
+            return Err(at.error(format!("a blendbsdf takes two nested <bsdf>s, found {}", inner.len())));
+        }
+        let first = self.material_value(inner[0].0)?;
+        let second = self.material_value(inner[1].0)?;
+        Ok(Material::BlendBsdf {
+            weight,
+            first: Box::new(first),
+            second: Box::new(second),
+        })
+    }
+}

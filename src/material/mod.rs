@@ -15,7 +15,6 @@
 //! on it; Mitsuba scenes wrap it in `twosided`, which then changes nothing), where
 //! Mitsuba's bare `roughconductor` is black from behind.
 
-pub mod blend;
 pub mod bsdf;
 pub mod bump;
 pub mod conductor;
@@ -189,7 +188,7 @@ pub enum Material<T = u32> {
     /// [`principledthin`]; always counts as transmitting (Mitsuba's flags).
     PrincipledThin(Box<PrincipledThinParams<T>>),
     /// `blendbsdf` (Mitsuba `blendbsdf`): (1 − weight)·first + weight·second, `weight` a
-    /// scalar texture clamped to [0, 1] (see [`blend`]).
+    /// scalar texture clamped to [0, 1] (see [`bsdf::BlendBsdf`]).
     BlendBsdf {
         weight: T,
         first: Box<Material<T>>,
@@ -602,7 +601,7 @@ impl Material {
                 ref first,
                 ref second,
             } => {
-                let blend = blend::BlendBsdf::new(
+                let blend = bsdf::BlendBsdf::new(
                     principled::scalar(tint(weight)),
                     first.bsdf_with(g, lookup),
                     second.bsdf_with(g, lookup),

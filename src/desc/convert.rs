@@ -525,24 +525,9 @@ fn material_json(
             "alpha": num(*alpha), "distribution": distribution_name(*distribution),
         }),
         Material::TwoSided { front, back } => {
-            let mut side = |m: &Material<TextureRef>, suffix: &str| -> String {
-                let n = (0..)
-                    .map(|i| {
-                        if i == 0 {
-                            format!("{name}_{suffix}")
-                        } else {
-                            format!("{name}_{suffix}_{i}")
-                        }
-                    })
-                    .find(|n| !materials.contains_key(n))
-                    .expect("a free name");
-                let v = material_json(m, &n, textures, materials, texture_name);
-                materials.insert(n.clone(), v);
-                n
-            };
-            let mut v = json!({"type": "twosided", "material_name": side(front, "front")});
+            let mut v = json!({"type": "twosided", "material_name": nested_json(front, name, "front", textures, materials, texture_name)});
             if let Some(b) = back {
-                v["back_material_name"] = side(b, "back").into();
+                v["back_material_name"] = nested_json(b, name, "back", textures, materials, texture_name).into();
             }
             v
         }
@@ -552,20 +537,20 @@ fn material_json(
             options,
             inner,
         } => {
-            let inner = wrapped_json(inner, name, textures, materials, texture_name);
+            let inner = nested_json(inner, name, "inner", textures, materials, texture_name);
             let mut v = json!({"type": "bumpmap", "material_name": inner, "texture_name": texture_name(height, name, textures),
                                "scale": num(*scale)});
             perturb_json(&mut v, options);
             v
         }
         Material::NormalMap { normals, options, inner } => {
-            let inner = wrapped_json(inner, name, textures, materials, texture_name);
+            let inner = nested_json(inner, name, "inner", textures, materials, texture_name);
             let mut v = json!({"type": "normalmap", "material_name": inner, "texture_name": texture_name(normals, name, textures)});
             perturb_json(&mut v, options);
             v
         }
         Material::Mask { opacity, inner } => {
-            let inner = wrapped_json(inner, name, textures, materials, texture_name);
+            let inner = nested_json(inner, name, "inner", textures, materials, texture_name);
             match opacity {
                 TextureRef::Color(c) if c.x == c.y && c.y == c.z => json!({"type": "mask", "material_name": inner, "opacity": num(c.x)}),
                 t => json!({"type": "mask", "material_name": inner, "texture_name": texture_name(t, name, textures)}),
@@ -574,22 +559,10 @@ fn material_json(
         Material::Principled(p) => super::principled::to_json(p),
         Material::PrincipledThin(p) => super::principled::thin_to_json(p),
         Material::BlendBsdf { weight, first, second } => {
-            let mut names = Vec::new();
-            for (m, suffix) in [(first, "0"), (second, "1")] {
-                let n = (0..)
-                    .map(|i| {
-                        if i == 0 {
-                            format!("{name}_{suffix}")
-                        } else {
-                            format!("{name}_{suffix}_{i}")
-                        }
-                    })
-                    .find(|n| !materials.contains_key(n))
-                    .expect("a free name");
-                let v = material_json(m, &n, textures, materials, texture_name);
-                materials.insert(n.clone(), v);
-                names.push(n);
-            }
+            let names = [
+                nested_json(first, name, "0", textures, materials, texture_name),
+                nested_json(second, name, "1", textures, materials, texture_name),
+            ];
             let weight = match weight {
                 TextureRef::Named(n) => Value::String(n.value.clone()),
                 TextureRef::Color(c) => num(c.x),
@@ -599,11 +572,13 @@ fn material_json(
     }
 }
 
-/// The material a bump map, normal map or mask wraps, as a material of its own
-/// (`<name>_inner`); its name.
-fn wrapped_json(
+/// A material another names (the side of a `twosided`, what a bump map, normal map
+/// or mask wraps, a half of a `blendbsdf`), as a material of its own under the first
+/// free name `<name>_<suffix>[_i]`; that name.
+fn nested_json(
     m: &Material<TextureRef>,
     name: &str,
+    suffix: &str,
     textures: &mut Map<String, Value>,
     materials: &mut Map<String, Value>,
     texture_name: &TextureNamer,
@@ -611,9 +586,9 @@ fn wrapped_json(
     let n = (0..)
         .map(|i| {
             if i == 0 {
-                format!("{name}_inner")
+                format!("{name}_{suffix}")
             } else {
-                format!("{name}_inner_{i}")
+                format!("{name}_{suffix}_{i}")
             }
         })
         .find(|n| !materials.contains_key(n))

@@ -56,63 +56,19 @@ pub fn write_exr(path: &Path, width: u32, height: u32, rgb: &[Vec3], pixels: Exr
 
 /// The bytes of the file [`write_exr`] writes.
 pub fn encode_exr(width: u32, height: u32, rgb: &[Vec3], pixels: ExrPixels) -> Vec<u8> {
-    let (w, h) = (width as usize, height as usize);
-    assert_eq!(rgb.len(), w * h, "image size");
-    let (ptype, bytes_per) = match pixels {
-        ExrPixels::Float => (2i32, 4usize),
-        ExrPixels::HalfTinyexr => (1i32, 2usize),
+    assert_eq!(rgb.len(), width as usize * height as usize, "image size");
+    let channels: Vec<ExrChannel> = match pixels {
+        ExrPixels::Float => rgb_channels("", rgb),
+        ExrPixels::HalfTinyexr => ["R", "G", "B"]
+            .iter()
+            .enumerate()
+            .map(|(c, n)| ExrChannel {
+                name: n.to_string(),
+                data: ChannelData::F16(rgb.iter().map(|p| f32_to_half_tinyexr(p[c])).collect()),
+            })
+            .collect(),
     };
-    let mut hd: Vec<u8> = Vec::new();
-    hd.extend_from_slice(&[0x76, 0x2f, 0x31, 0x01, 2, 0, 0, 0]);
-    let mut attr = |name: &str, ty: &str, value: &[u8]| {
-        hd.extend_from_slice(name.as_bytes());
-        hd.push(0);
-        hd.extend_from_slice(ty.as_bytes());
-        hd.push(0);
-        hd.extend_from_slice(&(value.len() as i32).to_le_bytes());
-        hd.extend_from_slice(value);
-    };
-    let mut ch = Vec::new();
-    for name in ["B", "G", "R"] {
-        ch.extend_from_slice(name.as_bytes());
-        ch.push(0);
-        ch.extend_from_slice(&ptype.to_le_bytes());
-        ch.extend_from_slice(&[0, 0, 0, 0]);
-        ch.extend_from_slice(&1i32.to_le_bytes());
-        ch.extend_from_slice(&1i32.to_le_bytes());
-    }
-    ch.push(0);
-    let window: Vec<u8> = [0i32, 0, w as i32 - 1, h as i32 - 1].iter().flat_map(|v| v.to_le_bytes()).collect();
-    attr("channels", "chlist", &ch);
-    attr("compression", "compression", &[0]);
-    attr("dataWindow", "box2i", &window);
-    attr("displayWindow", "box2i", &window);
-    attr("lineOrder", "lineOrder", &[0]);
-    attr("pixelAspectRatio", "float", &1.0f32.to_le_bytes());
-    attr("screenWindowCenter", "v2f", &[0u8; 8]);
-    attr("screenWindowWidth", "float", &1.0f32.to_le_bytes());
-    hd.push(0);
-
-    let line_bytes = 3 * w * bytes_per;
-    let mut out = Vec::with_capacity(hd.len() + 8 * h + h * (8 + line_bytes));
-    out.extend_from_slice(&hd);
-    let first = (hd.len() + 8 * h) as u64;
-    for y in 0..h as u64 {
-        out.extend_from_slice(&(first + y * (8 + line_bytes) as u64).to_le_bytes());
-    }
-    for y in 0..h {
-        out.extend_from_slice(&(y as i32).to_le_bytes());
-        out.extend_from_slice(&(line_bytes as i32).to_le_bytes());
-        for c in [2usize, 1, 0] {
-            for px in &rgb[y * w..(y + 1) * w] {
-                match pixels {
-                    ExrPixels::Float => out.extend_from_slice(&px[c].to_le_bytes()),
-                    ExrPixels::HalfTinyexr => out.extend_from_slice(&f32_to_half_tinyexr(px[c]).to_le_bytes()),
-                }
-            }
-        }
-    }
-    out
+    encode_exr_channels(width, height, &channels, &[])
 }
 
 /// One channel of an EXR written by [`encode_exr_channels`]: a name and `width·height`
@@ -128,6 +84,8 @@ pub enum ChannelData {
     F32(Vec<f32>),
     /// Raw 32-bit words (the film state keeps f64 sums as two of them).
     U32(Vec<u32>),
+    /// Half floats as bit patterns (RDR171's images).
+    F16(Vec<u16>),
 }
 
 impl ChannelData {
@@ -135,6 +93,16 @@ impl ChannelData {
         match self {
             ChannelData::F32(v) => v.len(),
             ChannelData::U32(v) => v.len(),
+            ChannelData::F16(v) => v.len(),
+        }
+    }
+
+    /// The EXR pixel type (0 uint, 1 half, 2 float) and its size in bytes.
+    fn pixel_type(&self) -> (i32, usize) {
+        match self {
+            ChannelData::U32(_) => (0, 4),
+            ChannelData::F16(_) => (1, 2),
+            ChannelData::F32(_) => (2, 4),
         }
     }
 }
@@ -168,7 +136,7 @@ impl ExrAttribute {
     }
 }
 
-/// An uncompressed single-part scanline EXR of any float32 and uint channels (sorted
+/// An uncompressed single-part scanline EXR of any float, half and uint channels (sorted
 /// by name as the format requires; `B`, `G`, `R` come before lower-case layer names)
 /// and extra attributes after the required ones. With channels `B`, `G`, `R` and no
 /// attributes it is byte for byte the file [`encode_exr`] writes for float pixels.
@@ -191,10 +159,7 @@ pub fn encode_exr_channels(width: u32, height: u32, channels: &[ExrChannel], att
     };
     let mut ch = Vec::new();
     for c in &order {
-        let ptype = match c.data {
-            ChannelData::U32(_) => 0i32,
-            ChannelData::F32(_) => 2i32,
-        };
+        let (ptype, _) = c.data.pixel_type();
         ch.extend_from_slice(c.name.as_bytes());
         ch.push(0);
         ch.extend_from_slice(&ptype.to_le_bytes());
@@ -217,7 +182,7 @@ pub fn encode_exr_channels(width: u32, height: u32, channels: &[ExrChannel], att
     }
     hd.push(0);
 
-    let line_bytes = 4 * order.len() * w;
+    let line_bytes: usize = order.iter().map(|c| c.data.pixel_type().1 * w).sum();
     let mut out = Vec::with_capacity(hd.len() + 8 * h + h * (8 + line_bytes));
     out.extend_from_slice(&hd);
     let first = (hd.len() + 8 * h) as u64;
@@ -231,6 +196,7 @@ pub fn encode_exr_channels(width: u32, height: u32, channels: &[ExrChannel], att
             match &c.data {
                 ChannelData::F32(v) => v[y * w..(y + 1) * w].iter().for_each(|x| out.extend_from_slice(&x.to_le_bytes())),
                 ChannelData::U32(v) => v[y * w..(y + 1) * w].iter().for_each(|x| out.extend_from_slice(&x.to_le_bytes())),
+                ChannelData::F16(v) => v[y * w..(y + 1) * w].iter().for_each(|x| out.extend_from_slice(&x.to_le_bytes())),
             }
         }
     }
@@ -276,7 +242,7 @@ impl RawExr {
 }
 
 /// Reads an EXR that [`encode_exr_channels`] wrote (uncompressed single-part
-/// scanlines, float and uint channels); anything else is an error naming the file.
+/// scanlines, float, half and uint channels); anything else is an error naming the file.
 pub fn read_exr_channels(path: &Path) -> Result<RawExr> {
     let bytes = read_input(path)?;
     decode_exr_channels(&bytes).map_err(|m| anyhow::anyhow!("{}: {m}", path.display()))
@@ -326,13 +292,14 @@ fn decode_exr_channels(b: &[u8]) -> std::result::Result<RawExr, String> {
         let end = chlist[c..].iter().position(|&x| x == 0).ok_or_else(bad)? + c;
         let name = String::from_utf8_lossy(&chlist[c..end]).into_owned();
         let ptype = i32::from_le_bytes(chlist.get(end + 1..end + 5).ok_or_else(bad)?.try_into().unwrap());
-        if ptype != 0 && ptype != 2 {
+        if !(0..=2).contains(&ptype) {
             return Err(bad());
         }
         names.push((name, ptype));
         c = end + 17;
     }
-    let line = 4 * names.len() * w;
+    let size_of = |ptype: i32| if ptype == 1 { 2 } else { 4 };
+    let line: usize = names.iter().map(|&(_, t)| size_of(t) * w).sum();
     // offsets, then per line its number, size and data: all must be in the file
     let need = (h as u64) * (8 + 8 + line as u64) + at as u64;
     if need > b.len() as u64 {
@@ -341,10 +308,15 @@ fn decode_exr_channels(b: &[u8]) -> std::result::Result<RawExr, String> {
     let mut words: Vec<Vec<u32>> = vec![Vec::with_capacity(w * h); names.len()];
     for y in 0..h {
         let off = u64::from_le_bytes(b[at + 8 * y..at + 8 * y + 8].try_into().unwrap()) as usize;
-        let row = b.get(off + 8..off + 8 + line).ok_or_else(bad)?;
-        for (k, ws) in words.iter_mut().enumerate() {
-            let part = &row[4 * k * w..4 * (k + 1) * w];
-            ws.extend(part.chunks_exact(4).map(|q| u32::from_le_bytes(q.try_into().unwrap())));
+        let mut part = off.checked_add(8 + line).and_then(|e| b.get(off + 8..e)).ok_or_else(bad)?;
+        for (ws, &(_, ptype)) in words.iter_mut().zip(&names) {
+            let (this, rest) = part.split_at(size_of(ptype) * w);
+            part = rest;
+            if ptype == 1 {
+                ws.extend(this.chunks_exact(2).map(|q| u16::from_le_bytes([q[0], q[1]]) as u32));
+            } else {
+                ws.extend(this.chunks_exact(4).map(|q| u32::from_le_bytes(q.try_into().unwrap())));
+            }
         }
     }
     let channels = names
@@ -352,10 +324,10 @@ fn decode_exr_channels(b: &[u8]) -> std::result::Result<RawExr, String> {
         .zip(words)
         .map(|((name, ptype), ws)| ExrChannel {
             name,
-            data: if ptype == 2 {
-                ChannelData::F32(ws.into_iter().map(f32::from_bits).collect())
-            } else {
-                ChannelData::U32(ws)
+            data: match ptype {
+                2 => ChannelData::F32(ws.into_iter().map(f32::from_bits).collect()),
+                1 => ChannelData::F16(ws.into_iter().map(|x| x as u16).collect()),
+                _ => ChannelData::U32(ws),
             },
         })
         .collect();
@@ -731,10 +703,13 @@ mod tests {
     }
 
     #[test]
-    fn channel_writer_matches_the_rgb_writer_and_reads_back() {
+    fn channel_writer_reads_back_half_float_and_uint() {
         let px: Vec<Vec3> = (0..6).map(|i| Vec3::new(i as f32, 0.5 * i as f32, 0.25)).collect();
-        let plain = encode_exr(3, 2, &px, ExrPixels::Float);
-        assert_eq!(encode_exr_channels(3, 2, &rgb_channels("", &px), &[]), plain);
+        // half channels (RDR171's files) read back as their bit patterns, beside float ones
+        let half = decode_exr_channels(&encode_exr(3, 2, &px, ExrPixels::HalfTinyexr)).unwrap();
+        let bits: Vec<u16> = px.iter().map(|p| f32_to_half_tinyexr(p.y)).collect();
+        assert_eq!(half.channel("G"), Some(&ChannelData::F16(bits)));
+        assert_eq!(half.channels.iter().map(|c| c.name.as_str()).collect::<Vec<_>>(), ["B", "G", "R"]);
         let mut ch = rgb_channels("", &px);
         ch.push(ExrChannel {
             name: "rdr.x".into(),

@@ -99,7 +99,7 @@ fn channel(exr: &rdr::imageio::RawExr, name: &str) -> Vec<f32> {
         .unwrap_or_else(|| panic!("no channel {name}"));
     match &c.data {
         ChannelData::F32(v) => v.clone(),
-        ChannelData::U32(_) => panic!("{name} is not float"),
+        _ => panic!("{name} is not float"),
     }
 }
 

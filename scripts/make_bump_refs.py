@@ -17,11 +17,12 @@ the variance of that mean, as scripts/make_material_refs.py):
 Run from the repository root with the venv that has Mitsuba:
     /work/venv-mi/bin/python scripts/make_bump_refs.py [--passes 8] [--spp 256] [NAME...]
 """
-import argparse
 import os
-import sys
+
 
 import numpy as np
+
+from mitsuba_refs import arguments, mitsuba, perspective_sensor, render_reference
 
 RES = 64
 HERE = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "tests", "refs", "bump")
@@ -61,15 +62,7 @@ def header(name, integrator, camera):
 <scene version="3.0.0">
   <default name="spp" value="256"/>
   {integrator}
-  <sensor type="perspective">
-    <float name="fov" value="35"/>
-    <transform name="to_world"><lookat origin="{origin}" target="{target}" up="0, 1, 0"/></transform>
-    <film type="hdrfilm">
-      <integer name="width" value="{RES}"/><integer name="height" value="{RES}"/>
-      <string name="pixel_format" value="rgb"/><rfilter type="box"/>
-    </film>
-    <sampler type="independent"><integer name="sample_count" value="$spp"/></sampler>
-  </sensor>
+{perspective_sensor(35, origin, target, "0, 1, 0", RES, fov_axis=None)}
 """
 
 
@@ -129,14 +122,8 @@ def scenes():
 
 
 def main():
-    ap = argparse.ArgumentParser()
-    ap.add_argument("--passes", type=int, default=8)
-    ap.add_argument("--spp", type=int, default=256)
-    ap.add_argument("--variant", default="scalar_rgb")
-    ap.add_argument("names", nargs="*")
-    args = ap.parse_args()
-    import mitsuba as mi
-    mi.set_variant(args.variant)
+    args = arguments(__doc__)
+    mi = mitsuba(args.variant)
     os.makedirs(HERE, exist_ok=True)
     for name, img in [("heights", heights()), ("normals", normals()), ("leaf", leaf())]:
         mi.Bitmap(img.astype(np.float32), mi.Bitmap.PixelFormat.RGB).write(os.path.join(HERE, f"{name}.exr"))
@@ -146,16 +133,7 @@ def main():
         path = os.path.join(HERE, f"{name}.xml")
         with open(path, "w") as f:
             f.write(xml)
-        scene = mi.load_file(path)
-        print(f"{name}: rendering", file=sys.stderr, flush=True)
-        passes = np.stack([np.array(mi.render(scene, seed=p, spp=args.spp), dtype=np.float64)[..., :3]
-                           for p in range(args.passes)])
-        mean = passes.mean(axis=0)
-        var = passes.var(axis=0, ddof=1) / args.passes
-        mi.Bitmap(mean.astype(np.float32), mi.Bitmap.PixelFormat.RGB).write(os.path.join(HERE, f"{name}.exr"))
-        mi.Bitmap(var.astype(np.float32), mi.Bitmap.PixelFormat.RGB).write(os.path.join(HERE, f"{name}.var.exr"))
-        rel = np.sqrt((var / (mean ** 2 + 0.01)).mean())
-        print(f"{name}: {args.passes}x{args.spp} spp, relMSE-noise {rel:.2e}", file=sys.stderr, flush=True)
+        render_reference(mi, mi.load_file(path), HERE, name, args.passes, args.spp)
 
 
 if __name__ == "__main__":

@@ -9,9 +9,11 @@ that mean), as ../shared/refs/README.md describes for the shared references.
   DRJIT_LIBLLVM_PATH=/usr/lib/x86_64-linux-gnu/libLLVM.so.19.1 venv/bin/python scripts/make_camera_refs.py
 
 An oracle for the tests, never run by them or by CI."""
-import os, re, sys
-import numpy as np
-import mitsuba as mi
+import os
+import re
+import sys
+
+from mitsuba_refs import mitsuba, render_reference
 
 here = os.path.dirname(os.path.abspath(__file__))
 out_dir = os.path.join(here, "..", "tests", "refs", "cameras")
@@ -51,7 +53,7 @@ FILM = """<film type="hdrfilm">
 
 
 def main():
-    mi.set_variant("llvm_ad_rgb" if os.environ.get("DRJIT_LIBLLVM_PATH") else "scalar_rgb")
+    mi = mitsuba("llvm_ad_rgb" if os.environ.get("DRJIT_LIBLLVM_PATH") else "scalar_rgb")
     base = open(os.path.join(shared, "refs", "mitsuba", "cbox_path.xml")).read()
     # the shared meshes, seen from tests/refs/cameras/
     base = base.replace('value="../../scenes/', 'value="../../../../shared/scenes/')
@@ -61,15 +63,7 @@ def main():
         xml = xml.replace('<default name="res" value="256"/>', "")
         path = os.path.join(out_dir, name + ".xml")
         open(path, "w").write(xml)
-        scene = mi.load_file(path, spp=SPP)
-        imgs = [np.array(mi.render(scene, spp=SPP, seed=k), dtype=np.float64) for k in range(PASSES)]
-        imgs = np.stack(imgs)
-        mean = imgs.mean(axis=0)
-        var = imgs.var(axis=0, ddof=1) / PASSES
-        mi.Bitmap(mean.astype(np.float32)).write(os.path.join(out_dir, name + ".exr"))
-        mi.Bitmap(var.astype(np.float32)).write(os.path.join(out_dir, name + ".var.exr"))
-        print(name, "mean", mean.mean(axis=(0, 1)), "relMSE-noise", np.sqrt((var / (mean**2 + 0.01)).mean()))
-
+        render_reference(mi, mi.load_file(path, spp=SPP), out_dir, name, PASSES, SPP)
 
 if __name__ == "__main__":
     main()

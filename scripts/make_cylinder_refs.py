@@ -15,10 +15,9 @@ whose outside (the back of a one-sided diffuse) is black.
 Run from the repository root with the venv that has Mitsuba:
     /work/venv-mi/bin/python scripts/make_cylinder_refs.py [--passes 8] [--spp 256]
 """
-import argparse
-import json
 import os
-import sys
+
+from mitsuba_refs import arguments, mitsuba, perspective_sensor, render_reference
 
 RES = 64
 MAX_DEPTH = 6
@@ -66,18 +65,7 @@ def scene_xml():
 <scene version="3.0.0">
   <default name="spp" value="256"/>
   <integrator type="path"><integer name="max_depth" value="{MAX_DEPTH}"/></integrator>
-  <sensor type="perspective">
-    <float name="fov" value="{c['fov']}"/>
-    <string name="fov_axis" value="y"/>
-    <transform name="to_world">
-      <lookat origin="{v(c['position'])}" target="{v(c['look_at'])}" up="{v(c['ref_up'])}"/>
-    </transform>
-    <film type="hdrfilm">
-      <integer name="width" value="{RES}"/><integer name="height" value="{RES}"/>
-      <string name="pixel_format" value="rgb"/><rfilter type="box"/>
-    </film>
-    <sampler type="independent"><integer name="sample_count" value="$spp"/></sampler>
-  </sensor>
+{perspective_sensor(c['fov'], v(c['position']), v(c['look_at']), v(c['ref_up']), RES)}
   <shape type="sphere">
     <point name="center" value="{v(FLOOR['center'])}"/>
     <float name="radius" value="{FLOOR['radius']}"/>
@@ -90,14 +78,10 @@ def scene_xml():
 
 
 def main():
-    ap = argparse.ArgumentParser()
-    ap.add_argument("--passes", type=int, default=8)
-    ap.add_argument("--spp", type=int, default=256)
-    ap.add_argument("--variant", default="scalar_rgb")
-    args = ap.parse_args()
-    import mitsuba as mi
+    args = arguments(__doc__, names=False)
+    mi = mitsuba(args.variant)
     import numpy as np
-    mi.set_variant(args.variant)
+
     os.makedirs(HERE, exist_ok=True)
     tex = np.zeros((TEX_H, TEX_W, 3), dtype=np.uint8)
     for y in range(TEX_H):
@@ -107,17 +91,7 @@ def main():
     xml_path = os.path.join(HERE, "cylinder.xml")
     with open(xml_path, "w") as f:
         f.write(scene_xml())
-    scene = mi.load_file(xml_path)
-    print("cylinder: rendering", file=sys.stderr, flush=True)
-    passes = np.stack([np.array(mi.render(scene, seed=p, spp=args.spp), dtype=np.float64)[..., :3]
-                       for p in range(args.passes)])
-    mean = passes.mean(axis=0)
-    var = passes.var(axis=0, ddof=1) / args.passes
-    # written synchronously (write_bitmap's background writer can hang at exit)
-    mi.Bitmap(mean.astype(np.float32), mi.Bitmap.PixelFormat.RGB).write(os.path.join(HERE, "cylinder.exr"))
-    mi.Bitmap(var.astype(np.float32), mi.Bitmap.PixelFormat.RGB).write(os.path.join(HERE, "cylinder.var.exr"))
-    rel = np.sqrt((var / (mean ** 2 + 0.01)).mean())
-    print(f"cylinder: {args.passes}x{args.spp} spp, relMSE-noise {rel:.2e}", file=sys.stderr, flush=True)
+    render_reference(mi, mi.load_file(xml_path), HERE, "cylinder", args.passes, args.spp)
 
 
 if __name__ == "__main__":

@@ -10,10 +10,10 @@ channel the variance of that mean: the sample variance of the K pass images / K,
 Run from the repository root with the venv that has Mitsuba:
     /work/venv-mi/bin/python scripts/make_material_refs.py [--passes 8] [--spp 256] [NAME...]
 """
-import argparse
 import json
 import os
-import sys
+
+from mitsuba_refs import arguments, mitsuba, perspective_sensor, render_reference
 
 RES = 32
 # the principled and blendbsdf scenes (tests/principled.rs) are 64×64
@@ -162,18 +162,7 @@ def scene_xml(name, shapes_xml, res=RES):
 <scene version="3.0.0">
   <default name="spp" value="256"/>
   <integrator type="path"><integer name="max_depth" value="{MAX_DEPTH}"/></integrator>
-  <sensor type="perspective">
-    <float name="fov" value="{c['fov']}"/>
-    <string name="fov_axis" value="y"/>
-    <transform name="to_world">
-      <lookat origin="{', '.join(map(str, c['position']))}" target="{', '.join(map(str, c['look_at']))}" up="{', '.join(map(str, c['ref_up']))}"/>
-    </transform>
-    <film type="hdrfilm">
-      <integer name="width" value="{res}"/><integer name="height" value="{res}"/>
-      <string name="pixel_format" value="rgb"/><rfilter type="box"/>
-    </film>
-    <sampler type="independent"><integer name="sample_count" value="$spp"/></sampler>
-  </sensor>
+{perspective_sensor(c['fov'], *(', '.join(map(str, c[k])) for k in ('position', 'look_at', 'ref_up')), res)}
   <shape type="sphere">
     <point name="center" x="{LIGHT['center'][0]}" y="{LIGHT['center'][1]}" z="{LIGHT['center'][2]}"/>
     <float name="radius" value="{LIGHT['radius']}"/>
@@ -240,15 +229,8 @@ def scenes():
 
 
 def main():
-    ap = argparse.ArgumentParser()
-    ap.add_argument("--passes", type=int, default=8)
-    ap.add_argument("--spp", type=int, default=256)
-    ap.add_argument("--variant", default="scalar_rgb")
-    ap.add_argument("names", nargs="*")
-    args = ap.parse_args()
-    import mitsuba as mi
-    import numpy as np
-    mi.set_variant(args.variant)
+    args = arguments(__doc__)
+    mi = mitsuba(args.variant)
     with open(os.path.join(HERE, "quad.obj"), "w") as f:
         f.write(QUAD_OBJ)
     for name, xml, js in scenes():
@@ -260,17 +242,7 @@ def main():
         with open(os.path.join(HERE, f"{name}.json"), "w") as f:
             json.dump(js, f, indent=1)
             f.write("\n")
-        scene = mi.load_file(xml_path)
-        print(f"{name}: rendering", file=sys.stderr, flush=True)
-        passes = np.stack([np.array(mi.render(scene, seed=p, spp=args.spp), dtype=np.float64)[..., :3]
-                           for p in range(args.passes)])
-        mean = passes.mean(axis=0)
-        var = passes.var(axis=0, ddof=1) / args.passes
-        # written synchronously (write_bitmap's background writer can hang at exit)
-        mi.Bitmap(mean.astype(np.float32), mi.Bitmap.PixelFormat.RGB).write(os.path.join(HERE, f"{name}.exr"))
-        mi.Bitmap(var.astype(np.float32), mi.Bitmap.PixelFormat.RGB).write(os.path.join(HERE, f"{name}.var.exr"))
-        rel = np.sqrt((var / (mean ** 2 + 0.01)).mean())
-        print(f"{name}: {args.passes}×{args.spp} spp, relMSE-noise {rel:.2e}", file=sys.stderr, flush=True)
+        render_reference(mi, mi.load_file(xml_path), HERE, name, args.passes, args.spp)
 
 
 if __name__ == "__main__":

@@ -248,7 +248,8 @@ pub fn read_exr_channels(path: &Path) -> Result<RawExr> {
     decode_exr_channels(&bytes).map_err(|m| anyhow::anyhow!("{}: {m}", path.display()))
 }
 
-fn decode_exr_channels(b: &[u8]) -> std::result::Result<RawExr, String> {
+/// [`read_exr_channels`] on the file's bytes (the error without the file's name).
+pub fn decode_exr_channels(b: &[u8]) -> std::result::Result<RawExr, String> {
     let bad = || "not an uncompressed single-part EXR as rdr writes it".to_string();
     if b.len() < 8 || b[..4] != [0x76, 0x2f, 0x31, 0x01] || b[4] != 2 || b[5..8] != [0, 0, 0] {
         return Err(bad());
@@ -348,10 +349,14 @@ fn folder_of(path: &Path) -> &Path {
 /// existing file or a planted symbolic link), removed again when dropped.
 fn temp_beside(path: &Path) -> std::io::Result<tempfile::NamedTempFile> {
     let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-    tempfile::Builder::new()
-        .prefix(&format!(".{name}."))
-        .suffix(".partial")
-        .tempfile_in(folder_of(path))
+    let prefix = format!(".{name}.");
+    let mut builder = tempfile::Builder::new();
+    builder.prefix(&prefix).suffix(".partial");
+    // an image is an ordinary file: created 0666 less the umask (as `open` creates files),
+    // not tempfile's private 0600, which the rename would keep
+    #[cfg(unix)]
+    builder.permissions(std::os::unix::fs::PermissionsExt::from_mode(0o666));
+    builder.tempfile_in(folder_of(path))
 }
 
 /// Writes through a unique temporary file beside `path` and a rename, so a failed

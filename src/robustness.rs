@@ -10,7 +10,16 @@ use crate::texture::TextureConvention;
 use std::path::Path;
 
 /// The corpus folders and fuzz targets, by name.
-pub const TARGETS: [&str; 6] = ["scene_json", "scene_xml", "obj", "ply", "serialized", "texture_image"];
+pub const TARGETS: [&str; 8] = [
+    "scene_json",
+    "scene_xml",
+    "obj",
+    "ply",
+    "serialized",
+    "texture_image",
+    "film_state",
+    "ray_file",
+];
 
 /// Runs target `name` on `data`; `Ok` when the input was accepted.
 pub fn run(name: &str, data: &[u8]) -> Result<(), String> {
@@ -21,6 +30,8 @@ pub fn run(name: &str, data: &[u8]) -> Result<(), String> {
         "obj" => obj_mesh(data),
         "ply" => ply_mesh(data),
         "texture_image" => texture_image(data),
+        "film_state" => film_state(data),
+        "ray_file" => ray_file(data),
         other => Err(format!("unknown fuzz target '{other}'")),
     }
 }
@@ -87,5 +98,24 @@ pub fn texture_image(data: &[u8]) -> Result<(), String> {
         TextureConvention::Rdr171
     };
     crate::texture::image::decode_mipmap(bytes, Path::new(name), conv, true).map_err(|e| format!("{e:#}"))?;
+    Ok(())
+}
+
+/// The film state an output EXR carries (`--resume`, `rdr merge`): the EXR reader, the
+/// state's decoding, the image made from it and a merge of the file with itself (which
+/// must be refused as overlapping or pass).
+pub fn film_state(data: &[u8]) -> Result<(), String> {
+    let Some(file) = crate::render::statefile::decode_bytes(data)? else {
+        return Ok(());
+    };
+    let _ = crate::render::statefile::image(file.width, file.height, &file.state);
+    let path = std::path::PathBuf::from("fuzz.exr");
+    let _ = crate::render::statefile::merge(vec![(path.clone(), file.clone()), (path, file)], true);
+    Ok(())
+}
+
+/// The `rdr bench --ray-file` reader.
+pub fn ray_file(data: &[u8]) -> Result<(), String> {
+    crate::bench::ray_file::parse_rays(data, Path::new("fuzz.rays.f32")).map_err(|e| format!("{e:#}"))?;
     Ok(())
 }

@@ -77,10 +77,18 @@ fn every_corpus_file_goes_through_its_target() {
         ("texture_image", "float3x2.exr"),
         ("texture_image", "rgb2x2.png"),
         ("texture_image", "tiny.hdr"),
+        ("film_state", "path_3x2.exr"),
+        ("film_state", "bdpt_splats_2x2.exr"),
+        ("film_state", "shard_2x1.exr"),
+        ("ray_file", "three.rays.f32"),
     ] {
         let data = std::fs::read(Path::new(env!("CARGO_MANIFEST_DIR")).join("fuzz/corpus").join(target).join(file)).unwrap();
         if let Err(e) = rdr::robustness::run(target, &data) {
             panic!("{target}/{file} is rejected: {e}");
+        }
+        if target == "film_state" {
+            let state = rdr::render::statefile::decode_bytes(&data).unwrap();
+            assert!(state.is_some_and(|s| !s.state.pieces.is_empty()), "{file}: no film state decoded");
         }
     }
     for (target, file, why) in [
@@ -89,6 +97,8 @@ fn every_corpus_file_goes_through_its_target() {
         ("ply", "huge_count.ply", "no properties"),
         ("scene_xml", "syntax_error.xml", "line 3, column 55"),
         ("serialized", "truncated.bin", "truncated"),
+        ("film_state", "truncated.exr", "too short"),
+        ("ray_file", "not_unit.rays.f32", "direction of length"),
     ] {
         let data = std::fs::read(Path::new(env!("CARGO_MANIFEST_DIR")).join("fuzz/corpus").join(target).join(file)).unwrap();
         let e = rdr::robustness::run(target, &data).unwrap_err();

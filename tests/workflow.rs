@@ -520,3 +520,25 @@ fn tev_stream_matches_the_protocol_and_the_image() {
     );
     assert!(e.contains("tev"), "{e}");
 }
+
+/// Output files are ordinary files: 0666 less the umask, as `open` would create them
+/// (tempfile's private 0600, kept by the rename, made every image unreadable to others).
+#[cfg(unix)]
+#[test]
+fn outputs_follow_the_umask() {
+    use std::os::unix::fs::PermissionsExt;
+    let dir = common::temp_dir("rdr-umask");
+    for (umask, mode, name) in [("022", 0o644, "a.exr"), ("077", 0o600, "b.png"), ("002", 0o664, "c.exr")] {
+        let out = dir.path().join(name);
+        let cmd = format!("umask {umask} && exec \"$0\" render \"$1\" --override '{SMALL}' --spp 1 -q -o \"$2\"",);
+        let o = Command::new("sh")
+            .args(["-c", &cmd, env!("CARGO_BIN_EXE_rdr")])
+            .arg(scene("cornell.json"))
+            .arg(&out)
+            .output()
+            .expect("sh runs");
+        ok(&o, &format!("render under umask {umask}"));
+        let got = std::fs::metadata(&out).unwrap().permissions().mode() & 0o777;
+        assert_eq!(got, mode, "{name} under umask {umask}: mode {got:o}, not {mode:o}");
+    }
+}

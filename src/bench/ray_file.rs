@@ -20,6 +20,11 @@ pub const HIT_MISS_FRACTION: f64 = 1e-4;
 pub fn read_rays(path: &Path) -> Result<Vec<Ray>> {
     let bytes = crate::limits::read_input_file(path, crate::limits::max_input_file())
         .with_context(|| format!("cannot read ray file '{}'", path.display()))?;
+    parse_rays(&bytes, path)
+}
+
+/// [`read_rays`] on the bytes of the file `path` (named in the errors).
+pub fn parse_rays(bytes: &[u8], path: &Path) -> Result<Vec<Ray>> {
     if bytes.is_empty() || bytes.len() % 24 != 0 {
         bail!(
             "ray file '{}': {} bytes is not a positive multiple of 24 (6 little-endian f32 a ray)",
@@ -27,7 +32,7 @@ pub fn read_rays(path: &Path) -> Result<Vec<Ray>> {
             bytes.len()
         );
     }
-    let f: Vec<f32> = floats(&bytes);
+    let f: Vec<f32> = floats(bytes);
     f.chunks_exact(6)
         .enumerate()
         .map(|(i, r)| {

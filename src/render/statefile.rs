@@ -118,6 +118,16 @@ pub fn encode(
 
 /// Reads an output EXR with its film state. `Ok(None)` when the file is an image
 /// without rdr's state (written by something else, or with `--compat rdr171`).
+/// [`read`] on a file's bytes: `Ok(None)` for an EXR without rdr's state, an error for
+/// anything that is not an EXR as rdr writes it or whose state is inconsistent.
+pub fn decode_bytes(bytes: &[u8]) -> std::result::Result<Option<StateFile>, String> {
+    let raw = crate::imageio::decode_exr_channels(bytes)?;
+    if raw.text("rdr:state").is_none() {
+        return Ok(None);
+    }
+    decode(&raw).map(Some)
+}
+
 pub fn read(path: &Path) -> Result<Option<StateFile>> {
     let raw = match crate::imageio::read_exr_channels(path) {
         Ok(r) => r,

@@ -25,7 +25,7 @@ pub fn read_rays(path: &Path) -> Result<Vec<Ray>> {
 
 /// [`read_rays`] on the bytes of the file `path` (named in the errors).
 pub fn parse_rays(bytes: &[u8], path: &Path) -> Result<Vec<Ray>> {
-    if bytes.is_empty() || bytes.len() % 24 != 0 {
+    if bytes.is_empty() || !bytes.len().is_multiple_of(24) {
         bail!(
             "ray file '{}': {} bytes is not a positive multiple of 24 (6 little-endian f32 a ray)",
             path.display(),

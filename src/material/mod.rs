@@ -457,6 +457,17 @@ impl Material {
     /// The BSDF at the surface point `it`, its textures looked up in `textures`: what
     /// the integrators use (bump and normal maps need the point's uv tangents).
     pub fn bsdf_at(&self, it: &crate::geometry::interaction::Interaction, textures: &[Texture]) -> Bsdf {
+        // the common case without the general path's set-up (the same values)
+        if let Material::Diffuse { texture, twosided } = *self {
+            let n = if twosided && it.ns.dot(it.wo) < 0.0 { -it.ns } else { it.ns };
+            return Bsdf {
+                frame: Frame::from_normal(n),
+                kind: BsdfKind::Diffuse {
+                    albedo: textures[texture as usize].eval(it.tex_coord()),
+                },
+                perturbed: None,
+            };
+        }
         let g = ShadingGeometry {
             ns: it.ns,
             ng: it.ng,

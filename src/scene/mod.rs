@@ -216,6 +216,11 @@ impl Scene {
             _ => unreachable!("triangle of a non-mesh"),
         };
         let mut it = match &self.prims[hit.prim as usize] {
+            // the common case in short: a triangle (of a mesh, so no cylinder's flip)
+            // whose texture coordinates nothing reads
+            Prim::Triangle { p, object, index } if !self.texture_coords => {
+                return Interaction::on_triangle_plain(p, hit.b, mesh(*object), *index, *object, -ray.d);
+            }
             Prim::Instance { instance, .. } => {
                 // made in the group's frame, then carried to the world
                 let inst = &self.instances[*instance as usize];

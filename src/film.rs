@@ -494,7 +494,22 @@ mod tests {
 
     #[test]
     fn floor_to_i32_is_floor() {
-        for x in [0.0f32, -0.0, 0.5, 0.999_999_94, 1.0, 511.999_97, -0.5, -1.0, -1.5, 1e10, -1e10, f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
+        for x in [
+            0.0f32,
+            -0.0,
+            0.5,
+            0.999_999_94,
+            1.0,
+            511.999_97,
+            -0.5,
+            -1.0,
+            -1.5,
+            1e10,
+            -1e10,
+            f32::NAN,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+        ] {
             assert_eq!(floor_to_i32(x), x.floor() as i32, "{x}");
         }
     }

@@ -143,7 +143,11 @@ impl PixelSampler {
     fn next_pair(&mut self) -> (u32, u32) {
         let d = self.dim;
         self.dim += 1;
-        let hd = if (d as usize) < HASHED_DIMS { DIM_HASHES[d as usize] } else { hash_u32(d) };
+        let hd = if (d as usize) < HASHED_DIMS {
+            DIM_HASHES[d as usize]
+        } else {
+            hash_u32(d)
+        };
         let s = hash_u32(self.pixel_seed ^ hd.wrapping_add(self.seed_key));
         (s, laine_karras_permutation(self.index_reversed, s))
     }
@@ -261,7 +265,11 @@ mod tests {
             for dim in 0..(HASHED_DIMS as u32 + 8) {
                 let (rx, ry) = reference_2d(pixel_seed, index, dim);
                 let (px, py) = a.next_2d();
-                assert_eq!((px.to_bits(), py.to_bits()), (rx.to_bits(), ry.to_bits()), "pixel ({x}, {y}) index {index} dim {dim}");
+                assert_eq!(
+                    (px.to_bits(), py.to_bits()),
+                    (rx.to_bits(), ry.to_bits()),
+                    "pixel ({x}, {y}) index {index} dim {dim}"
+                );
                 assert_eq!(b.next_1d().to_bits(), rx.to_bits());
             }
         }

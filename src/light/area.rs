@@ -131,11 +131,7 @@ impl AreaLight {
                         let n = triangles.len();
                         let x = u.x * n as f32;
                         let i = (x as usize).min(n - 1);
-                        (
-                            i,
-                            1.0 / (n as f32 * areas[i]),
-                            (x - i as f32).min(1.0 - f32::EPSILON),
-                        )
+                        (i, 1.0 / (n as f32 * areas[i]), (x - i as f32).min(1.0 - f32::EPSILON))
                     }
                 };
                 let t = &triangles[i];

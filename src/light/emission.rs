@@ -173,7 +173,10 @@ impl AreaLight {
         }
         match &self.emitter {
             super::area::Emitter::Mesh {
-                triangles, normals, by_area, ..
+                triangles,
+                normals,
+                by_area,
+                ..
             } => {
                 let (i, _, ux) = by_area.sample_discrete(u.x);
                 let t = &triangles[i];

@@ -231,7 +231,14 @@ impl Scene {
                     sub: 0,
                     ..*hit
                 };
-                let l = Interaction::of_hit(&group.prims[hit.sub as usize], &local_ray, &local_hit, mesh, sphere_uv, self.texture_coords);
+                let l = Interaction::of_hit(
+                    &group.prims[hit.sub as usize],
+                    &local_ray,
+                    &local_hit,
+                    mesh,
+                    sphere_uv,
+                    self.texture_coords,
+                );
                 Interaction {
                     p: inst.point_to_world(l.p),
                     ng: inst.normal_to_world(l.ng),

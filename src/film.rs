@@ -102,6 +102,18 @@ pub struct FilmTile {
     pub weight: Vec<f64>,
 }
 
+/// `x.floor() as i32`. The baseline x86-64 target has no rounding instruction, so
+/// `floor` is a libm call; a non-negative `x` needs none: truncation is the floor
+/// there (and `as` saturates alike).
+#[inline]
+fn floor_to_i32(x: f32) -> i32 {
+    if x >= 0.0 {
+        x as i32
+    } else {
+        x.floor() as i32
+    }
+}
+
 impl FilmTile {
     /// A tile for samples taken in pixels `[x0, x1) × [y0, y1)` of a `film_w × film_h` film.
     pub fn new(x0: i32, y0: i32, x1: i32, y1: i32, reach: i32, film_w: i32, film_h: i32) -> Self {
@@ -122,7 +134,7 @@ impl FilmTile {
     /// outside the film are dropped (spec §5.1).
     #[inline]
     pub fn add(&mut self, pos: Vec2, l: Vec3, filter: &Filter, film_w: i32, film_h: i32) {
-        let (px, py) = (pos.x.floor() as i32, pos.y.floor() as i32);
+        let (px, py) = (floor_to_i32(pos.x), floor_to_i32(pos.y));
         if px < 0 || py < 0 || px >= film_w || py >= film_h {
             return;
         }
@@ -479,6 +491,28 @@ fn filter_integral(filter: &Filter) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn floor_to_i32_is_floor() {
+        for x in [
+            0.0f32,
+            -0.0,
+            0.5,
+            0.999_999_94,
+            1.0,
+            511.999_97,
+            -0.5,
+            -1.0,
+            -1.5,
+            1e10,
+            -1e10,
+            f32::NAN,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+        ] {
+            assert_eq!(floor_to_i32(x), x.floor() as i32, "{x}");
+        }
+    }
 
     #[test]
     fn box_filter_puts_each_sample_in_its_own_pixel() {

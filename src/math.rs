@@ -64,6 +64,7 @@ pub struct Frame {
 }
 
 impl Frame {
+    #[inline]
     pub fn from_normal(n: Vec3) -> Self {
         let (s, t) = coordinate_system(n);
         Frame { s, t, n }

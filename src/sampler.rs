@@ -9,7 +9,7 @@
 
 /// 32-bit integer hash (lowbias32, Chris Wellons).
 #[inline]
-pub fn hash_u32(mut x: u32) -> u32 {
+pub const fn hash_u32(mut x: u32) -> u32 {
     x ^= x >> 16;
     x = x.wrapping_mul(0x7feb_352d);
     x ^= x >> 15;
@@ -22,6 +22,27 @@ pub fn hash_u32(mut x: u32) -> u32 {
 pub fn hash_combine(a: u32, b: u32) -> u32 {
     hash_u32(a ^ hash_u32(b).wrapping_add(0x9e37_79b9).wrapping_add(a << 6).wrapping_add(a >> 2))
 }
+
+/// The part of [`hash_combine`]`(a, b)` that depends on `a` alone (wrapping additions
+/// commute): `hash_combine(a, b) == hash_u32(a ^ hash_u32(b).wrapping_add(combine_key(a)))`.
+#[inline]
+const fn combine_key(a: u32) -> u32 {
+    0x9e37_79b9u32.wrapping_add(a << 6).wrapping_add(a >> 2)
+}
+
+/// Dimensions whose hash [`DIM_HASHES`] holds (a path of depth 12 draws about 60).
+const HASHED_DIMS: usize = 128;
+
+/// `hash_u32(d)` for the first [`HASHED_DIMS`] dimensions.
+static DIM_HASHES: [u32; HASHED_DIMS] = {
+    let mut t = [0u32; HASHED_DIMS];
+    let mut d = 0;
+    while d < HASHED_DIMS {
+        t[d] = hash_u32(d as u32);
+        d += 1;
+    }
+    t
+};
 
 #[inline]
 fn laine_karras_permutation(mut x: u32, seed: u32) -> u32 {
@@ -54,14 +75,15 @@ const fn sobol_dim1_slow(mut i: u32) -> u32 {
     x
 }
 
-/// The same, one table lookup per index byte (the map is linear over XOR).
-static SOBOL_DIM1_BYTES: [[u32; 256]; 4] = {
+/// The same with its bits reversed (what the Owen scramble works on), one table
+/// lookup per index byte: the map and the reversal are linear over XOR.
+static SOBOL_DIM1_REVERSED_BYTES: [[u32; 256]; 4] = {
     let mut t = [[0u32; 256]; 4];
     let mut b = 0;
     while b < 4 {
         let mut v = 0;
         while v < 256 {
-            t[b][v] = sobol_dim1_slow((v as u32) << (8 * b));
+            t[b][v] = sobol_dim1_slow((v as u32) << (8 * b)).reverse_bits();
             v += 1;
         }
         b += 1;
@@ -69,9 +91,10 @@ static SOBOL_DIM1_BYTES: [[u32; 256]; 4] = {
     t
 };
 
+/// `sobol_dim1_slow(i).reverse_bits()`.
 #[inline]
-fn sobol_dim1(i: u32) -> u32 {
-    let t = &SOBOL_DIM1_BYTES;
+fn sobol_dim1_reversed(i: u32) -> u32 {
+    let t = &SOBOL_DIM1_REVERSED_BYTES;
     t[0][(i & 0xff) as usize] ^ t[1][((i >> 8) & 0xff) as usize] ^ t[2][((i >> 16) & 0xff) as usize] ^ t[3][(i >> 24) as usize]
 }
 
@@ -82,30 +105,60 @@ fn to_unit(x: u32) -> f32 {
 }
 
 /// Samples for one pixel and one sample index.
+///
+/// Dimension pair `d` is `(x, y)` with `s = hash_combine(pixel_seed, d)`,
+/// `i = nested_uniform_scramble(index, s)` (the shuffled index),
+/// `x = nested_uniform_scramble(i.reverse_bits(), hash_u32(s ^ 0x5851_f42d))` (Sobol's
+/// first dimension is the bit reversal) and
+/// `y = nested_uniform_scramble(sobol_dim1(i), hash_u32(s ^ 0x1405_7b7e))`. The code
+/// computes exactly that with fewer bit reversals (the scramble is
+/// `reverse(laine_karras(reverse(·)))`, so the reversals of adjacent steps cancel, and
+/// the index's is taken once) and the pixel's half of `hash_combine` kept.
 #[derive(Clone, Copy, Debug)]
 pub struct PixelSampler {
     pixel_seed: u32,
+    /// `combine_key(pixel_seed)`.
+    seed_key: u32,
     index: u32,
+    /// `index.reverse_bits()`.
+    index_reversed: u32,
     dim: u32,
 }
 
 impl PixelSampler {
     pub fn new(x: u32, y: u32, sample_index: u32, seed: u32) -> Self {
+        let pixel_seed = hash_combine(hash_combine(x, y), seed);
         PixelSampler {
-            pixel_seed: hash_combine(hash_combine(x, y), seed),
+            pixel_seed,
+            seed_key: combine_key(pixel_seed),
             index: sample_index,
+            index_reversed: sample_index.reverse_bits(),
             dim: 0,
         }
+    }
+
+    /// `hash_combine(pixel_seed, dim)` for the next dimension pair, and the
+    /// scrambled index's bits reversed (`nested_uniform_scramble(index, s).reverse_bits()`).
+    #[inline]
+    fn next_pair(&mut self) -> (u32, u32) {
+        let d = self.dim;
+        self.dim += 1;
+        let hd = if (d as usize) < HASHED_DIMS {
+            DIM_HASHES[d as usize]
+        } else {
+            hash_u32(d)
+        };
+        let s = hash_u32(self.pixel_seed ^ hd.wrapping_add(self.seed_key));
+        (s, laine_karras_permutation(self.index_reversed, s))
     }
 
     /// The next 2D point; each call uses a new, independently scrambled dimension pair.
     #[inline]
     pub fn next_2d(&mut self) -> (f32, f32) {
-        let s = hash_combine(self.pixel_seed, self.dim);
-        self.dim += 1;
-        let i = nested_uniform_scramble(self.index, s);
-        let x = nested_uniform_scramble(i.reverse_bits(), hash_u32(s ^ 0x5851_f42d));
-        let y = nested_uniform_scramble(sobol_dim1(i), hash_u32(s ^ 0x1405_7b7e));
+        let (s, i_reversed) = self.next_pair();
+        let i = i_reversed.reverse_bits();
+        let x = laine_karras_permutation(i, hash_u32(s ^ 0x5851_f42d)).reverse_bits();
+        let y = laine_karras_permutation(sobol_dim1_reversed(i), hash_u32(s ^ 0x1405_7b7e)).reverse_bits();
         (to_unit(x), to_unit(y))
     }
 
@@ -120,10 +173,9 @@ impl PixelSampler {
     /// The first coordinate of [`next_2d`](Self::next_2d), without computing the second.
     #[inline]
     pub fn next_1d(&mut self) -> f32 {
-        let s = hash_combine(self.pixel_seed, self.dim);
-        self.dim += 1;
-        let i = nested_uniform_scramble(self.index, s);
-        to_unit(nested_uniform_scramble(i.reverse_bits(), hash_u32(s ^ 0x5851_f42d)))
+        let (s, i_reversed) = self.next_pair();
+        let i = i_reversed.reverse_bits();
+        to_unit(laine_karras_permutation(i, hash_u32(s ^ 0x5851_f42d)).reverse_bits())
     }
 }
 
@@ -189,7 +241,37 @@ mod tests {
     fn sobol_tables_match_the_bitwise_definition() {
         for k in 0..100_000u32 {
             let i = hash_u32(k);
-            assert_eq!(sobol_dim1(i), sobol_dim1_slow(i));
+            assert_eq!(sobol_dim1_reversed(i), sobol_dim1_slow(i).reverse_bits());
+        }
+    }
+
+    /// The definition the sampler's documentation gives, spelt out step by step.
+    fn reference_2d(pixel_seed: u32, index: u32, dim: u32) -> (f32, f32) {
+        let s = hash_combine(pixel_seed, dim);
+        let i = nested_uniform_scramble(index, s);
+        let x = nested_uniform_scramble(i.reverse_bits(), hash_u32(s ^ 0x5851_f42d));
+        let y = nested_uniform_scramble(sobol_dim1_slow(i), hash_u32(s ^ 0x1405_7b7e));
+        (to_unit(x), to_unit(y))
+    }
+
+    #[test]
+    fn samples_follow_the_definition_bit_for_bit() {
+        // past the hashed dimensions too
+        for k in 0..3000u32 {
+            let (x, y, index, seed) = (k % 37, k / 37, hash_u32(k) % 1024, k % 5);
+            let mut a = PixelSampler::new(x, y, index, seed);
+            let mut b = a;
+            let pixel_seed = hash_combine(hash_combine(x, y), seed);
+            for dim in 0..(HASHED_DIMS as u32 + 8) {
+                let (rx, ry) = reference_2d(pixel_seed, index, dim);
+                let (px, py) = a.next_2d();
+                assert_eq!(
+                    (px.to_bits(), py.to_bits()),
+                    (rx.to_bits(), ry.to_bits()),
+                    "pixel ({x}, {y}) index {index} dim {dim}"
+                );
+                assert_eq!(b.next_1d().to_bits(), rx.to_bits());
+            }
         }
     }
 

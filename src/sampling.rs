@@ -64,9 +64,11 @@ impl Distribution1D {
     }
 
     /// The largest `i < n` with `cdf[i] <= u` (0 when there is none).
+    #[inline]
     fn find(&self, u: f32) -> usize {
         let n = self.func.len();
-        if u.is_nan() {
+        // a single entry (a scene's only light) needs no search
+        if n <= 1 || u.is_nan() {
             return 0;
         }
         // `as` saturates: negative u gives 0
@@ -83,6 +85,7 @@ impl Distribution1D {
 
     /// Index `i` with probability `w_i / Σw`, that probability, and `u` re-used:
     /// its position inside the chosen bucket, in [0, 1).
+    #[inline]
     pub fn sample_discrete(&self, u: f32) -> (usize, f32, f32) {
         let i = self.find(u);
         let width = self.cdf[i + 1] - self.cdf[i];
@@ -94,6 +97,7 @@ impl Distribution1D {
         (i, self.pmf(i), rest)
     }
 
+    #[inline]
     pub fn pmf(&self, i: usize) -> f32 {
         self.cdf[i + 1] - self.cdf[i]
     }

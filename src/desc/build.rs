@@ -362,8 +362,13 @@ pub fn build(desc: &SceneDesc, opts: BuildOptions) -> Result<Scene> {
         (bounds.centroid(), (bounds.extent().length() * 0.5).max(1e-3))
     };
     let light_sampler = LightSampler::new(&lights, radius, desc.integrator.light_sampling);
+    // the environment's image is looked up by direction, not through a surface
+    let texture_coords = materials
+        .iter()
+        .any(|m| m.reads_surface(|&t| matches!(textures[t as usize], Texture::Constant(_))));
     Ok(Scene {
-        uses_footprints: textures.iter().any(|t| matches!(t, Texture::Image(_))),
+        uses_footprints: texture_coords && textures.iter().any(|t| matches!(t, Texture::Image(_))),
+        texture_coords,
         textures,
         materials,
         objects,

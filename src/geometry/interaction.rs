@@ -16,9 +16,11 @@ pub struct Interaction {
     pub ng: Vec3,
     /// Shading normal (interpolated vertex normals, else `ng`).
     pub ns: Vec3,
+    /// Texture coordinates: zero on triangles and spheres when made without them
+    /// (`uv` false in [`Interaction::of_hit`], a scene that reads none).
     pub uv: Vec2,
     /// `∂p/∂u`, `∂p/∂v` of the uv parameterisation (spec §14.2; an arbitrary frame
-    /// around `ng` where it is degenerate).
+    /// around `ng` where it is degenerate); zero, like `uv`, when made without them.
     pub dpdu: Vec3,
     pub dpdv: Vec3,
     /// Screen-space derivatives of `uv` per pixel; zero unless
@@ -29,7 +31,7 @@ pub struct Interaction {
     pub wo: Vec3,
     pub object: u32,
     /// The mesh's vertex colour interpolated with the barycentrics, and its face
-    /// colour (zero where the mesh has none; spheres have none).
+    /// colour (zero where the mesh has none, spheres, and without `uv`).
     pub vertex_color: Vec3,
     pub face_color: Vec3,
 }
@@ -46,14 +48,18 @@ pub enum SphereUv {
 impl Interaction {
     /// The surface point of `hit` on `prim` (the primitive `hit.prim` names).
     /// `mesh` gives the mesh of a triangle's object (its vertex normals and uvs);
-    /// `sphere_uv` the order of a sphere's uv. Triangle points are the barycentric
-    /// interpolation `(b0·p0 + b1·p1) + b2·p2` (spec §14.2), which is more
-    /// accurate than `o + t·d`.
+    /// `sphere_uv` the order of a sphere's uv; `uv` whether to compute the texture
+    /// coordinates, their tangents and the mesh attributes (false: zero on triangles
+    /// and spheres, for scenes whose materials read none of them). Triangle points
+    /// are the barycentric interpolation `(b0·p0 + b1·p1) + b2·p2` (spec §14.2),
+    /// which is more accurate than `o + t·d`.
     #[inline]
-    pub fn of_hit<'m>(prim: &Prim, ray: &Ray, hit: &Hit, mesh: impl FnOnce(u32) -> &'m Mesh, sphere_uv: SphereUv) -> Interaction {
+    pub fn of_hit<'m>(prim: &Prim, ray: &Ray, hit: &Hit, mesh: impl FnOnce(u32) -> &'m Mesh, sphere_uv: SphereUv, uv: bool) -> Interaction {
         let wo = -ray.d;
         match prim {
+            Prim::Triangle { p, object, index } if !uv => Interaction::on_triangle_plain(p, hit.b, mesh(*object), *index, *object, wo),
             Prim::Triangle { p, object, index } => Interaction::on_triangle(p, hit.b, mesh(*object), *index, *object, wo),
+            Prim::Sphere { sphere, object } if !uv => Interaction::on_sphere_plain(sphere, ray.at(hit.t), *object, wo),
             Prim::Sphere { sphere, object } => Interaction::on_sphere(sphere, ray.at(hit.t), sphere_uv, *object, wo),
             Prim::Cylinder { cylinder, object } => Interaction::on_cylinder(cylinder, ray.at(hit.t), *object, wo),
             Prim::Instance { .. } => unreachable!("an instance's hit is resolved in its group (Scene::interaction)"),
@@ -62,21 +68,8 @@ impl Interaction {
 
     /// The point with barycentrics `b` on triangle `index` of `mesh` (vertices `p`).
     pub fn on_triangle(p: &[Vec3; 3], b: [f32; 3], mesh: &Mesh, index: u32, object: u32, wo: Vec3) -> Interaction {
-        let pos = (p[0] * b[0] + p[1] * b[1]) + p[2] * b[2];
-        let ng = normalize_div((p[1] - p[0]).cross(p[2] - p[0]));
+        let (pos, ng, ns) = triangle_point(p, b, mesh, index);
         let tri = &mesh.triangles[index as usize];
-        let ns = match tri.n {
-            Some(n) => {
-                let v = mesh.normals[n[0] as usize] * b[0] + mesh.normals[n[1] as usize] * b[1] + mesh.normals[n[2] as usize] * b[2];
-                let l = v.length();
-                if l > 0.0 && l.is_finite() {
-                    v / l
-                } else {
-                    ng
-                }
-            }
-            None => ng,
-        };
         let uvs = match tri.uv {
             Some(t) => t.map(|i| mesh.uvs[i as usize]),
             None => [Vec2::new(0.0, 0.0), Vec2::new(1.0, 0.0), Vec2::new(1.0, 1.0)],
@@ -103,6 +96,39 @@ impl Interaction {
             object,
             vertex_color,
             face_color,
+        }
+    }
+
+    /// [`Interaction::on_triangle`] without texture coordinates, tangents and mesh
+    /// attributes (zero).
+    #[inline]
+    pub fn on_triangle_plain(p: &[Vec3; 3], b: [f32; 3], mesh: &Mesh, index: u32, object: u32, wo: Vec3) -> Interaction {
+        let (pos, ng, ns) = triangle_point(p, b, mesh, index);
+        Interaction::plain(pos, ng, ns, object, wo)
+    }
+
+    /// [`Interaction::on_sphere`] without texture coordinates and tangents (zero).
+    #[inline]
+    pub fn on_sphere_plain(sphere: &Sphere, hit_point: Vec3, object: u32, wo: Vec3) -> Interaction {
+        let (pos, n) = sphere.project(hit_point);
+        Interaction::plain(pos, n, n, object, wo)
+    }
+
+    #[inline]
+    fn plain(p: Vec3, ng: Vec3, ns: Vec3, object: u32, wo: Vec3) -> Interaction {
+        Interaction {
+            p,
+            ng,
+            ns,
+            uv: Vec2::ZERO,
+            dpdu: Vec3::ZERO,
+            dpdv: Vec3::ZERO,
+            duvdx: Vec2::ZERO,
+            duvdy: Vec2::ZERO,
+            wo,
+            object,
+            vertex_color: Vec3::ZERO,
+            face_color: Vec3::ZERO,
         }
     }
 
@@ -200,6 +226,27 @@ impl Interaction {
             self.duvdy = solve(dpdy);
         }
     }
+}
+
+/// A triangle's point with barycentrics `b`, its geometric normal and shading normal
+/// (interpolated vertex normals where the mesh has them).
+#[inline]
+fn triangle_point(p: &[Vec3; 3], b: [f32; 3], mesh: &Mesh, index: u32) -> (Vec3, Vec3, Vec3) {
+    let pos = (p[0] * b[0] + p[1] * b[1]) + p[2] * b[2];
+    let ng = normalize_div((p[1] - p[0]).cross(p[2] - p[0]));
+    let ns = match mesh.triangles[index as usize].n {
+        Some(n) => {
+            let v = mesh.normals[n[0] as usize] * b[0] + mesh.normals[n[1] as usize] * b[1] + mesh.normals[n[2] as usize] * b[2];
+            let l = v.length();
+            if l > 0.0 && l.is_finite() {
+                v / l
+            } else {
+                ng
+            }
+        }
+        None => ng,
+    };
+    (pos, ng, ns)
 }
 
 /// `∂p/∂u`, `∂p/∂v` from three points and their uv (pbrt); `None` when the uv

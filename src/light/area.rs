@@ -7,9 +7,12 @@ use crate::sampling::{uniform_sphere, uniform_triangle, Distribution1D};
 
 #[derive(Clone, Debug)]
 pub enum Emitter {
-    /// Triangles with a distribution in proportion to their areas.
+    /// Triangles with a distribution in proportion to their areas; each triangle's
+    /// area and unit normal kept (as `tri_area` and `tri_normal` give them).
     Mesh {
         triangles: Vec<[Vec3; 3]>,
+        areas: Vec<f32>,
+        normals: Vec<Vec3>,
         by_area: Distribution1D,
         total_area: f32,
     },
@@ -33,13 +36,15 @@ pub struct AreaLight {
 
 impl AreaLight {
     pub fn mesh(object: u32, radiance: Vec3, triangles: Vec<[Vec3; 3]>) -> Self {
-        let areas: Vec<f32> = triangles.iter().map(|t| 0.5 * (t[1] - t[0]).cross(t[2] - t[0]).length()).collect();
+        let areas: Vec<f32> = triangles.iter().map(tri_area).collect();
         let total_area = areas.iter().sum();
         AreaLight {
             radiance,
             object,
             emitter: Emitter::Mesh {
                 by_area: Distribution1D::new(&areas),
+                normals: triangles.iter().map(tri_normal).collect(),
+                areas,
                 triangles,
                 total_area,
             },
@@ -109,29 +114,30 @@ impl AreaLight {
 
     pub fn sample(&self, p: Vec3, u: Vec2, mode: LightSampling) -> Option<LightSample> {
         match &self.emitter {
-            Emitter::Mesh { triangles, by_area, .. } => {
+            Emitter::Mesh {
+                triangles,
+                areas,
+                normals,
+                by_area,
+                ..
+            } => {
                 let (i, pdf_tri, ux) = match mode {
                     LightSampling::Importance => {
                         let (i, pmf, rest) = by_area.sample_discrete(u.x);
-                        let area = tri_area(&triangles[i]);
+                        let area = areas[i];
                         (i, if area > 0.0 { pmf / area } else { 0.0 }, rest)
                     }
                     LightSampling::Uniform => {
                         let n = triangles.len();
                         let x = u.x * n as f32;
                         let i = (x as usize).min(n - 1);
-                        (
-                            i,
-                            1.0 / (n as f32 * tri_area(&triangles[i])),
-                            (x - i as f32).min(1.0 - f32::EPSILON),
-                        )
+                        (i, 1.0 / (n as f32 * areas[i]), (x - i as f32).min(1.0 - f32::EPSILON))
                     }
                 };
                 let t = &triangles[i];
                 let b = uniform_triangle(Vec2::new(ux, u.y));
                 let q = t[0] * b[0] + t[1] * b[1] + t[2] * b[2];
-                let n = (t[1] - t[0]).cross(t[2] - t[0]).normalize();
-                self.light_sample_from_area_point(p, q, n, pdf_tri)
+                self.light_sample_from_area_point(p, q, normals[i], pdf_tri)
             }
             Emitter::Cylinder { cylinder, flip } => {
                 let (q, n) = Self::cylinder_point(cylinder, *flip, u);
@@ -213,6 +219,11 @@ impl AreaLight {
 
 fn tri_area(t: &[Vec3; 3]) -> f32 {
     0.5 * (t[1] - t[0]).cross(t[2] - t[0]).length()
+}
+
+/// A triangle's unit normal (winding order).
+pub(super) fn tri_normal(t: &[Vec3; 3]) -> Vec3 {
+    (t[1] - t[0]).cross(t[2] - t[0]).normalize()
 }
 
 fn point_in_triangle(q: Vec3, t: &[Vec3; 3]) -> bool {

@@ -172,13 +172,17 @@ impl AreaLight {
             return None;
         }
         match &self.emitter {
-            super::area::Emitter::Mesh { triangles, by_area, .. } => {
+            super::area::Emitter::Mesh {
+                triangles,
+                normals,
+                by_area,
+                ..
+            } => {
                 let (i, _, ux) = by_area.sample_discrete(u.x);
                 let t = &triangles[i];
                 let b = uniform_triangle(Vec2::new(ux, u.y));
                 let q = t[0] * b[0] + t[1] * b[1] + t[2] * b[2];
-                let n = (t[1] - t[0]).cross(t[2] - t[0]).normalize();
-                Some((q, n, 1.0 / area))
+                Some((q, normals[i], 1.0 / area))
             }
             super::area::Emitter::Sphere { center, radius } => {
                 let n = uniform_sphere(u);

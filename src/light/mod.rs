@@ -182,10 +182,12 @@ impl LightSampler {
     }
 
     /// A light index, its probability, and `u` re-used.
+    #[inline]
     pub fn sample(&self, u: f32) -> (usize, f32, f32) {
         self.distribution.sample_discrete(u)
     }
 
+    #[inline]
     pub fn pmf(&self, i: usize) -> f32 {
         self.distribution.pmf(i)
     }

@@ -56,6 +56,7 @@ impl Bsdf {
     /// Whether every lobe is a Dirac delta (nothing for light sampling to find).
     /// `plastic` is not: its mirror lobe is, its diffuse lobe is not, so its samples
     /// say per sample ([`BsdfSample::delta`]) and `eval`/`pdf` cover the diffuse lobe.
+    #[inline]
     pub fn is_delta(&self) -> bool {
         if let BsdfKind::Blend(b) = &self.kind {
             return b.is_delta();
@@ -68,13 +69,23 @@ impl Bsdf {
 
     /// The BSDF value f(wo, wi) (without the cosine) for radiance transport (see
     /// [`Bsdf::eval_mode`]).
+    #[inline]
     pub fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
         self.eval_mode(wo, wi, TransportMode::Radiance)
     }
 
     /// f(wo, wi) for radiance or importance transport: they differ only where light
     /// is refracted (`roughdielectric`).
+    #[inline]
     pub fn eval_mode(&self, wo: Vec3, wi: Vec3, mode: TransportMode) -> Vec3 {
+        // the common case without the calls and matches of the general one
+        if let (None, BsdfKind::Diffuse { albedo }) = (&self.perturbed, &self.kind) {
+            return diffuse_eval(self.frame.n, *albedo, wo, wi);
+        }
+        self.eval_general(wo, wi, mode)
+    }
+
+    fn eval_general(&self, wo: Vec3, wi: Vec3, mode: TransportMode) -> Vec3 {
         match self.perturbed {
             None => self.eval_frame(wo, wi, mode),
             Some(p) => match p.eval_factor(self.frame.n, wi) {
@@ -101,13 +112,7 @@ impl Bsdf {
             BsdfKind::RoughPlastic(b) => b.eval(self.frame.to_local(wo), self.frame.to_local(wi)),
             BsdfKind::SmoothConductor(_) | BsdfKind::ThinDielectric(_) => Vec3::ZERO,
             // only the cosines: the hot case skips the full change of frame
-            BsdfKind::Diffuse { albedo } => {
-                if wo.dot(self.frame.n) > 0.0 && wi.dot(self.frame.n) > 0.0 {
-                    albedo * INV_PI
-                } else {
-                    Vec3::ZERO
-                }
-            }
+            BsdfKind::Diffuse { albedo } => diffuse_eval(self.frame.n, albedo, wo, wi),
             BsdfKind::Conductor { tint, eta, k, mf } => {
                 let (o, i) = (self.frame.to_local(wo), self.frame.to_local(wi));
                 if o.z <= 0.0 || i.z <= 0.0 {
@@ -127,7 +132,15 @@ impl Bsdf {
     }
 
     /// The solid-angle density with which [`Bsdf::sample`] from `wo` returns `wi`.
+    #[inline]
     pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        if let (None, BsdfKind::Diffuse { .. }) = (&self.perturbed, &self.kind) {
+            return diffuse_pdf(self.frame.n, wo, wi);
+        }
+        self.pdf_general(wo, wi)
+    }
+
+    fn pdf_general(&self, wo: Vec3, wi: Vec3) -> f32 {
         match self.perturbed {
             None => self.pdf_frame(wo, wi),
             Some(p) if p.same_side(self.frame.n, wi) => self.pdf_frame(wo, wi),
@@ -146,14 +159,7 @@ impl Bsdf {
 
     fn pdf_plain(&self, wo: Vec3, wi: Vec3) -> f32 {
         match self.kind {
-            BsdfKind::Diffuse { .. } => {
-                let (zo, zi) = (wo.dot(self.frame.n), wi.dot(self.frame.n));
-                if zo > 0.0 && zi > 0.0 {
-                    zi * INV_PI
-                } else {
-                    0.0
-                }
-            }
+            BsdfKind::Diffuse { .. } => diffuse_pdf(self.frame.n, wo, wi),
             BsdfKind::RoughDielectric(b) => b.pdf(self.frame.to_local(wo), self.frame.to_local(wi)),
             BsdfKind::Plastic(b) => b.pdf(self.frame.to_local(wo), self.frame.to_local(wi)),
             BsdfKind::RoughPlastic(b) => b.pdf(self.frame.to_local(wo), self.frame.to_local(wi)),
@@ -207,6 +213,10 @@ impl Bsdf {
     }
 
     fn sample_frame(&self, wo: Vec3, u: Vec2, uc: f32, mode: TransportMode) -> Option<BsdfSample> {
+        if let BsdfKind::Diffuse { albedo } = self.kind {
+            // the cosine is all the change of frame it needs
+            return self.sample_diffuse(wo.dot(self.frame.n), albedo, u);
+        }
         let radiance = mode == TransportMode::Radiance;
         let o = self.frame.to_local(wo);
         let world = |l: Vec3| self.frame.to_world(l);
@@ -224,26 +234,30 @@ impl Bsdf {
         local.map(|s| BsdfSample { wi: world(s.wi), ..s })
     }
 
+    /// Cosine-weighted sampling of the front hemisphere; `cos_o` is `wo`'s cosine.
+    #[inline]
+    fn sample_diffuse(&self, cos_o: f32, albedo: Vec3, u: Vec2) -> Option<BsdfSample> {
+        if cos_o <= 0.0 {
+            return None;
+        }
+        let i = cosine_hemisphere(u);
+        if i.z <= 0.0 {
+            return None;
+        }
+        Some(BsdfSample {
+            wi: self.frame.to_world(i),
+            weight: albedo,
+            pdf: i.z * INV_PI,
+            delta: false,
+            eta: 1.0,
+        })
+    }
+
     /// The materials of the RDR171 format, sampled as before.
     fn sample_legacy(&self, o: Vec3, u: Vec2, uc: f32, radiance: bool) -> Option<BsdfSample> {
         let world = |l: Vec3| self.frame.to_world(l);
         match self.kind {
-            BsdfKind::Diffuse { albedo } => {
-                if o.z <= 0.0 {
-                    return None;
-                }
-                let i = cosine_hemisphere(u);
-                if i.z <= 0.0 {
-                    return None;
-                }
-                Some(BsdfSample {
-                    wi: world(i),
-                    weight: albedo,
-                    pdf: i.z * INV_PI,
-                    delta: false,
-                    eta: 1.0,
-                })
-            }
+            BsdfKind::Diffuse { albedo } => self.sample_diffuse(o.z, albedo, u),
             BsdfKind::PerfectRefraction { eta } => {
                 let (n, ratio) = if o.z > 0.0 { (Vec3::Z, 1.0 / eta) } else { (-Vec3::Z, eta) };
                 let refracted = crate::math::refract(o, n, ratio);
@@ -309,6 +323,27 @@ impl Bsdf {
             }
             _ => unreachable!("sampled by its own module"),
         }
+    }
+}
+
+/// Lambertian f: ρ/π when both directions are on the front of normal `n`.
+#[inline]
+fn diffuse_eval(n: Vec3, albedo: Vec3, wo: Vec3, wi: Vec3) -> Vec3 {
+    if wo.dot(n) > 0.0 && wi.dot(n) > 0.0 {
+        albedo * INV_PI
+    } else {
+        Vec3::ZERO
+    }
+}
+
+/// The cosine-weighted density of `wi`, zero unless both directions are in front of `n`.
+#[inline]
+fn diffuse_pdf(n: Vec3, wo: Vec3, wi: Vec3) -> f32 {
+    let (zo, zi) = (wo.dot(n), wi.dot(n));
+    if zo > 0.0 && zi > 0.0 {
+        zi * INV_PI
+    } else {
+        0.0
     }
 }
 

@@ -230,6 +230,23 @@ impl<T> Material<T> {
         }
     }
 
+    /// Whether the BSDF this material makes at a point reads more than the point's
+    /// normals and direction: a texture that `constant` does not call constant (it
+    /// looks at the uv or the mesh attributes), or a bump or normal map (uv tangents).
+    pub fn reads_surface(&self, constant: impl Fn(&T) -> bool) -> bool {
+        self.try_map_textures(|t| if constant(t) { Ok(()) } else { Err(()) }).is_err() || self.perturbs_normals()
+    }
+
+    fn perturbs_normals(&self) -> bool {
+        match self {
+            Material::BumpMap { .. } | Material::NormalMap { .. } => true,
+            Material::TwoSided { front, back } => front.perturbs_normals() || back.as_ref().is_some_and(|b| b.perturbs_normals()),
+            Material::Mask { inner, .. } => inner.perturbs_normals(),
+            Material::BlendBsdf { first, second, .. } => first.perturbs_normals() || second.perturbs_normals(),
+            _ => false,
+        }
+    }
+
     /// The opacity texture of a `mask` (the outermost wrapper only).
     pub fn mask_opacity(&self) -> Option<&T> {
         match self {
@@ -440,6 +457,17 @@ impl Material {
     /// The BSDF at the surface point `it`, its textures looked up in `textures`: what
     /// the integrators use (bump and normal maps need the point's uv tangents).
     pub fn bsdf_at(&self, it: &crate::geometry::interaction::Interaction, textures: &[Texture]) -> Bsdf {
+        // the common case without the general path's set-up (the same values)
+        if let Material::Diffuse { texture, twosided } = *self {
+            let n = if twosided && it.ns.dot(it.wo) < 0.0 { -it.ns } else { it.ns };
+            return Bsdf {
+                frame: Frame::from_normal(n),
+                kind: BsdfKind::Diffuse {
+                    albedo: textures[texture as usize].eval(it.tex_coord()),
+                },
+                perturbed: None,
+            };
+        }
         let g = ShadingGeometry {
             ns: it.ns,
             ng: it.ng,

@@ -61,8 +61,14 @@ impl Interaction {
 /// The world: geometry, materials, textures, lights with their sampler, and the
 /// BVH. What is rendered of it, and how, is a [`crate::render::RenderJob`].
 pub struct Scene {
-    /// Some texture filters by footprint (an image texture): camera rays carry differentials.
+    /// Some texture filters by footprint (an image texture that a material reads):
+    /// camera rays carry differentials.
     pub uses_footprints: bool,
+    /// Some material reads the surface's texture coordinates, uv tangents or mesh
+    /// attributes (a texture other than a constant, a bump or normal map): only then
+    /// does [`Scene::interaction`] compute them (they are zero otherwise; see
+    /// [`crate::material::Material::reads_surface`]).
+    pub texture_coords: bool,
     pub textures: Vec<Texture>,
     pub materials: Vec<Material>,
     pub objects: Vec<Object>,
@@ -197,7 +203,8 @@ impl Scene {
     }
 
     /// The surface point of a hit ([`Interaction::of_hit`]); spheres' uv order
-    /// follows the scene's [`TextureConvention`].
+    /// follows the scene's [`TextureConvention`]; texture coordinates, tangents and mesh
+    /// attributes are computed when [`Scene::texture_coords`] says a material reads them.
     pub fn interaction(&self, ray: &Ray, hit: &Hit) -> Interaction {
         let sphere_uv = match self.texture_convention {
             TextureConvention::Physical => SphereUv::PhiTheta,
@@ -209,6 +216,11 @@ impl Scene {
             _ => unreachable!("triangle of a non-mesh"),
         };
         let mut it = match &self.prims[hit.prim as usize] {
+            // the common case in short: a triangle (of a mesh, so no cylinder's flip)
+            // whose texture coordinates nothing reads
+            Prim::Triangle { p, object, index } if !self.texture_coords => {
+                return Interaction::on_triangle_plain(p, hit.b, mesh(*object), *index, *object, -ray.d);
+            }
             Prim::Instance { instance, .. } => {
                 // made in the group's frame, then carried to the world
                 let inst = &self.instances[*instance as usize];
@@ -219,7 +231,14 @@ impl Scene {
                     sub: 0,
                     ..*hit
                 };
-                let l = Interaction::of_hit(&group.prims[hit.sub as usize], &local_ray, &local_hit, mesh, sphere_uv);
+                let l = Interaction::of_hit(
+                    &group.prims[hit.sub as usize],
+                    &local_ray,
+                    &local_hit,
+                    mesh,
+                    sphere_uv,
+                    self.texture_coords,
+                );
                 Interaction {
                     p: inst.point_to_world(l.p),
                     ng: inst.normal_to_world(l.ng),
@@ -230,7 +249,7 @@ impl Scene {
                     ..l
                 }
             }
-            prim => Interaction::of_hit(prim, ray, hit, mesh, sphere_uv),
+            prim => Interaction::of_hit(prim, ray, hit, mesh, sphere_uv, self.texture_coords),
         };
         if let Shape::Cylinder(CylinderShape { flip_normals: true, .. }) = self.objects[it.object as usize].shape {
             it.ng = -it.ng;

@@ -241,10 +241,9 @@ impl<'a> Collapser<'a> {
             })
             .collect();
         // the whole tree's room at once, on huge pages (`pages`)
-        let (nodes, blocks) = parts
-            .iter()
-            .flatten()
-            .fold((1 + cands.len(), 2 * cands.len()), |(n, b), (sub, _)| (n + sub.nodes.len(), b + sub.blocks.len()));
+        let (nodes, blocks) = parts.iter().flatten().fold((1 + cands.len(), 2 * cands.len()), |(n, b), (sub, _)| {
+            (n + sub.nodes.len(), b + sub.blocks.len())
+        });
         pages::reserve_huge(&mut self.out.nodes, nodes);
         pages::reserve_huge(&mut self.out.blocks, blocks);
         let root = self.out.nodes.len();

@@ -48,20 +48,24 @@ fn advise(start: usize, bytes: usize) {
 mod tests {
     use super::*;
 
-    /// Advised arrays hold what is written to them, whatever their size; a clone is equal.
+    /// Advised arrays hold what is written to them, whatever their size, also when more
+    /// room is advised after they hold values (the advice covers only the spare room); a
+    /// clone is equal.
     #[test]
     fn advised_arrays_keep_their_contents() {
+        let value = |i: usize| (i as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1;
         for n in [0usize, 1, 1000, 3 << 20] {
             let mut v: Vec<u64> = Vec::new();
             reserve_huge(&mut v, n);
             assert!(v.capacity() >= n);
-            v.extend((0..n as u64).map(|i| i.wrapping_mul(0x9E37_79B9_7F4A_7C15)));
+            v.extend((0..n).map(value));
+            // more room advised while the first half holds values
+            reserve_huge(&mut v, 2 * n + (4 << 20));
+            assert!(v.iter().enumerate().all(|(i, &x)| x == value(i)), "{n} values lost");
+            v.extend((n..2 * n).map(value));
             let c = clone_huge(&v);
             assert_eq!(c, v);
-            assert!(v
-                .iter()
-                .enumerate()
-                .all(|(i, &x)| x == (i as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15)));
+            assert!(v.iter().enumerate().all(|(i, &x)| x == value(i)), "{n} values lost");
         }
     }
 }

@@ -14,7 +14,7 @@
 //! of primitive indices; a binary leaf mixing both becomes a node of two leaves.
 
 use super::node::{TriBlock, WideNode, EMPTY, GENERIC, INDEX_BITS, LANES, LEAF, WIDTH};
-use super::WideBvh;
+use super::{pages, WideBvh};
 use crate::accel::build::{self, TmpKind, TmpNode};
 use crate::geometry::prim::Prim;
 use crate::geometry::Aabb;
@@ -240,6 +240,12 @@ impl<'a> Collapser<'a> {
                 _ => None,
             })
             .collect();
+        // the whole tree's room at once, on huge pages (`pages`)
+        let (nodes, blocks) = parts.iter().flatten().fold((1 + cands.len(), 2 * cands.len()), |(n, b), (sub, _)| {
+            (n + sub.nodes.len(), b + sub.blocks.len())
+        });
+        pages::reserve_huge(&mut self.out.nodes, nodes);
+        pages::reserve_huge(&mut self.out.blocks, blocks);
         let root = self.out.nodes.len();
         self.out.nodes.push(WideNode::EMPTY);
         // as in `node_at`: the inner children right after the root, in slot order
@@ -332,8 +338,8 @@ pub(super) fn collapse(tree: Option<&TmpNode>, order: &[u32], prims: &[Prim]) ->
         let (_, need) = if order.len() >= 1 << 15 && rayon::current_num_threads() > 1 {
             c.open_parallel(t)
         } else {
-            c.out.nodes.reserve(order.len() / 4 + 1);
-            c.out.blocks.reserve(order.len() / 2 + 1);
+            pages::reserve_huge(&mut c.out.nodes, order.len() / 4 + 1);
+            pages::reserve_huge(&mut c.out.blocks, order.len() / 2 + 1);
             c.open(t)
         };
         c.out.stack_need = need + 1;

@@ -21,6 +21,7 @@
 
 mod collapse;
 pub mod node;
+mod pages;
 mod traverse;
 #[cfg(target_arch = "x86_64")]
 mod x86;
@@ -85,7 +86,7 @@ impl Isa {
     }
 }
 
-#[derive(Clone, Debug)]
+#[derive(Debug)]
 pub struct WideBvh {
     /// Node 0 is the root (no nodes: nothing to hit).
     pub nodes: Vec<WideNode>,
@@ -101,6 +102,22 @@ pub struct WideBvh {
     stack_need: usize,
     /// Use the large stack even where the small one would do (tests).
     large_stack: bool,
+}
+
+/// A clone keeps the node and block arrays on huge pages (`pages`).
+impl Clone for WideBvh {
+    fn clone(&self) -> Self {
+        WideBvh {
+            nodes: pages::clone_huge(&self.nodes),
+            blocks: pages::clone_huge(&self.blocks),
+            generic: self.generic.clone(),
+            root_bounds: self.root_bounds,
+            prim_count: self.prim_count,
+            isa: self.isa,
+            stack_need: self.stack_need,
+            large_stack: self.large_stack,
+        }
+    }
 }
 
 impl Default for WideBvh {

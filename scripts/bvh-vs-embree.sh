@@ -1,0 +1,57 @@
+#!/usr/bin/env bash
+# Embree 4 and rdr on identical rays, one thread, in alternating bursts (the README's
+# "Same rays as Embree" tables).
+#
+#   scripts/bvh-vs-embree.sh RAYDIR [BURSTS] [[LABEL=]RDR...]
+#
+# RAYDIR holds <mesh>_{primary,incoherent,bounce}.rays.f32 from
+# ../shared/tools/embree_rays.py (run it once per mesh). For each mesh (bunny, dragon) and each
+# burst (default 3): Embree (scripts/embree_time.py, process CPU time), then every rdr binary
+# given (default target/release/rdr; LABEL names it in the output, default `rdr`) with --isa avx512 and --isa avx2, all on CPU 0
+# (`taskset -c 0`). Prints each burst's lines, then the best per column and rdr/Embree ratios
+# (Mrays/s ratios, build as Embree's time / rdr's time, so above 1 means rdr is faster).
+# EMBREE_PY (default /work/venv-embree/bin/python) runs Embree; ISAS (default "avx512 avx2").
+set -euo pipefail
+here=$(cd "$(dirname "$0")/.." && pwd)
+shared=$(realpath -m "${SHARED:-$here/../shared}")
+dir=$1
+bursts=${2:-3}
+shift $(($# >= 2 ? 2 : $#))
+rdrs=("$@")
+[ ${#rdrs[@]} -eq 0 ] && rdrs=("$here/target/release/rdr")
+py=${EMBREE_PY:-/work/venv-embree/bin/python}
+isas=${ISAS:-avx512 avx2}
+log=$(mktemp)
+for mesh in bunny dragon; do
+  files=()
+  for s in primary incoherent bounce; do files+=("$dir/${mesh}_$s.rays.f32"); done
+  for b in $(seq "$bursts"); do
+    taskset -c 0 "$py" "$here/scripts/embree_time.py" "$shared/meshes/$mesh.obj" "${files[@]}" --reps 1 |
+      sed "s/^/$mesh embree /" | tee -a "$log"
+    for spec in "${rdrs[@]}"; do
+      if [[ $spec == *=* ]]; then label=${spec%%=*} r=${spec#*=}; else label=rdr r=$spec; fi
+      for isa in $isas; do
+        args=(bench "$shared/meshes/$mesh.obj" --threads 1 --repeat 1 --isa "$isa")
+        for f in "${files[@]}"; do args+=(--ray-file "$f"); done
+        taskset -c 0 "$r" "${args[@]}" |
+          awk -v p="$mesh $label/$isa" \
+            '/^build/ {print p, "build", $2, "ms"} /rays.f32/ {print p, $1, "closest", $4, "any", $6, "Mrays/s", $0 ~ /ok$/ ? "" : "NOT-OK"}' |
+          tee -a "$log"
+      done
+    done
+  done
+done
+echo "--- best of $bursts bursts (Mrays/s closest / any; build ms); ratio = rdr / Embree"
+awk '
+  $3 == "build" { k = $1 " " $2 " build"; if (!(k in b) || $4 < b[k]) b[k] = $4; who[$1 " " $2] = 1; next }
+  { k = $1 " " $2 " " $3; if ($5 > c[k]) c[k] = $5; if ($7 > a[k]) a[k] = $7; who[$1 " " $2] = 1; set[$1 " " $3] = 1 }
+  END {
+    for (w in who) {
+      split(w, p, " "); m = p[1]; e = m " embree"
+      if (p[2] == "embree") continue
+      printf "%s build %s ms vs Embree %s ms: %.2fx its speed\n", w, b[w " build"], b[e " build"], b[e " build"] / b[w " build"]
+      for (s in set) { split(s, q, " "); if (q[1] != m) continue
+        printf "%s %-28s %6.2f / %6.2f vs %6.2f / %6.2f  ratio %.2f / %.2f\n", w, q[2], c[w " " q[2]], a[w " " q[2]], c[e " " q[2]], a[e " " q[2]], c[w " " q[2]] / c[e " " q[2]], a[w " " q[2]] / a[e " " q[2]] }
+    }
+  }' "$log" | sort
+rm -f "$log"

@@ -45,7 +45,7 @@ mod principled;
 const SHAPES: &str = "obj, ply, serialized, rectangle, cube, disk, sphere, cylinder, shapegroup, instance";
 const BSDFS: &str =
     "diffuse, dielectric, thindielectric, roughdielectric, conductor, roughconductor, plastic, roughplastic, twosided, bumpmap, normalmap, mask, principled, principledthin, blendbsdf";
-const EMITTERS: &str = "point, spot, directional, constant, envmap (and area inside a <shape>)";
+const EMITTERS: &str = "point, spot, directional, projector, constant, envmap (and area inside a <shape>)";
 const TEXTURES: &str = "bitmap, checkerboard, mesh_attribute";
 const INTEGRATORS: &str = "path, volpath (without media), direct, ptracer, bdpt, photonmapper, sppm";
 const FILTERS: &str = "box, tent, gaussian, mitchell";
@@ -175,18 +175,68 @@ pub fn scene(root: &Element, file: &Path) -> Result<SceneDesc> {
                 let m = p.transform_opt("to_world")?.unwrap_or(Mat4::IDENTITY);
                 let position = m.transform_point3(Vec3::ZERO);
                 check_point(&p, "to_world", position)?;
-                let light = crate::desc::spot_light(
-                    position,
-                    m.transform_vector3(Vec3::Z),
-                    p.rgb("intensity", Vec3::ONE)?,
-                    p.float("cutoff_angle", 20.0)?,
-                    p.float_opt("beam_width")?,
-                )
+                let texture = match p.has("texture") {
+                    false => None,
+                    true => match p.colour("texture", Vec3::ONE)? {
+                        // Mitsuba: "The parameter 'texture' must be spatially varying"
+                        Colour::Constant(_) => return Err(p.value_error("texture", "must be a texture (e.g. a bitmap), not a constant")),
+                        Colour::Texture(t) => Some(TextureRef::Named(Located {
+                            value: r.texture(t)?,
+                            source: source(t),
+                        })),
+                    },
+                };
+                let (intensity, cutoff, beam) = (p.rgb("intensity", Vec3::ONE)?, p.float("cutoff_angle", 20.0)?, p.float_opt("beam_width")?);
+                let light = match &texture {
+                    None => crate::desc::spot_light(position, m.transform_vector3(Vec3::Z), intensity, cutoff, beam),
+                    Some(_) => light_frame(&m).and_then(|f| crate::desc::textured_spot(position, f, intensity, cutoff, beam)),
+                }
                 .map_err(|e| {
                     let key = ["cutoff_angle", "beam_width", "intensity"].into_iter().find(|k| e.starts_with(k));
                     p.value_error(key.unwrap_or("to_world"), e)
                 })?;
-                delta_lights.push(crate::desc::DeltaLightDesc { light, key: where_is(el) });
+                delta_lights.push(crate::desc::DeltaLightDesc {
+                    light,
+                    key: where_is(el),
+                    texture,
+                });
+                p.finish(&[])?;
+            }
+            "projector" => {
+                let m = p.transform_opt("to_world")?.unwrap_or(Mat4::IDENTITY);
+                let position = m.transform_point3(Vec3::ZERO);
+                check_point(&p, "to_world", position)?;
+                if !p.has("irradiance") {
+                    return Err(p.error("property \"irradiance\" (a texture or a colour) is required"));
+                }
+                let texture = r.texture_ref(&p, "irradiance", Vec3::ONE)?;
+                let axis = p.string("fov_axis", "x")?;
+                let (fov, axis) = match p.float_opt("fov")? {
+                    Some(f) => (f, axis),
+                    None => {
+                        let f = p.string("focal_length", "50mm")?;
+                        let mm: f32 = f
+                            .trim()
+                            .trim_end_matches("mm")
+                            .trim()
+                            .parse()
+                            .ok()
+                            .filter(|v: &f32| *v > 0.0)
+                            .ok_or_else(|| p.value_error("focal_length", format!("expected a length such as \"50mm\", found \"{f}\"")))?;
+                        (2.0 * (36f32.hypot(24.0) / (2.0 * mm)).atan().to_degrees(), "diagonal".to_string())
+                    }
+                };
+                let axis = crate::light::projector::FovAxis::parse(&axis)
+                    .ok_or_else(|| p.value_error("fov_axis", format!("unknown axis \"{axis}\" (x, y, diagonal, smaller, larger)")))?;
+                let scale = p.float("scale", 1.0)?;
+                let light = light_frame(&m)
+                    .and_then(|f| crate::desc::projector_light(position, f, scale, fov, axis))
+                    .map_err(|e| p.value_error(["fov", "scale"].into_iter().find(|k| e.starts_with(k)).unwrap_or("to_world"), e))?;
+                delta_lights.push(crate::desc::DeltaLightDesc {
+                    light,
+                    key: where_is(el),
+                    texture: Some(texture),
+                });
                 p.finish(&[])?;
             }
             "directional" => {
@@ -197,7 +247,11 @@ pub fn scene(root: &Element, file: &Path) -> Result<SceneDesc> {
                 };
                 let light = crate::desc::directional_light(direction, p.rgb("irradiance", Vec3::ONE)?)
                     .map_err(|e| p.value_error(if e.starts_with("irradiance") { "irradiance" } else { "direction" }, e))?;
-                delta_lights.push(crate::desc::DeltaLightDesc { light, key: where_is(el) });
+                delta_lights.push(crate::desc::DeltaLightDesc {
+                    light,
+                    key: where_is(el),
+                    texture: None,
+                });
                 p.finish(&[])?;
             }
             "constant" | "envmap" => {
@@ -807,10 +861,11 @@ impl<'a> Reader<'a> {
                 if ep.ty != "area" {
                     return Err(at.error(format!("a shape's emitter must be \"area\", found \"{}\"", ep.ty)));
                 }
-                let radiance = ep.rgb("radiance", Vec3::ONE)?;
-                if radiance.min_element() < 0.0 {
-                    return Err(ep.value_error("radiance", "must not be negative"));
-                }
+                // a constant, or a texture looked up at the emitting point's uv
+                let (radiance, texture) = match self.texture_ref(&ep, "radiance", Vec3::ONE)? {
+                    TextureRef::Color(c) => (c, None),
+                    TextureRef::Named(t) => (Vec3::ONE, Some(t)),
+                };
                 if let Some(w) = ep.float_opt("sampling_weight")? {
                     if w != 1.0 {
                         self.ids.warn(e, format!("sampling_weight {w} noted: rdr chooses lights by power"));
@@ -820,6 +875,7 @@ impl<'a> Reader<'a> {
                 Some(AreaLightDesc {
                     source: source(e),
                     radiance,
+                    texture,
                 })
             }
         };
@@ -1346,4 +1402,18 @@ impl<'a> Reader<'a> {
             transform,
         })
     }
+}
+
+/// The frame of a light's `to_world` (its x, y and z axes, normalised): Mitsuba's
+/// local frame of `spot` and `projector`.
+fn light_frame(m: &Mat4) -> std::result::Result<crate::math::Frame, String> {
+    let (s, t, n) = (
+        m.transform_vector3(Vec3::X).normalize_or_zero(),
+        m.transform_vector3(Vec3::Y).normalize_or_zero(),
+        m.transform_vector3(Vec3::Z).normalize_or_zero(),
+    );
+    if s == Vec3::ZERO || t == Vec3::ZERO || n == Vec3::ZERO || !(s.is_finite() && t.is_finite() && n.is_finite()) {
+        return Err("the light's transform is degenerate".into());
+    }
+    Ok(crate::math::Frame { s, t, n })
 }

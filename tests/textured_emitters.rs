@@ -52,3 +52,57 @@ fn path_converges_to_mitsubas_images() {
     }
     assert!(failed.is_empty(), "not converging to Mitsuba: {failed:?}");
 }
+
+/// The integrators that start paths at the lights sample emission from each textured
+/// emitter (the cone of the spot, the projector's image by its table, the quad by area
+/// with cosine directions): each converges to Mitsuba's image.
+#[test]
+fn light_tracing_integrators_converge() {
+    let mut failed = Vec::new();
+    for name in NAMES {
+        let file = refs().join(format!("{name}.json"));
+        for (integrator, spp) in [
+            (r#"{"integrator": {"type": "bdpt"}}"#, 64),
+            (r#"{"integrator": {"type": "ptracer"}}"#, 512),
+            (r#"{"integrator": {"type": "photon", "n_photons": 100000, "n_iterations": 4}}"#, 16),
+            (r#"{"integrator": {"type": "sppm", "photons_per_iteration": 5000}}"#, 64),
+        ] {
+            if !converges_with(&file, name, &[integrator], spp) {
+                failed.push(format!("{name}: {integrator}"));
+            }
+        }
+    }
+    assert!(failed.is_empty(), "not converging to Mitsuba: {failed:?}");
+}
+
+/// bdpt's MIS weights over paths from the textured emitters sum to 1, and the densities
+/// its connections assemble equal those recomputed from the vertices (the projector's
+/// tabulated direction density included).
+#[test]
+fn bdpt_mis_weights_sum_to_one() {
+    for name in NAMES {
+        let s = load_scene(
+            &refs().join(format!("{name}.json")),
+            &[r#"{"integrator": {"type": "bdpt"}}"#],
+            Profile::Physical,
+        );
+        let f = &s.job.film;
+        let c = rdr::integrator::bdpt::mis_self_check(&s.scene, &s.job.camera, f.width, f.height, 6, 3000);
+        eprintln!("{name}: {c:?}");
+        assert!(c.paths > 1000 && c.max_sum_error < 1e-3 && c.samples_off * 100 < 3000, "{name}: {c:?}");
+    }
+}
+
+/// `guided` and `intersection_test` (and `direct` from the XML) take them.
+#[test]
+fn other_integrators_take_them() {
+    for name in NAMES {
+        let file = refs().join(format!("{name}.json"));
+        for ty in ["guided", "intersection_test"] {
+            let o = format!("{{\"integrator\": {{\"type\": \"{ty}\", \"spp\": 2}}}}");
+            let s = load_scene(&file, &[&o], Profile::Physical);
+            let mean = render(&s, 2, 1).mean();
+            assert!(mean.min_element() > 0.005 && mean.is_finite(), "{name} under {ty}: mean {mean}");
+        }
+    }
+}

@@ -223,6 +223,9 @@ pub fn scene(root: &Element, file: &Path) -> Result<SceneDesc> {
                             .ok()
                             .filter(|v: &f32| *v > 0.0)
                             .ok_or_else(|| p.value_error("focal_length", format!("expected a length such as \"50mm\", found \"{f}\"")))?;
+                        if p.has("fov_axis") {
+                            ids.warn(el, "fov_axis is ignored with focal_length (the image's diagonal is used)");
+                        }
                         (2.0 * (36f32.hypot(24.0) / (2.0 * mm)).atan().to_degrees(), "diagonal".to_string())
                     }
                 };

@@ -89,7 +89,10 @@ fn bdpt_mis_weights_sum_to_one() {
         let f = &s.job.film;
         let c = rdr::integrator::bdpt::mis_self_check(&s.scene, &s.job.camera, f.width, f.height, 6, 3000);
         eprintln!("{name}: {c:?}");
-        assert!(c.paths > 1000 && c.max_sum_error < 1e-3 && c.samples_off * 100 < 3000, "{name}: {c:?}");
+        assert!(
+            c.paths > 1000 && c.max_sum_error < 1e-3 && c.samples_off * 100 < 3000,
+            "{name}: {c:?}"
+        );
     }
 }
 
@@ -148,10 +151,16 @@ fn textured_area_lights_use_the_hit_uv_and_carry_their_power() {
             // from points around the scene, also inside the sphere's cone
             let p = Vec3::new(rng.rangef(-5.0, 5.0), rng.rangef(-3.0, 3.0), rng.rangef(-4.0, -1.5));
             let u = Vec2::new(rng.rangef(0.0, 1.0), rng.rangef(0.0, 1.0));
-            let Some(ls) = light.sample(p, u, scene.light_sampling) else { continue };
-            let rdr::light::ShadowTarget::Point { p: q, .. } = ls.target else { panic!() };
+            let Some(ls) = light.sample(p, u, scene.light_sampling) else {
+                continue;
+            };
+            let rdr::light::ShadowTarget::Point { p: q, .. } = ls.target else {
+                panic!()
+            };
             let d = (q - p).length();
-            let Some(hit) = scene.intersect(&Ray::with_range(p, ls.wi, 0.0, d * 1.001)) else { continue };
+            let Some(hit) = scene.intersect(&Ray::with_range(p, ls.wi, 0.0, d * 1.001)) else {
+                continue;
+            };
             if (hit.t - d).abs() > 1e-3 * d {
                 continue; // another light in front
             }
@@ -159,7 +168,11 @@ fn textured_area_lights_use_the_hit_uv_and_carry_their_power() {
             let it = scene.interaction(&ray, &hit);
             assert_eq!(scene.area_light_of(&it).map(|(i, _)| i as usize), Some(li));
             let seen = area.emitted(it.ng, it.wo, it.uv);
-            assert!((seen - ls.radiance).abs().max_element() < 1e-4, "light {li}: sampled {} vs hit {seen} at {q}", ls.radiance);
+            assert!(
+                (seen - ls.radiance).abs().max_element() < 1e-4,
+                "light {li}: sampled {} vs hit {seen} at {q}",
+                ls.radiance
+            );
             checked += 1;
         }
         // power: π ∫ L dA from emission samples, against the texture's own integral by area
@@ -176,7 +189,10 @@ fn textured_area_lights_use_the_hit_uv_and_carry_their_power() {
             by_area += area.radiance_at(s.uv) * (std::f32::consts::PI / s.pdf_pos);
         }
         let (est, by_area) = (est / n as f32, by_area / n as f32);
-        assert!((est - by_area).abs().max_element() < 0.03 * by_area.max_element(), "light {li}: {est} vs {by_area}");
+        assert!(
+            (est - by_area).abs().max_element() < 0.03 * by_area.max_element(),
+            "light {li}: {est} vs {by_area}"
+        );
     }
     assert!(checked > 600, "only {checked} samples checked");
 
@@ -209,7 +225,10 @@ fn textured_area_lights_use_the_hit_uv_and_carry_their_power() {
     let (tx, ty) = (25f32.to_radians().tan(), 25f32.to_radians().tan());
     let expected = Vec3::new(0.5, 1.0, 2.0) * (std::f32::consts::PI * 3.0 * 4.0 * tx * ty);
     let p = power(&Light::Projector(pr));
-    assert!((p - expected).abs().max_element() < 0.01 * expected.max_element(), "projector: {p} vs {expected}");
+    assert!(
+        (p - expected).abs().max_element() < 0.01 * expected.max_element(),
+        "projector: {p} vs {expected}"
+    );
     let Light::TexturedSpot(mut sp) = rdr::desc::textured_spot(Vec3::ONE, frame, Vec3::splat(3.0), 25.0, Some(10.0)).unwrap() else {
         panic!()
     };
@@ -218,7 +237,10 @@ fn textured_area_lights_use_the_hit_uv_and_carry_their_power() {
     let cone = 2.0 * std::f32::consts::PI * 3.0 * ((1.0 - tb.cos()) + ((tc - tb) * tb.cos() + tb.sin() - tc.sin()) / (tc - tb));
     let expected = Vec3::new(0.5, 1.0, 2.0) * cone;
     let p = power(&Light::TexturedSpot(sp));
-    assert!((p - expected).abs().max_element() < 0.01 * expected.max_element(), "textured spot: {p} vs {expected}");
+    assert!(
+        (p - expected).abs().max_element() < 0.01 * expected.max_element(),
+        "textured spot: {p} vs {expected}"
+    );
 }
 
 /// JSON bad input: each fails to load with one line naming the file and the key.
@@ -249,23 +271,91 @@ fn bad_json_names_the_key() {
     use serde_json::json;
     // (case, scene, words the one-line error must hold)
     let cases: Vec<(&str, serde_json::Value, Vec<&str>)> = vec![
-        ("spot texture unknown", spot(&|l| l["texture"] = json!("nope")), vec!["integrator.lights[0].texture", "no texture named 'nope'"]),
-        ("spot texture a number", spot(&|l| l["texture"] = json!(3)), vec!["integrator.lights[0].texture", "expected a string"]),
-        ("spot texture wide cutoff", spot(&|l| l["cutoff_angle"] = json!(95)), vec!["integrator.lights[0].cutoff_angle", "below 90"]),
-        ("spot up along the axis", spot(&|l| l["ref_up"] = json!([0, 1, 0.05])), vec!["integrator.lights[0].ref_up", "parallel"]),
-        ("spot up a string", spot(&|l| l["ref_up"] = json!("up")), vec!["integrator.lights[0].ref_up"]),
-        ("projector irradiance missing", projector(&|l| { l.as_object_mut().unwrap().remove("irradiance"); }), vec!["integrator.lights[0].irradiance", "required"]),
-        ("projector irradiance a bool", projector(&|l| l["irradiance"] = json!(true)), vec!["integrator.lights[0].irradiance", "expected a number, [r, g, b] or a texture name"]),
-        ("projector irradiance unknown", projector(&|l| l["irradiance"] = json!("nope")), vec!["integrator.lights[0]", "no texture named 'nope'"]),
-        ("projector fov 180", projector(&|l| l["fov"] = json!(180)), vec!["integrator.lights[0].fov", "between 0 and 180"]),
-        ("projector fov a string", projector(&|l| l["fov"] = json!("wide")), vec!["integrator.lights[0].fov"]),
-        ("projector fov_axis unknown", projector(&|l| l["fov_axis"] = json!("z")), vec!["integrator.lights[0].fov_axis", "unknown axis 'z'"]),
-        ("projector negative scale", projector(&|l| l["scale"] = json!(-1)), vec!["integrator.lights[0].scale", "must not be negative"]),
-        ("projector position missing", projector(&|l| { l.as_object_mut().unwrap().remove("position"); }), vec!["integrator.lights[0].position", "required"]),
+        (
+            "spot texture unknown",
+            spot(&|l| l["texture"] = json!("nope")),
+            vec!["integrator.lights[0].texture", "no texture named 'nope'"],
+        ),
+        (
+            "spot texture a number",
+            spot(&|l| l["texture"] = json!(3)),
+            vec!["integrator.lights[0].texture", "expected a string"],
+        ),
+        (
+            "spot texture wide cutoff",
+            spot(&|l| l["cutoff_angle"] = json!(95)),
+            vec!["integrator.lights[0].cutoff_angle", "below 90"],
+        ),
+        (
+            "spot up along the axis",
+            spot(&|l| l["ref_up"] = json!([0, 1, 0.05])),
+            vec!["integrator.lights[0].ref_up", "parallel"],
+        ),
+        (
+            "spot up a string",
+            spot(&|l| l["ref_up"] = json!("up")),
+            vec!["integrator.lights[0].ref_up"],
+        ),
+        (
+            "projector irradiance missing",
+            projector(&|l| {
+                l.as_object_mut().unwrap().remove("irradiance");
+            }),
+            vec!["integrator.lights[0].irradiance", "required"],
+        ),
+        (
+            "projector irradiance a bool",
+            projector(&|l| l["irradiance"] = json!(true)),
+            vec!["integrator.lights[0].irradiance", "expected a number, [r, g, b] or a texture name"],
+        ),
+        (
+            "projector irradiance unknown",
+            projector(&|l| l["irradiance"] = json!("nope")),
+            vec!["integrator.lights[0]", "no texture named 'nope'"],
+        ),
+        (
+            "projector fov 180",
+            projector(&|l| l["fov"] = json!(180)),
+            vec!["integrator.lights[0].fov", "between 0 and 180"],
+        ),
+        (
+            "projector fov a string",
+            projector(&|l| l["fov"] = json!("wide")),
+            vec!["integrator.lights[0].fov"],
+        ),
+        (
+            "projector fov_axis unknown",
+            projector(&|l| l["fov_axis"] = json!("z")),
+            vec!["integrator.lights[0].fov_axis", "unknown axis 'z'"],
+        ),
+        (
+            "projector negative scale",
+            projector(&|l| l["scale"] = json!(-1)),
+            vec!["integrator.lights[0].scale", "must not be negative"],
+        ),
+        (
+            "projector position missing",
+            projector(&|l| {
+                l.as_object_mut().unwrap().remove("position");
+            }),
+            vec!["integrator.lights[0].position", "required"],
+        ),
         ("projector unknown key", projector(&|l| l["irradiance_scale"] = json!(2)), vec![]),
-        ("area radiance unknown texture", area(&|l| l["radiance"] = json!("nope")), vec!["objects[1].light.radiance", "no texture named 'nope'"]),
-        ("area radiance a bool", area(&|l| l["radiance"] = json!(false)), vec!["objects[1].light.radiance", "expected a number, [r, g, b] or a texture name"]),
-        ("texture file missing", area(&|_| {}), vec!["textures.image.path", "missing_tex.exr"]),
+        (
+            "area radiance unknown texture",
+            area(&|l| l["radiance"] = json!("nope")),
+            vec!["objects[1].light.radiance", "no texture named 'nope'"],
+        ),
+        (
+            "area radiance a bool",
+            area(&|l| l["radiance"] = json!(false)),
+            vec!["objects[1].light.radiance", "expected a number, [r, g, b] or a texture name"],
+        ),
+        (
+            "texture file missing",
+            area(&|_| {}),
+            vec!["textures.image.path", "missing_tex.exr"],
+        ),
     ];
     let mut failures = Vec::new();
     for (name, mut scene, words) in cases {
@@ -297,7 +387,10 @@ fn bad_json_names_the_key() {
             Err(e) => e.to_string(),
         };
         eprintln!("{name:>30}: {msg}");
-        if msg.contains('\n') || !msg.contains(&file.file_name().unwrap().to_string_lossy().to_string()) || !words.iter().all(|w| msg.contains(w)) {
+        if msg.contains('\n')
+            || !msg.contains(&file.file_name().unwrap().to_string_lossy().to_string())
+            || !words.iter().all(|w| msg.contains(w))
+        {
             failures.push(format!("{name}: expected {words:?}, got: {msg}"));
         }
     }
@@ -318,20 +411,117 @@ fn bad_xml_names_line_and_property() {
     };
     let bitmap = |name: &str| format!(r#"<texture type="bitmap" name="{name}"><string name="filename" value="t.exr"/></texture>"#);
     let cases: Vec<(&str, String, &str, &str)> = vec![
-        ("spot texture constant", scene(r#"  <emitter type="spot"><rgb name="texture" value="1"/></emitter>"#), "line 6, column 24", "must be a texture"),
-        ("spot texture wide cutoff", scene(&format!(r#"  <emitter type="spot"><float name="cutoff_angle" value="100"/>{}</emitter>"#, bitmap("texture"))), "line 6, column 24", "below 90"),
-        ("spot texture file missing", scene(r#"  <emitter type="spot"><texture type="bitmap" name="texture"><string name="filename" value="none.exr"/></texture></emitter>"#), "line 6", "none.exr"),
-        ("projector without irradiance", scene(r#"  <emitter type="projector"><float name="fov" value="40"/></emitter>"#), "line 6, column 3", "\"irradiance\" (a texture or a colour) is required"),
-        ("projector fov as a string", scene(&format!(r#"  <emitter type="projector"><string name="fov" value="wide"/>{}</emitter>"#, bitmap("irradiance"))), "line 6, column 29", "expected a float, found a string"),
-        ("projector fov 0", scene(&format!(r#"  <emitter type="projector"><float name="fov" value="0"/>{}</emitter>"#, bitmap("irradiance"))), "line 6, column 29", "between 0 and 180"),
-        ("projector fov_axis unknown", scene(&format!(r#"  <emitter type="projector"><string name="fov_axis" value="z"/><float name="fov" value="40"/>{}</emitter>"#, bitmap("irradiance"))), "line 6, column 29", "unknown axis \"z\""),
-        ("projector bad focal_length", scene(&format!(r#"  <emitter type="projector"><string name="focal_length" value="long"/>{}</emitter>"#, bitmap("irradiance"))), "line 6, column 29", "expected a length"),
-        ("projector scale as a string", scene(&format!(r#"  <emitter type="projector"><string name="scale" value="2"/>{}</emitter>"#, bitmap("irradiance"))), "line 6, column 29", "expected a float, found a string"),
-        ("projector negative scale", scene(&format!(r#"  <emitter type="projector"><float name="scale" value="-2"/>{}</emitter>"#, bitmap("irradiance"))), "line 6, column 29", "must not be negative"),
-        ("projector irradiance file missing", scene(r#"  <emitter type="projector"><texture type="bitmap" name="irradiance"><string name="filename" value="none.exr"/></texture></emitter>"#), "line 6", "none.exr"),
-        ("area radiance as a string", scene(r#"  <shape type="sphere"><emitter type="area"><string name="radiance" value="bright"/></emitter></shape>"#), "line 6, column 45", "expected a colour"),
-        ("area radiance negative", scene(r#"  <shape type="sphere"><emitter type="area"><rgb name="radiance" value="-1"/></emitter></shape>"#), "line 6, column 45", "must not be negative"),
-        ("area radiance file missing", scene(r#"  <shape type="sphere"><emitter type="area"><texture type="bitmap" name="radiance"><string name="filename" value="none.exr"/></texture></emitter></shape>"#), "line 6", "none.exr"),
+        (
+            "spot texture constant",
+            scene(r#"  <emitter type="spot"><rgb name="texture" value="1"/></emitter>"#),
+            "line 6, column 24",
+            "must be a texture",
+        ),
+        (
+            "spot texture wide cutoff",
+            scene(&format!(
+                r#"  <emitter type="spot"><float name="cutoff_angle" value="100"/>{}</emitter>"#,
+                bitmap("texture")
+            )),
+            "line 6, column 24",
+            "below 90",
+        ),
+        (
+            "spot texture file missing",
+            scene(
+                r#"  <emitter type="spot"><texture type="bitmap" name="texture"><string name="filename" value="none.exr"/></texture></emitter>"#,
+            ),
+            "line 6",
+            "none.exr",
+        ),
+        (
+            "projector without irradiance",
+            scene(r#"  <emitter type="projector"><float name="fov" value="40"/></emitter>"#),
+            "line 6, column 3",
+            "\"irradiance\" (a texture or a colour) is required",
+        ),
+        (
+            "projector fov as a string",
+            scene(&format!(
+                r#"  <emitter type="projector"><string name="fov" value="wide"/>{}</emitter>"#,
+                bitmap("irradiance")
+            )),
+            "line 6, column 29",
+            "expected a float, found a string",
+        ),
+        (
+            "projector fov 0",
+            scene(&format!(
+                r#"  <emitter type="projector"><float name="fov" value="0"/>{}</emitter>"#,
+                bitmap("irradiance")
+            )),
+            "line 6, column 29",
+            "between 0 and 180",
+        ),
+        (
+            "projector fov_axis unknown",
+            scene(&format!(
+                r#"  <emitter type="projector"><string name="fov_axis" value="z"/><float name="fov" value="40"/>{}</emitter>"#,
+                bitmap("irradiance")
+            )),
+            "line 6, column 29",
+            "unknown axis \"z\"",
+        ),
+        (
+            "projector bad focal_length",
+            scene(&format!(
+                r#"  <emitter type="projector"><string name="focal_length" value="long"/>{}</emitter>"#,
+                bitmap("irradiance")
+            )),
+            "line 6, column 29",
+            "expected a length",
+        ),
+        (
+            "projector scale as a string",
+            scene(&format!(
+                r#"  <emitter type="projector"><string name="scale" value="2"/>{}</emitter>"#,
+                bitmap("irradiance")
+            )),
+            "line 6, column 29",
+            "expected a float, found a string",
+        ),
+        (
+            "projector negative scale",
+            scene(&format!(
+                r#"  <emitter type="projector"><float name="scale" value="-2"/>{}</emitter>"#,
+                bitmap("irradiance")
+            )),
+            "line 6, column 29",
+            "must not be negative",
+        ),
+        (
+            "projector irradiance file missing",
+            scene(
+                r#"  <emitter type="projector"><texture type="bitmap" name="irradiance"><string name="filename" value="none.exr"/></texture></emitter>"#,
+            ),
+            "line 6",
+            "none.exr",
+        ),
+        (
+            "area radiance as a string",
+            scene(r#"  <shape type="sphere"><emitter type="area"><string name="radiance" value="bright"/></emitter></shape>"#),
+            "line 6, column 45",
+            "expected a colour",
+        ),
+        (
+            "area radiance negative",
+            scene(r#"  <shape type="sphere"><emitter type="area"><rgb name="radiance" value="-1"/></emitter></shape>"#),
+            "line 6, column 45",
+            "must not be negative",
+        ),
+        (
+            "area radiance file missing",
+            scene(
+                r#"  <shape type="sphere"><emitter type="area"><texture type="bitmap" name="radiance"><string name="filename" value="none.exr"/></texture></emitter></shape>"#,
+            ),
+            "line 6",
+            "none.exr",
+        ),
     ];
     let mut failures = Vec::new();
     for (name, text, at, words) in &cases {
@@ -369,10 +559,16 @@ fn convert_and_compat_refuse_them() {
                 .unwrap();
             let err = String::from_utf8_lossy(&out.stderr);
             assert_eq!(out.status.code(), Some(1), "{name}.{ext}: {err}");
-            assert!(err.lines().count() == 1 && err.contains("rdr convert does not carry"), "{name}.{ext}: {err}");
+            assert!(
+                err.lines().count() == 1 && err.contains("rdr convert does not carry"),
+                "{name}.{ext}: {err}"
+            );
         }
         let o = vec![r#"{"integrator": {"type": "intersection_test"}}"#.to_string()];
-        let e = rdr::load(&refs().join(format!("{name}.json")), &o, Profile::Rdr171).err().expect("compat accepted it").to_string();
+        let e = rdr::load(&refs().join(format!("{name}.json")), &o, Profile::Rdr171)
+            .err()
+            .expect("compat accepted it")
+            .to_string();
         assert!(!e.contains('\n') && e.contains("--compat rdr171 does not support"), "{e}");
     }
 }

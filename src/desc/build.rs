@@ -233,9 +233,17 @@ pub fn build(desc: &SceneDesc, opts: BuildOptions) -> Result<Scene> {
     let first_delta = desc.integrator.point_lights.len();
     for (i, l) in desc.integrator.delta_lights.iter().enumerate() {
         let Some(r) = &l.texture else { continue };
-        let t = emitter_texture(r, &texture_names, &mut textures, desc, |m| SceneError::new(&desc.file, Some(&l.key), m))?;
+        let t = emitter_texture(r, &texture_names, &mut textures, desc, |m| {
+            SceneError::new(&desc.file, Some(&l.key), m)
+        })?;
         let light = &mut lights[first_delta + i];
-        *light = match std::mem::replace(light, Light::Point { position: Vec3::ZERO, flux: Vec3::ZERO }) {
+        *light = match std::mem::replace(
+            light,
+            Light::Point {
+                position: Vec3::ZERO,
+                flux: Vec3::ZERO,
+            },
+        ) {
             Light::TexturedSpot(mut s) => {
                 s.texture = t;
                 Light::TexturedSpot(s)
@@ -261,13 +269,19 @@ pub fn build(desc: &SceneDesc, opts: BuildOptions) -> Result<Scene> {
                     Shape::Cylinder(c) => AreaLight::cylinder(oi as u32, l.radiance, c.cylinder, c.flip_normals),
                 };
                 if let Some(t) = &l.texture {
-                    let texture = emitter_texture(&TextureRef::Named(t.clone()), &texture_names, &mut textures, desc, |m| t.source.error(&desc.file, m))?;
+                    let texture = emitter_texture(&TextureRef::Named(t.clone()), &texture_names, &mut textures, desc, |m| {
+                        t.source.error(&desc.file, m)
+                    })?;
                     // the corners' uv, as a ray's hit interpolates them
                     let uvs = match &shape {
-                        Shape::Mesh(m) => m.triangles.iter().map(|tri| match tri.uv {
-                            Some(i) => i.map(|i| m.uvs[i as usize]),
-                            None => [Vec2::new(0.0, 0.0), Vec2::new(1.0, 0.0), Vec2::new(1.0, 1.0)],
-                        }).collect(),
+                        Shape::Mesh(m) => m
+                            .triangles
+                            .iter()
+                            .map(|tri| match tri.uv {
+                                Some(i) => i.map(|i| m.uvs[i as usize]),
+                                None => [Vec2::new(0.0, 0.0), Vec2::new(1.0, 0.0), Vec2::new(1.0, 1.0)],
+                            })
+                            .collect(),
                         _ => Vec::new(),
                     };
                     a = a.with_texture(texture, uvs);

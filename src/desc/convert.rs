@@ -139,7 +139,9 @@ fn refuse_textured_emitters(desc: &SceneDesc) -> Result<()> {
         ));
     }
     if let Some(t) = desc.objects.iter().find_map(|o| o.light.as_ref().and_then(|l| l.texture.as_ref())) {
-        return Err(t.source.error(&desc.file, "rdr convert does not carry area lights with a radiance texture yet"));
+        return Err(t
+            .source
+            .error(&desc.file, "rdr convert does not carry area lights with a radiance texture yet"));
     }
     Ok(())
 }

@@ -235,10 +235,7 @@ pub fn textured_spot(
     cutoff_deg: f32,
     beam_deg: Option<f32>,
 ) -> std::result::Result<crate::light::Light, String> {
-    let crate::light::Light::Spot {
-        cutoff, beam_width, ..
-    } = spot_light(position, frame.n, intensity, cutoff_deg, beam_deg)?
-    else {
+    let crate::light::Light::Spot { cutoff, beam_width, .. } = spot_light(position, frame.n, intensity, cutoff_deg, beam_deg)? else {
         unreachable!("spot_light makes spots")
     };
     if cutoff_deg >= 90.0 {

@@ -6,10 +6,10 @@
 //! from outside, in the cone they subtend; the texture only weighs the samples.
 
 use super::{LightSample, LightSampling, ShadowTarget};
-use crate::math::{Frame, Vec2, Vec3, PI};
-use crate::sampling::{uniform_sphere, uniform_triangle, Distribution1D};
 use crate::geometry::interaction::{Interaction, SphereUv};
 use crate::geometry::sphere::Sphere;
+use crate::math::{Frame, Vec2, Vec3, PI};
+use crate::sampling::{uniform_sphere, uniform_triangle, Distribution1D};
 use crate::texture::Texture;
 
 #[derive(Clone, Debug)]

@@ -52,7 +52,10 @@ pub struct SceneBounds {
 impl Light {
     /// Whether emission starts at a single point (a delta position: point and spot).
     pub fn is_delta_position(&self) -> bool {
-        matches!(self, Light::Point { .. } | Light::Spot { .. } | Light::TexturedSpot(_) | Light::Projector(_))
+        matches!(
+            self,
+            Light::Point { .. } | Light::Spot { .. } | Light::TexturedSpot(_) | Light::Projector(_)
+        )
     }
 
     /// Whether the light lies at infinity (its vertices have no position).
@@ -193,7 +196,14 @@ impl Light {
             }
             Light::TexturedSpot(s) => {
                 let cos_max = s.cutoff.cos();
-                (0.0, if dir.dot(s.frame.n) >= cos_max - 1e-6 { uniform_cone_pdf(cos_max) } else { 0.0 })
+                (
+                    0.0,
+                    if dir.dot(s.frame.n) >= cos_max - 1e-6 {
+                        uniform_cone_pdf(cos_max)
+                    } else {
+                        0.0
+                    },
+                )
             }
             Light::Projector(p) => (0.0, p.pdf_direction(dir)),
             Light::Directional { .. } => (1.0 / (PI * bounds.radius * bounds.radius), 0.0),

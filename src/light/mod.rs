@@ -9,10 +9,10 @@ pub mod projector;
 pub mod textured_spot;
 
 pub use area::AreaLight;
-pub use projector::Projector;
-pub use textured_spot::TexturedSpot;
 pub use emission::{EmissionSample, SceneBounds};
 pub use environment::EnvironmentLight;
+pub use projector::Projector;
+pub use textured_spot::TexturedSpot;
 
 use crate::math::{luminance, Vec2, Vec3, INV_4PI, PI};
 use crate::sampling::Distribution1D;

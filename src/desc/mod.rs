@@ -830,6 +830,9 @@ fn parse_integrator(p: &Props) -> Result<IntegratorDesc> {
             };
             let texture = l.string_opt("texture")?.map(|t| TextureRef::Named(l.located("texture", t)));
             let intensity = l.vec3_or("intensity", Vec3::ONE)?;
+            if texture.is_none() {
+                l.ignore("ref_up"); // orients the texture only
+            }
             let light = match &texture {
                 None => spot_light(position, axis, intensity, cutoff, beam),
                 Some(_) => textured_spot(position, frame_of(axis)?, intensity, cutoff, beam),

@@ -137,7 +137,7 @@ fn brute_force(loaded: &rdr::Loaded, per_pixel: usize) -> (Image, Image) {
                 if let Some(hit) = scene.intersect(&ray) {
                     let it = scene.interaction(&ray, &hit);
                     if let Some((_, a)) = scene.area_light_of(&it) {
-                        l += a.emitted(it.ng, it.wo);
+                        l += a.emitted(it.ng, it.wo, it.uv);
                     }
                     if let Some(rdr::material::Material::Diffuse { texture, .. }) = scene.material_of(&it) {
                         let rho = match &scene.textures[*texture as usize] {
@@ -164,7 +164,7 @@ fn brute_force(loaded: &rdr::Loaded, per_pixel: usize) -> (Image, Image) {
                             if let Some(h2) = scene.intersect(&probe) {
                                 let it2 = scene.interaction(&probe, &h2);
                                 if let Some((_, a)) = scene.area_light_of(&it2) {
-                                    l += rho * a.emitted(it2.ng, it2.wo);
+                                    l += rho * a.emitted(it2.ng, it2.wo, it2.uv);
                                 }
                             }
                         }

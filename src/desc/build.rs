@@ -10,7 +10,7 @@ pub use crate::geometry::prim::prim_bounds;
 use crate::geometry::{obj, ply, serialized, shapes};
 use crate::light::environment::EnvImage;
 use crate::light::{AreaLight, EnvironmentLight, Light, LightSampler};
-use crate::math::Vec3;
+use crate::math::{Vec2, Vec3};
 use crate::scene::{Object, Prim, Scene, Shape};
 use crate::texture::image::{ImageCache, ImageTexture};
 use crate::texture::{Texture, TextureConvention};
@@ -229,6 +229,29 @@ pub fn build(desc: &SceneDesc, opts: BuildOptions) -> Result<Scene> {
         })
         .chain(desc.integrator.delta_lights.iter().map(|l| l.light.clone()))
         .collect();
+    // the images of textured spots and projectors
+    let first_delta = desc.integrator.point_lights.len();
+    for (i, l) in desc.integrator.delta_lights.iter().enumerate() {
+        let Some(r) = &l.texture else { continue };
+        let t = emitter_texture(r, &texture_names, &mut textures, desc, |m| {
+            SceneError::new(&desc.file, Some(&l.key), m)
+        })?;
+        let light = &mut lights[first_delta + i];
+        *light = match std::mem::replace(
+            light,
+            Light::Point {
+                position: Vec3::ZERO,
+                flux: Vec3::ZERO,
+            },
+        ) {
+            Light::TexturedSpot(mut s) => {
+                s.texture = t;
+                Light::TexturedSpot(s)
+            }
+            Light::Projector(p) => Light::Projector(p.with_texture(t)),
+            other => other,
+        };
+    }
     for (oi, (o, shape)) in all.iter().zip(shapes).enumerate() {
         let (shape, w) = shape?;
         warnings.extend(w);
@@ -237,14 +260,36 @@ pub fn build(desc: &SceneDesc, opts: BuildOptions) -> Result<Scene> {
             .as_ref()
             .map(|m| lookup(&material_names, &m.value, "material", desc, &m.source))
             .transpose()?;
-        let light = o.light.as_ref().map(|l| {
-            lights.push(Light::Area(match &shape {
-                Shape::Mesh(m) => AreaLight::mesh(oi as u32, l.radiance, (0..m.triangles.len()).map(|i| m.vertices(i)).collect()),
-                Shape::Sphere(s) => AreaLight::sphere(oi as u32, l.radiance, s.center, s.radius),
-                Shape::Cylinder(c) => AreaLight::cylinder(oi as u32, l.radiance, c.cylinder, c.flip_normals),
-            }));
-            lights.len() as u32 - 1
-        });
+        let light = match &o.light {
+            None => None,
+            Some(l) => {
+                let mut a = match &shape {
+                    Shape::Mesh(m) => AreaLight::mesh(oi as u32, l.radiance, (0..m.triangles.len()).map(|i| m.vertices(i)).collect()),
+                    Shape::Sphere(s) => AreaLight::sphere(oi as u32, l.radiance, s.center, s.radius),
+                    Shape::Cylinder(c) => AreaLight::cylinder(oi as u32, l.radiance, c.cylinder, c.flip_normals),
+                };
+                if let Some(t) = &l.texture {
+                    let texture = emitter_texture(&TextureRef::Named(t.clone()), &texture_names, &mut textures, desc, |m| {
+                        t.source.error(&desc.file, m)
+                    })?;
+                    // the corners' uv, as a ray's hit interpolates them
+                    let uvs = match &shape {
+                        Shape::Mesh(m) => m
+                            .triangles
+                            .iter()
+                            .map(|tri| match tri.uv {
+                                Some(i) => i.map(|i| m.uvs[i as usize]),
+                                None => [Vec2::new(0.0, 0.0), Vec2::new(1.0, 0.0), Vec2::new(1.0, 1.0)],
+                            })
+                            .collect(),
+                        _ => Vec::new(),
+                    };
+                    a = a.with_texture(texture, uvs);
+                }
+                lights.push(Light::Area(a));
+                Some(lights.len() as u32 - 1)
+            }
+        };
         if let Some(m) = material {
             // a mesh_attribute texture needs its colours on this object's mesh
             let mut needs = (false, false);
@@ -363,9 +408,11 @@ pub fn build(desc: &SceneDesc, opts: BuildOptions) -> Result<Scene> {
     };
     let light_sampler = LightSampler::new(&lights, radius, desc.integrator.light_sampling);
     // the environment's image is looked up by direction, not through a surface
+    // so does a textured area light's radiance, at the point a ray hits
     let texture_coords = materials
         .iter()
-        .any(|m| m.reads_surface(|&t| matches!(textures[t as usize], Texture::Constant(_))));
+        .any(|m| m.reads_surface(|&t| matches!(textures[t as usize], Texture::Constant(_))))
+        || lights.iter().any(|l| matches!(l, Light::Area(a) if a.texture.is_some()));
     Ok(Scene {
         uses_footprints: texture_coords && textures.iter().any(|t| matches!(t, Texture::Image(_))),
         texture_coords,
@@ -403,6 +450,25 @@ fn object_prims(prims: &mut Vec<Prim>, oi: u32, shape: &Shape) {
             object: oi,
         }),
     }
+}
+
+/// The texture of an emitter (a textured spot's, a projector's, an area light's
+/// radiance), resolved: a constant, checkerboard or image; `at` places errors.
+fn emitter_texture(
+    r: &TextureRef,
+    names: &HashMap<&str, u32>,
+    textures: &mut Vec<Texture>,
+    desc: &SceneDesc,
+    at: impl Fn(String) -> SceneError,
+) -> Result<Texture> {
+    let i = resolve_texture(r, names, textures, desc)?;
+    let t = textures[i as usize].clone();
+    if let Texture::MeshAttribute { .. } = t {
+        return Err(at(
+            "an emitter's texture must be an image, checkerboard or constant (mesh_attribute colours are not available to lights)".into(),
+        ));
+    }
+    Ok(t)
 }
 
 /// Index of a material's texture; inline colours become constant textures.

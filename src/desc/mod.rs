@@ -177,6 +177,14 @@ use crate::integrator::{
 ///   ((1,1,1), radiant intensity on the axis), "cutoff_angle": 20, "beam_width": ¾ of
 ///   cutoff_angle}` (degrees, half-angles; linear falloff in angle between them) and
 ///   `{"type": "directional", "direction": [..] (of travel), "irradiance": [..] ((1,1,1))}`.
+///   A spot with `"texture": "<texture name>"` projects that image over its cone
+///   (Mitsuba's `spot` `texture`; `cutoff_angle` below 90 then), oriented by `ref_up`
+///   ((0,1,0); the image's v axis, as a camera's); see [`crate::light::textured_spot`].
+///   `{"type": "projector", "position": [..], "look_at": [..] (or "direction"), "ref_up":
+///   [..] ((0,1,0)), "irradiance": "<texture name>" (or [r, g, b]; required), "scale": 1,
+///   "fov": degrees (or 46.8 on the diagonal), "fov_axis": "x" | "y" | "diagonal" |
+///   "smaller" | "larger" ("x")}`: Mitsuba's `projector`, an image through a pinhole,
+///   intensity π·scale·E/cos³θ; see [`crate::light::projector`].
 /// * `light_sampling` (`"importance"` | `"uniform"`, `"importance"`) — lights drawn
 ///   by their own importance and chosen by power, or uniformly (for comparisons).
 ///
@@ -202,6 +210,73 @@ pub struct IntegratorDesc {
 pub struct DeltaLightDesc {
     pub light: crate::light::Light,
     pub key: String,
+    /// The texture of a textured spot or a projector (the `light` holds a constant
+    /// placeholder until the scene is built).
+    pub texture: Option<TextureRef>,
+}
+
+/// The frame of a light at the origin of Mitsuba's `lookat` along `axis` with `up`:
+/// `s = up × n` (its x, the camera's left), `t = n × s`, `n` the unit axis.
+pub fn light_frame(axis: Vec3, up: Vec3) -> std::result::Result<crate::math::Frame, String> {
+    let n = axis.normalize_or_zero();
+    let s = up.cross(n).normalize_or_zero();
+    if n == Vec3::ZERO || s == Vec3::ZERO || !n.is_finite() || !s.is_finite() {
+        return Err("the light's direction is degenerate or parallel to its up vector".into());
+    }
+    Ok(crate::math::Frame { s, t: n.cross(s), n })
+}
+
+/// A spot light with a texture (its constant placeholder): a checked [`spot_light`]
+/// in `frame`; the texture's square spans the cutoff cone, so the cutoff is below 90°.
+pub fn textured_spot(
+    position: Vec3,
+    frame: crate::math::Frame,
+    intensity: Vec3,
+    cutoff_deg: f32,
+    beam_deg: Option<f32>,
+) -> std::result::Result<crate::light::Light, String> {
+    let crate::light::Light::Spot { cutoff, beam_width, .. } = spot_light(position, frame.n, intensity, cutoff_deg, beam_deg)? else {
+        unreachable!("spot_light makes spots")
+    };
+    if cutoff_deg >= 90.0 {
+        return Err(format!("cutoff_angle must be below 90 degrees with a texture, found {cutoff_deg}"));
+    }
+    Ok(crate::light::Light::TexturedSpot(crate::light::TexturedSpot {
+        position,
+        frame,
+        intensity,
+        cutoff,
+        beam_width,
+        texture: Texture::Constant(Vec3::ONE),
+    }))
+}
+
+/// A projector (constant placeholder image), checked: `fov_deg` in (0, 180), `scale` ≥ 0.
+pub fn projector_light(
+    position: Vec3,
+    frame: crate::math::Frame,
+    scale: f32,
+    fov_deg: f32,
+    axis: crate::light::projector::FovAxis,
+) -> std::result::Result<crate::light::Light, String> {
+    if !(fov_deg > 0.0 && fov_deg < 180.0) {
+        return Err(format!("fov must be between 0 and 180 degrees, found {fov_deg}"));
+    }
+    if !(scale >= 0.0 && scale.is_finite()) {
+        return Err(format!("scale must not be negative, found {scale}"));
+    }
+    Ok(crate::light::Light::Projector(crate::light::Projector::new(
+        position,
+        frame,
+        scale,
+        fov_deg.to_radians(),
+        axis,
+    )))
+}
+
+/// Mitsuba's default field of view: a 50 mm lens on a 35 mm film's diagonal, degrees.
+pub fn default_fov_deg() -> f32 {
+    2.0 * (36f32.hypot(24.0) / 100.0).atan().to_degrees()
 }
 
 /// A spot light from Mitsuba's parameters (angles in degrees), checked.
@@ -439,11 +514,20 @@ pub enum MeshNormals {
     SmoothWhenMissing,
 }
 
-/// `objects[i].light`: `type` (`"area"`), `radiance` ((1,1,1)); one-sided emission.
+/// `objects[i].light`: `type` (`"area"`), `radiance` ([r, g, b] or a texture name,
+/// (1,1,1)); one-sided emission. A texture's radiance is looked up at the emitting
+/// point's uv (Mitsuba's `area` with a `bitmap` `radiance`); points are still sampled
+/// by area (see [`crate::light::area`]).
+///
+/// ```json
+/// "light": {"type": "area", "radiance": "sign"}
+/// ```
 #[derive(Clone, Debug)]
 pub struct AreaLightDesc {
     pub source: Source,
     pub radiance: Vec3,
+    /// A radiance texture (then `radiance` is unused).
+    pub texture: Option<Located<String>>,
 }
 
 /// `environment_map`: `texture_name` (required), `scale` (1), `transform` (identity).
@@ -701,20 +785,59 @@ fn parse_integrator(p: &Props) -> Result<IntegratorDesc> {
     let mut delta_lights = Vec::new();
     for l in p.objects("lights")? {
         let ty = l.string("type")?;
+        let axis_of = |position: Vec3| -> Result<Vec3> {
+            if l.contains("direction") {
+                l.vec3("direction")
+            } else {
+                Ok(point(&l, "look_at", l.vec3("look_at")?)? - position)
+            }
+        };
+        let frame_of = |axis: Vec3| {
+            let key = ["ref_up", "direction"].into_iter().find(|k| l.contains(k)).unwrap_or("look_at");
+            light_frame(axis, l.vec3_or("ref_up", Vec3::Y)?).map_err(|e| l.error(key, e))
+        };
+        if ty == "projector" {
+            let position = point(&l, "position", l.vec3("position")?)?;
+            let frame = frame_of(axis_of(position)?)?;
+            let texture = match l.raw("irradiance") {
+                None => return Err(l.error("irradiance", "required key is missing (a texture name or [r, g, b])")),
+                Some(_) => principled::json_texture(&l, "irradiance", 1.0, true)?,
+            };
+            let (fov, axis) = match l.contains("fov") {
+                true => (l.f32_or("fov", 45.0)?, l.string_or("fov_axis", "x")?),
+                false => (default_fov_deg(), l.string_or("fov_axis", "diagonal")?),
+            };
+            let axis = crate::light::projector::FovAxis::parse(&axis)
+                .ok_or_else(|| l.error("fov_axis", format!("unknown axis '{axis}' (x, y, diagonal, smaller, larger)")))?;
+            let light = projector_light(position, frame, l.f32_or("scale", 1.0)?, fov, axis)
+                .map_err(|e| l.error(if e.starts_with("fov") { "fov" } else { "scale" }, e))?;
+            delta_lights.push(DeltaLightDesc {
+                light,
+                key: l.path.clone(),
+                texture: Some(texture),
+            });
+            l.finish();
+            continue;
+        }
         if ty == "spot" {
             let position = point(&l, "position", l.vec3("position")?)?;
-            let axis = if l.contains("direction") {
-                l.vec3("direction")?
-            } else {
-                point(&l, "look_at", l.vec3("look_at")?)? - position
-            };
+            let axis = axis_of(position)?;
             let cutoff = l.f32_or("cutoff_angle", 20.0)?;
             let beam = if l.contains("beam_width") {
                 Some(l.f32_or("beam_width", 15.0)?)
             } else {
                 None
             };
-            let light = spot_light(position, axis, l.vec3_or("intensity", Vec3::ONE)?, cutoff, beam).map_err(|e| {
+            let texture = l.string_opt("texture")?.map(|t| TextureRef::Named(l.located("texture", t)));
+            let intensity = l.vec3_or("intensity", Vec3::ONE)?;
+            if texture.is_none() {
+                l.ignore("ref_up"); // orients the texture only
+            }
+            let light = match &texture {
+                None => spot_light(position, axis, intensity, cutoff, beam),
+                Some(_) => textured_spot(position, frame_of(axis)?, intensity, cutoff, beam),
+            }
+            .map_err(|e| {
                 let key = if e.starts_with("beam") {
                     "beam_width"
                 } else if e.starts_with("cutoff") {
@@ -729,6 +852,7 @@ fn parse_integrator(p: &Props) -> Result<IntegratorDesc> {
             delta_lights.push(DeltaLightDesc {
                 light,
                 key: l.path.clone(),
+                texture,
             });
             l.finish();
             continue;
@@ -739,6 +863,7 @@ fn parse_integrator(p: &Props) -> Result<IntegratorDesc> {
             delta_lights.push(DeltaLightDesc {
                 light,
                 key: l.path.clone(),
+                texture: None,
             });
             l.finish();
             continue;
@@ -746,7 +871,7 @@ fn parse_integrator(p: &Props) -> Result<IntegratorDesc> {
         if ty != "point" {
             return Err(l.error(
                 "type",
-                format!("unknown light type '{ty}' in the integrator's list (available: point, spot, directional)"),
+                format!("unknown light type '{ty}' in the integrator's list (available: point, spot, directional, projector)"),
             ));
         }
         point_lights.push(PointLightDesc {
@@ -1518,14 +1643,18 @@ fn parse_object(p: &Props) -> Result<ObjectDesc> {
             if ty != "area" {
                 return Err(l.error("type", format!("unknown light type '{ty}' on an object (available: area)")));
             }
-            let radiance = l.vec3_or("radiance", Vec3::ONE)?;
-            if radiance.min_element() < 0.0 {
+            let (radiance, texture) = match principled::json_texture(&l, "radiance", 1.0, true)? {
+                TextureRef::Color(c) => (c, None),
+                TextureRef::Named(t) => (Vec3::ONE, Some(t)),
+            };
+            if !(radiance.min_element() >= 0.0 && radiance.is_finite()) {
                 return Err(l.error("radiance", "must not be negative"));
             }
             l.finish();
             Some(AreaLightDesc {
                 source: l.own_source(),
                 radiance,
+                texture,
             })
         }
     };

@@ -61,7 +61,7 @@ fn li(
             it.compute_uv_derivatives(d);
         }
         if let Some((_, light)) = scene.area_light_of(&it) {
-            total += light.emitted(it.ng, it.wo);
+            total += light.emitted(it.ng, it.wo, it.uv);
         }
         match scene.material_of(&it) {
             Some(Material::Refraction { eta }) => ray = spawn_ray(&it, perfect_refraction(it.wo, it.ns, *eta)),
@@ -150,7 +150,7 @@ fn direct_diffuse(
                     let lit = scene.interaction(&ray, &hit);
                     match scene.area_light_of(&lit) {
                         Some((i, area)) if i as usize == index => (
-                            area.emitted(lit.ng, lit.wo),
+                            area.emitted(lit.ng, lit.wo, lit.uv),
                             light.pdf(it.p, wi, Some((lit.p, lit.ng)), scene.light_sampling),
                         ),
                         _ => continue,

@@ -99,7 +99,7 @@ fn li(
             it.compute_uv_derivatives(d);
         }
         if let Some((index, area)) = scene.area_light_of(&it) {
-            let le = area.emitted(it.ng, it.wo);
+            let le = area.emitted(it.ng, it.wo, it.uv);
             if le != Vec3::ZERO {
                 let w = emitter_weight(profile, after_delta, bsdf_pdf, || {
                     scene.light_sampler.pmf(index as usize) * scene.lights[index as usize].pdf(prev_p, ray.d, Some((it.p, it.ng)), mode)

@@ -276,7 +276,7 @@ pub fn camera_path(
         }
         if specular {
             if let Some((_, area)) = scene.area_light_of(&it) {
-                l += beta * area.emitted(it.ng, it.wo);
+                l += beta * area.emitted(it.ng, it.wo, it.uv);
             }
         }
         if segment >= max_depth {

@@ -1,9 +1,16 @@
-//! Area lights: constant radiance emitted one-sided along the geometric normal
-//! (triangle winding; spheres: outward), on a triangle mesh or a sphere.
+//! Area lights: radiance emitted one-sided along the geometric normal (triangle
+//! winding; spheres: outward), on a triangle mesh, a sphere or a cylinder. The
+//! radiance is a constant or a texture looked up at the emitting point's uv (the same
+//! uv a material there sees: Mitsuba's `area` with a `bitmap` `radiance`). Points are
+//! sampled by area (Mitsuba samples the shape, not the texture) or, for spheres seen
+//! from outside, in the cone they subtend; the texture only weighs the samples.
 
 use super::{LightSample, LightSampling, ShadowTarget};
+use crate::geometry::interaction::{Interaction, SphereUv};
+use crate::geometry::sphere::Sphere;
 use crate::math::{Frame, Vec2, Vec3, PI};
 use crate::sampling::{uniform_sphere, uniform_triangle, Distribution1D};
+use crate::texture::Texture;
 
 #[derive(Clone, Debug)]
 pub enum Emitter {
@@ -15,6 +22,8 @@ pub enum Emitter {
         normals: Vec<Vec3>,
         by_area: Distribution1D,
         total_area: f32,
+        /// Per triangle the uv of its corners (empty unless the radiance is a texture).
+        uvs: Vec<[Vec2; 3]>,
     },
     Sphere {
         center: Vec3,
@@ -29,7 +38,10 @@ pub enum Emitter {
 
 #[derive(Clone, Debug)]
 pub struct AreaLight {
+    /// The constant radiance, or with a `texture` its mean (for choosing lights by power).
     pub radiance: Vec3,
+    /// A radiance texture, looked up at the emitting point's uv.
+    pub texture: Option<Texture>,
     pub object: u32,
     pub emitter: Emitter,
 }
@@ -40,6 +52,7 @@ impl AreaLight {
         let total_area = areas.iter().sum();
         AreaLight {
             radiance,
+            texture: None,
             object,
             emitter: Emitter::Mesh {
                 by_area: Distribution1D::new(&areas),
@@ -47,6 +60,7 @@ impl AreaLight {
                 areas,
                 triangles,
                 total_area,
+                uvs: Vec::new(),
             },
         }
     }
@@ -54,6 +68,7 @@ impl AreaLight {
     pub fn sphere(object: u32, radiance: Vec3, center: Vec3, radius: f32) -> Self {
         AreaLight {
             radiance,
+            texture: None,
             object,
             emitter: Emitter::Sphere { center, radius },
         }
@@ -62,8 +77,50 @@ impl AreaLight {
     pub fn cylinder(object: u32, radiance: Vec3, cylinder: crate::geometry::cylinder::Cylinder, flip: bool) -> Self {
         AreaLight {
             radiance,
+            texture: None,
             object,
             emitter: Emitter::Cylinder { cylinder, flip },
+        }
+    }
+
+    /// The light with its radiance given by `texture` (at the emitting point's uv);
+    /// `uvs`: a mesh's per-triangle corner uvs, in the order of its triangles.
+    pub fn with_texture(mut self, texture: Texture, uvs: Vec<[Vec2; 3]>) -> Self {
+        self.radiance = texture.mean();
+        self.texture = Some(texture);
+        if let Emitter::Mesh { uvs: u, triangles, .. } = &mut self.emitter {
+            debug_assert_eq!(uvs.len(), triangles.len());
+            *u = uvs;
+        }
+        self
+    }
+
+    /// The radiance at a point of uv `uv`.
+    #[inline]
+    pub fn radiance_at(&self, uv: Vec2) -> Vec3 {
+        match &self.texture {
+            None => self.radiance,
+            Some(t) => t.eval(uv),
+        }
+    }
+
+    /// The uv of the point `q` (normal `n`) of the emitter: triangle `tri` at barycentrics
+    /// `b`, the sphere's (φ/2π, θ/π), the cylinder's sample `u`. Only what the texture needs.
+    pub(super) fn uv_of(&self, tri: usize, b: [f32; 3], n: Vec3, u: Vec2) -> Vec2 {
+        if self.texture.is_none() {
+            return Vec2::ZERO;
+        }
+        match &self.emitter {
+            Emitter::Mesh { uvs, .. } => uvs.get(tri).map_or(Vec2::ZERO, |t| t[0] * b[0] + t[1] * b[1] + t[2] * b[2]),
+            // as the surface points a ray finds (their uv orientation included)
+            Emitter::Sphere { center, radius } => {
+                let s = Sphere {
+                    center: *center,
+                    radius: *radius,
+                };
+                Interaction::on_sphere(&s, *center + n * *radius, SphereUv::PhiTheta, 0, n).uv
+            }
+            Emitter::Cylinder { cylinder, .. } => Interaction::on_cylinder(cylinder, cylinder.at(u).0, 0, n).uv,
         }
     }
 
@@ -81,18 +138,19 @@ impl AreaLight {
         }
     }
 
-    /// Emitted radiance leaving a point with geometric normal `n` in direction `w`.
+    /// Emitted radiance leaving a point with geometric normal `n` and texture
+    /// coordinates `uv` in direction `w`.
     #[inline]
-    pub fn emitted(&self, n: Vec3, w: Vec3) -> Vec3 {
+    pub fn emitted(&self, n: Vec3, w: Vec3, uv: Vec2) -> Vec3 {
         if n.dot(w) > 0.0 {
-            self.radiance
+            self.radiance_at(uv)
         } else {
             Vec3::ZERO
         }
     }
 
     /// Turns a point sampled by area (density `pdf_area`) into a light sample.
-    fn light_sample_from_area_point(&self, p: Vec3, q: Vec3, n: Vec3, pdf_area: f32) -> Option<LightSample> {
+    fn light_sample_from_area_point(&self, p: Vec3, q: Vec3, n: Vec3, uv: Vec2, pdf_area: f32) -> Option<LightSample> {
         let v = q - p;
         let d2 = v.length_squared();
         if d2 == 0.0 || pdf_area <= 0.0 {
@@ -104,7 +162,7 @@ impl AreaLight {
             return None; // the back of a one-sided emitter
         }
         Some(LightSample {
-            radiance: self.radiance,
+            radiance: self.radiance_at(uv),
             wi,
             pdf: pdf_area * d2 / cos_light,
             delta: false,
@@ -137,17 +195,19 @@ impl AreaLight {
                 let t = &triangles[i];
                 let b = uniform_triangle(Vec2::new(ux, u.y));
                 let q = t[0] * b[0] + t[1] * b[1] + t[2] * b[2];
-                self.light_sample_from_area_point(p, q, normals[i], pdf_tri)
+                let n = normals[i];
+                self.light_sample_from_area_point(p, q, n, self.uv_of(i, b, n, u), pdf_tri)
             }
             Emitter::Cylinder { cylinder, flip } => {
                 let (q, n) = Self::cylinder_point(cylinder, *flip, u);
-                self.light_sample_from_area_point(p, q, n, 1.0 / self.area())
+                self.light_sample_from_area_point(p, q, n, self.uv_of(0, [0.0; 3], n, u), 1.0 / self.area())
             }
             Emitter::Sphere { center, radius } => {
                 let dc2 = (*center - p).length_squared();
                 if mode == LightSampling::Uniform || dc2 <= radius * radius {
                     let n = uniform_sphere(u);
-                    return self.light_sample_from_area_point(p, *center + n * *radius, n, 1.0 / self.area());
+                    let uv = self.uv_of(0, [0.0; 3], n, u);
+                    return self.light_sample_from_area_point(p, *center + n * *radius, n, uv, 1.0 / self.area());
                 }
                 // the cone of directions the sphere subtends (pbrt-v4)
                 let dc = dc2.sqrt();
@@ -173,7 +233,7 @@ impl AreaLight {
                 let v = q - p;
                 let wi = v.normalize();
                 Some(LightSample {
-                    radiance: self.radiance,
+                    radiance: self.radiance_at(self.uv_of(0, [0.0; 3], n, u)),
                     wi,
                     pdf: 1.0 / (2.0 * PI * one_minus_cos_max),
                     delta: false,

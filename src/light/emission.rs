@@ -6,10 +6,12 @@
 //! | light | position (`pdf_pos`) | direction (`pdf_dir`) | `le` |
 //! |---|---|---|---|
 //! | point | its position (delta: 1) | uniform over the sphere (1/4π) | intensity Φ/4π |
-//! | mesh area light | uniform by area over all triangles (1/A) | cosine about the normal (cos/π) | radiance |
+//! | mesh area light | uniform by area over all triangles (1/A) | cosine about the normal (cos/π) | radiance (a texture's at the point's uv) |
 //! | sphere area light | uniform over the sphere (1/4πr²) | cosine about the outward normal | radiance |
 //! | environment | uniform on a disk of the scene's radius facing the direction (1/πR²) | the environment's own importance sampling | radiance |
 //! | spot | its position (delta: 1) | uniform in the cone out to the cutoff (1/2π(1 − cos θc)) | intensity × falloff (Mitsuba's `spot`) |
+//! | textured spot | its position (delta: 1) | uniform in the cone out to the cutoff | intensity × texture × falloff |
+//! | projector | its position (delta: 1) | the image point by a table of its luminance, as a solid angle (pdf_uv / (A cos³θ)) | π·scale·E(uv)/cos³θ |
 //! | directional | uniform on a disk of the scene's radius, perpendicular to the direction, on the side the light comes from (1/πR²) | its direction (delta: 1) | irradiance |
 //!
 //! Emission sampling always uses the lights' own importance (by area for meshes,
@@ -28,6 +30,8 @@ pub struct EmissionSample {
     /// Surface normal at `p` (area lights; the travel direction for the environment's
     /// disk), `None` for point lights.
     pub n: Option<Vec3>,
+    /// Texture coordinates of `p` on an area light (zero elsewhere).
+    pub uv: Vec2,
     /// Unit direction of travel, away from the light.
     pub dir: Vec3,
     /// Radiance (intensity for point lights) carried along `dir`.
@@ -48,7 +52,10 @@ pub struct SceneBounds {
 impl Light {
     /// Whether emission starts at a single point (a delta position: point and spot).
     pub fn is_delta_position(&self) -> bool {
-        matches!(self, Light::Point { .. } | Light::Spot { .. })
+        matches!(
+            self,
+            Light::Point { .. } | Light::Spot { .. } | Light::TexturedSpot(_) | Light::Projector(_)
+        )
     }
 
     /// Whether the light lies at infinity (its vertices have no position).
@@ -62,6 +69,7 @@ impl Light {
             Light::Point { position, flux } => Some(EmissionSample {
                 p: *position,
                 n: None,
+                uv: Vec2::ZERO,
                 dir: uniform_sphere(u_dir),
                 le: *flux * INV_4PI,
                 pdf_pos: 1.0,
@@ -80,10 +88,37 @@ impl Light {
                 (falloff > 0.0).then(|| EmissionSample {
                     p: *position,
                     n: None,
+                    uv: Vec2::ZERO,
                     dir: Frame::from_normal(*axis).to_world(local),
                     le: *intensity * falloff,
                     pdf_pos: 1.0,
                     pdf_dir: uniform_cone_pdf(cos_max),
+                })
+            }
+            Light::TexturedSpot(s) => {
+                let cos_max = s.cutoff.cos();
+                let local = uniform_cone(u_dir, cos_max);
+                let le = s.intensity_local(local);
+                (le != Vec3::ZERO).then(|| EmissionSample {
+                    p: s.position,
+                    n: None,
+                    uv: Vec2::ZERO,
+                    dir: s.frame.to_world(local),
+                    le,
+                    pdf_pos: 1.0,
+                    pdf_dir: uniform_cone_pdf(cos_max),
+                })
+            }
+            Light::Projector(pr) => {
+                let (dir, le, pdf_dir) = pr.sample_direction(u_dir)?;
+                (le != Vec3::ZERO && pdf_dir > 0.0).then_some(EmissionSample {
+                    p: pr.position,
+                    n: None,
+                    uv: Vec2::ZERO,
+                    dir,
+                    le,
+                    pdf_pos: 1.0,
+                    pdf_dir,
                 })
             }
             Light::Directional { direction, irradiance } => {
@@ -95,6 +130,7 @@ impl Light {
                 Some(EmissionSample {
                     p,
                     n: Some(*direction),
+                    uv: Vec2::ZERO,
                     dir: *direction,
                     le: *irradiance,
                     pdf_pos: 1.0 / (PI * bounds.radius * bounds.radius),
@@ -102,15 +138,16 @@ impl Light {
                 })
             }
             Light::Area(a) => {
-                let (p, n, pdf_pos) = a.sample_point(u_pos)?;
+                let (p, n, pdf_pos, uv) = a.sample_point(u_pos)?;
                 let local = cosine_hemisphere(u_dir);
                 let dir = Frame::from_normal(n).to_world(local);
                 let pdf_dir = local.z * INV_PI;
                 (pdf_dir > 0.0).then_some(EmissionSample {
                     p,
                     n: Some(n),
+                    uv,
                     dir,
-                    le: a.radiance,
+                    le: a.radiance_at(uv),
                     pdf_pos,
                     pdf_dir,
                 })
@@ -128,6 +165,7 @@ impl Light {
                 Some(EmissionSample {
                     p,
                     n: Some(dir),
+                    uv: Vec2::ZERO,
                     dir,
                     le: ls.radiance,
                     pdf_pos: 1.0 / (PI * bounds.radius * bounds.radius),
@@ -156,6 +194,18 @@ impl Light {
                     },
                 )
             }
+            Light::TexturedSpot(s) => {
+                let cos_max = s.cutoff.cos();
+                (
+                    0.0,
+                    if dir.dot(s.frame.n) >= cos_max - 1e-6 {
+                        uniform_cone_pdf(cos_max)
+                    } else {
+                        0.0
+                    },
+                )
+            }
+            Light::Projector(p) => (0.0, p.pdf_direction(dir)),
             Light::Directional { .. } => (1.0 / (PI * bounds.radius * bounds.radius), 0.0),
             Light::Area(a) => (1.0 / a.area(), n.dot(dir).max(0.0) * INV_PI),
             Light::Environment(e) => (1.0 / (PI * bounds.radius * bounds.radius), e.pdf(-dir, LightSampling::Importance)),
@@ -164,9 +214,9 @@ impl Light {
 }
 
 impl AreaLight {
-    /// A point uniformly by area over the whole emitter, its geometric normal and
-    /// its area density 1/A.
-    pub fn sample_point(&self, u: Vec2) -> Option<(Vec3, Vec3, f32)> {
+    /// A point uniformly by area over the whole emitter, its geometric normal, its
+    /// area density 1/A and its uv (zero unless the radiance is a texture).
+    pub fn sample_point(&self, u: Vec2) -> Option<(Vec3, Vec3, f32, Vec2)> {
         let area = self.area();
         if area.is_nan() || area <= 0.0 {
             return None;
@@ -182,15 +232,16 @@ impl AreaLight {
                 let t = &triangles[i];
                 let b = uniform_triangle(Vec2::new(ux, u.y));
                 let q = t[0] * b[0] + t[1] * b[1] + t[2] * b[2];
-                Some((q, normals[i], 1.0 / area))
+                let n = normals[i];
+                Some((q, n, 1.0 / area, self.uv_of(i, b, n, u)))
             }
             super::area::Emitter::Sphere { center, radius } => {
                 let n = uniform_sphere(u);
-                Some((*center + n * *radius, n, 1.0 / area))
+                Some((*center + n * *radius, n, 1.0 / area, self.uv_of(0, [0.0; 3], n, u)))
             }
             super::area::Emitter::Cylinder { cylinder, flip } => {
                 let (q, n) = AreaLight::cylinder_point(cylinder, *flip, u);
-                Some((q, n, 1.0 / area))
+                Some((q, n, 1.0 / area, self.uv_of(0, [0.0; 3], n, u)))
             }
         }
     }

@@ -5,10 +5,14 @@
 pub mod area;
 pub mod emission;
 pub mod environment;
+pub mod projector;
+pub mod textured_spot;
 
 pub use area::AreaLight;
 pub use emission::{EmissionSample, SceneBounds};
 pub use environment::EnvironmentLight;
+pub use projector::Projector;
+pub use textured_spot::TexturedSpot;
 
 use crate::math::{luminance, Vec2, Vec3, INV_4PI, PI};
 use crate::sampling::Distribution1D;
@@ -38,6 +42,10 @@ pub enum Light {
         direction: Vec3,
         irradiance: Vec3,
     },
+    /// Mitsuba's `spot` with a `texture` projected over its cone ([`textured_spot`]).
+    TexturedSpot(TexturedSpot),
+    /// Mitsuba's `projector`: an image projected through a pinhole ([`projector`]).
+    Projector(Projector),
 }
 
 /// A spot light's intensity factor for a direction at `cos_theta` to its axis:
@@ -85,7 +93,28 @@ pub enum LightSampling {
 
 impl Light {
     pub fn is_delta(&self) -> bool {
-        matches!(self, Light::Point { .. } | Light::Spot { .. } | Light::Directional { .. })
+        matches!(
+            self,
+            Light::Point { .. } | Light::Spot { .. } | Light::Directional { .. } | Light::TexturedSpot(_) | Light::Projector(_)
+        )
+    }
+
+    /// The radiant intensity a light at a delta position (point, spot, textured spot,
+    /// projector) sends along the unit direction `dir` (away from it); zero for others.
+    pub fn intensity_towards(&self, dir: Vec3) -> Vec3 {
+        match self {
+            Light::Point { flux, .. } => *flux * INV_4PI,
+            Light::Spot {
+                axis,
+                intensity,
+                cutoff,
+                beam_width,
+                ..
+            } => *intensity * spot_falloff(dir.dot(*axis), *cutoff, *beam_width),
+            Light::TexturedSpot(s) => s.intensity_towards(dir),
+            Light::Projector(p) => p.intensity_towards(dir),
+            _ => Vec3::ZERO,
+        }
     }
 
     /// A sample of the light as seen from `p`. `None` when the light cannot
@@ -135,6 +164,22 @@ impl Light {
                 delta: true,
                 target: ShadowTarget::Infinity,
             }),
+            Light::TexturedSpot(TexturedSpot { position, .. }) | Light::Projector(Projector { position, .. }) => {
+                let v = *position - p;
+                let d2 = v.length_squared();
+                if d2 == 0.0 {
+                    return None;
+                }
+                let wi = v / d2.sqrt();
+                let i = self.intensity_towards(-wi);
+                (i != Vec3::ZERO).then_some(LightSample {
+                    radiance: i / d2,
+                    wi,
+                    pdf: 1.0,
+                    delta: true,
+                    target: ShadowTarget::Point { p: *position, n: None },
+                })
+            }
             Light::Area(a) => a.sample(p, u, mode),
             Light::Environment(e) => e.sample(u, mode),
         }
@@ -145,7 +190,7 @@ impl Light {
     /// `None` for the environment).
     pub fn pdf(&self, p: Vec3, wi: Vec3, hit: Option<(Vec3, Vec3)>, mode: LightSampling) -> f32 {
         match self {
-            Light::Point { .. } | Light::Spot { .. } | Light::Directional { .. } => 0.0,
+            Light::Point { .. } | Light::Spot { .. } | Light::Directional { .. } | Light::TexturedSpot(_) | Light::Projector(_) => 0.0,
             Light::Area(a) => hit.map_or(0.0, |(q, n)| a.pdf(p, wi, q, n, mode)),
             Light::Environment(e) => e.pdf(wi, mode),
         }
@@ -160,6 +205,10 @@ impl Light {
             // the cone's power with the full intensity out to the cutoff (a choice weight only)
             Light::Spot { intensity, cutoff, .. } => 2.0 * PI * (1.0 - cutoff.cos()) * luminance(*intensity),
             Light::Directional { irradiance, .. } => PI * scene_radius * scene_radius * luminance(*irradiance),
+            Light::TexturedSpot(s) => {
+                2.0 * PI * (1.0 - s.cutoff.cos()) * luminance(s.intensity) * crate::texture::luminance(s.texture.mean()).max(0.0)
+            }
+            Light::Projector(p) => p.power(),
         }
     }
 }

@@ -74,6 +74,15 @@ impl RenderJob {
                 ));
             }
         }
+        if let (Some(t), Profile::Rdr171) = (
+            desc.objects.iter().find_map(|o| o.light.as_ref().and_then(|l| l.texture.as_ref())),
+            profile,
+        ) {
+            return Err(t.source.error(
+                &desc.file,
+                "--compat rdr171 does not support textured area lights (the course renderer's emitters are constant)",
+            ));
+        }
         if let (Some(l), Profile::Rdr171) = (desc.integrator.delta_lights.first(), profile) {
             return Err(SceneError::new(
                 &desc.file,

@@ -10,7 +10,7 @@
 //! | `<sampler>` | any type: `sample_count` (4) → spp; the type is noted, rdr uses its own sampler. |
 //! | `<shape>` | `obj`, `ply` (`filename`, `face_normals` false: else smooth vertex normals when the file has none; `flip_normals`; `flip_tex_coords`, true for OBJ, false for PLY), `serialized` (`filename`, `shape_index` 0), `rectangle`, `cube`, `disk` (generated meshes), `sphere` (`center` 0, `radius` 1), `cylinder` (open, analytic: `p0` (0,0,0), `p1` (0,0,1), `radius` 1, `flip_normals`; Mitsuba's uv (φ/2π, height), which rdr holds as (φ/2π, 1 − height) like a mesh's; `to_world` a rotation, translation and scale uniform across the axis); all take `to_world`, one `<bsdf>` and one `area` `<emitter>`. A shape with neither gets Mitsuba's default, a diffuse 0.5. `shapegroup` (an `id`, plain shapes inside, no emitters: Mitsuba refuses them too; rendered only through instances) and `instance` (a `<ref>` to a shapegroup, `to_world` affine and invertible): a two-level BVH, one bottom level per group shared by its instances. Example: `<shape type="shapegroup" id="g"><shape type="obj">…</shape></shape> <shape type="instance"><ref id="g"/><transform name="to_world"><translate x="2"/></transform></shape>`. |
 //! | `<bsdf>` | `diffuse` (`reflectance` 0.5, a colour or texture); `dielectric`, `thindielectric` (`int_ior` "bk7", `ext_ior` "air": numbers or names, η = int/ext; `specular_reflectance`, `specular_transmittance` 1, colours); `roughdielectric` (as `dielectric`, and `distribution` beckmann \| ggx, `alpha` 0.1 or `alpha_u`+`alpha_v`); `conductor` and `roughconductor` (`material` "none", or a name from [`values::NAMED_CONDUCTORS`] such as "Au"; else `eta` 0 / `k` 1 (a perfect mirror); `specular_reflectance` 1, a colour or texture; `roughconductor`'s `alpha`, `alpha_u`/`alpha_v`, `distribution` as `roughdielectric`; the 0.6 `ext_eta` folded into η and k); `plastic` (`diffuse_reflectance` 0.5, a colour or texture; `specular_reflectance` 1; `int_ior` "polypropylene" (1.49), `ext_ior` "air"; `nonlinear` false), `roughplastic` (as `plastic`, and `alpha` 0.1 (isotropic), `distribution` beckmann); `twosided` (one or two nested non-transmitting bsdfs: around one `diffuse` it is rdr's two-sided diffuse, around one `roughconductor` that material (rdr's is two-sided), otherwise rdr's `twosided` with the second as the back). `bumpmap` (one nested `<texture>`, the heights; `scale` 1; `flip_invalid_normals`, `use_shadowing_function` true), `normalmap` (`<texture name="normalmap">`, the same two switches), `mask` (`opacity` 0.5, a float or texture; outermost only), each around one nested `<bsdf>`; see [`crate::material::bump`] and [`Material::Mask`]. `principled` (`base_color` 0.5, `roughness` 0.5, `metallic`, `spec_tint`, `anisotropic`, `sheen`, `sheen_tint`, `clearcoat`, `clearcoat_gloss`, `spec_trans`, `flatness` 0: numbers, colours or textures; `eta` or `specular` 0.5, not both; `main_specular_sampling_rate`, `clearcoat_sampling_rate`, `diffuse_reflectance_sampling_rate` 1; see [`crate::desc::principled`]); `principledthin` (`base_color`, `roughness` 0.5, `anisotropic`, `spec_trans`, `spec_tint`, `sheen`, `sheen_tint`, `flatness`, `diff_trans` 0 (up to 2), `eta` 1.5, each a number, colour or texture; four sampling rates); `blendbsdf` (`weight`, required, a float or texture; two nested bsdfs, the first at weight 0). Example: `<bsdf type="twosided"><bsdf type="roughplastic"><float name="alpha" value="0.2"/></bsdf></bsdf>`. |
-//! | `<emitter>` | `area` (in a shape: `radiance` 1), `point` (`position` or `to_world`; `intensity` I (1) → flux 4πI), `spot` (`to_world`: at its origin, along its +z; `intensity` 1, `cutoff_angle` 20°, `beam_width` ¾ of it; linear falloff in angle), `directional` (`direction` or `to_world`'s +z, of travel; `irradiance` 1) — these two for every integrator, `constant` (`radiance` 1), `envmap` (`filename`, `scale` 1, `to_world`) |
+//! | `<emitter>` | `area` (in a shape: `radiance` 1, a colour or a texture looked up at the emitting point's uv), `point` (`position` or `to_world`; `intensity` I (1) → flux 4πI), `spot` (`to_world`: at its origin, along its +z; `intensity` 1, `cutoff_angle` 20°, `beam_width` ¾ of it; linear falloff in angle; `texture`: an image projected over the cone, its x and y along `to_world`'s, `cutoff_angle` < 90° then, see [`crate::light::textured_spot`]), `projector` (`irradiance` a texture or colour, required; `scale` 1; `fov` with `fov_axis` (`x`) or `focal_length` ("50mm", on the diagonal); `to_world`: a pinhole at its origin looking along +z; intensity π·scale·E/cos³θ, see [`crate::light::projector`]), `directional` (`direction` or `to_world`'s +z, of travel; `irradiance` 1) — these two for every integrator, `constant` (`radiance` 1), `envmap` (`filename`, `scale` 1, `to_world`) |
 //! | `<texture>` | `bitmap` (`filename`, `to_uv`; `filter_type` `bilinear` (the full-resolution image: Mitsuba has no MIP maps) \| `nearest`; `raw` false (true: 8-bit PNG/JPEG values as they are, not decoded from sRGB); `wrap_mode` noted), `checkerboard` (`color0` 0.4, `color1` 0.2, `to_uv`); the 0.6 `uoffset`, `voffset`, `uscale`, `vscale` become `to_uv`; `mesh_attribute` (`name` "vertex_color" | "face_color", required: a PLY file's `red green blue`; `scale` 1) |
 //!
 //! Anything else is an error naming the plugin and what is supported. Colours are
@@ -45,7 +45,7 @@ mod principled;
 const SHAPES: &str = "obj, ply, serialized, rectangle, cube, disk, sphere, cylinder, shapegroup, instance";
 const BSDFS: &str =
     "diffuse, dielectric, thindielectric, roughdielectric, conductor, roughconductor, plastic, roughplastic, twosided, bumpmap, normalmap, mask, principled, principledthin, blendbsdf";
-const EMITTERS: &str = "point, spot, directional, constant, envmap (and area inside a <shape>)";
+const EMITTERS: &str = "point, spot, directional, projector, constant, envmap (and area inside a <shape>)";
 const TEXTURES: &str = "bitmap, checkerboard, mesh_attribute";
 const INTEGRATORS: &str = "path, volpath (without media), direct, ptracer, bdpt, photonmapper, sppm";
 const FILTERS: &str = "box, tent, gaussian, mitchell";
@@ -175,18 +175,75 @@ pub fn scene(root: &Element, file: &Path) -> Result<SceneDesc> {
                 let m = p.transform_opt("to_world")?.unwrap_or(Mat4::IDENTITY);
                 let position = m.transform_point3(Vec3::ZERO);
                 check_point(&p, "to_world", position)?;
-                let light = crate::desc::spot_light(
-                    position,
-                    m.transform_vector3(Vec3::Z),
+                let texture = match p.has("texture") {
+                    false => None,
+                    true => match p.colour("texture", Vec3::ONE)? {
+                        // Mitsuba: "The parameter 'texture' must be spatially varying"
+                        Colour::Constant(_) => return Err(p.value_error("texture", "must be a texture (e.g. a bitmap), not a constant")),
+                        Colour::Texture(t) => Some(TextureRef::Named(Located {
+                            value: r.texture(t)?,
+                            source: source(t),
+                        })),
+                    },
+                };
+                let (intensity, cutoff, beam) = (
                     p.rgb("intensity", Vec3::ONE)?,
                     p.float("cutoff_angle", 20.0)?,
                     p.float_opt("beam_width")?,
-                )
+                );
+                let light = match &texture {
+                    None => crate::desc::spot_light(position, m.transform_vector3(Vec3::Z), intensity, cutoff, beam),
+                    Some(_) => light_frame(&m).and_then(|f| crate::desc::textured_spot(position, f, intensity, cutoff, beam)),
+                }
                 .map_err(|e| {
                     let key = ["cutoff_angle", "beam_width", "intensity"].into_iter().find(|k| e.starts_with(k));
                     p.value_error(key.unwrap_or("to_world"), e)
                 })?;
-                delta_lights.push(crate::desc::DeltaLightDesc { light, key: where_is(el) });
+                delta_lights.push(crate::desc::DeltaLightDesc {
+                    light,
+                    key: where_is(el),
+                    texture,
+                });
+                p.finish(&[])?;
+            }
+            "projector" => {
+                let m = p.transform_opt("to_world")?.unwrap_or(Mat4::IDENTITY);
+                let position = m.transform_point3(Vec3::ZERO);
+                check_point(&p, "to_world", position)?;
+                if !p.has("irradiance") {
+                    return Err(p.error("property \"irradiance\" (a texture or a colour) is required"));
+                }
+                let texture = r.texture_ref(&p, "irradiance", Vec3::ONE)?;
+                let axis = p.string("fov_axis", "x")?;
+                let (fov, axis) = match p.float_opt("fov")? {
+                    Some(f) => (f, axis),
+                    None => {
+                        let f = p.string("focal_length", "50mm")?;
+                        let mm: f32 = f
+                            .trim()
+                            .trim_end_matches("mm")
+                            .trim()
+                            .parse()
+                            .ok()
+                            .filter(|v: &f32| *v > 0.0)
+                            .ok_or_else(|| p.value_error("focal_length", format!("expected a length such as \"50mm\", found \"{f}\"")))?;
+                        if p.has("fov_axis") {
+                            ids.warn(el, "fov_axis is ignored with focal_length (the image's diagonal is used)");
+                        }
+                        (2.0 * (36f32.hypot(24.0) / (2.0 * mm)).atan().to_degrees(), "diagonal".to_string())
+                    }
+                };
+                let axis = crate::light::projector::FovAxis::parse(&axis)
+                    .ok_or_else(|| p.value_error("fov_axis", format!("unknown axis \"{axis}\" (x, y, diagonal, smaller, larger)")))?;
+                let scale = p.float("scale", 1.0)?;
+                let light = light_frame(&m)
+                    .and_then(|f| crate::desc::projector_light(position, f, scale, fov, axis))
+                    .map_err(|e| p.value_error(["fov", "scale"].into_iter().find(|k| e.starts_with(k)).unwrap_or("to_world"), e))?;
+                delta_lights.push(crate::desc::DeltaLightDesc {
+                    light,
+                    key: where_is(el),
+                    texture: Some(texture),
+                });
                 p.finish(&[])?;
             }
             "directional" => {
@@ -197,7 +254,11 @@ pub fn scene(root: &Element, file: &Path) -> Result<SceneDesc> {
                 };
                 let light = crate::desc::directional_light(direction, p.rgb("irradiance", Vec3::ONE)?)
                     .map_err(|e| p.value_error(if e.starts_with("irradiance") { "irradiance" } else { "direction" }, e))?;
-                delta_lights.push(crate::desc::DeltaLightDesc { light, key: where_is(el) });
+                delta_lights.push(crate::desc::DeltaLightDesc {
+                    light,
+                    key: where_is(el),
+                    texture: None,
+                });
                 p.finish(&[])?;
             }
             "constant" | "envmap" => {
@@ -807,10 +868,11 @@ impl<'a> Reader<'a> {
                 if ep.ty != "area" {
                     return Err(at.error(format!("a shape's emitter must be \"area\", found \"{}\"", ep.ty)));
                 }
-                let radiance = ep.rgb("radiance", Vec3::ONE)?;
-                if radiance.min_element() < 0.0 {
-                    return Err(ep.value_error("radiance", "must not be negative"));
-                }
+                // a constant, or a texture looked up at the emitting point's uv
+                let (radiance, texture) = match self.texture_ref(&ep, "radiance", Vec3::ONE)? {
+                    TextureRef::Color(c) => (c, None),
+                    TextureRef::Named(t) => (Vec3::ONE, Some(t)),
+                };
                 if let Some(w) = ep.float_opt("sampling_weight")? {
                     if w != 1.0 {
                         self.ids.warn(e, format!("sampling_weight {w} noted: rdr chooses lights by power"));
@@ -820,6 +882,7 @@ impl<'a> Reader<'a> {
                 Some(AreaLightDesc {
                     source: source(e),
                     radiance,
+                    texture,
                 })
             }
         };
@@ -1346,4 +1409,18 @@ impl<'a> Reader<'a> {
             transform,
         })
     }
+}
+
+/// The frame of a light's `to_world` (its x, y and z axes, normalised): Mitsuba's
+/// local frame of `spot` and `projector`.
+fn light_frame(m: &Mat4) -> std::result::Result<crate::math::Frame, String> {
+    let (s, t, n) = (
+        m.transform_vector3(Vec3::X).normalize_or_zero(),
+        m.transform_vector3(Vec3::Y).normalize_or_zero(),
+        m.transform_vector3(Vec3::Z).normalize_or_zero(),
+    );
+    if s == Vec3::ZERO || t == Vec3::ZERO || n == Vec3::ZERO || !(s.is_finite() && t.is_finite() && n.is_finite()) {
+        return Err("the light's transform is degenerate".into());
+    }
+    Ok(crate::math::Frame { s, t, n })
 }

@@ -305,6 +305,7 @@ impl Engine<'_> {
             v.ns = it.ns;
             v.wo = it.wo;
             v.emitter = scene.area_light_of(&it).map(|(i, _)| i);
+            v.uv = it.uv;
             v.pdf_fwd = self.ctx.convert(pdf_dir, &path[path.len() - 1], &v);
             v.bsdf = scene.material_of(&it).map(|m| m.bsdf_at(&it, &scene.textures));
             let bsdf = v.bsdf.clone();
@@ -368,6 +369,7 @@ impl Engine<'_> {
             es.n.unwrap_or(Vec3::ZERO),
             Vec3::splat(1.0 / (pmf * es.pdf_pos)),
         );
+        v.uv = es.uv;
         if light.is_infinite() {
             v.infinite = true;
             v.ng = -es.dir;

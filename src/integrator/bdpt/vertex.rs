@@ -35,6 +35,8 @@ pub struct Vertex {
     pub bsdf: Option<Bsdf>,
     /// The area light of the surface, if it emits.
     pub emitter: Option<u32>,
+    /// Texture coordinates (surfaces and area-light origins: a textured emitter's radiance).
+    pub uv: crate::math::Vec2,
     /// Throughput of the subpath up to and including this vertex (for a light
     /// subpath's first vertex: 1/(pmf·pdf_pos), its emission is evaluated apart).
     pub beta: Vec3,
@@ -57,6 +59,7 @@ impl Vertex {
             infinite: false,
             bsdf: None,
             emitter: None,
+            uv: crate::math::Vec2::ZERO,
             beta,
             delta: false,
             pdf_fwd: 0.0,
@@ -209,7 +212,9 @@ impl Ctx<'_> {
                 cos / (PI * r * r)
             }
             Light::Point { .. } => self.convert(INV_4PI, light, next),
-            l @ Light::Spot { .. } => self.convert(l.pdf_emission(Vec3::ZERO, light.dir_to(next), self.bounds).1, light, next),
+            l @ (Light::Spot { .. } | Light::TexturedSpot(_) | Light::Projector(_)) => {
+                self.convert(l.pdf_emission(Vec3::ZERO, light.dir_to(next), self.bounds).1, light, next)
+            }
             Light::Area(_) => {
                 let w = light.dir_to(next);
                 self.convert(light.ng.dot(w).max(0.0) * INV_PI, light, next)
@@ -228,7 +233,7 @@ impl Ctx<'_> {
             // a delta position (point, spot) or direction (directional): the light's
             // choice alone (a camera subpath never reaches them, so strategy s = 0,
             // the only one that compares with this density, is impossible)
-            Light::Point { .. } | Light::Spot { .. } | Light::Directional { .. } => pmf,
+            Light::Point { .. } | Light::Spot { .. } | Light::Directional { .. } | Light::TexturedSpot(_) | Light::Projector(_) => pmf,
             Light::Area(a) => pmf / a.area(),
             Light::Environment(_) => pmf * l.pdf_emission(Vec3::ZERO, -light.ng, self.bounds).1,
         }
@@ -241,17 +246,10 @@ impl Ctx<'_> {
         let Some(i) = light.light() else { return Vec3::ZERO };
         match &self.scene.lights[i as usize] {
             Light::Environment(e) => e.radiance(light.ng),
-            Light::Point { flux, .. } => *flux * INV_4PI,
-            Light::Spot {
-                axis,
-                intensity,
-                cutoff,
-                beam_width,
-                ..
-            } => *intensity * crate::light::spot_falloff(w.dot(*axis), *cutoff, *beam_width),
+            l @ (Light::Point { .. } | Light::Spot { .. } | Light::TexturedSpot(_) | Light::Projector(_)) => l.intensity_towards(w),
             // along its direction only (`light.ng` points back to where it comes from)
             Light::Directional { irradiance, .. } => *irradiance,
-            Light::Area(a) => a.emitted(light.ng, w),
+            Light::Area(a) => a.emitted(light.ng, w, light.uv),
         }
     }
 }

@@ -191,7 +191,7 @@ impl Guiding<'_> {
                 it.compute_uv_derivatives(d);
             }
             if let Some((index, area)) = scene.area_light_of(&it) {
-                let le = area.emitted(it.ng, it.wo);
+                let le = area.emitted(it.ng, it.wo, it.uv);
                 if le != Vec3::ZERO {
                     let w = if after_delta {
                         1.0

@@ -127,6 +127,45 @@ def scenes():
 </scene>
 """
 
+    # anisotropic lobes along the surface's dp/du (Mitsuba's shading frame): a rectangle
+    # turned about its normal (its u axis at 25° in the picture), principled on the left
+    # half, roughconductor on the right; and a sphere seen from above its equator, the
+    # principled lobe stretched along its parallels
+    aniso = """<bsdf type="principled">
+      <rgb name="base_color" value="0.8, 0.5, 0.3"/><float name="roughness" value="0.45"/>
+      <float name="metallic" value="0.8"/><float name="anisotropic" value="0.9"/>
+    </bsdf>"""
+    key = """  <shape type="sphere">
+    <point name="center" x="1.2" y="1.4" z="2.4"/><float name="radius" value="0.25"/>
+    <emitter type="area"><rgb name="radiance" value="60, 60, 60"/></emitter>
+  </shape>
+  <emitter type="constant"><rgb name="radiance" value="0.1, 0.1, 0.1"/></emitter>
+"""
+    front = """  <shape type="sphere">
+    <point name="center" x="0.3" y="0.8" z="3.5"/><float name="radius" value="0.25"/>
+    <emitter type="area"><rgb name="radiance" value="60, 60, 60"/></emitter>
+  </shape>
+  <emitter type="constant"><rgb name="radiance" value="0.1, 0.1, 0.1"/></emitter>
+"""
+    yield "aniso_rect", header("aniso_rect", PATH, ("0, 0, 3.0", "0, 0, 0")) + f"""  <shape type="rectangle">
+    <transform name="to_world"><scale x="0.4" y="0.7"/><rotate z="1" angle="25"/><translate x="-0.7"/></transform>
+    {aniso}
+  </shape>
+  <shape type="rectangle">
+    <transform name="to_world"><scale x="0.4" y="0.7"/><rotate z="1" angle="25"/><translate x="0.7"/></transform>
+    <bsdf type="roughconductor">
+      <string name="distribution" value="ggx"/><float name="alpha_u" value="0.05"/><float name="alpha_v" value="0.4"/>
+    </bsdf>
+  </shape>
+{front}</scene>
+"""
+    yield "aniso_sphere", header("aniso_sphere", PATH, ("0, 2.2, 2.2", "0, 0, 0")) + f"""  <shape type="sphere">
+    <float name="radius" value="0.9"/>
+    {aniso}
+  </shape>
+{key}</scene>
+"""
+
 
 def main():
     ap = argparse.ArgumentParser()

@@ -609,8 +609,15 @@ impl Material {
                 (ns, BsdfKind::Blend(Box::new(blend)))
             }
         };
+        // Mitsuba's tangent (∂p/∂u made orthogonal to the normal) where the lobes need
+        // one; isotropic lobes keep the cheaper arbitrary frame (the same BSDF)
+        let frame = if kind.is_anisotropic() {
+            bump::shading_frame(n, g.dpdu)
+        } else {
+            Frame::from_normal(n)
+        };
         Bsdf {
-            frame: Frame::from_normal(n),
+            frame,
             kind,
             perturbed: None,
         }

@@ -257,7 +257,12 @@ fn shadow_rays_through_fractional_masks_are_weighted() {
             bad.push(what);
         }
     };
-    check("half quad, towards the light".into(), tr(Vec3::new(-0.65, 1e-3, 0.2), light), 0.5, 1e-6);
+    check(
+        "half quad, towards the light".into(),
+        tr(Vec3::new(-0.65, 1e-3, 0.2), light),
+        0.5,
+        1e-6,
+    );
     for x in [-1.0f32, -0.8, -0.3] {
         check(format!("half quad, straight up at x = {x}"), up(x, 0.3), 0.5, 1e-6);
     }
@@ -267,7 +272,12 @@ fn shadow_rays_through_fractional_masks_are_weighted() {
         check(format!("ramp quad, straight up at x = {x}"), up(x, 0.3), 1.0 - u, 0.02);
     }
     check("beside the quads".into(), up(0.0, 1.5), 1.0, 0.0);
-    check("into the floor".into(), tr(Vec3::new(0.0, 1.0, 0.0), Vec3::new(0.0, -1.0, 0.0)), 0.0, 0.0);
+    check(
+        "into the floor".into(),
+        tr(Vec3::new(0.0, 1.0, 0.0), Vec3::new(0.0, -1.0, 0.0)),
+        0.0,
+        0.0,
+    );
     assert!(bad.is_empty(), "wrong transmittance: {bad:?}");
 }
 
@@ -331,7 +341,10 @@ fn every_integrator_weights_shadow_rays_through_fractional_masks() {
             *m = (*m + *o) * 0.5;
         }
         let (d_half, d_full) = (mean_abs_diff(&half, &mean), mean_abs_diff(&clear, &opaque));
-        eprintln!("{ty:>18}: |half − mean(clear, opaque)| {d_half:.2e}, |clear − opaque| {d_full:.2e}, ratio {:.3}", d_half / d_full);
+        eprintln!(
+            "{ty:>18}: |half − mean(clear, opaque)| {d_half:.2e}, |clear − opaque| {d_full:.2e}, ratio {:.3}",
+            d_half / d_full
+        );
         if !(d_full > 0.0 && d_half < 0.08 * d_full) {
             failed.push(ty);
         }

@@ -346,7 +346,14 @@ pub fn to_json(desc: &SceneDesc, out: &Path) -> Result<Converted> {
             }));
     for (i, o, group) in entries {
         let mut v = match &o.shape {
-            Shape::Sphere(s) => json!({"type": "sphere", "center": vec3(s.center), "radius": num(s.radius)}),
+            Shape::Sphere(s) => {
+                let mut v = json!({"type": "sphere", "center": vec3(s.center), "radius": num(s.radius)});
+                if let Some(q) = s.uv_frame {
+                    let m = glam::Mat3::from_quat(glam::Quat::from_array(q)).transpose().to_cols_array();
+                    v["uv_frame"] = Value::Array(m.iter().map(|x| num(*x)).collect());
+                }
+                v
+            }
             Shape::Cylinder(c) => {
                 let (p0, p1, r, m) = cylinder_params(c);
                 let mut v = json!({"type": "cylinder", "p0": vec3(p0), "p1": vec3(p1), "radius": num(r)});
@@ -477,13 +484,20 @@ fn material_json(
             alpha_x,
             alpha_y,
             distribution,
-        } => json!({
-            "type": "roughconductor",
-            "texture_name": texture_name(texture, name, textures),
-            "etaI": vec3(*eta_i), "etaT": vec3(*eta_t), "k": vec3(*k),
-            "alpha_x": num(*alpha_x), "alpha_y": num(*alpha_y),
-            "distribution": distribution_name(*distribution),
-        }),
+            twosided,
+        } => {
+            let mut v = json!({
+                "type": "roughconductor",
+                "texture_name": texture_name(texture, name, textures),
+                "etaI": vec3(*eta_i), "etaT": vec3(*eta_t), "k": vec3(*k),
+                "alpha_x": num(*alpha_x), "alpha_y": num(*alpha_y),
+                "distribution": distribution_name(*distribution),
+            });
+            if !twosided {
+                v["twosided"] = json!(false);
+            }
+            v
+        }
         Material::Conductor { texture, eta, k } => json!({
             "type": "conductor", "texture_name": texture_name(texture, name, textures), "eta": vec3(*eta), "k": vec3(*k),
         }),
@@ -669,17 +683,25 @@ fn material_xml(
             alpha_x,
             alpha_y,
             distribution,
+            twosided,
         } => {
+            // rdr's roughconductor reflects on both sides unless `twosided` is false,
+            // Mitsuba's on the front only: a two-sided one is wrapped in a twosided
+            // (unless it is one side of a twosided already), a one-sided one bare
+            let wrap = *twosided && id.is_some();
             let bsdf = format!(
-                "<bsdf type=\"roughconductor\">{}<rgb name=\"eta\" value=\"{}\"/><rgb name=\"k\" value=\"{}\"/>{}</bsdf>",
+                "{}{}<rgb name=\"eta\" value=\"{}\"/><rgb name=\"k\" value=\"{}\"/>{}</bsdf>",
+                if wrap {
+                    "<bsdf type=\"roughconductor\">".to_string()
+                } else {
+                    open("roughconductor")
+                },
                 alphas(*alpha_x, *alpha_y, *distribution),
                 v3(*eta_t / *eta_i),
                 v3(*k / *eta_i),
                 colour("specular_reflectance", texture)
             );
-            // rdr's roughconductor reflects on both sides, Mitsuba's on the front only:
-            // wrapped in a twosided (unless it is one side of a twosided already)
-            if id.is_some() {
+            if wrap {
                 format!("{}{bsdf}</bsdf>", open("twosided"))
             } else {
                 bsdf
@@ -1086,11 +1108,22 @@ pub fn to_xml(desc: &SceneDesc, out: &Path) -> Result<Converted> {
         }
         let mut inner = String::new();
         let head = match &o.shape {
-            Shape::Sphere(sp) => format!(
-                "  <shape type=\"sphere\">\n    <point name=\"center\" value=\"{}\"/>\n    <float name=\"radius\" value=\"{}\"/>\n",
-                v3(sp.center),
-                sp.radius
-            ),
+            Shape::Sphere(sp) => match sp.uv_frame {
+                // the rotation carries Mitsuba's parameterisation
+                Some(q) => {
+                    let m = glam::Mat4::from_scale_rotation_translation(Vec3::splat(sp.radius), glam::Quat::from_array(q), sp.center);
+                    let rows = m.transpose().to_cols_array();
+                    format!(
+                        "  <shape type=\"sphere\">\n    <transform name=\"to_world\"><matrix value=\"{}\"/></transform>\n",
+                        rows.iter().map(|x| x.to_string()).collect::<Vec<_>>().join(" ")
+                    )
+                }
+                None => format!(
+                    "  <shape type=\"sphere\">\n    <point name=\"center\" value=\"{}\"/>\n    <float name=\"radius\" value=\"{}\"/>\n",
+                    v3(sp.center),
+                    sp.radius
+                ),
+            },
             Shape::Cylinder(c) => {
                 let (p0, p1, r, m) = cylinder_params(c);
                 let mut h = format!(

@@ -68,7 +68,10 @@ pub enum Material<T = u32> {
     /// `roughconductor`: `texture_name` (required, a tint; legacy scenes may give an
     /// inline `R` instead, accepted with a warning), `etaI`, `etaT`, `k` (vec3, (1,1,1)
     /// each), `alpha_x`, `alpha_y` (≥ 0, 0.1 each), `distribution` (`"beckmann"` |
-    /// `"ggx"`, `"beckmann"`).
+    /// `"ggx"`, `"beckmann"`), `twosided` (true: it reflects on both sides, as RDR171
+    /// specifies; false is Mitsuba's bare `roughconductor`, black from behind, which
+    /// the XML reader gives unless a `twosided` wraps it). Example:
+    /// `{"type": "roughconductor", "texture_name": "gold", "alpha_x": 0.2, "alpha_y": 0.2, "twosided": false}`.
     RoughConductor {
         texture: T,
         eta_i: Vec3,
@@ -77,6 +80,7 @@ pub enum Material<T = u32> {
         alpha_x: f32,
         alpha_y: f32,
         distribution: Distribution,
+        twosided: bool,
     },
     /// `conductor` (Mitsuba `conductor`): a smooth mirror with the conductor Fresnel
     /// reflectance of the complex relative index η + ik, one-sided. `texture_name`
@@ -265,6 +269,7 @@ impl<T> Material<T> {
                 alpha_x,
                 alpha_y,
                 distribution,
+                twosided,
             } => Material::RoughConductor {
                 texture: f(texture)?,
                 eta_i: *eta_i,
@@ -273,6 +278,7 @@ impl<T> Material<T> {
                 alpha_x: *alpha_x,
                 alpha_y: *alpha_y,
                 distribution: *distribution,
+                twosided: *twosided,
             },
             Material::Conductor { texture, eta, k } => Material::Conductor {
                 texture: f(texture)?,
@@ -479,8 +485,9 @@ impl Material {
                 alpha_x,
                 alpha_y,
                 distribution,
+                twosided,
             } => (
-                facing,
+                if twosided { facing } else { ns },
                 BsdfKind::Conductor {
                     tint: tint(texture),
                     eta: eta_t / eta_i,

@@ -27,7 +27,10 @@ pub enum Shape<M = Mesh> {
     /// `mesh`: `path` (OBJ, required), `transform` (16 numbers row-major, identity),
     /// `translate` ((0,0,0), added after `transform`); see [`desc::MeshFile`].
     Mesh(M),
-    /// `sphere`: `center` (vec3, (0,0,0)), `radius` (> 0, 1).
+    /// `sphere`: `center` (vec3, (0,0,0)), `radius` (> 0, 1), `uv_frame` (9 numbers
+    /// row-major, a rotation whose columns are the sphere's own axes, z its pole: Mitsuba's
+    /// uv in that frame, as the XML reader gives; absent: RDR171's uv about the world z);
+    /// see [`Sphere::uv_frame`]. Example: `{"type": "sphere", "radius": 2, "uv_frame": [1,0,0, 0,0,-1, 0,1,0]}`.
     Sphere(Sphere),
     /// `cylinder`: Mitsuba's open cylinder, `p0` ((0,0,0)), `p1` ((0,0,1)), `radius` (1),
     /// `flip_normals` (false), `transform` (16 numbers row-major, identity; a rotation,
@@ -193,7 +196,9 @@ impl Scene {
 
     /// The first hit from `hit` on (the closest hit of `ray`) that a mask does not pass.
     fn through_masks(&self, ray: &Ray, hit: Hit) -> Option<Hit> {
-        self.walk_masks(ray, hit, |alpha, r, prim| !(alpha >= 1.0 || (alpha > 0.0 && mask_sample(r, prim) < alpha)))
+        self.walk_masks(ray, hit, |alpha, r, prim| {
+            !(alpha >= 1.0 || (alpha > 0.0 && mask_sample(r, prim) < alpha))
+        })
     }
 
     /// The first hit from `hit` on (the closest hit of `ray`) where `pass(α, ray, prim)`

@@ -8,8 +8,8 @@
 //! | `<film>` | `hdrfilm`: `width` 768, `height` 576, `rfilter` (default `gaussian`); `pixel_format`, `component_format`, `file_format`, `banner` noted. |
 //! | `<rfilter>` | `box` (`radius` 0.5), `tent` (`radius` 1), `gaussian` (`stddev` 0.5, radius 4·stddev), `mitchell` (`B`, `C` 1/3, radius 2) |
 //! | `<sampler>` | any type: `sample_count` (4) → spp; the type is noted, rdr uses its own sampler. |
-//! | `<shape>` | `obj`, `ply` (`filename`, `face_normals` false: else smooth vertex normals when the file has none; `flip_normals`; `flip_tex_coords`, true for OBJ, false for PLY), `serialized` (`filename`, `shape_index` 0), `rectangle`, `cube`, `disk` (generated meshes), `sphere` (`center` 0, `radius` 1), `cylinder` (open, analytic: `p0` (0,0,0), `p1` (0,0,1), `radius` 1, `flip_normals`; Mitsuba's uv (φ/2π, height), which rdr holds as (φ/2π, 1 − height) like a mesh's; `to_world` a rotation, translation and scale uniform across the axis); all take `to_world`, one `<bsdf>` and one `area` `<emitter>`. A shape with neither gets Mitsuba's default, a diffuse 0.5. `shapegroup` (an `id`, plain shapes inside, no emitters: Mitsuba refuses them too; rendered only through instances) and `instance` (a `<ref>` to a shapegroup, `to_world` affine and invertible): a two-level BVH, one bottom level per group shared by its instances. Example: `<shape type="shapegroup" id="g"><shape type="obj">…</shape></shape> <shape type="instance"><ref id="g"/><transform name="to_world"><translate x="2"/></transform></shape>`. |
-//! | `<bsdf>` | `diffuse` (`reflectance` 0.5, a colour or texture); `dielectric`, `thindielectric` (`int_ior` "bk7", `ext_ior` "air": numbers or names, η = int/ext; `specular_reflectance`, `specular_transmittance` 1, colours); `roughdielectric` (as `dielectric`, and `distribution` beckmann \| ggx, `alpha` 0.1 or `alpha_u`+`alpha_v`); `conductor` and `roughconductor` (`material` "none", or a name from [`values::NAMED_CONDUCTORS`] such as "Au"; else `eta` 0 / `k` 1 (a perfect mirror); `specular_reflectance` 1, a colour or texture; `roughconductor`'s `alpha`, `alpha_u`/`alpha_v`, `distribution` as `roughdielectric`; the 0.6 `ext_eta` folded into η and k); `plastic` (`diffuse_reflectance` 0.5, a colour or texture; `specular_reflectance` 1; `int_ior` "polypropylene" (1.49), `ext_ior` "air"; `nonlinear` false), `roughplastic` (as `plastic`, and `alpha` 0.1 (isotropic), `distribution` beckmann); `twosided` (one or two nested non-transmitting bsdfs: around one `diffuse` it is rdr's two-sided diffuse, around one `roughconductor` that material (rdr's is two-sided), otherwise rdr's `twosided` with the second as the back). `bumpmap` (one nested `<texture>`, the heights; `scale` 1; `flip_invalid_normals`, `use_shadowing_function` true), `normalmap` (`<texture name="normalmap">`, the same two switches), `mask` (`opacity` 0.5, a float or texture; outermost only), each around one nested `<bsdf>`; see [`crate::material::bump`] and [`Material::Mask`]. `principled` (`base_color` 0.5, `roughness` 0.5, `metallic`, `spec_tint`, `anisotropic`, `sheen`, `sheen_tint`, `clearcoat`, `clearcoat_gloss`, `spec_trans`, `flatness` 0: numbers, colours or textures; `eta` or `specular` 0.5, not both; `main_specular_sampling_rate`, `clearcoat_sampling_rate`, `diffuse_reflectance_sampling_rate` 1; see [`crate::desc::principled`]); `principledthin` (`base_color`, `roughness` 0.5, `anisotropic`, `spec_trans`, `spec_tint`, `sheen`, `sheen_tint`, `flatness`, `diff_trans` 0 (up to 2), `eta` 1.5, each a number, colour or texture; four sampling rates); `blendbsdf` (`weight`, required, a float or texture; two nested bsdfs, the first at weight 0). Example: `<bsdf type="twosided"><bsdf type="roughplastic"><float name="alpha" value="0.2"/></bsdf></bsdf>`. |
+//! | `<shape>` | `obj`, `ply` (`filename`, `face_normals` false: else smooth vertex normals when the file has none; `flip_normals`; `flip_tex_coords`, true for OBJ, false for PLY), `serialized` (`filename`, `shape_index` 0), `rectangle`, `cube`, `disk` (generated meshes), `sphere` (`center` 0, `radius` 1; Mitsuba's uv (φ/2π, θ/π) about the object frame's z, `to_world`'s rotation included, which rdr holds as (φ/2π, 1 − θ/π) like a mesh's: JSON `uv_frame`), `cylinder` (open, analytic: `p0` (0,0,0), `p1` (0,0,1), `radius` 1, `flip_normals`; Mitsuba's uv (φ/2π, height), which rdr holds as (φ/2π, 1 − height) like a mesh's; `to_world` a rotation, translation and scale uniform across the axis); all take `to_world`, one `<bsdf>` and one `area` `<emitter>`. A shape with neither gets Mitsuba's default, a diffuse 0.5. `shapegroup` (an `id`, plain shapes inside, no emitters: Mitsuba refuses them too; rendered only through instances) and `instance` (a `<ref>` to a shapegroup, `to_world` affine and invertible): a two-level BVH, one bottom level per group shared by its instances. Example: `<shape type="shapegroup" id="g"><shape type="obj">…</shape></shape> <shape type="instance"><ref id="g"/><transform name="to_world"><translate x="2"/></transform></shape>`. |
+//! | `<bsdf>` | `diffuse` (`reflectance` 0.5, a colour or texture); `dielectric`, `thindielectric` (`int_ior` "bk7", `ext_ior` "air": numbers or names, η = int/ext; `specular_reflectance`, `specular_transmittance` 1, colours); `roughdielectric` (as `dielectric`, and `distribution` beckmann \| ggx, `alpha` 0.1 or `alpha_u`+`alpha_v`); `conductor` and `roughconductor` (`material` "none", or a name from [`values::NAMED_CONDUCTORS`] such as "Au"; else `eta` 0 / `k` 1 (a perfect mirror); `specular_reflectance` 1, a colour or texture; `roughconductor`'s `alpha`, `alpha_u`/`alpha_v`, `distribution` as `roughdielectric`; the 0.6 `ext_eta` folded into η and k); `plastic` (`diffuse_reflectance` 0.5, a colour or texture; `specular_reflectance` 1; `int_ior` "polypropylene" (1.49), `ext_ior` "air"; `nonlinear` false), `roughplastic` (as `plastic`, and `alpha` 0.1 (isotropic), `distribution` beckmann); `twosided` (one or two nested non-transmitting bsdfs: around one `diffuse` it is rdr's two-sided diffuse, around one `roughconductor` that material made two-sided (a bare one is black from behind, as Mitsuba's), otherwise rdr's `twosided` with the second as the back). `bumpmap` (one nested `<texture>`, the heights; `scale` 1; `flip_invalid_normals`, `use_shadowing_function` true), `normalmap` (`<texture name="normalmap">`, the same two switches), `mask` (`opacity` 0.5, a float or texture; outermost only), each around one nested `<bsdf>`; see [`crate::material::bump`] and [`Material::Mask`]. `principled` (`base_color` 0.5, `roughness` 0.5, `metallic`, `spec_tint`, `anisotropic`, `sheen`, `sheen_tint`, `clearcoat`, `clearcoat_gloss`, `spec_trans`, `flatness` 0: numbers, colours or textures; `eta` or `specular` 0.5, not both; `main_specular_sampling_rate`, `clearcoat_sampling_rate`, `diffuse_reflectance_sampling_rate` 1; see [`crate::desc::principled`]); `principledthin` (`base_color`, `roughness` 0.5, `anisotropic`, `spec_trans`, `spec_tint`, `sheen`, `sheen_tint`, `flatness`, `diff_trans` 0 (up to 2), `eta` 1.5, each a number, colour or texture; four sampling rates); `blendbsdf` (`weight`, required, a float or texture; two nested bsdfs, the first at weight 0). Example: `<bsdf type="twosided"><bsdf type="roughplastic"><float name="alpha" value="0.2"/></bsdf></bsdf>`. |
 //! | `<emitter>` | `area` (in a shape: `radiance` 1), `point` (`position` or `to_world`; `intensity` I (1) → flux 4πI), `spot` (`to_world`: at its origin, along its +z; `intensity` 1, `cutoff_angle` 20°, `beam_width` ¾ of it; linear falloff in angle), `directional` (`direction` or `to_world`'s +z, of travel; `irradiance` 1) — these two for every integrator, `constant` (`radiance` 1), `envmap` (`filename`, `scale` 1, `to_world`) |
 //! | `<texture>` | `bitmap` (`filename`, `to_uv`; `filter_type` `bilinear` (the full-resolution image: Mitsuba has no MIP maps) \| `nearest`; `raw` false (true: 8-bit PNG/JPEG values as they are, not decoded from sRGB); `wrap_mode` noted), `checkerboard` (`color0` 0.4, `color1` 0.2, `to_uv`); the 0.6 `uoffset`, `voffset`, `uscale`, `vscale` become `to_uv`; `mesh_attribute` (`name` "vertex_color" | "face_color", required: a PLY file's `red green blue`; `scale` 1) |
 //!
@@ -770,7 +770,19 @@ impl<'a> Reader<'a> {
                     return Err(p.value_error("radius", format!("must be positive, found {radius}")));
                 }
                 check_point(&p, "center", center)?;
-                Shape::Sphere(Sphere { center, radius })
+                // Mitsuba's uv lives in the object frame (z the pole), v in its sense
+                let frame = glam::Mat3::from_cols(axes[0] / s, axes[1] / s, axes[2] / s);
+                let Some(q) = crate::desc::rotation_quat(&frame) else {
+                    return Err(p.value_error(
+                        "to_world",
+                        "a sphere's transform must be a rotation, translation and uniform scale (this one mirrors)",
+                    ));
+                };
+                Shape::Sphere(Sphere {
+                    center,
+                    radius,
+                    uv_frame: Some(q),
+                })
             }
             "cylinder" => {
                 let p0 = p.point_opt("p0")?.unwrap_or(Vec3::ZERO);
@@ -972,7 +984,28 @@ impl<'a> Reader<'a> {
                 match (front, back) {
                     // rdr's own two-sided diffuse; its roughconductor is two-sided already
                     (Material::Diffuse { texture, .. }, None) => Material::Diffuse { texture, twosided: true },
-                    (m @ Material::RoughConductor { .. }, None) => m,
+                    (
+                        Material::RoughConductor {
+                            twosided: _,
+                            texture,
+                            eta_i,
+                            eta_t,
+                            k,
+                            alpha_x,
+                            alpha_y,
+                            distribution,
+                        },
+                        None,
+                    ) => Material::RoughConductor {
+                        texture,
+                        eta_i,
+                        eta_t,
+                        k,
+                        alpha_x,
+                        alpha_y,
+                        distribution,
+                        twosided: true,
+                    },
                     // smooth glass is the same from both sides (the 0.6 course files wrap it)
                     (m @ (Material::Glass { .. } | Material::Refraction { .. }), None) => {
                         self.ids.convert_note(
@@ -1005,6 +1038,8 @@ impl<'a> Reader<'a> {
                     alpha_x,
                     alpha_y,
                     distribution: distribution(&p)?,
+                    // Mitsuba's reflects on its front only (a twosided makes it two-sided)
+                    twosided: false,
                 }
             }
             "conductor" => {

@@ -1008,6 +1008,8 @@ pub fn to_xml(desc: &SceneDesc, out: &Path) -> Result<Converted> {
         id
     };
     let mut texture_ids = std::collections::HashMap::new();
+    // checkerboards' twins for float parameters
+    let mut float_ids = std::collections::HashMap::new();
     // Mitsuba's v runs the other way (see the XML reader): inverse of its to_uv rewrite
     let to_uv = |scale: Vec2, delta: Vec2| {
         format!(
@@ -1032,6 +1034,18 @@ pub fn to_xml(desc: &SceneDesc, out: &Path) -> Result<Converted> {
                     v3(*color1),
                     to_uv(sm, om)
                 );
+                // its twin for float parameters, whose checkerboard (Mitsuba's `eval_1`)
+                // has the colours the other way round (see the XML reader)
+                let twin = id_for(&format!("{id}-as-float"), "texture-");
+                let _ = writeln!(
+                    s,
+                    "  <texture type=\"checkerboard\" id=\"{}\">\n    <rgb name=\"color0\" value=\"{}\"/>\n    <rgb name=\"color1\" value=\"{}\"/>\n    {}\n  </texture>",
+                    esc(&twin),
+                    v3(*color1),
+                    v3(*color0),
+                    to_uv(sm, om)
+                );
+                float_ids.insert(t.name.clone(), twin);
                 texture_ids.insert(t.name.clone(), id);
             }
             Texture::MeshAttribute { face, scale } => {
@@ -1075,9 +1089,23 @@ pub fn to_xml(desc: &SceneDesc, out: &Path) -> Result<Converted> {
         }
     }
     let colour = |name: &str, r: &TextureRef| -> String {
+        // parameters Mitsuba reads as colours (and bump heights, whose checkerboard has
+        // no gradient); the others as floats (`eval_1`)
+        const COLOURS: [&str; 7] = [
+            "reflectance",
+            "specular_reflectance",
+            "diffuse_reflectance",
+            "specular_transmittance",
+            "base_color",
+            "normalmap",
+            "height",
+        ];
         match r {
             TextureRef::Color(c) => format!("<rgb name=\"{name}\" value=\"{}\"/>", v3(*c)),
             TextureRef::Named(n) => match texture_ids.get(&n.value) {
+                Some(_) if !COLOURS.contains(&name) && float_ids.contains_key(&n.value) => {
+                    format!("<ref name=\"{name}\" id=\"{}\"/>", esc(&float_ids[&n.value]))
+                }
                 Some(id) => format!("<ref name=\"{name}\" id=\"{}\"/>", esc(id)),
                 None => match desc.textures.iter().find(|t| t.name == n.value).map(|t| &t.texture) {
                     Some(Texture::Constant(c)) => format!("<rgb name=\"{name}\" value=\"{}\"/>", v3(*c)),

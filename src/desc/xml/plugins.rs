@@ -71,6 +71,7 @@ pub fn scene(root: &Element, file: &Path) -> Result<SceneDesc> {
         materials: Vec::new(),
         material_of: HashMap::new(),
         texture_of: HashMap::new(),
+        float_texture_of: HashMap::new(),
         depth: 0,
     };
     let top = Plugin::new(root, &ids)?;
@@ -308,6 +309,8 @@ struct Reader<'a> {
     materials: Vec<MaterialDesc>,
     material_of: HashMap<*const Element, String>,
     texture_of: HashMap<*const Element, String>,
+    /// The same for textures read as floats where they differ ([`Reader::float_texture_ref`]).
+    float_texture_of: HashMap<*const Element, String>,
     depth: usize,
 }
 
@@ -1171,7 +1174,7 @@ impl<'a> Reader<'a> {
                 }
             }
             _ => {
-                let opacity = self.texture_ref(&p, "opacity", Vec3::splat(0.5))?;
+                let opacity = self.float_texture_ref(&p, "opacity", Vec3::splat(0.5))?;
                 if let TextureRef::Color(c) = opacity {
                     if c.max_element() > 1.0 {
                         return Err(p.value_error("opacity", "must be between 0 and 1"));
@@ -1227,6 +1230,46 @@ impl<'a> Reader<'a> {
                 source: source(t),
             }),
         })
+    }
+
+    /// A texture parameter Mitsuba reads as a float (`eval_1`: blendbsdf's `weight`,
+    /// mask's `opacity`, principled's float keys): as [`Reader::texture_ref`], except
+    /// that Mitsuba 3's checkerboard `eval_1` gives `color1` where its `eval` gives
+    /// `color0` (checked with 3.9.1: at uv (0.2, 0.2) `eval` is color0, `eval_1`
+    /// color1), so a checkerboard read as a float is a twin with the colours swapped.
+    pub(super) fn float_texture_ref(&mut self, p: &Plugin<'a>, name: &str, default: Vec3) -> Result<TextureRef> {
+        let r = self.texture_ref(p, name, default)?;
+        let (Colour::Texture(el), TextureRef::Named(n)) = (p.colour(name, default)?, &r) else {
+            return Ok(r);
+        };
+        let key = el as *const Element;
+        if let Some(twin) = self.float_texture_of.get(&key) {
+            return Ok(TextureRef::Named(Located {
+                value: twin.clone(),
+                source: n.source.clone(),
+            }));
+        }
+        let Some(t) = self.textures.iter().find(|t| t.name == n.value) else {
+            return Ok(r);
+        };
+        let Texture::Checkerboard { color0, color1, mapping } = t.texture else {
+            return Ok(r);
+        };
+        let twin = self.unique(Some(&format!("{}-as-float", n.value)), "texture");
+        self.textures.push(TextureDesc {
+            name: twin.clone(),
+            source: t.source.clone(),
+            texture: Texture::Checkerboard {
+                color0: color1,
+                color1: color0,
+                mapping,
+            },
+        });
+        self.float_texture_of.insert(key, twin.clone());
+        Ok(TextureRef::Named(Located {
+            value: twin,
+            source: n.source.clone(),
+        }))
     }
 
     /// The name of the texture of a `<texture>` (read once however often referenced).

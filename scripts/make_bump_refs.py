@@ -6,13 +6,18 @@ Writes three small textures it computes itself (EXR, linear):
   normals.exr  - tangent-space normals (n + 1)/2 tilting mostly along s (stripes in s,
                  a weaker tilt in t), for `normalmap`;
   leaf.exr     - a binary leaf-shaped opacity (an ellipse with a round hole), for `mask`;
+  ramp.exr     - a grey opacity rising from 0 to 1 along s, for a fractional `mask`;
 and three scenes with their references (<name>.exr the mean of K passes, <name>.var.exr
 the variance of that mean, as scripts/make_material_refs.py):
   bumpmap.xml   - a rectangle, diffuse under a bump map, lit from the side;
   normalmap.xml - the same rectangle, roughplastic under a normal map;
   mask.xml      - a masked leaf quad over a floor under a small light: the leaf-shaped
                   shadow. Rendered with `volpath` (whose shadow rays pass through masked
-                  surfaces, as rdr's rays do); rdr renders it with `path`.
+                  surfaces, as rdr's rays do); rdr renders it with `path`;
+  mask_half.xml - two fractional masks over a floor (volpath): a quad of opacity 0.5
+                  (a half shadow) and one with ramp.exr's opacity (a graded shadow);
+  aniso_rect.xml, aniso_sphere.xml - anisotropic principled and roughconductor lobes,
+                  which follow the surface's dp/du (tests/principled.rs).
 
 Run from the repository root with the venv that has Mitsuba:
     /work/venv-mi/bin/python scripts/make_bump_refs.py [--passes 8] [--spp 256] [NAME...]
@@ -45,6 +50,11 @@ def normals():
     n = np.stack([1.0 * np.sin(2 * np.pi * 3 * x), 0.3 * np.cos(2 * np.pi * 2 * y), np.ones_like(x)], axis=2)
     n /= np.linalg.norm(n, axis=2, keepdims=True)
     return (n + 1) / 2
+
+
+def ramp():
+    x, _ = grid(TEX)
+    return np.repeat(x[..., None], 3, axis=2)
 
 
 def leaf():
@@ -120,12 +130,77 @@ def scenes():
 </scene>
 """
 
+    yield "mask_half", header("mask_half", volpath, ("0, 4.5, 3.5", "0, 0, 0")) + """  <shape type="rectangle">
+    <transform name="to_world"><rotate x="1" angle="-90"/><scale value="2.5"/></transform>
+    <bsdf type="diffuse"><rgb name="reflectance" value="0.8, 0.8, 0.8"/></bsdf>
+  </shape>
+  <shape type="rectangle">
+    <transform name="to_world"><rotate x="1" angle="-90"/><scale x="0.5" y="1" z="0.9"/><translate x="-0.65" y="1"/></transform>
+    <bsdf type="mask">
+      <float name="opacity" value="0.5"/>
+      <bsdf type="twosided"><bsdf type="diffuse"><rgb name="reflectance" value="0.2, 0.6, 0.1"/></bsdf></bsdf>
+    </bsdf>
+  </shape>
+  <shape type="rectangle">
+    <transform name="to_world"><rotate x="1" angle="-90"/><scale x="0.5" y="1" z="0.9"/><translate x="0.65" y="1"/></transform>
+    <bsdf type="mask">
+      <texture name="opacity" type="bitmap"><string name="filename" value="ramp.exr"/></texture>
+      <bsdf type="twosided"><bsdf type="diffuse"><rgb name="reflectance" value="0.6, 0.2, 0.1"/></bsdf></bsdf>
+    </bsdf>
+  </shape>
+  <shape type="sphere">
+    <point name="center" x="0" y="4" z="0"/><float name="radius" value="0.15"/>
+    <emitter type="area"><rgb name="radiance" value="400, 400, 400"/></emitter>
+  </shape>
+  <emitter type="constant"><rgb name="radiance" value="0.05, 0.05, 0.05"/></emitter>
+</scene>
+"""
+
+    # anisotropic lobes along the surface's dp/du (Mitsuba's shading frame): a rectangle
+    # turned about its normal (its u axis at 25° in the picture), principled on the left
+    # half, roughconductor on the right; and a sphere seen from above its equator, the
+    # principled lobe stretched along its parallels
+    aniso = """<bsdf type="principled">
+      <rgb name="base_color" value="0.8, 0.5, 0.3"/><float name="roughness" value="0.45"/>
+      <float name="metallic" value="0.8"/><float name="anisotropic" value="0.9"/>
+    </bsdf>"""
+    key = """  <shape type="sphere">
+    <point name="center" x="1.2" y="1.4" z="2.4"/><float name="radius" value="0.25"/>
+    <emitter type="area"><rgb name="radiance" value="60, 60, 60"/></emitter>
+  </shape>
+  <emitter type="constant"><rgb name="radiance" value="0.1, 0.1, 0.1"/></emitter>
+"""
+    front = """  <shape type="sphere">
+    <point name="center" x="0.3" y="0.8" z="3.5"/><float name="radius" value="0.25"/>
+    <emitter type="area"><rgb name="radiance" value="60, 60, 60"/></emitter>
+  </shape>
+  <emitter type="constant"><rgb name="radiance" value="0.1, 0.1, 0.1"/></emitter>
+"""
+    yield "aniso_rect", header("aniso_rect", PATH, ("0, 0, 3.0", "0, 0, 0")) + f"""  <shape type="rectangle">
+    <transform name="to_world"><scale x="0.4" y="0.7"/><rotate z="1" angle="25"/><translate x="-0.7"/></transform>
+    {aniso}
+  </shape>
+  <shape type="rectangle">
+    <transform name="to_world"><scale x="0.4" y="0.7"/><rotate z="1" angle="25"/><translate x="0.7"/></transform>
+    <bsdf type="roughconductor">
+      <string name="distribution" value="ggx"/><float name="alpha_u" value="0.05"/><float name="alpha_v" value="0.4"/>
+    </bsdf>
+  </shape>
+{front}</scene>
+"""
+    yield "aniso_sphere", header("aniso_sphere", PATH, ("0, 2.2, 2.2", "0, 0, 0")) + f"""  <shape type="sphere">
+    <float name="radius" value="0.9"/>
+    {aniso}
+  </shape>
+{key}</scene>
+"""
+
 
 def main():
     args = arguments(__doc__)
     mi = mitsuba(args.variant)
     os.makedirs(HERE, exist_ok=True)
-    for name, img in [("heights", heights()), ("normals", normals()), ("leaf", leaf())]:
+    for name, img in [("heights", heights()), ("normals", normals()), ("leaf", leaf()), ("ramp", ramp())]:
         mi.Bitmap(img.astype(np.float32), mi.Bitmap.PixelFormat.RGB).write(os.path.join(HERE, f"{name}.exr"))
     for name, xml in scenes():
         if args.names and name not in args.names:

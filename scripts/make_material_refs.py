@@ -82,7 +82,9 @@ CHECKER_XML = ('<texture type="checkerboard" name="{key}"><float name="color0" v
 
 
 def checker_json(a, b):
-    return {"type": "checkerboard", "color0": [a, a, a], "color1": [b, b, b],
+    # read as a float (a weight, a roughness), Mitsuba's checkerboard (its eval_1) has the
+    # colours the other way round from its eval, which rdr's checkerboard follows
+    return {"type": "checkerboard", "color0": [b, b, b], "color1": [a, a, a],
             "tex_coordinate_generator": {"type": "uvmapping2d", "scale": [4, -4], "delta": [0, 4]}}
 
 
@@ -212,8 +214,11 @@ def scenes():
         if name == "blendbsdf":
             mats.update(BLEND_PARTS)
             textures = dict(textures, red=[0.7, 0.1, 0.1])
-        yield name, scene_xml(name, shapes, RES_LARGE), scene_json(
-            mats, textures, [{"type": "sphere", "center": [0, 0, 0], "radius": 1, "material_name": "m"}], RES_LARGE)
+        sphere = {"type": "sphere", "center": [0, 0, 0], "radius": 1, "material_name": "m"}
+        if "checkerboard" in json.dumps(textures):
+            # Mitsuba's uv on the sphere (as rdr reads XML spheres), for the checkerboard
+            sphere["uv_frame"] = [1, 0, 0, 0, 1, 0, 0, 0, 1]
+        yield name, scene_xml(name, shapes, RES_LARGE), scene_json(mats, textures, [sphere], RES_LARGE)
     shapes = "\n".join(
         f'  <shape type="obj"><string name="filename" value="quad.obj"/>'
         f'<transform name="to_world"><matrix value="{xml_matrix(m)}"/></transform>{TWOSIDED_XML}</shape>'

@@ -205,6 +205,22 @@ fn cases() -> Vec<Case> {
             |s| s["materials"]["m"] = json!({"type": "mask", "material_name": "matte", "opacity": 0.5, "texture_name": "white"}),
         )
         .err(&["materials.m.opacity", "not both"]),
+        edit("sphere uv_frame not a rotation", |s| {
+            s["objects"][0]["uv_frame"] = json!([2, 0, 0, 0, 1, 0, 0, 0, 1])
+        })
+        .err(&["objects[0].uv_frame", "rotation"]),
+        edit("sphere uv_frame mirrored", |s| {
+            s["objects"][0]["uv_frame"] = json!([-1, 0, 0, 0, 1, 0, 0, 0, 1])
+        })
+        .err(&["objects[0].uv_frame", "determinant 1"]),
+        edit("sphere uv_frame of 4 numbers", |s| {
+            s["objects"][0]["uv_frame"] = json!([0, 0, 0, 1])
+        })
+        .err(&["objects[0].uv_frame"]),
+        edit("roughconductor twosided as a string", |s| {
+            s["materials"]["m"] = json!({"type": "roughconductor", "texture_name": "white", "twosided": "no"})
+        })
+        .err(&["materials.m.twosided", "true or false"]),
         edit("mask inside a twosided", |s| {
             s["materials"]["m"] = json!({"type": "mask", "material_name": "matte"});
             s["materials"]["t"] = json!({"type": "twosided", "material_name": "m"});

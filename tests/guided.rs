@@ -146,6 +146,7 @@ fn test_bsdfs() -> Vec<(&'static str, Bsdf)> {
         alpha_x: 0.3,
         alpha_y: 0.3,
         distribution: rdr::material::Distribution::Beckmann,
+        twosided: true,
     }
     .bsdf(Vec3::Z, wo, |_| Vec3::ONE);
     vec![("diffuse", diffuse), ("rough conductor", conductor)]

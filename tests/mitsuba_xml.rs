@@ -216,6 +216,10 @@ fn objects(s: &rdr::Scene) -> Vec<(Vec<[f32; 18]>, String, String)> {
                     let mut a = [0.0; 18];
                     a[..3].copy_from_slice(&sp.center.to_array());
                     a[3] = sp.radius;
+                    // the uv frame as a matrix (a quaternion's sign is free); RDR171's
+                    // parameterisation (none) compares as the identity
+                    let q = glam::Quat::from_array(sp.uv_frame.unwrap_or([0.0, 0.0, 0.0, 1.0]));
+                    a[4..13].copy_from_slice(&glam::Mat3::from_quat(q).to_cols_array());
                     a
                 }],
                 Shape::Cylinder(c) => vec![{
@@ -419,6 +423,7 @@ fn bad_xml_gives_one_line_errors_with_file_line_and_column() {
         ("mesh_attribute without a name", scene(r#"  <shape type="sphere"><bsdf type="diffuse"><texture name="reflectance" type="mesh_attribute"/></bsdf></shape>"#), "line 6, column 45", "needs the property \"name\""),
         ("mesh_attribute of an unknown name", scene(r#"  <shape type="sphere"><bsdf type="diffuse"><texture name="reflectance" type="mesh_attribute"><string name="name" value="vertex_uv"/></texture></bsdf></shape>"#), "line 6, column 95", "unsupported mesh attribute \"vertex_uv\""),
         ("mesh_attribute on a sphere", scene(r#"  <shape type="sphere"><bsdf type="diffuse"><texture name="reflectance" type="mesh_attribute"><string name="name" value="vertex_color"/></texture></bsdf></shape>"#), "line 6, column 24", "vertex_color, which this object's mesh has not"),
+        ("sphere mirrored by to_world", scene(r#"  <shape type="sphere"><transform name="to_world"><scale value="-1"/></transform></shape>"#), "line 6, column 24", "(this one mirrors)"),
         ("twosided around a pane", scene(r#"  <shape type="sphere"><bsdf type="twosided"><bsdf type="thindielectric"/></bsdf></shape>"#), "line 6, column 46", "transmits light"),
         ("twosided in twosided", scene(r#"  <shape type="sphere"><bsdf type="twosided"><bsdf type="twosided"><bsdf type="diffuse"/></bsdf></bsdf></shape>"#), "line 6, column 46", "cannot wrap another twosided"),
         ("plastic ior as rgb", scene(r#"  <shape type="sphere"><bsdf type="plastic"><rgb name="int_ior" value="1, 2, 3"/></bsdf></shape>"#), "line 6, column 45", "expected a float or the name of a material"),
@@ -1083,7 +1088,8 @@ fn mitsuba_material_defaults_and_names() {
         ),
         (
             "<bsdf type=\"roughconductor\"><float name=\"alpha_u\" value=\"0.2\"/><float name=\"alpha_v\" value=\"0.05\"/></bsdf>",
-            json!({"type": "roughconductor", "texture_name": "white", "etaT": [1e-4, 1e-4, 1e-4], "k": [1, 1, 1], "alpha_x": 0.2, "alpha_y": 0.05}),
+            // bare: one-sided, as Mitsuba's
+            json!({"type": "roughconductor", "texture_name": "white", "etaT": [1e-4, 1e-4, 1e-4], "k": [1, 1, 1], "alpha_x": 0.2, "alpha_y": 0.05, "twosided": false}),
         ),
     ];
     for (bsdf, material) in cases {
@@ -1445,4 +1451,74 @@ fn bitmap_filter_type_and_raw_are_honoured() {
             );
         }
     }
+}
+
+fn shape_refs() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/refs/shapes")
+}
+
+/// `file` in tests/refs/shapes rendered at `spp` (seeds 1 and 2) against Mitsuba's image.
+fn converges_to_shape_ref(file: &str, spp: u32) -> bool {
+    let name = file.split('.').next().unwrap();
+    let s = load_scene(&shape_refs().join(file), &[], Profile::Physical);
+    let (a, b) = (render(&s, spp, 1), render(&s, spp, 2));
+    let c = compare(
+        &a,
+        &b,
+        &read(&shape_refs().join(format!("{name}.exr"))),
+        &read(&shape_refs().join(format!("{name}.var.exr"))),
+    );
+    eprintln!(
+        "{file:>14}: relMSE corrected {:+.2e} ± {:.1e}  (raw {:.2e}, noise {:.2e})",
+        c.rel_mse_corrected, c.std_error, c.rel_mse_raw, c.rel_mse_noise
+    );
+    c.rel_mse_corrected.abs() < 5.0 * c.std_error + 2e-4
+}
+
+/// Mitsuba's analytic sphere carries its uv in its object frame, `to_world`'s rotation
+/// included, with v = θ/π reading the image from its top row: a textured sphere and a
+/// rotated one converge to Mitsuba's image (`tests/refs/shapes/sphere_uv.*`, made by
+/// `scripts/make_sphere_uv_refs.py`), and XML → JSON → XML keeps the frame.
+#[test]
+fn textured_spheres_turn_with_their_transform_as_in_mitsuba() {
+    assert!(
+        converges_to_shape_ref("sphere_uv.xml", 64),
+        "textured spheres differ from Mitsuba's"
+    );
+    let dir = temp_dir("rdr-sphere-uv");
+    let (j, x) = (dir.path().join("s.json"), dir.path().join("s.xml"));
+    convert(&shape_refs().join("sphere_uv.xml"), &j);
+    convert(&j, &x);
+    let text = std::fs::read_to_string(&j).unwrap();
+    assert_eq!(text.matches("uv_frame").count(), 2, "{text}");
+    let original = xml_desc(&shape_refs().join("sphere_uv.xml"), &[]);
+    assert_same_scene("sphere_uv XML → JSON", &original, &SceneDesc::load(&j, &[]).unwrap());
+    assert_same_scene("sphere_uv XML → JSON → XML", &original, &xml_desc(&x, &[]));
+}
+
+/// Bare `roughconductor`, `conductor` and `plastic` are black from behind in Mitsuba,
+/// a `twosided` roughconductor is not: four rectangles seen from behind converge to
+/// Mitsuba's image (`tests/refs/shapes/onesided.*`), and convert keeps each side.
+#[test]
+fn bare_xml_conductors_and_plastics_are_one_sided_as_in_mitsuba() {
+    assert!(
+        converges_to_shape_ref("onesided.xml", 64),
+        "one-sided materials differ from Mitsuba's"
+    );
+    let d = xml_desc(&shape_refs().join("onesided.xml"), &[]);
+    let sided: Vec<bool> = d
+        .materials
+        .iter()
+        .filter_map(|m| match m.material {
+            rdr::material::Material::RoughConductor { twosided, .. } => Some(twosided),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(sided, [false, true], "bare and wrapped roughconductor");
+    let dir = temp_dir("rdr-onesided");
+    let (j, x) = (dir.path().join("o.json"), dir.path().join("o.xml"));
+    convert(&shape_refs().join("onesided.xml"), &j);
+    convert(&j, &x);
+    assert_same_scene("onesided XML → JSON", &d, &SceneDesc::load(&j, &[]).unwrap());
+    assert_same_scene("onesided XML → JSON → XML", &d, &xml_desc(&x, &[]));
 }

@@ -725,3 +725,30 @@ fn principled_and_blendbsdf_converge_to_mitsubas_images() {
     .collect();
     assert!(failed.is_empty(), "not converging to Mitsuba: {failed:?}");
 }
+
+/// Anisotropic lobes (principled and roughconductor) stretched along the surface's
+/// ∂p/∂u, as Mitsuba's shading frame has it: a rectangle turned about its normal and
+/// an analytic sphere (`tests/refs/bump/aniso_*.xml`, made by `scripts/make_bump_refs.py`).
+#[test]
+fn anisotropic_lobes_follow_the_uv_tangent_as_in_mitsuba() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/refs/bump");
+    let failed: Vec<&str> = ["aniso_rect", "aniso_sphere"]
+        .into_iter()
+        .filter(|name| {
+            let s = load_scene(&dir.join(format!("{name}.xml")), &[], Profile::Physical);
+            let (a, b) = (render(&s, 128, 1), render(&s, 128, 2));
+            let c = rdr::metrics::compare(
+                &a,
+                &b,
+                &read(&dir.join(format!("{name}.exr"))),
+                &read(&dir.join(format!("{name}.var.exr"))),
+            );
+            eprintln!(
+                "{name:>22}: relMSE corrected {:+.2e} ± {:.1e}  (raw {:.2e}, noise {:.2e})",
+                c.rel_mse_corrected, c.std_error, c.rel_mse_raw, c.rel_mse_noise
+            );
+            c.rel_mse_corrected.abs() >= 5.0 * c.std_error + 2e-4
+        })
+        .collect();
+    assert!(failed.is_empty(), "anisotropic lobes not along Mitsuba's tangent: {failed:?}");
+}

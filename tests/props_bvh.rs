@@ -154,6 +154,7 @@ fn random_spheres(rng: &mut Rng, n: u32, radii: (f64, f64)) -> Vec<Prim> {
             sphere: rdr::geometry::sphere::Sphere {
                 center: rng.in_cube(1.0),
                 radius: rng.log_range(radii.0, radii.1) as f32,
+                uv_frame: None,
             },
             object,
         })
@@ -197,6 +198,7 @@ fn bvh_empty_and_single_primitive() {
         let s = rdr::geometry::sphere::Sphere {
             center: rng.in_cube(10.0),
             radius: rng.log_range(0.01, 10.0) as f32,
+            uv_frame: None,
         };
         let (_, hits) = check_prims("single sphere", &mut rng, vec![Prim::Sphere { sphere: s, object: 0 }], 500);
         assert!(hits > 100, "single sphere: only {hits} hits");
@@ -317,11 +319,13 @@ fn bvh_with_spheres_via_build_bvh() {
     let big = rdr::geometry::sphere::Sphere {
         center: Vec3::ZERO,
         radius: 0.8,
+        uv_frame: None,
     };
     prims.push(Prim::Sphere { sphere: big, object: 400 });
     let far = rdr::geometry::sphere::Sphere {
         center: Vec3::splat(50.0),
         radius: 2.0,
+        uv_frame: None,
     };
     prims.push(Prim::Sphere { sphere: far, object: 401 });
     let n = prims.len();

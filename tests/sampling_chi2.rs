@@ -213,7 +213,11 @@ fn sphere_light_sampling_matches_its_pdf() {
         {
             let mode = LightSampling::Importance;
             let hit = |w: Vec3| -> Option<(Vec3, Vec3)> {
-                let s = rdr::geometry::sphere::Sphere { center, radius };
+                let s = rdr::geometry::sphere::Sphere {
+                    center,
+                    radius,
+                    uv_frame: None,
+                };
                 let t = s.intersect(p, w, 0.0, f32::INFINITY)?;
                 let (q, n) = s.project(p + w * t);
                 Some((q, n))
@@ -324,6 +328,7 @@ fn conductor(kind: rdr::material::Distribution, ax: f32, ay: f32, wo: Vec3) -> r
         alpha_x: ax,
         alpha_y: ay,
         distribution: kind,
+        twosided: true,
     };
     m.bsdf(Vec3::Z, wo, |_| Vec3::ONE)
 }

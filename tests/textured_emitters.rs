@@ -123,6 +123,8 @@ fn write_area_shapes(dir: &Path) -> PathBuf {
   "objects": [
     {"type": "mesh", "path": "quad.obj", "light": {"type": "area", "radiance": "checks"}},
     {"type": "sphere", "center": [3, 0, 0], "radius": 0.7, "light": {"radiance": "checks"}},
+    {"type": "sphere", "center": [0, 2.2, 1], "radius": 0.6, "uv_frame": [1, 0, 0, 0, 0, -1, 0, 1, 0],
+     "light": {"radiance": "checks"}},
     {"type": "cylinder", "p0": [-3, -1, 0], "p1": [-3, 1, 0.5], "radius": 0.6, "light": {"radiance": "checks"}}
   ]
 }"#;
@@ -132,7 +134,7 @@ fn write_area_shapes(dir: &Path) -> PathBuf {
 }
 
 /// Light sampling and emission sampling look the texture up at the uv a ray hitting the
-/// same point sees (meshes, spheres — also in their cone sampling — and cylinders), and
+/// same point sees (meshes, spheres — also in their cone sampling, and with a `uv_frame` — and cylinders), and
 /// the emitted power E[L·cos/(pdf_pos·pdf_dir)] is π ∫ L dA, for the area lights and
 /// (against their closed forms) for a textured spot and a projector of constant images.
 #[test]

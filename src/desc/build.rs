@@ -265,7 +265,7 @@ pub fn build(desc: &SceneDesc, opts: BuildOptions) -> Result<Scene> {
             Some(l) => {
                 let mut a = match &shape {
                     Shape::Mesh(m) => AreaLight::mesh(oi as u32, l.radiance, (0..m.triangles.len()).map(|i| m.vertices(i)).collect()),
-                    Shape::Sphere(s) => AreaLight::sphere(oi as u32, l.radiance, s.center, s.radius),
+                    Shape::Sphere(s) => AreaLight::sphere(oi as u32, l.radiance, s.center, s.radius).with_sphere_uv_frame(s.uv_frame),
                     Shape::Cylinder(c) => AreaLight::cylinder(oi as u32, l.radiance, c.cylinder, c.flip_normals),
                 };
                 if let Some(t) = &l.texture {

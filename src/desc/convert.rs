@@ -365,7 +365,14 @@ pub fn to_json(desc: &SceneDesc, out: &Path) -> Result<Converted> {
             }));
     for (i, o, group) in entries {
         let mut v = match &o.shape {
-            Shape::Sphere(s) => json!({"type": "sphere", "center": vec3(s.center), "radius": num(s.radius)}),
+            Shape::Sphere(s) => {
+                let mut v = json!({"type": "sphere", "center": vec3(s.center), "radius": num(s.radius)});
+                if let Some(q) = s.uv_frame {
+                    let m = glam::Mat3::from_quat(glam::Quat::from_array(q)).transpose().to_cols_array();
+                    v["uv_frame"] = Value::Array(m.iter().map(|x| num(*x)).collect());
+                }
+                v
+            }
             Shape::Cylinder(c) => {
                 let (p0, p1, r, m) = cylinder_params(c);
                 let mut v = json!({"type": "cylinder", "p0": vec3(p0), "p1": vec3(p1), "radius": num(r)});
@@ -496,13 +503,20 @@ fn material_json(
             alpha_x,
             alpha_y,
             distribution,
-        } => json!({
-            "type": "roughconductor",
-            "texture_name": texture_name(texture, name, textures),
-            "etaI": vec3(*eta_i), "etaT": vec3(*eta_t), "k": vec3(*k),
-            "alpha_x": num(*alpha_x), "alpha_y": num(*alpha_y),
-            "distribution": distribution_name(*distribution),
-        }),
+            twosided,
+        } => {
+            let mut v = json!({
+                "type": "roughconductor",
+                "texture_name": texture_name(texture, name, textures),
+                "etaI": vec3(*eta_i), "etaT": vec3(*eta_t), "k": vec3(*k),
+                "alpha_x": num(*alpha_x), "alpha_y": num(*alpha_y),
+                "distribution": distribution_name(*distribution),
+            });
+            if !twosided {
+                v["twosided"] = json!(false);
+            }
+            v
+        }
         Material::Conductor { texture, eta, k } => json!({
             "type": "conductor", "texture_name": texture_name(texture, name, textures), "eta": vec3(*eta), "k": vec3(*k),
         }),
@@ -688,17 +702,25 @@ fn material_xml(
             alpha_x,
             alpha_y,
             distribution,
+            twosided,
         } => {
+            // rdr's roughconductor reflects on both sides unless `twosided` is false,
+            // Mitsuba's on the front only: a two-sided one is wrapped in a twosided
+            // (unless it is one side of a twosided already), a one-sided one bare
+            let wrap = *twosided && id.is_some();
             let bsdf = format!(
-                "<bsdf type=\"roughconductor\">{}<rgb name=\"eta\" value=\"{}\"/><rgb name=\"k\" value=\"{}\"/>{}</bsdf>",
+                "{}{}<rgb name=\"eta\" value=\"{}\"/><rgb name=\"k\" value=\"{}\"/>{}</bsdf>",
+                if wrap {
+                    "<bsdf type=\"roughconductor\">".to_string()
+                } else {
+                    open("roughconductor")
+                },
                 alphas(*alpha_x, *alpha_y, *distribution),
                 v3(*eta_t / *eta_i),
                 v3(*k / *eta_i),
                 colour("specular_reflectance", texture)
             );
-            // rdr's roughconductor reflects on both sides, Mitsuba's on the front only:
-            // wrapped in a twosided (unless it is one side of a twosided already)
-            if id.is_some() {
+            if wrap {
                 format!("{}{bsdf}</bsdf>", open("twosided"))
             } else {
                 bsdf
@@ -1006,6 +1028,8 @@ pub fn to_xml(desc: &SceneDesc, out: &Path) -> Result<Converted> {
         id
     };
     let mut texture_ids = std::collections::HashMap::new();
+    // checkerboards' twins for float parameters
+    let mut float_ids = std::collections::HashMap::new();
     // Mitsuba's v runs the other way (see the XML reader): inverse of its to_uv rewrite
     let to_uv = |scale: Vec2, delta: Vec2| {
         format!(
@@ -1030,6 +1054,18 @@ pub fn to_xml(desc: &SceneDesc, out: &Path) -> Result<Converted> {
                     v3(*color1),
                     to_uv(sm, om)
                 );
+                // its twin for float parameters, whose checkerboard (Mitsuba's `eval_1`)
+                // has the colours the other way round (see the XML reader)
+                let twin = id_for(&format!("{id}-as-float"), "texture-");
+                let _ = writeln!(
+                    s,
+                    "  <texture type=\"checkerboard\" id=\"{}\">\n    <rgb name=\"color0\" value=\"{}\"/>\n    <rgb name=\"color1\" value=\"{}\"/>\n    {}\n  </texture>",
+                    esc(&twin),
+                    v3(*color1),
+                    v3(*color0),
+                    to_uv(sm, om)
+                );
+                float_ids.insert(t.name.clone(), twin);
                 texture_ids.insert(t.name.clone(), id);
             }
             Texture::MeshAttribute { face, scale } => {
@@ -1073,9 +1109,23 @@ pub fn to_xml(desc: &SceneDesc, out: &Path) -> Result<Converted> {
         }
     }
     let colour = |name: &str, r: &TextureRef| -> String {
+        // parameters Mitsuba reads as colours (and bump heights, whose checkerboard has
+        // no gradient); the others as floats (`eval_1`)
+        const COLOURS: [&str; 7] = [
+            "reflectance",
+            "specular_reflectance",
+            "diffuse_reflectance",
+            "specular_transmittance",
+            "base_color",
+            "normalmap",
+            "height",
+        ];
         match r {
             TextureRef::Color(c) => format!("<rgb name=\"{name}\" value=\"{}\"/>", v3(*c)),
             TextureRef::Named(n) => match texture_ids.get(&n.value) {
+                Some(_) if !COLOURS.contains(&name) && float_ids.contains_key(&n.value) => {
+                    format!("<ref name=\"{name}\" id=\"{}\"/>", esc(&float_ids[&n.value]))
+                }
                 Some(id) => format!("<ref name=\"{name}\" id=\"{}\"/>", esc(id)),
                 None => match desc.textures.iter().find(|t| t.name == n.value).map(|t| &t.texture) {
                     Some(Texture::Constant(c)) => format!("<rgb name=\"{name}\" value=\"{}\"/>", v3(*c)),
@@ -1106,11 +1156,22 @@ pub fn to_xml(desc: &SceneDesc, out: &Path) -> Result<Converted> {
         }
         let mut inner = String::new();
         let head = match &o.shape {
-            Shape::Sphere(sp) => format!(
-                "  <shape type=\"sphere\">\n    <point name=\"center\" value=\"{}\"/>\n    <float name=\"radius\" value=\"{}\"/>\n",
-                v3(sp.center),
-                sp.radius
-            ),
+            Shape::Sphere(sp) => match sp.uv_frame {
+                // the rotation carries Mitsuba's parameterisation
+                Some(q) => {
+                    let m = glam::Mat4::from_scale_rotation_translation(Vec3::splat(sp.radius), glam::Quat::from_array(q), sp.center);
+                    let rows = m.transpose().to_cols_array();
+                    format!(
+                        "  <shape type=\"sphere\">\n    <transform name=\"to_world\"><matrix value=\"{}\"/></transform>\n",
+                        rows.iter().map(|x| x.to_string()).collect::<Vec<_>>().join(" ")
+                    )
+                }
+                None => format!(
+                    "  <shape type=\"sphere\">\n    <point name=\"center\" value=\"{}\"/>\n    <float name=\"radius\" value=\"{}\"/>\n",
+                    v3(sp.center),
+                    sp.radius
+                ),
+            },
             Shape::Cylinder(c) => {
                 let (p0, p1, r, m) = cylinder_params(c);
                 let mut h = format!(

@@ -245,6 +245,13 @@ impl<'a> Props<'a> {
         Ok(m)
     }
 
+    /// 9 numbers in row-major order, if the key is present.
+    pub fn mat3_opt(&self, key: &str) -> Result<Option<glam::Mat3>> {
+        let Some(v) = self.get(key) else { return Ok(None) };
+        let m = self.numbers::<9>(key, v)?;
+        Ok(Some(glam::Mat3::from_cols_array(&m).transpose()))
+    }
+
     pub fn object(&self, key: &str) -> Result<Props<'a>> {
         self.object_opt(key)?.ok_or_else(|| self.error(key, "required section is missing"))
     }

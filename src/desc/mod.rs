@@ -1547,6 +1547,7 @@ fn parse_material(name: &str, p: &Props, ty: &str) -> Result<MaterialDesc> {
             alpha_x: non_negative(p, "alpha_x", p.f32_or("alpha_x", 0.1)?)?,
             alpha_y: non_negative(p, "alpha_y", p.f32_or("alpha_y", 0.1)?)?,
             distribution: distribution(p)?,
+            twosided: p.bool_or("twosided", true)?,
         },
         "conductor" => Material::Conductor {
             texture: texture_or(p, Vec3::ONE)?,
@@ -1615,9 +1616,14 @@ fn parse_object(p: &Props) -> Result<ObjectDesc> {
                 return Err(p.error("radius", format!("must be positive, found {radius}")));
             }
             in_range(p, "radius", radius, 0.0, crate::limits::MAX_COORD)?;
+            let uv_frame = match p.mat3_opt("uv_frame")? {
+                None => None,
+                Some(m) => Some(rotation_quat(&m).ok_or_else(|| p.error("uv_frame", "must be a rotation (orthonormal, determinant 1)"))?),
+            };
             Shape::Sphere(Sphere {
                 center: point(p, "center", p.vec3_or("center", Vec3::ZERO)?)?,
                 radius,
+                uv_frame,
             })
         }
         "cylinder" => {
@@ -1679,4 +1685,14 @@ fn parse_env(p: &Props) -> Result<EnvMapDesc> {
     };
     p.finish();
     Ok(e)
+}
+
+/// The unit quaternion (x y z w) of `m` when it is a rotation (orthonormal columns
+/// within 1e-4, determinant +1); a sphere's `uv_frame`.
+pub fn rotation_quat(m: &glam::Mat3) -> Option<[f32; 4]> {
+    let (x, y, z) = (m.x_axis, m.y_axis, m.z_axis);
+    let ok = [x, y, z].iter().all(|a| (a.length() - 1.0).abs() < 1e-4)
+        && x.dot(y).abs() + y.dot(z).abs() + x.dot(z).abs() < 1e-4
+        && m.determinant() > 0.0;
+    ok.then(|| glam::Quat::from_mat3(m).normalize().to_array())
 }

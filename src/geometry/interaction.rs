@@ -135,7 +135,7 @@ impl Interaction {
     /// The point of `sphere` nearest `hit_point` (the ray at the hit distance).
     pub fn on_sphere(sphere: &Sphere, hit_point: Vec3, order: SphereUv, object: u32, wo: Vec3) -> Interaction {
         let (pos, n) = sphere.project(hit_point);
-        let (mut uv, (mut dpdu, mut dpdv)) = (sphere.uv(n), sphere.uv_derivatives(n));
+        let (mut uv, (mut dpdu, mut dpdv)) = sphere.uv_and_derivatives(n);
         match order {
             SphereUv::PhiTheta => {}
             SphereUv::ThetaPhi => {

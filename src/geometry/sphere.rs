@@ -6,9 +6,38 @@ use crate::math::{Vec2, Vec3, PI};
 pub struct Sphere {
     pub center: Vec3,
     pub radius: f32,
+    /// Mitsuba's parameterisation (XML spheres, JSON `uv_frame`): the rotation (a unit
+    /// quaternion, x y z w) from the sphere's object frame, whose z is the pole, to the
+    /// world; uv is then `(φ/2π, 1 − θ/π)` in that frame, Mitsuba's `(φ/2π, θ/π)` in
+    /// rdr's v orientation (as a mesh's), so textures show as in Mitsuba. `None`:
+    /// RDR171's `(φ/2π, θ/π)` about the world's z ([`Sphere::uv`]).
+    pub uv_frame: Option<[f32; 4]>,
 }
 
 impl Sphere {
+    /// A sphere with RDR171's parameterisation.
+    pub fn new(center: Vec3, radius: f32) -> Sphere {
+        Sphere {
+            center,
+            radius,
+            uv_frame: None,
+        }
+    }
+
+    /// Texture coordinates and `∂p/∂u`, `∂p/∂v` at the point with outward normal `n`,
+    /// in the sphere's own parameterisation ([`Sphere::uv_frame`]).
+    pub fn uv_and_derivatives(&self, n: Vec3) -> (Vec2, (Vec3, Vec3)) {
+        match self.uv_frame {
+            None => (self.uv(n), self.uv_derivatives(n)),
+            Some(q) => {
+                let q = glam::Quat::from_array(q);
+                let local = q.inverse() * n;
+                let (uv, (dpdu, dpdv)) = (self.uv(local), self.uv_derivatives(local));
+                (Vec2::new(uv.x, 1.0 - uv.y), (q * dpdu, -(q * dpdv)))
+            }
+        }
+    }
+
     /// Distance to the nearest hit in `[t_min, t_max]`; tangent rays miss.
     pub fn intersect(&self, o: Vec3, d: Vec3, t_min: f32, t_max: f32) -> Option<f32> {
         let dd = d.as_dvec3();
@@ -87,10 +116,7 @@ mod tests {
 
     #[test]
     fn hits_from_outside_and_inside() {
-        let s = Sphere {
-            center: Vec3::new(0.0, 0.0, -5.0),
-            radius: 1.0,
-        };
+        let s = Sphere::new(Vec3::new(0.0, 0.0, -5.0), 1.0);
         assert!((s.intersect(Vec3::ZERO, -Vec3::Z, 1e-4, 1e7).unwrap() - 4.0).abs() < 1e-5);
         assert!((s.intersect(Vec3::new(0.0, 0.0, -5.0), Vec3::X, 1e-4, 1e7).unwrap() - 1.0).abs() < 1e-6);
         assert!(s.intersect(Vec3::ZERO, Vec3::Z, 1e-4, 1e7).is_none());
@@ -101,10 +127,7 @@ mod tests {
 
     #[test]
     fn uv_derivatives_match_finite_differences() {
-        let s = Sphere {
-            center: Vec3::new(1.0, -2.0, 0.5),
-            radius: 2.0,
-        };
+        let s = Sphere::new(Vec3::new(1.0, -2.0, 0.5), 2.0);
         // p(u, v) on the sphere, inverse of `uv`
         let at = |u: f32, v: f32| {
             let (phi, theta) = (u * 2.0 * PI, v * PI);

@@ -114,8 +114,9 @@ fn direct_diffuse(
                 let cos = n.dot(ls.wi);
                 if cos > 0.0 {
                     counts.rays += 1;
-                    if !scene.occluded(&shadow_ray(it, &ls)) {
-                        total += ls.radiance * cos;
+                    let tr = scene.transmittance(&shadow_ray(it, &ls));
+                    if tr > 0.0 {
+                        total += ls.radiance * cos * tr;
                     }
                 }
             }
@@ -130,9 +131,10 @@ fn direct_diffuse(
                 let cos = n.dot(ls.wi);
                 if cos > 0.0 && ls.pdf > 0.0 && ls.radiance != Vec3::ZERO {
                     counts.rays += 1;
-                    if !scene.occluded(&shadow_ray(it, &ls)) {
+                    let tr = scene.transmittance(&shadow_ray(it, &ls));
+                    if tr > 0.0 {
                         let w = power_heuristic(ls.pdf, cos * INV_PI);
-                        sum += ls.radiance * (cos * w / ls.pdf);
+                        sum += ls.radiance * (cos * w / ls.pdf) * tr;
                     }
                 }
             }

@@ -122,14 +122,15 @@ fn li(
                 let cos = it.ns.dot(ls.wi).abs();
                 if f != Vec3::ZERO && ls.pdf > 0.0 && ls.radiance != Vec3::ZERO && pmf > 0.0 {
                     counts.rays += 1;
-                    if !scene.occluded(&super::shadow_ray(&it, &ls)) {
+                    let tr = scene.transmittance(&super::shadow_ray(&it, &ls));
+                    if tr > 0.0 {
                         let light_pdf = pmf * ls.pdf;
                         let w = if ls.delta || profile == PathProfile::NextEvent {
                             1.0
                         } else {
                             power_heuristic(light_pdf, bsdf.pdf(it.wo, ls.wi))
                         };
-                        l += beta * f * ls.radiance * (cos * w / light_pdf);
+                        l += beta * f * ls.radiance * (cos * w / light_pdf) * tr;
                     }
                 }
             }

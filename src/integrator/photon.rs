@@ -330,10 +330,11 @@ pub fn direct_light(scene: &Scene, it: &Interaction, bsdf: &Bsdf, sampler: &mut 
         return Vec3::ZERO;
     }
     counts.rays += 1;
-    if scene.occluded(&shadow_ray(it, &ls)) {
+    let tr = scene.transmittance(&shadow_ray(it, &ls));
+    if tr <= 0.0 {
         return Vec3::ZERO;
     }
-    f * ls.radiance * (it.ns.dot(ls.wi).abs() / (pmf * ls.pdf))
+    f * ls.radiance * (it.ns.dot(ls.wi).abs() / (pmf * ls.pdf)) * tr
 }
 
 /// Parameters (JSON `integrator` keys, besides `type`):

@@ -28,6 +28,8 @@ pub enum Emitter {
     Sphere {
         center: Vec3,
         radius: f32,
+        /// The sphere's uv parameterisation ([`Sphere::uv_frame`]), for textured radiance.
+        uv_frame: Option<[f32; 4]>,
     },
     /// An open cylinder, sampled uniformly by area; `flip`: it emits inwards.
     Cylinder {
@@ -70,8 +72,20 @@ impl AreaLight {
             radiance,
             texture: None,
             object,
-            emitter: Emitter::Sphere { center, radius },
+            emitter: Emitter::Sphere {
+                center,
+                radius,
+                uv_frame: None,
+            },
         }
+    }
+
+    /// A sphere light whose uv follows `uv_frame` (the shape's [`Sphere::uv_frame`]).
+    pub fn with_sphere_uv_frame(mut self, frame: Option<[f32; 4]>) -> Self {
+        if let Emitter::Sphere { uv_frame, .. } = &mut self.emitter {
+            *uv_frame = frame;
+        }
+        self
     }
 
     pub fn cylinder(object: u32, radiance: Vec3, cylinder: crate::geometry::cylinder::Cylinder, flip: bool) -> Self {
@@ -113,10 +127,11 @@ impl AreaLight {
         match &self.emitter {
             Emitter::Mesh { uvs, .. } => uvs.get(tri).map_or(Vec2::ZERO, |t| t[0] * b[0] + t[1] * b[1] + t[2] * b[2]),
             // as the surface points a ray finds (their uv orientation included)
-            Emitter::Sphere { center, radius } => {
+            Emitter::Sphere { center, radius, uv_frame } => {
                 let s = Sphere {
                     center: *center,
                     radius: *radius,
+                    uv_frame: *uv_frame,
                 };
                 Interaction::on_sphere(&s, *center + n * *radius, SphereUv::PhiTheta, 0, n).uv
             }
@@ -202,7 +217,7 @@ impl AreaLight {
                 let (q, n) = Self::cylinder_point(cylinder, *flip, u);
                 self.light_sample_from_area_point(p, q, n, self.uv_of(0, [0.0; 3], n, u), 1.0 / self.area())
             }
-            Emitter::Sphere { center, radius } => {
+            Emitter::Sphere { center, radius, .. } => {
                 let dc2 = (*center - p).length_squared();
                 if mode == LightSampling::Uniform || dc2 <= radius * radius {
                     let n = uniform_sphere(u);
@@ -263,7 +278,7 @@ impl AreaLight {
                 }
             },
             Emitter::Cylinder { .. } => area_to_solid(1.0 / self.area()),
-            Emitter::Sphere { center, radius } => {
+            Emitter::Sphere { center, radius, .. } => {
                 let dc2 = (*center - p).length_squared();
                 if mode == LightSampling::Uniform || dc2 <= radius * radius {
                     return area_to_solid(1.0 / self.area());

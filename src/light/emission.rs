@@ -235,7 +235,7 @@ impl AreaLight {
                 let n = normals[i];
                 Some((q, n, 1.0 / area, self.uv_of(i, b, n, u)))
             }
-            super::area::Emitter::Sphere { center, radius } => {
+            super::area::Emitter::Sphere { center, radius, .. } => {
                 let n = uniform_sphere(u);
                 Some((*center + n * *radius, n, 1.0 / area, self.uv_of(0, [0.0; 3], n, u)))
             }

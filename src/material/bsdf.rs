@@ -52,6 +52,22 @@ pub struct Bsdf {
     pub perturbed: Option<super::bump::Perturbation>,
 }
 
+impl BsdfKind {
+    /// Whether a lobe depends on the azimuth about the normal (a microfacet
+    /// distribution with α_x ≠ α_y): the frame's tangent must then be the surface's
+    /// `∂p/∂u`, as Mitsuba's shading frame is.
+    pub fn is_anisotropic(&self) -> bool {
+        let aniso = |m: &super::microfacet::Microfacet| m.alpha_x != m.alpha_y;
+        match self {
+            BsdfKind::Conductor { mf, .. } => aniso(mf),
+            BsdfKind::RoughDielectric(b) => aniso(&b.mf),
+            BsdfKind::Principled(b) => aniso(&b.mf),
+            BsdfKind::PrincipledThin(b) => aniso(&b.mf_reflect) || aniso(&b.mf_transmit),
+            _ => false,
+        }
+    }
+}
+
 impl Bsdf {
     /// Whether every lobe is a Dirac delta (nothing for light sampling to find).
     /// `plastic` is not: its mirror lobe is, its diffuse lobe is not, so its samples

@@ -68,7 +68,10 @@ pub enum Material<T = u32> {
     /// `roughconductor`: `texture_name` (required, a tint; legacy scenes may give an
     /// inline `R` instead, accepted with a warning), `etaI`, `etaT`, `k` (vec3, (1,1,1)
     /// each), `alpha_x`, `alpha_y` (≥ 0, 0.1 each), `distribution` (`"beckmann"` |
-    /// `"ggx"`, `"beckmann"`).
+    /// `"ggx"`, `"beckmann"`), `twosided` (true: it reflects on both sides, as RDR171
+    /// specifies; false is Mitsuba's bare `roughconductor`, black from behind, which
+    /// the XML reader gives unless a `twosided` wraps it). Example:
+    /// `{"type": "roughconductor", "texture_name": "gold", "alpha_x": 0.2, "alpha_y": 0.2, "twosided": false}`.
     RoughConductor {
         texture: T,
         eta_i: Vec3,
@@ -77,6 +80,7 @@ pub enum Material<T = u32> {
         alpha_x: f32,
         alpha_y: f32,
         distribution: Distribution,
+        twosided: bool,
     },
     /// `conductor` (Mitsuba `conductor`): a smooth mirror with the conductor Fresnel
     /// reflectance of the complex relative index η + ik, one-sided. `texture_name`
@@ -232,17 +236,22 @@ impl<T> Material<T> {
 
     /// Whether the BSDF this material makes at a point reads more than the point's
     /// normals and direction: a texture that `constant` does not call constant (it
-    /// looks at the uv or the mesh attributes), or a bump or normal map (uv tangents).
+    /// looks at the uv or the mesh attributes), or the uv tangents ([`Material::needs_tangents`]).
     pub fn reads_surface(&self, constant: impl Fn(&T) -> bool) -> bool {
-        self.try_map_textures(|t| if constant(t) { Ok(()) } else { Err(()) }).is_err() || self.perturbs_normals()
+        self.try_map_textures(|t| if constant(t) { Ok(()) } else { Err(()) }).is_err() || self.needs_tangents()
     }
 
-    fn perturbs_normals(&self) -> bool {
+    /// Whether the material needs the surface's uv tangent: bump and normal maps, and
+    /// lobes that may be anisotropic (oriented along ∂p/∂u, as Mitsuba's); principled
+    /// counts always (its `anisotropic` may be a texture).
+    fn needs_tangents(&self) -> bool {
         match self {
             Material::BumpMap { .. } | Material::NormalMap { .. } => true,
-            Material::TwoSided { front, back } => front.perturbs_normals() || back.as_ref().is_some_and(|b| b.perturbs_normals()),
-            Material::Mask { inner, .. } => inner.perturbs_normals(),
-            Material::BlendBsdf { first, second, .. } => first.perturbs_normals() || second.perturbs_normals(),
+            Material::Principled(_) | Material::PrincipledThin(_) => true,
+            Material::RoughConductor { alpha_x, alpha_y, .. } | Material::RoughDielectric { alpha_x, alpha_y, .. } => alpha_x != alpha_y,
+            Material::TwoSided { front, back } => front.needs_tangents() || back.as_ref().is_some_and(|b| b.needs_tangents()),
+            Material::Mask { inner, .. } => inner.needs_tangents(),
+            Material::BlendBsdf { first, second, .. } => first.needs_tangents() || second.needs_tangents(),
             _ => false,
         }
     }
@@ -282,6 +291,7 @@ impl<T> Material<T> {
                 alpha_x,
                 alpha_y,
                 distribution,
+                twosided,
             } => Material::RoughConductor {
                 texture: f(texture)?,
                 eta_i: *eta_i,
@@ -290,6 +300,7 @@ impl<T> Material<T> {
                 alpha_x: *alpha_x,
                 alpha_y: *alpha_y,
                 distribution: *distribution,
+                twosided: *twosided,
             },
             Material::Conductor { texture, eta, k } => Material::Conductor {
                 texture: f(texture)?,
@@ -507,8 +518,9 @@ impl Material {
                 alpha_x,
                 alpha_y,
                 distribution,
+                twosided,
             } => (
-                facing,
+                if twosided { facing } else { ns },
                 BsdfKind::Conductor {
                     tint: tint(texture),
                     eta: eta_t / eta_i,
@@ -637,8 +649,15 @@ impl Material {
                 (ns, BsdfKind::Blend(Box::new(blend)))
             }
         };
+        // Mitsuba's tangent (∂p/∂u made orthogonal to the normal) where the lobes need
+        // one; isotropic lobes keep the cheaper arbitrary frame (the same BSDF)
+        let frame = if kind.is_anisotropic() {
+            bump::shading_frame(n, g.dpdu)
+        } else {
+            Frame::from_normal(n)
+        };
         Bsdf {
-            frame: Frame::from_normal(n),
+            frame,
             kind,
             perturbed: None,
         }

@@ -27,7 +27,10 @@ pub enum Shape<M = Mesh> {
     /// `mesh`: `path` (OBJ, required), `transform` (16 numbers row-major, identity),
     /// `translate` ((0,0,0), added after `transform`); see [`desc::MeshFile`].
     Mesh(M),
-    /// `sphere`: `center` (vec3, (0,0,0)), `radius` (> 0, 1).
+    /// `sphere`: `center` (vec3, (0,0,0)), `radius` (> 0, 1), `uv_frame` (9 numbers
+    /// row-major, a rotation whose columns are the sphere's own axes, z its pole: Mitsuba's
+    /// uv in that frame, as the XML reader gives; absent: RDR171's uv about the world z);
+    /// see [`Sphere::uv_frame`]. Example: `{"type": "sphere", "radius": 2, "uv_frame": [1,0,0, 0,0,-1, 0,1,0]}`.
     Sphere(Sphere),
     /// `cylinder`: Mitsuba's open cylinder, `p0` ((0,0,0)), `p1` ((0,0,1)), `radius` (1),
     /// `flip_normals` (false), `transform` (16 numbers row-major, identity; a rotation,
@@ -117,8 +120,9 @@ impl Scene {
     /// Closest hit in `[ray.t_min, ray.t_max]`. A hit on a `mask` material of opacity α
     /// at the point is kept with probability α and otherwise passed through (the ray
     /// goes on from just behind it; `t` stays the distance along `ray`), so every ray of
-    /// every integrator, shadow rays included, sees cut-outs (Mitsuba's `volpath`
-    /// semantics). The choice is a hash of the ray and the primitive: deterministic,
+    /// every integrator sees cut-outs (Mitsuba's `volpath` semantics: its `mask` samples
+    /// the pass-through with probability 1 − α, weight 1). Shadow rays and connections
+    /// use [`Scene::transmittance`] instead, weighted by 1 − α. The choice is a hash of the ray and the primitive: deterministic,
     /// independent of threads, and exact for binary masks.
     #[inline]
     pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
@@ -154,17 +158,60 @@ impl Scene {
     #[inline]
     pub fn occluded(&self, ray: &Ray) -> bool {
         if !self.has_masks {
-            return if self.instances.is_empty() {
-                self.bvh.occluded(&self.prims, ray)
-            } else {
-                self.two_level().occluded(&self.bvh, ray)
-            };
+            return self.occluded_unmasked(ray);
         }
         self.intersect(ray).is_some()
     }
 
+    #[inline]
+    fn occluded_unmasked(&self, ray: &Ray) -> bool {
+        if self.instances.is_empty() {
+            self.bvh.occluded(&self.prims, ray)
+        } else {
+            self.two_level().occluded(&self.bvh, ray)
+        }
+    }
+
+    /// The fraction of light that passes along a shadow ray or a connection within
+    /// `[t_min, t_max]`: 0 when an opaque surface lies on it, else the product of
+    /// 1 − α over the masked surfaces it crosses (a `mask` of opacity α), as the
+    /// shadow rays of Mitsuba's `volpath` weight them (its `eval_null_transmission`).
+    /// Without masks it is exactly 1 or 0 ([`Scene::occluded`]).
+    #[inline]
+    pub fn transmittance(&self, ray: &Ray) -> f32 {
+        if !self.has_masks {
+            return if self.occluded_unmasked(ray) { 0.0 } else { 1.0 };
+        }
+        let Some(hit) = self.intersect_unmasked(ray) else {
+            return 1.0;
+        };
+        let mut tr = 1.0f32;
+        let stopped = self.walk_masks(ray, hit, |alpha, _, _| {
+            if alpha >= 1.0 {
+                return false;
+            }
+            tr *= 1.0 - alpha.max(0.0);
+            tr > 0.0
+        });
+        if stopped.is_some() {
+            0.0
+        } else {
+            tr
+        }
+    }
+
     /// The first hit from `hit` on (the closest hit of `ray`) that a mask does not pass.
-    fn through_masks(&self, ray: &Ray, mut hit: Hit) -> Option<Hit> {
+    fn through_masks(&self, ray: &Ray, hit: Hit) -> Option<Hit> {
+        self.walk_masks(ray, hit, |alpha, r, prim| {
+            !(alpha >= 1.0 || (alpha > 0.0 && mask_sample(r, prim) < alpha))
+        })
+    }
+
+    /// The first hit from `hit` on (the closest hit of `ray`) where `pass(α, ray, prim)`
+    /// says no: a surface without a mask, or a mask of opacity α there that `pass`
+    /// does not pass through (`ray` the segment that reached it). `None` when the ray
+    /// leaves `[t_min, t_max]` through masks only.
+    fn walk_masks(&self, ray: &Ray, mut hit: Hit, mut pass: impl FnMut(f32, &Ray, u32) -> bool) -> Option<Hit> {
         let mut r = *ray;
         // distance along `ray` of the current ray's origin
         let mut start = 0.0f32;
@@ -184,7 +231,7 @@ impl Scene {
                 ..it.tex_coord()
             };
             let alpha = crate::texture::luminance(self.textures[t as usize].eval(tc));
-            if alpha >= 1.0 || (alpha > 0.0 && mask_sample(&r, hit.prim) < alpha) {
+            if !pass(alpha, &r, hit.prim) {
                 hit.t += start;
                 return Some(hit);
             }

@@ -8,8 +8,8 @@
 //! | `<film>` | `hdrfilm`: `width` 768, `height` 576, `rfilter` (default `gaussian`); `pixel_format`, `component_format`, `file_format`, `banner` noted. |
 //! | `<rfilter>` | `box` (`radius` 0.5), `tent` (`radius` 1), `gaussian` (`stddev` 0.5, radius 4·stddev), `mitchell` (`B`, `C` 1/3, radius 2) |
 //! | `<sampler>` | any type: `sample_count` (4) → spp; the type is noted, rdr uses its own sampler. |
-//! | `<shape>` | `obj`, `ply` (`filename`, `face_normals` false: else smooth vertex normals when the file has none; `flip_normals`; `flip_tex_coords`, true for OBJ, false for PLY), `serialized` (`filename`, `shape_index` 0), `rectangle`, `cube`, `disk` (generated meshes), `sphere` (`center` 0, `radius` 1), `cylinder` (open, analytic: `p0` (0,0,0), `p1` (0,0,1), `radius` 1, `flip_normals`; Mitsuba's uv (φ/2π, height), which rdr holds as (φ/2π, 1 − height) like a mesh's; `to_world` a rotation, translation and scale uniform across the axis); all take `to_world`, one `<bsdf>` and one `area` `<emitter>`. A shape with neither gets Mitsuba's default, a diffuse 0.5. `shapegroup` (an `id`, plain shapes inside, no emitters: Mitsuba refuses them too; rendered only through instances) and `instance` (a `<ref>` to a shapegroup, `to_world` affine and invertible): a two-level BVH, one bottom level per group shared by its instances. Example: `<shape type="shapegroup" id="g"><shape type="obj">…</shape></shape> <shape type="instance"><ref id="g"/><transform name="to_world"><translate x="2"/></transform></shape>`. |
-//! | `<bsdf>` | `diffuse` (`reflectance` 0.5, a colour or texture); `dielectric`, `thindielectric` (`int_ior` "bk7", `ext_ior` "air": numbers or names, η = int/ext; `specular_reflectance`, `specular_transmittance` 1, colours); `roughdielectric` (as `dielectric`, and `distribution` beckmann \| ggx, `alpha` 0.1 or `alpha_u`+`alpha_v`); `conductor` and `roughconductor` (`material` "none", or a name from [`values::NAMED_CONDUCTORS`] such as "Au"; else `eta` 0 / `k` 1 (a perfect mirror); `specular_reflectance` 1, a colour or texture; `roughconductor`'s `alpha`, `alpha_u`/`alpha_v`, `distribution` as `roughdielectric`; the 0.6 `ext_eta` folded into η and k); `plastic` (`diffuse_reflectance` 0.5, a colour or texture; `specular_reflectance` 1; `int_ior` "polypropylene" (1.49), `ext_ior` "air"; `nonlinear` false), `roughplastic` (as `plastic`, and `alpha` 0.1 (isotropic), `distribution` beckmann); `twosided` (one or two nested non-transmitting bsdfs: around one `diffuse` it is rdr's two-sided diffuse, around one `roughconductor` that material (rdr's is two-sided), otherwise rdr's `twosided` with the second as the back). `bumpmap` (one nested `<texture>`, the heights; `scale` 1; `flip_invalid_normals`, `use_shadowing_function` true), `normalmap` (`<texture name="normalmap">`, the same two switches), `mask` (`opacity` 0.5, a float or texture; outermost only), each around one nested `<bsdf>`; see [`crate::material::bump`] and [`Material::Mask`]. `principled` (`base_color` 0.5, `roughness` 0.5, `metallic`, `spec_tint`, `anisotropic`, `sheen`, `sheen_tint`, `clearcoat`, `clearcoat_gloss`, `spec_trans`, `flatness` 0: numbers, colours or textures; `eta` or `specular` 0.5, not both; `main_specular_sampling_rate`, `clearcoat_sampling_rate`, `diffuse_reflectance_sampling_rate` 1; see [`crate::desc::principled`]); `principledthin` (`base_color`, `roughness` 0.5, `anisotropic`, `spec_trans`, `spec_tint`, `sheen`, `sheen_tint`, `flatness`, `diff_trans` 0 (up to 2), `eta` 1.5, each a number, colour or texture; four sampling rates); `blendbsdf` (`weight`, required, a float or texture; two nested bsdfs, the first at weight 0). Example: `<bsdf type="twosided"><bsdf type="roughplastic"><float name="alpha" value="0.2"/></bsdf></bsdf>`. |
+//! | `<shape>` | `obj`, `ply` (`filename`, `face_normals` false: else smooth vertex normals when the file has none; `flip_normals`; `flip_tex_coords`, true for OBJ, false for PLY), `serialized` (`filename`, `shape_index` 0), `rectangle`, `cube`, `disk` (generated meshes), `sphere` (`center` 0, `radius` 1; Mitsuba's uv (φ/2π, θ/π) about the object frame's z, `to_world`'s rotation included, which rdr holds as (φ/2π, 1 − θ/π) like a mesh's: JSON `uv_frame`), `cylinder` (open, analytic: `p0` (0,0,0), `p1` (0,0,1), `radius` 1, `flip_normals`; Mitsuba's uv (φ/2π, height), which rdr holds as (φ/2π, 1 − height) like a mesh's; `to_world` a rotation, translation and scale uniform across the axis); all take `to_world`, one `<bsdf>` and one `area` `<emitter>`. A shape with neither gets Mitsuba's default, a diffuse 0.5. `shapegroup` (an `id`, plain shapes inside, no emitters: Mitsuba refuses them too; rendered only through instances) and `instance` (a `<ref>` to a shapegroup, `to_world` affine and invertible): a two-level BVH, one bottom level per group shared by its instances. Example: `<shape type="shapegroup" id="g"><shape type="obj">…</shape></shape> <shape type="instance"><ref id="g"/><transform name="to_world"><translate x="2"/></transform></shape>`. |
+//! | `<bsdf>` | `diffuse` (`reflectance` 0.5, a colour or texture); `dielectric`, `thindielectric` (`int_ior` "bk7", `ext_ior` "air": numbers or names, η = int/ext; `specular_reflectance`, `specular_transmittance` 1, colours); `roughdielectric` (as `dielectric`, and `distribution` beckmann \| ggx, `alpha` 0.1 or `alpha_u`+`alpha_v`); `conductor` and `roughconductor` (`material` "none", or a name from [`values::NAMED_CONDUCTORS`] such as "Au"; else `eta` 0 / `k` 1 (a perfect mirror); `specular_reflectance` 1, a colour or texture; `roughconductor`'s `alpha`, `alpha_u`/`alpha_v`, `distribution` as `roughdielectric`; the 0.6 `ext_eta` folded into η and k); `plastic` (`diffuse_reflectance` 0.5, a colour or texture; `specular_reflectance` 1; `int_ior` "polypropylene" (1.49), `ext_ior` "air"; `nonlinear` false), `roughplastic` (as `plastic`, and `alpha` 0.1 (isotropic), `distribution` beckmann); `twosided` (one or two nested non-transmitting bsdfs: around one `diffuse` it is rdr's two-sided diffuse, around one `roughconductor` that material made two-sided (a bare one is black from behind, as Mitsuba's), otherwise rdr's `twosided` with the second as the back). `bumpmap` (one nested `<texture>`, the heights; `scale` 1; `flip_invalid_normals`, `use_shadowing_function` true), `normalmap` (`<texture name="normalmap">`, the same two switches), `mask` (`opacity` 0.5, a float or texture; outermost only), each around one nested `<bsdf>`; see [`crate::material::bump`] and [`Material::Mask`]. `principled` (`base_color` 0.5, `roughness` 0.5, `metallic`, `spec_tint`, `anisotropic`, `sheen`, `sheen_tint`, `clearcoat`, `clearcoat_gloss`, `spec_trans`, `flatness` 0: numbers, colours or textures; `eta` or `specular` 0.5, not both; `main_specular_sampling_rate`, `clearcoat_sampling_rate`, `diffuse_reflectance_sampling_rate` 1; see [`crate::desc::principled`]); `principledthin` (`base_color`, `roughness` 0.5, `anisotropic`, `spec_trans`, `spec_tint`, `sheen`, `sheen_tint`, `flatness`, `diff_trans` 0 (up to 2), `eta` 1.5, each a number, colour or texture; four sampling rates); `blendbsdf` (`weight`, required, a float or texture; two nested bsdfs, the first at weight 0). Example: `<bsdf type="twosided"><bsdf type="roughplastic"><float name="alpha" value="0.2"/></bsdf></bsdf>`. |
 //! | `<emitter>` | `area` (in a shape: `radiance` 1, a colour or a texture looked up at the emitting point's uv), `point` (`position` or `to_world`; `intensity` I (1) → flux 4πI), `spot` (`to_world`: at its origin, along its +z; `intensity` 1, `cutoff_angle` 20°, `beam_width` ¾ of it; linear falloff in angle; `texture`: an image projected over the cone, its x and y along `to_world`'s, `cutoff_angle` < 90° then, see [`crate::light::textured_spot`]), `projector` (`irradiance` a texture or colour, required; `scale` 1; `fov` with `fov_axis` (`x`) or `focal_length` ("50mm", on the diagonal); `to_world`: a pinhole at its origin looking along +z; intensity π·scale·E/cos³θ, see [`crate::light::projector`]), `directional` (`direction` or `to_world`'s +z, of travel; `irradiance` 1) — these two for every integrator, `constant` (`radiance` 1), `envmap` (`filename`, `scale` 1, `to_world`) |
 //! | `<texture>` | `bitmap` (`filename`, `to_uv`; `filter_type` `bilinear` (the full-resolution image: Mitsuba has no MIP maps) \| `nearest`; `raw` false (true: 8-bit PNG/JPEG values as they are, not decoded from sRGB); `wrap_mode` noted), `checkerboard` (`color0` 0.4, `color1` 0.2, `to_uv`); the 0.6 `uoffset`, `voffset`, `uscale`, `vscale` become `to_uv`; `mesh_attribute` (`name` "vertex_color" | "face_color", required: a PLY file's `red green blue`; `scale` 1) |
 //!
@@ -71,6 +71,7 @@ pub fn scene(root: &Element, file: &Path) -> Result<SceneDesc> {
         materials: Vec::new(),
         material_of: HashMap::new(),
         texture_of: HashMap::new(),
+        float_texture_of: HashMap::new(),
         depth: 0,
     };
     let top = Plugin::new(root, &ids)?;
@@ -369,6 +370,8 @@ struct Reader<'a> {
     materials: Vec<MaterialDesc>,
     material_of: HashMap<*const Element, String>,
     texture_of: HashMap<*const Element, String>,
+    /// The same for textures read as floats where they differ ([`Reader::float_texture_ref`]).
+    float_texture_of: HashMap<*const Element, String>,
     depth: usize,
 }
 
@@ -831,7 +834,19 @@ impl<'a> Reader<'a> {
                     return Err(p.value_error("radius", format!("must be positive, found {radius}")));
                 }
                 check_point(&p, "center", center)?;
-                Shape::Sphere(Sphere { center, radius })
+                // Mitsuba's uv lives in the object frame (z the pole), v in its sense
+                let frame = glam::Mat3::from_cols(axes[0] / s, axes[1] / s, axes[2] / s);
+                let Some(q) = crate::desc::rotation_quat(&frame) else {
+                    return Err(p.value_error(
+                        "to_world",
+                        "a sphere's transform must be a rotation, translation and uniform scale (this one mirrors)",
+                    ));
+                };
+                Shape::Sphere(Sphere {
+                    center,
+                    radius,
+                    uv_frame: Some(q),
+                })
             }
             "cylinder" => {
                 let p0 = p.point_opt("p0")?.unwrap_or(Vec3::ZERO);
@@ -1035,7 +1050,28 @@ impl<'a> Reader<'a> {
                 match (front, back) {
                     // rdr's own two-sided diffuse; its roughconductor is two-sided already
                     (Material::Diffuse { texture, .. }, None) => Material::Diffuse { texture, twosided: true },
-                    (m @ Material::RoughConductor { .. }, None) => m,
+                    (
+                        Material::RoughConductor {
+                            twosided: _,
+                            texture,
+                            eta_i,
+                            eta_t,
+                            k,
+                            alpha_x,
+                            alpha_y,
+                            distribution,
+                        },
+                        None,
+                    ) => Material::RoughConductor {
+                        texture,
+                        eta_i,
+                        eta_t,
+                        k,
+                        alpha_x,
+                        alpha_y,
+                        distribution,
+                        twosided: true,
+                    },
                     // smooth glass is the same from both sides (the 0.6 course files wrap it)
                     (m @ (Material::Glass { .. } | Material::Refraction { .. }), None) => {
                         self.ids.convert_note(
@@ -1068,6 +1104,8 @@ impl<'a> Reader<'a> {
                     alpha_x,
                     alpha_y,
                     distribution: distribution(&p)?,
+                    // Mitsuba's reflects on its front only (a twosided makes it two-sided)
+                    twosided: false,
                 }
             }
             "conductor" => {
@@ -1199,7 +1237,7 @@ impl<'a> Reader<'a> {
                 }
             }
             _ => {
-                let opacity = self.texture_ref(&p, "opacity", Vec3::splat(0.5))?;
+                let opacity = self.float_texture_ref(&p, "opacity", Vec3::splat(0.5))?;
                 if let TextureRef::Color(c) = opacity {
                     if c.max_element() > 1.0 {
                         return Err(p.value_error("opacity", "must be between 0 and 1"));
@@ -1255,6 +1293,46 @@ impl<'a> Reader<'a> {
                 source: source(t),
             }),
         })
+    }
+
+    /// A texture parameter Mitsuba reads as a float (`eval_1`: blendbsdf's `weight`,
+    /// mask's `opacity`, principled's float keys): as [`Reader::texture_ref`], except
+    /// that Mitsuba 3's checkerboard `eval_1` gives `color1` where its `eval` gives
+    /// `color0` (checked with 3.9.1: at uv (0.2, 0.2) `eval` is color0, `eval_1`
+    /// color1), so a checkerboard read as a float is a twin with the colours swapped.
+    pub(super) fn float_texture_ref(&mut self, p: &Plugin<'a>, name: &str, default: Vec3) -> Result<TextureRef> {
+        let r = self.texture_ref(p, name, default)?;
+        let (Colour::Texture(el), TextureRef::Named(n)) = (p.colour(name, default)?, &r) else {
+            return Ok(r);
+        };
+        let key = el as *const Element;
+        if let Some(twin) = self.float_texture_of.get(&key) {
+            return Ok(TextureRef::Named(Located {
+                value: twin.clone(),
+                source: n.source.clone(),
+            }));
+        }
+        let Some(t) = self.textures.iter().find(|t| t.name == n.value) else {
+            return Ok(r);
+        };
+        let Texture::Checkerboard { color0, color1, mapping } = t.texture else {
+            return Ok(r);
+        };
+        let twin = self.unique(Some(&format!("{}-as-float", n.value)), "texture");
+        self.textures.push(TextureDesc {
+            name: twin.clone(),
+            source: t.source.clone(),
+            texture: Texture::Checkerboard {
+                color0: color1,
+                color1: color0,
+                mapping,
+            },
+        });
+        self.float_texture_of.insert(key, twin.clone());
+        Ok(TextureRef::Named(Located {
+            value: twin,
+            source: n.source.clone(),
+        }))
     }
 
     /// The name of the texture of a `<texture>` (read once however often referenced).

@@ -457,9 +457,10 @@ impl Engine<'_> {
                 qs.f(w, TransportMode::Importance)
             };
             l = qs.beta * f * (qs.cos(w) * we / d2);
-            if l == Vec3::ZERO || !self.visible(qs, &lens, counts) {
+            if l == Vec3::ZERO {
                 return None;
             }
+            l = self.through(l, qs, &lens, counts)?;
             sampled = Some(lens);
             pos = Some(p);
         } else if s == 1 {
@@ -488,9 +489,7 @@ impl Engine<'_> {
             if let Some(tau) = rr {
                 l = self.roulette(l, tau, sampler, s, t)?;
             }
-            if !self.visible(pt, &q, counts) {
-                return None;
-            }
+            l = self.through(l, pt, &q, counts)?;
             sampled = Some(q);
         } else {
             let (qs, pt) = (&light[s - 1], &cam[t - 1]);
@@ -510,9 +509,7 @@ impl Engine<'_> {
             if let Some(tau) = rr {
                 l = self.roulette(l, tau, sampler, s, t)?;
             }
-            if !self.visible(qs, pt, counts) {
-                return None;
-            }
+            l = self.through(l, qs, pt, counts)?;
         }
         if !weighted {
             return Some((l, pos));
@@ -534,8 +531,16 @@ impl Engine<'_> {
         (sampler.keyed_1d((s as u32) << 16 | t as u32) < q).then(|| c / q)
     }
 
-    /// Whether nothing lies between two vertices (either may be at infinity).
-    fn visible(&self, a: &Vertex, b: &Vertex, counts: &mut RayCounts) -> bool {
+    /// The contribution `l` of a connection between two vertices times the
+    /// fraction of light passing between them ([`crate::scene::Scene::transmittance`]: 1 or 0
+    /// unless masks lie between); `None` when nothing passes.
+    fn through(&self, l: Vec3, a: &Vertex, b: &Vertex, counts: &mut RayCounts) -> Option<Vec3> {
+        let tr = self.transmittance(a, b, counts);
+        (tr > 0.0).then(|| l * tr)
+    }
+
+    /// The fraction of light passing between two vertices (either may be at infinity).
+    fn transmittance(&self, a: &Vertex, b: &Vertex, counts: &mut RayCounts) -> f32 {
         counts.rays += 1;
         let (a, b) = if a.infinite { (b, a) } else { (a, b) };
         let ray = if b.infinite {
@@ -545,11 +550,11 @@ impl Engine<'_> {
             let v = ob - oa;
             let dist = v.length();
             if dist == 0.0 {
-                return false;
+                return 0.0;
             }
             Ray::with_range(oa, v / dist, 0.0, dist * (1.0 - 1e-5))
         };
-        !self.ctx.scene.occluded(&ray)
+        self.ctx.scene.transmittance(&ray)
     }
 
     /// The densities of the path strategy (s, t) made, from the subpaths' cached

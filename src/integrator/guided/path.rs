@@ -223,20 +223,21 @@ impl Guiding<'_> {
                     let cos = it.ns.dot(ls.wi).abs();
                     if f != Vec3::ZERO && ls.pdf > 0.0 && ls.radiance != Vec3::ZERO && pmf > 0.0 {
                         counts.rays += 1;
-                        if !scene.occluded(&shadow_ray(&it, &ls)) {
+                        let tr = scene.transmittance(&shadow_ray(&it, &ls));
+                        if tr > 0.0 {
                             let light_pdf = pmf * ls.pdf;
                             let w = if ls.delta {
                                 1.0
                             } else {
                                 power_heuristic(light_pdf, mixture.pdf(&bsdf, it.wo, ls.wi))
                             };
-                            l += beta * f * ls.radiance * (cos * w / light_pdf);
+                            l += beta * f * ls.radiance * (cos * w / light_pdf) * tr;
                             // a point light is no direction a guided sample can find
                             if self.record && self.record_direct && !ls.delta {
                                 records.push(Record {
                                     leaf,
                                     cell: self.tree.record_cell(leaf, ls.wi),
-                                    value: mean(ls.radiance) * w / light_pdf,
+                                    value: mean(ls.radiance) * w / light_pdf * tr,
                                     counted: false,
                                 });
                             }

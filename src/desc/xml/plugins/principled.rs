@@ -17,7 +17,11 @@ impl<'a> Reader<'a> {
         }
         let mut textures = Vec::with_capacity(TEXTURE_KEYS.len());
         for (key, default) in TEXTURE_KEYS {
-            textures.push(self.texture_ref(p, key, Vec3::splat(default))?);
+            textures.push(if key == "base_color" {
+                self.texture_ref(p, key, Vec3::splat(default))?
+            } else {
+                self.float_texture_ref(p, key, Vec3::splat(default))?
+            });
         }
         let mut rates = [1.0; 3];
         for (r, key) in rates.iter_mut().zip(RATE_KEYS) {
@@ -40,7 +44,11 @@ impl<'a> Reader<'a> {
         }
         let mut textures = Vec::with_capacity(THIN_TEXTURE_KEYS.len());
         for (key, default) in THIN_TEXTURE_KEYS {
-            textures.push(self.texture_ref(p, key, Vec3::splat(default))?);
+            textures.push(if key == "base_color" {
+                self.texture_ref(p, key, Vec3::splat(default))?
+            } else {
+                self.float_texture_ref(p, key, Vec3::splat(default))?
+            });
         }
         let mut rates = [1.0; 4];
         for (r, key) in rates.iter_mut().zip(THIN_RATE_KEYS) {
@@ -56,7 +64,7 @@ impl<'a> Reader<'a> {
         if !p.has("weight") {
             return Err(p.error("a blendbsdf needs a weight (a float or a texture)"));
         }
-        let weight = self.texture_ref(p, "weight", Vec3::splat(0.5))?;
+        let weight = self.float_texture_ref(p, "weight", Vec3::splat(0.5))?;
         let inner = p.objects("bsdf");
         if inner.len() != 2 {
             let at = inner.get(2).map_or(p.el, |(_, at)| *at);

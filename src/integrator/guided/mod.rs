@@ -67,7 +67,12 @@ pub enum Combine {
 /// * `max_depth` (int ≥ 1, 12) and `rr_threshold` (number, 0.1) — as `path`
 ///   (roulette follows `path`'s rule; the threshold is read and kept);
 /// * `bsdf_fraction` (number in (0, 1], 0.5) — probability of BSDF sampling at a
-///   guided vertex (1: never guided);
+///   guided vertex (1: never guided); with `learn_fraction`, the fraction of the
+///   leaves that have not chosen one;
+/// * `learn_fraction` (bool, true) — each spatial leaf chooses its BSDF fraction
+///   from 0.1, 0.25, 0.5, 0.75, 1 after every training iteration: the one whose
+///   estimated second moment of the vertex estimator, ∫F²/p, is smallest (1,
+///   BSDF sampling without guide lookups, unless another is 5 % better);
 /// * `training_iterations` (int ≥ 0, absent: chosen by the budget, see the
 ///   module docs) — doubling iterations before the final one;
 /// * `combine` (`"inverse_variance"` | `"last"`, `"inverse_variance"`);
@@ -98,6 +103,7 @@ pub struct Guided {
     pub spatial_threshold: f32,
     pub learn_direct: bool,
     pub training_share: f32,
+    pub learn_fraction: bool,
 }
 
 impl Default for Guided {
@@ -111,6 +117,7 @@ impl Default for Guided {
             spatial_threshold: 2000.0,
             learn_direct: false,
             training_share: 0.25,
+            learn_fraction: true,
         }
     }
 }
@@ -199,7 +206,7 @@ impl Guided {
             (None, None) => format!("spp budget: {} training iterations", Self::auto_training_iterations(ctx.spp)),
         };
         let mut s = State {
-            tree: SdTree::new(ctx.scene.center, ctx.scene.radius, DTree::initial(RHO)),
+            tree: SdTree::new(ctx.scene.center, ctx.scene.radius, DTree::initial(RHO), self.bsdf_fraction),
             history: Vec::new(),
             schedule,
             started: Instant::now(),
@@ -248,6 +255,7 @@ impl Guided {
             record: !state.last,
             max_depth: self.max_depth,
             record_direct: self.learn_direct,
+            learn_fraction: self.learn_fraction,
         };
         // each iteration draws from its own scrambling of the sampler, starting at
         // sample 0: its samples are then independent of the ones the tree it samples
@@ -289,6 +297,13 @@ impl Guided {
                 if r.value > 0.0 && r.value.is_finite() {
                     leaf.building.deposit(r.cell, r.value);
                 }
+                if r.counted && r.pg > 0.0 && r.fq > 0.0 && r.fq.is_finite() {
+                    // ∫F²/p_α estimated from samples of density q: (F/q)²·q/p_α
+                    let x = r.fq as f64 * r.fq as f64 * r.q as f64;
+                    for (m, a) in leaf.moments.iter_mut().zip(sdtree::FRACTIONS) {
+                        *m += x / (a as f64 * r.pb as f64 + (1.0 - a as f64) * r.pg as f64);
+                    }
+                }
             }
         }
         drop(tiles);
@@ -319,7 +334,7 @@ impl Guided {
             Combine::Last => s.finished = vec![finished],
         }
         let threshold = self.spatial_threshold as f64 * (s.length as f64).sqrt();
-        s.tree.end_iteration(threshold, RHO, true);
+        s.tree.end_iteration(threshold, RHO, true, self.learn_fraction, self.bsdf_fraction);
         let build = build_start.elapsed().as_secs_f64();
         let variance = {
             let parts: Vec<Part> = s.finished.iter().map(Finished::part).collect();
@@ -388,7 +403,7 @@ impl Guided {
             })
             .collect();
         Some(format!(
-            "guided: schedule {}; combine {}; iterations: {}; SD-tree {} spatial leaves, {} directional nodes (depth ≤ {}), {:.1} MB",
+            "guided: schedule {}; combine {}; iterations: {}; SD-tree {} spatial leaves, {} directional nodes (depth ≤ {}), {:.1} MB; leaves per BSDF fraction {}",
             s.schedule,
             match self.combine {
                 Combine::InverseVariance => "inverse variance",
@@ -398,7 +413,13 @@ impl Guided {
             stats.spatial_leaves,
             stats.directional_nodes,
             stats.max_directional_depth,
-            stats.bytes as f64 / 1e6
+            stats.bytes as f64 / 1e6,
+            sdtree::FRACTIONS
+                .iter()
+                .zip(stats.fractions)
+                .map(|(f, n)| format!("{f}: {n}"))
+                .collect::<Vec<_>>()
+                .join(", ")
         ))
     }
 }

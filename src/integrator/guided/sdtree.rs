@@ -32,7 +32,7 @@ pub struct Leaf {
 pub const FRACTIONS: [f32; 5] = [0.1, 0.25, 0.5, 0.75, 1.0];
 
 /// Vertices a leaf needs to choose its fraction (fewer keep the default).
-const MIN_CHOICE_VERTICES: f64 = 32.0;
+const MIN_CHOICE_VERTICES: f64 = 64.0;
 
 /// Deepest spatial level (a box of 2⁻¹⁶ of the cube's side per axis).
 const MAX_SPATIAL_DEPTH: u32 = 48;
@@ -127,7 +127,7 @@ impl SdTree {
     /// recording trees are refined from the new distributions by energy share
     /// `rho`, emptied, and the counts reset.
     ///
-    /// With `learn_fraction`, each leaf that recorded at least 32 vertices (and
+    /// With `learn_fraction`, each leaf that recorded at least 64 vertices (and
     /// could guide) takes the candidate fraction whose estimated second moment is
     /// smallest (1, which skips the guide's lookups, unless another is 5 % better);
     /// the others keep `default_fraction`. The moments come from the tree the

@@ -338,6 +338,13 @@ fn learned_distribution_in_caustic_cbox_points_at_the_light_and_the_glass_sphere
     eprintln!("at {q}: learned {learned:?}, solid-angle share {share:?}, share of ∫L_i {truth:?}");
     assert!(learned[1] > 2.0 * share[1], "sphere: learned {} vs share {}", learned[1], share[1]);
     assert!(learned[1] > 0.5 * truth[1]);
+    let fraction = |x: Vec3| tree.leaves[tree.leaf_of(x) as usize].bsdf_fraction;
+    eprintln!(
+        "BSDF fractions chosen: {} at {p}, {} at {q}; {:?}",
+        fraction(p),
+        fraction(q),
+        tree.stats().fractions
+    );
 }
 
 const GUIDED: &str = r#"{"integrator": {"type": "guided"}}"#;

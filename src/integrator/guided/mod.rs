@@ -68,7 +68,8 @@ pub enum Combine {
 ///   (roulette follows `path`'s rule; the threshold is read and kept);
 /// * `bsdf_fraction` (number in (0, 1], 0.5) — probability of BSDF sampling at a
 ///   guided vertex (1: never guided) when `learn_fraction` is false;
-/// * `learn_fraction` (bool, true) — each spatial leaf chooses its BSDF fraction
+/// * `learn_fraction` (bool, true) — training iterations sample with
+///   `bsdf_fraction`; for the final one each spatial leaf chooses its BSDF fraction
 ///   from 0.1, 0.25, 0.5, 0.75, 1 after every training iteration: the one whose
 ///   estimated second moment of the vertex estimator, ∫F²/p, is smallest (1,
 ///   BSDF sampling without guide lookups, unless another is 5 % better); leaves
@@ -86,7 +87,7 @@ pub enum Combine {
 ///   chains (light sampled at later vertices included), leaving the direct light
 ///   to light sampling, which handles it better (cbox, 33 spp: relMSE 1.2e-2 with
 ///   direct light learned, 7.0e-3 without, `path` 5.5e-3);
-/// * `training_share` (number in (0, 1], 0.25) — under `--time-limit`, the share of
+/// * `training_share` (number in (0, 1], 0.12) — under `--time-limit`, the share of
 ///   the time budget training may take: a training iteration starts only when it
 ///   is predicted (twice the previous one) to end within it.
 ///
@@ -116,7 +117,7 @@ impl Default for Guided {
             combine: Combine::InverseVariance,
             spatial_threshold: 2000.0,
             learn_direct: false,
-            training_share: 0.25,
+            training_share: 0.12,
             learn_fraction: true,
         }
     }
@@ -159,6 +160,8 @@ pub struct State {
     /// Finished iterations, weighted anew whenever the image is made (`last`:
     /// the previous one only).
     finished: Vec<Finished>,
+    /// The current iteration's first-pass vertices, for the leaves' fractions.
+    choice: Vec<sdtree::ChoiceSample>,
 }
 
 /// A finished iteration's image and the variance of each of its pixel means.
@@ -199,9 +202,10 @@ impl Guided {
     }
 
     /// Fraction of the leaves that have not chosen one: with `learn_fraction`, 1
-    /// (the guide is off until a leaf's vertices show it would help: a tree
-    /// learned from a few samples per pixel, sampled at half the vertices, gave
-    /// `veach_path` ten times `path`'s error), else `bsdf_fraction`.
+    /// (the guide is off where a leaf's vertices did not show it would help: a
+    /// tree learned from a few samples per pixel, sampled at half the vertices in
+    /// the final iteration, gave `veach_path` ten times `path`'s error), else
+    /// `bsdf_fraction`.
     fn default_fraction(&self) -> f32 {
         if self.learn_fraction {
             1.0
@@ -232,6 +236,7 @@ impl Guided {
             weight: vec![0.0; n],
             moments: vec![[0.0; 3]; n],
             finished: Vec::new(),
+            choice: Vec::new(),
         };
         self.begin_iteration(&mut s, ctx);
         s
@@ -309,12 +314,16 @@ impl Guided {
                 if r.value > 0.0 && r.value.is_finite() {
                     leaf.building.deposit(r.cell, r.value);
                 }
-                if r.counted && r.pg > 0.0 && r.fq > 0.0 && r.fq.is_finite() {
-                    // ∫F²/p_α estimated from samples of density q: (F/q)²·q/p_α
-                    let x = r.fq as f64 * r.fq as f64 * r.q as f64;
-                    for (m, a) in leaf.moments.iter_mut().zip(sdtree::FRACTIONS) {
-                        *m += x / (a as f64 * r.pb as f64 + (1.0 - a as f64) * r.pg as f64);
-                    }
+                // the first pass's vertices choose the leaves' fractions
+                if self.learn_fraction && s.passes == 0 && r.counted && r.fq > 0.0 {
+                    s.choice.push(sdtree::ChoiceSample {
+                        leaf: r.leaf,
+                        fq: r.fq,
+                        q: r.q,
+                        pb: r.pb,
+                        p: r.p,
+                        value: r.value,
+                    });
                 }
             }
         }
@@ -346,8 +355,14 @@ impl Guided {
             Combine::Last => s.finished = vec![finished],
         }
         let threshold = self.spatial_threshold as f64 * (s.length as f64).sqrt();
-        s.tree
-            .end_iteration(threshold, RHO, true, self.learn_fraction, self.default_fraction());
+        let choice = std::mem::take(&mut s.choice);
+        s.tree.end_iteration(
+            threshold,
+            RHO,
+            true,
+            self.learn_fraction.then_some(&choice[..]),
+            self.default_fraction(),
+        );
         let build = build_start.elapsed().as_secs_f64();
         let variance = {
             let parts: Vec<Part> = s.finished.iter().map(Finished::part).collect();

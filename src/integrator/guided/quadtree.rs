@@ -237,6 +237,29 @@ impl DTree {
         }
     }
 
+    /// [`DTree::pdf_square`] and the area of the cell holding `p`.
+    pub fn pdf_square_and_area(&self, p: Vec2) -> (f32, f32) {
+        if !self.can_sample() {
+            return (0.0, 1.0);
+        }
+        let (mut x, mut y) = (p.x, p.y);
+        let (mut n, mut pdf, mut area) = (0usize, 1.0f32, 1.0f32);
+        loop {
+            let node = &self.nodes[n];
+            let (bx, by) = (x >= 0.5, y >= 0.5);
+            let c = bx as usize | ((by as usize) << 1);
+            pdf *= node.energy[c];
+            area *= 0.25;
+            let next = node.child[c];
+            if next == 0 {
+                return (pdf, area);
+            }
+            x = 2.0 * x - bx as u32 as f32;
+            y = 2.0 * y - by as u32 as f32;
+            n = next as usize;
+        }
+    }
+
     /// Solid-angle density of direction `d`.
     #[inline]
     pub fn pdf(&self, d: Vec3) -> f32 {

@@ -23,9 +23,19 @@ pub struct Leaf {
     /// Probability of BSDF sampling at vertices here (learned, see
     /// [`SdTree::end_iteration`]; 1: the guide is not used).
     pub bsdf_fraction: f32,
-    /// Estimated second moments ∫F²/p_α of the local estimator for each of the
-    /// candidate fractions [`FRACTIONS`], from this iteration's vertices.
-    pub moments: [f64; FRACTIONS.len()],
+}
+
+/// A vertex of the iteration, for its leaf's choice of BSDF fraction: F/q (F =
+/// f·|cos|·L_i, q its sampling density), q, the BSDF's density, the direction's
+/// point on the square, and the energy it deposited there.
+#[derive(Clone, Copy, Debug)]
+pub struct ChoiceSample {
+    pub leaf: u32,
+    pub fq: f32,
+    pub q: f32,
+    pub pb: f32,
+    pub p: Vec2,
+    pub value: f32,
 }
 
 /// Candidate BSDF-sampling probabilities a leaf chooses from.
@@ -71,7 +81,6 @@ impl SdTree {
                 count: 0,
                 depth: 0,
                 bsdf_fraction,
-                moments: [0.0; FRACTIONS.len()],
             }],
         }
     }
@@ -127,31 +136,61 @@ impl SdTree {
     /// recording trees are refined from the new distributions by energy share
     /// `rho`, emptied, and the counts reset.
     ///
-    /// With `learn_fraction`, each leaf that recorded at least 64 vertices (and
-    /// could guide) takes the candidate fraction whose estimated second moment is
-    /// smallest (1, which skips the guide's lookups, unless another is 5 % better);
-    /// the others keep `default_fraction`. The moments come from the tree the
-    /// iteration sampled, not the new one (a conservative choice: the new tree is
-    /// the better trained).
-    pub fn end_iteration(&mut self, threshold: f64, rho: f32, refine: bool, learn_fraction: bool, default_fraction: f32) {
+    /// With `choice` (some of the iteration's vertices), each leaf with at least
+    /// 64 of them takes the candidate fraction α whose estimated second moment of
+    /// the vertex estimator, Σ (F/q)²·q / (α·p_bsdf + (1−α)·p_guide), is smallest
+    /// (1, which skips the guide's lookups, unless another is 5 % better), the
+    /// guide's density being the new tree's with the vertex's own deposit left out
+    /// (leave-one-out: the tree was learned from these vertices, and without it
+    /// every vertex would find the guide at its own direction); the others take
+    /// `default_fraction`.
+    pub fn end_iteration(&mut self, threshold: f64, rho: f32, refine: bool, choice: Option<&[ChoiceSample]>, default_fraction: f32) {
         for leaf in &mut self.leaves {
-            let m = leaf.moments;
+            leaf.building.finish_recording();
+            leaf.sampling = std::mem::take(&mut leaf.building);
             leaf.bsdf_fraction = default_fraction;
-            if learn_fraction && leaf.sampling.can_sample() && leaf.count as f64 >= MIN_CHOICE_VERTICES && m.iter().all(|x| x.is_finite()) {
+        }
+        if let Some(samples) = choice {
+            let mut moments = vec![([0.0f64; FRACTIONS.len()], 0u32); self.leaves.len()];
+            for c in samples {
+                let Some(leaf) = self.leaves.get(c.leaf as usize) else { continue };
+                let t = &leaf.sampling;
+                if !t.can_sample() || !(c.fq > 0.0 && c.fq.is_finite() && c.q > 0.0) {
+                    continue;
+                }
+                let (pdf, area) = t.pdf_square_and_area(c.p);
+                let total = t.total() as f64;
+                let e = if c.value > 0.0 && c.value.is_finite() {
+                    c.value as f64
+                } else {
+                    0.0
+                };
+                let pg = if total - e > 0.0 {
+                    ((pdf as f64 * area as f64 * total - e).max(0.0) / ((total - e) * area as f64)) / (4.0 * std::f64::consts::PI)
+                } else {
+                    0.0
+                };
+                let x = c.fq as f64 * c.fq as f64 * c.q as f64;
+                let m = &mut moments[c.leaf as usize];
+                m.1 += 1;
+                for (mi, a) in m.0.iter_mut().zip(FRACTIONS) {
+                    let p = a as f64 * c.pb as f64 + (1.0 - a as f64) * pg;
+                    *mi += if p > 0.0 { x / p } else { f64::INFINITY };
+                }
+            }
+            for (leaf, (m, n)) in self.leaves.iter_mut().zip(moments) {
                 let last = FRACTIONS.len() - 1;
+                if (n as f64) < MIN_CHOICE_VERTICES || !(m[last] > 0.0 && m[last].is_finite()) {
+                    continue;
+                }
                 let mut best = last;
                 for (i, x) in m.iter().enumerate() {
                     if *x < m[best] && (best != last || *x < 0.95 * m[last]) {
                         best = i;
                     }
                 }
-                if m[last] > 0.0 {
-                    leaf.bsdf_fraction = FRACTIONS[best];
-                }
+                leaf.bsdf_fraction = FRACTIONS[best];
             }
-            leaf.moments = [0.0; FRACTIONS.len()];
-            leaf.building.finish_recording();
-            leaf.sampling = std::mem::take(&mut leaf.building);
         }
         if refine {
             let mut n = 0;

@@ -72,8 +72,10 @@ pub enum Combine {
 ///   `bsdf_fraction`; for the final one each spatial leaf chooses its BSDF fraction
 ///   from 0.1, 0.25, 0.5, 0.75, 1 after every training iteration: the one whose
 ///   estimated second moment of the vertex estimator, ∫F²/p, is smallest (1,
-///   BSDF sampling without guide lookups, unless another is 5 % better); leaves
-///   with fewer than 64 vertices sample the BSDF alone;
+///   BSDF sampling without guide lookups, unless another's is below 0.6 of its),
+///   estimated on the first pass of the last training iteration with the new
+///   tree (leave-one-out); leaves with fewer than 128 vertices there sample the
+///   BSDF alone;
 /// * `training_iterations` (int ≥ 0, absent: chosen by the budget, see the
 ///   module docs) — doubling iterations before the final one;
 /// * `combine` (`"inverse_variance"` | `"last"`, `"inverse_variance"`);

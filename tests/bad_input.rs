@@ -270,6 +270,10 @@ fn cases() -> Vec<Case> {
             s["integrator"] = json!({"type": "bdpt", "connection_roulette": -0.5})
         })
         .err(&["integrator.connection_roulette", "between"]),
+        edit("guided learn_fraction not a bool", |s| {
+            s["integrator"] = json!({"type": "guided", "learn_fraction": 1})
+        })
+        .err(&["integrator.learn_fraction"]),
         edit("unknown object type", |s| s["objects"][0]["type"] = json!("cube")).err(&["objects[0].type", "cube"]),
         edit("unknown filter", |s| s["film"]["filter"]["type"] = json!("lanczos")).err(&["film.filter.type", "lanczos"]),
         edit("unknown texture type", |s| s["textures"]["white"]["type"] = json!("noise")).err(&["textures.white.type", "noise"]),

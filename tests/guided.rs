@@ -9,7 +9,7 @@ use common::chi2::chi2_test as chi2;
 use common::*;
 use rdr::film::Film;
 use rdr::integrator::guided::{
-    learned_tree, pixel_variances, relative_variances, sphere_to_square, square_to_sphere, DTree, Mixture, Part,
+    learned_tree, pixel_variances, relative_variances, relative_variances_within, sphere_to_square, square_to_sphere, DTree, Mixture, Part,
 };
 use rdr::integrator::{Integrator, PassContext, StopToken};
 use rdr::material::{Bsdf, Material};
@@ -339,6 +339,13 @@ fn learned_distribution_in_caustic_cbox_points_at_the_light_and_the_glass_sphere
     eprintln!("at {q}: learned {learned:?}, solid-angle share {share:?}, share of ∫L_i {truth:?}");
     assert!(learned[1] > 2.0 * share[1], "sphere: learned {} vs share {}", learned[1], share[1]);
     assert!(learned[1] > 0.5 * truth[1]);
+    let fraction = |x: Vec3| tree.leaves[tree.leaf_of(x) as usize].bsdf_fraction;
+    eprintln!(
+        "BSDF fractions chosen: {} at {p}, {} at {q}; {:?}",
+        fraction(p),
+        fraction(q),
+        tree.stats().fractions
+    );
 }
 
 const GUIDED: &str = r#"{"integrator": {"type": "guided"}}"#;
@@ -536,4 +543,65 @@ fn iteration_weights_follow_the_true_variance_of_heavy_tailed_iterations() {
     let wrong = own(&ma, &va) / own(&mb, &vb);
     eprintln!("  with each iteration's own pixel means: {wrong:.3}, rejected as it must be");
     assert!((wrong - 4.0).abs() >= 0.6);
+}
+
+/// An iteration of `spp` samples per pixel around the pixel's value `mu`: i.i.d.
+/// uniform noise of half-width 1, or (`paired`) the noise in antithetic pairs
+/// (e, −e) plus i.i.d. noise of half-width 0.25, so the samples spread as widely
+/// but their mean varies 16× less (what a stratified sampler does to a long
+/// iteration).
+fn stratified_iteration(rng: &mut Rng, mu: &[f64], spp: u32, paired: bool) -> (Vec<[f64; 3]>, Vec<Vec3>) {
+    let mut moments = vec![[0.0f64; 3]; mu.len()];
+    for (m, mu) in moments.iter_mut().zip(mu) {
+        let mut e = 0.0;
+        for j in 0..spp {
+            let noise = if paired {
+                if j % 2 == 0 {
+                    e = 2.0 * rng.unit() - 1.0;
+                } else {
+                    e = -e;
+                }
+                e + 0.25 * (2.0 * rng.unit() - 1.0)
+            } else {
+                2.0 * rng.unit() - 1.0
+            };
+            let y = mu + 0.1 * noise;
+            m[0] += y;
+            m[1] += y * y;
+            m[2] += 1.0;
+        }
+    }
+    let image = moments.iter().map(|m| Vec3::splat((m[0] / m[2]) as f32)).collect();
+    (moments, image)
+}
+
+#[test]
+fn iteration_variances_from_image_differences_see_stratification() {
+    // three iterations: 4 spp i.i.d., 4 spp paired (16× less variance of the mean
+    // than i.i.d. 4 spp, for the same spread within pixels), 8 spp i.i.d.; true
+    // variances of the pixel means 4 : 0.25 : 2 (relative to the 8-spp one: 2, 0.125)
+    let (width, pixels) = (200usize, 40_000usize);
+    let mut rng = Rng::new(11);
+    let mu: Vec<f64> = (0..pixels).map(|_| 0.2 + rng.unit()).collect();
+    let its = [(4, false), (4, true), (8, false)].map(|(spp, paired)| {
+        let (m, image) = stratified_iteration(&mut rng, &mu, spp, paired);
+        (pixel_variances(&m, width), image, spp)
+    });
+    let parts: Vec<Part> = its
+        .iter()
+        .map(|(v, image, spp)| Part {
+            image,
+            pixel_variance: v,
+            spp: *spp,
+        })
+        .collect();
+    let v = relative_variances(&parts);
+    let (a, b) = (v[0] / v[2], v[1] / v[2]);
+    eprintln!("from image differences: variance ratios {a:.3} (true 2), {b:.3} (true 0.125)");
+    assert!((a - 2.0).abs() < 0.2 && (b - 0.125).abs() < 0.04, "{a} {b}");
+    // the spread within pixels cannot see the pairing (the estimator before)
+    let w = relative_variances_within(&parts);
+    let (a, b) = (w[0] / w[2], w[1] / w[2]);
+    eprintln!("  from the spread within pixels: {a:.3}, {b:.3}, rejected as it must be");
+    assert!(!((a - 2.0).abs() < 0.2 && (b - 0.125).abs() < 0.04));
 }

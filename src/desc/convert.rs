@@ -229,6 +229,7 @@ pub fn to_json(desc: &SceneDesc, out: &Path) -> Result<Converted> {
             integ.insert("combine".into(), combine.into());
             integ.insert("spatial_threshold".into(), num(g.spatial_threshold));
             integ.insert("learn_direct".into(), g.learn_direct.into());
+            integ.insert("learn_fraction".into(), g.learn_fraction.into());
         }
         Integrator::Rdr171(_) => unreachable!("a description never holds the compat integrator"),
     }

@@ -162,7 +162,7 @@ use crate::integrator::{
 ///   [`PathTracer`] (`spp` 32, `max_depth` 12, `profile`, `rr_threshold`),
 ///   [`Bdpt`] (as `path`, and `mis`, `strategy`, `strategy_weighted`, `visualize_strategies`, `connection_roulette`), [`Guided`] (`spp` 64,
 ///   `max_depth` 12, `rr_threshold`, `bsdf_fraction` 0.5, `training_iterations`, `combine`,
-///   `spatial_threshold`, `learn_direct`, `training_share`), [`Ptracer`]
+///   `spatial_threshold`, `learn_direct`, `training_share`, `learn_fraction`), [`Ptracer`]
 ///   (`spp` 32, `max_depth` 12, `rr_threshold`),
 ///   [`PhotonMapper`] (`spp` 16, `n_photons`, `n_iterations`, `n_near_photons`, …),
 ///   [`Sppm`] (`spp` 64 iterations, `photons_per_iteration`, `initial_radius`, …),
@@ -932,6 +932,7 @@ fn parse_guided(p: &Props) -> Result<Guided> {
         return Err(p.error("spatial_threshold", "spatial_threshold must be a positive number"));
     }
     let learn_direct = p.bool_or("learn_direct", d.learn_direct)?;
+    let learn_fraction = p.bool_or("learn_fraction", d.learn_fraction)?;
     let training_share = p.f32_or("training_share", d.training_share)?;
     if !(training_share > 0.0 && training_share <= 1.0) {
         return Err(p.error("training_share", "training_share must lie in (0, 1]"));
@@ -939,6 +940,7 @@ fn parse_guided(p: &Props) -> Result<Guided> {
     Ok(Guided {
         training_share,
         learn_direct,
+        learn_fraction,
         max_depth,
         rr_threshold,
         bsdf_fraction,

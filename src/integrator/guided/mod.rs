@@ -67,7 +67,15 @@ pub enum Combine {
 /// * `max_depth` (int ≥ 1, 12) and `rr_threshold` (number, 0.1) — as `path`
 ///   (roulette follows `path`'s rule; the threshold is read and kept);
 /// * `bsdf_fraction` (number in (0, 1], 0.5) — probability of BSDF sampling at a
-///   guided vertex (1: never guided);
+///   guided vertex (1: never guided) when `learn_fraction` is false;
+/// * `learn_fraction` (bool, true) — training iterations sample with
+///   `bsdf_fraction`; for the final one each spatial leaf chooses its BSDF fraction
+///   from 0.1, 0.25, 0.5, 0.75, 1 after every training iteration: the one whose
+///   estimated second moment of the vertex estimator, ∫F²/p, is smallest (1,
+///   BSDF sampling without guide lookups, unless another's is below 0.6 of its),
+///   estimated on the first pass of the last training iteration with the new
+///   tree (leave-one-out); leaves with fewer than 128 vertices there sample the
+///   BSDF alone;
 /// * `training_iterations` (int ≥ 0, absent: chosen by the budget, see the
 ///   module docs) — doubling iterations before the final one;
 /// * `combine` (`"inverse_variance"` | `"last"`, `"inverse_variance"`);
@@ -81,7 +89,7 @@ pub enum Combine {
 ///   chains (light sampled at later vertices included), leaving the direct light
 ///   to light sampling, which handles it better (cbox, 33 spp: relMSE 1.2e-2 with
 ///   direct light learned, 7.0e-3 without, `path` 5.5e-3);
-/// * `training_share` (number in (0, 1], 0.25) — under `--time-limit`, the share of
+/// * `training_share` (number in (0, 1], 0.12) — under `--time-limit`, the share of
 ///   the time budget training may take: a training iteration starts only when it
 ///   is predicted (twice the previous one) to end within it.
 ///
@@ -98,6 +106,7 @@ pub struct Guided {
     pub spatial_threshold: f32,
     pub learn_direct: bool,
     pub training_share: f32,
+    pub learn_fraction: bool,
 }
 
 impl Default for Guided {
@@ -110,7 +119,8 @@ impl Default for Guided {
             combine: Combine::InverseVariance,
             spatial_threshold: 2000.0,
             learn_direct: false,
-            training_share: 0.25,
+            training_share: 0.12,
+            learn_fraction: true,
         }
     }
 }
@@ -152,6 +162,8 @@ pub struct State {
     /// Finished iterations, weighted anew whenever the image is made (`last`:
     /// the previous one only).
     finished: Vec<Finished>,
+    /// The current iteration's first-pass vertices, for the leaves' fractions.
+    choice: Vec<sdtree::ChoiceSample>,
 }
 
 /// A finished iteration's image and the variance of each of its pixel means.
@@ -191,6 +203,19 @@ impl Guided {
         k
     }
 
+    /// Fraction of the leaves that have not chosen one: with `learn_fraction`, 1
+    /// (the guide is off where a leaf's vertices did not show it would help: a
+    /// tree learned from a few samples per pixel, sampled at half the vertices in
+    /// the final iteration, gave `veach_path` ten times `path`'s error), else
+    /// `bsdf_fraction`.
+    fn default_fraction(&self) -> f32 {
+        if self.learn_fraction {
+            1.0
+        } else {
+            self.bsdf_fraction
+        }
+    }
+
     fn new_state(&self, ctx: &PassContext) -> State {
         let n = (ctx.film.width * ctx.film.height) as usize;
         let schedule = match (ctx.time_limit, self.training_iterations) {
@@ -199,7 +224,7 @@ impl Guided {
             (None, None) => format!("spp budget: {} training iterations", Self::auto_training_iterations(ctx.spp)),
         };
         let mut s = State {
-            tree: SdTree::new(ctx.scene.center, ctx.scene.radius, DTree::initial(RHO)),
+            tree: SdTree::new(ctx.scene.center, ctx.scene.radius, DTree::initial(RHO), self.default_fraction()),
             history: Vec::new(),
             schedule,
             started: Instant::now(),
@@ -213,6 +238,7 @@ impl Guided {
             weight: vec![0.0; n],
             moments: vec![[0.0; 3]; n],
             finished: Vec::new(),
+            choice: Vec::new(),
         };
         self.begin_iteration(&mut s, ctx);
         s
@@ -248,6 +274,7 @@ impl Guided {
             record: !state.last,
             max_depth: self.max_depth,
             record_direct: self.learn_direct,
+            learn_fraction: self.learn_fraction,
         };
         // each iteration draws from its own scrambling of the sampler, starting at
         // sample 0: its samples are then independent of the ones the tree it samples
@@ -289,6 +316,17 @@ impl Guided {
                 if r.value > 0.0 && r.value.is_finite() {
                     leaf.building.deposit(r.cell, r.value);
                 }
+                // the first pass's vertices choose the leaves' fractions
+                if self.learn_fraction && s.passes == 0 && r.counted && r.fq > 0.0 {
+                    s.choice.push(sdtree::ChoiceSample {
+                        leaf: r.leaf,
+                        fq: r.fq,
+                        q: r.q,
+                        pb: r.pb,
+                        p: r.p,
+                        value: r.value,
+                    });
+                }
             }
         }
         drop(tiles);
@@ -319,7 +357,14 @@ impl Guided {
             Combine::Last => s.finished = vec![finished],
         }
         let threshold = self.spatial_threshold as f64 * (s.length as f64).sqrt();
-        s.tree.end_iteration(threshold, RHO, true);
+        let choice = std::mem::take(&mut s.choice);
+        s.tree.end_iteration(
+            threshold,
+            RHO,
+            true,
+            self.learn_fraction.then_some(&choice[..]),
+            self.default_fraction(),
+        );
         let build = build_start.elapsed().as_secs_f64();
         let variance = {
             let parts: Vec<Part> = s.finished.iter().map(Finished::part).collect();
@@ -388,7 +433,7 @@ impl Guided {
             })
             .collect();
         Some(format!(
-            "guided: schedule {}; combine {}; iterations: {}; SD-tree {} spatial leaves, {} directional nodes (depth ≤ {}), {:.1} MB",
+            "guided: schedule {}; combine {}; iterations: {}; SD-tree {} spatial leaves, {} directional nodes (depth ≤ {}), {:.1} MB; leaves per BSDF fraction {}",
             s.schedule,
             match self.combine {
                 Combine::InverseVariance => "inverse variance",
@@ -398,7 +443,13 @@ impl Guided {
             stats.spatial_leaves,
             stats.directional_nodes,
             stats.max_directional_depth,
-            stats.bytes as f64 / 1e6
+            stats.bytes as f64 / 1e6,
+            sdtree::FRACTIONS
+                .iter()
+                .zip(stats.fractions)
+                .map(|(f, n)| format!("{f}: {n}"))
+                .collect::<Vec<_>>()
+                .join(", ")
         ))
     }
 }
@@ -536,7 +587,65 @@ pub fn pixel_variances(moments: &[[f64; 3]], width: usize) -> Vec<f32> {
 /// denominator r per pixel for all iterations: the mean of all their samples.
 /// (Each iteration's own pixel mean there would shrink the variance exactly where
 /// a rare bright sample raised it, and overweight the short early iterations.)
+///
+/// With three or more iterations the variances come from the differences of
+/// their images instead: iterations are independent and unbiased, so the mean
+/// D_ab of (I_a − I_b)² / (r² + 0.01) estimates V_a + V_b, and the least-squares
+/// solution of those K(K−1)/2 equations is V_a = (R_a − S)/(K − 2), R_a = Σ_b D_ab,
+/// S = ΣD / (K − 1). Unlike the samples' spread within a pixel, this sees what the
+/// stratified sampler gains in a long iteration over a short one (an iteration of
+/// 30 spp has less than 1/30 of the per-sample variance of one of 1 or 2 spp; on
+/// `env_sphere` weights by the spread within pixels gave 1.39× the error of one
+/// uninterrupted sequence of 45 spp). When a solution is not positive, the
+/// spread within pixels is used.
 pub fn relative_variances(parts: &[Part]) -> Vec<f64> {
+    let within = relative_variances_within(parts);
+    let k = parts.len();
+    if k < 3 {
+        return within;
+    }
+    let n = parts[0].image.len();
+    let total_spp: f64 = parts.iter().map(|p| p.spp as f64).sum::<f64>().max(1.0);
+    let mut d = vec![0.0f64; k * k];
+    let mut y = vec![0.0f64; k];
+    for i in 0..n {
+        let mut r = 0.0f64;
+        for (yk, p) in y.iter_mut().zip(parts) {
+            let c = p.image[i];
+            *yk = ((c.x + c.y + c.z) / 3.0) as f64;
+            r += p.spp as f64 * *yk;
+        }
+        r /= total_spp;
+        let norm = 1.0 / (r * r + 0.01);
+        for a in 0..k {
+            for b in a + 1..k {
+                let e = y[a] - y[b];
+                d[a * k + b] += e * e * norm;
+            }
+        }
+    }
+    let mut row = vec![0.0f64; k];
+    let mut total = 0.0f64;
+    for a in 0..k {
+        for b in a + 1..k {
+            let x = d[a * k + b] / n.max(1) as f64;
+            row[a] += x;
+            row[b] += x;
+            total += x;
+        }
+    }
+    let s = total / (k - 1) as f64;
+    let v: Vec<f64> = row.iter().map(|r| (r - s) / (k - 2) as f64).collect();
+    if v.iter().all(|x| *x > 0.0 && x.is_finite()) {
+        v
+    } else {
+        within
+    }
+}
+
+/// [`relative_variances`] from the spread of each iteration's samples within its
+/// pixels.
+pub fn relative_variances_within(parts: &[Part]) -> Vec<f64> {
     let Some(first) = parts.first() else { return Vec::new() };
     let n = first.image.len();
     let total_spp: f64 = parts.iter().map(|p| p.spp as f64).sum::<f64>().max(1.0);

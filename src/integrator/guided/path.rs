@@ -3,12 +3,12 @@
 //! non-specular vertices, and the radiance each such vertex receives recorded
 //! for the next iteration's distribution.
 
-use super::quadtree::DTree;
+use super::quadtree::{sphere_to_square, square_to_sphere, DTree};
 use super::sdtree::SdTree;
 use crate::geometry::{Ray, RayDifferential};
 use crate::integrator::{shadow_ray, spawn_ray, RayCounts};
 use crate::material::{Bsdf, BsdfSample};
-use crate::math::{Vec2, Vec3};
+use crate::math::{Vec2, Vec3, PI};
 use crate::sampler::PixelSampler;
 use crate::sampling::power_heuristic;
 use crate::scene::Scene;
@@ -30,7 +30,7 @@ impl Mixture<'_> {
     pub fn pdf(&self, bsdf: &Bsdf, wo: Vec3, wi: Vec3) -> f32 {
         let pb = bsdf.pdf(wo, wi);
         match self.guide {
-            Some(g) if !bsdf.is_delta() => self.bsdf_fraction * pb + (1.0 - self.bsdf_fraction) * g.pdf(wi),
+            Some(g) if !bsdf.is_delta() && self.bsdf_fraction < 1.0 => self.bsdf_fraction * pb + (1.0 - self.bsdf_fraction) * g.pdf(wi),
             _ => pb,
         }
     }
@@ -38,9 +38,17 @@ impl Mixture<'_> {
     /// A direction with weight f·|cos|/pdf and the mixture's density; `u_choice`
     /// picks the strategy, `u` and `uc` drive it as in [`Bsdf::sample`].
     pub fn sample(&self, bsdf: &Bsdf, wo: Vec3, u_choice: f32, u: Vec2, uc: f32) -> Option<BsdfSample> {
+        self.sample_on_square(bsdf, wo, u_choice, u, uc).map(|s| s.0)
+    }
+
+    /// [`Mixture::sample`], with the direction's point on the square of the
+    /// sphere map and the two strategies' densities (BSDF, guide) when the guide
+    /// took part (the cell a recording tree gives it, at no second map).
+    #[inline]
+    pub fn sample_on_square(&self, bsdf: &Bsdf, wo: Vec3, u_choice: f32, u: Vec2, uc: f32) -> Option<(BsdfSample, Option<GuidedPoint>)> {
         let guide = match self.guide {
             Some(g) if !bsdf.is_delta() => g,
-            _ => return bsdf.sample(wo, u, uc),
+            _ => return bsdf.sample(wo, u, uc).map(|s| (s, None)),
         };
         let a = self.bsdf_fraction;
         if u_choice < a {
@@ -48,48 +56,72 @@ impl Mixture<'_> {
             if bs.delta {
                 // a delta lobe (plastic's coating): its density is no solid-angle one
                 // and the guide cannot produce it, so it keeps its own weight
-                return Some(BsdfSample {
+                let s = BsdfSample {
                     weight: bs.weight * (1.0 / a),
                     pdf: bs.pdf * a,
                     ..bs
-                });
+                };
+                return Some((s, None));
             }
-            let pdf = a * bs.pdf + (1.0 - a) * guide.pdf(bs.wi);
-            Some(BsdfSample {
+            let p = sphere_to_square(bs.wi);
+            let pg = guide.pdf_square(p) * (0.25 / PI);
+            let pdf = a * bs.pdf + (1.0 - a) * pg;
+            let s = BsdfSample {
                 weight: bs.weight * (bs.pdf / pdf),
                 pdf,
                 ..bs
-            })
+            };
+            Some((s, Some(GuidedPoint { p, pb: bs.pdf, pg })))
         } else {
-            let (wi, _) = guide.sample(u)?;
-            // the density evaluated as MIS evaluates it (the map's round trip may
-            // move a point on a cell's edge to its neighbour)
-            let pdf = self.pdf(bsdf, wo, wi);
+            // the guide's density is the sampled cell's (evaluating it again through
+            // the map's round trip would cost a second descent)
+            let (p, pg) = guide.sample_square(u)?;
+            let pg = pg * (0.25 / PI);
+            let wi = square_to_sphere(p);
+            let pb = bsdf.pdf(wo, wi);
+            let pdf = a * pb + (1.0 - a) * pg;
             if pdf <= 0.0 || !pdf.is_finite() {
                 return None;
             }
             let cos = bsdf.frame.n.dot(wi).abs();
-            Some(BsdfSample {
+            let s = BsdfSample {
                 wi,
                 weight: bsdf.eval(wo, wi) * (cos / pdf),
                 pdf,
                 delta: false,
                 eta: 1.0,
-            })
+            };
+            Some((s, Some(GuidedPoint { p, pb, pg })))
         }
     }
+}
+
+/// Where a mixture sample lies on the square, and the densities of its two
+/// strategies there (solid angle).
+#[derive(Clone, Copy, Debug)]
+pub struct GuidedPoint {
+    pub p: Vec2,
+    pub pb: f32,
+    pub pg: f32,
 }
 
 /// Radiance arriving at a spatial leaf from a directional cell of its recording
 /// tree, divided by the density it was sampled with (an estimate of the cell's
 /// integral of incident radiance). `counted` marks the vertex's own sampled
 /// direction (one per vertex, for the spatial split); light samples are not.
+/// `fq` is the vertex's local estimate F/q (F = f·|cos|·L_i, luminance; q the
+/// density it was sampled with), `pb` the BSDF's density there and `p` the
+/// direction's point on the square, for the leaf's choice of BSDF fraction.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Record {
     pub leaf: u32,
     pub cell: u32,
     pub value: f32,
     pub counted: bool,
+    pub fq: f32,
+    pub q: f32,
+    pub pb: f32,
+    pub p: Vec2,
 }
 
 /// A non-specular vertex of the current path waiting for the radiance that
@@ -102,6 +134,10 @@ pub struct Vertex {
     /// Throughput from the camera up to and including this vertex's scattering
     /// (before roulette): a later contribution C arrived here as C / beta.
     beta: Vec3,
+    /// The sample's weight f·|cos|/q, the BSDF's density and the point on the square.
+    weight: Vec3,
+    pb: f32,
+    p: Vec2,
     /// The estimate when the vertex was made (or after its own direct light, when
     /// that is not recorded): what arrives here is the estimate's growth since (a
     /// prefix sum instead of adding every contribution to every waiting vertex).
@@ -126,6 +162,8 @@ pub struct Guiding<'a> {
     /// straight from a vertex); otherwise a vertex learns only the light that
     /// reaches it by way of other surfaces or specular chains.
     pub record_direct: bool,
+    /// Sample with the leaves' learned fractions instead of `bsdf_fraction`.
+    pub learn_fraction: bool,
 }
 
 /// Adds emission `c` found along the direction the last vertex sampled: every
@@ -210,9 +248,26 @@ impl Guiding<'_> {
             let bsdf = material.bsdf_at(&it, &scene.textures);
             let delta = bsdf.is_delta();
             let leaf = if delta { 0 } else { self.tree.leaf_of(it.p) };
-            let mixture = Mixture {
-                guide: if delta { None } else { self.tree.guide(leaf) },
-                bsdf_fraction: self.bsdf_fraction,
+            let mixture = if delta {
+                Mixture {
+                    guide: None,
+                    bsdf_fraction: 1.0,
+                }
+            } else {
+                // training samples with the guide at `bsdf_fraction` (what it learns
+                // from its own samples sharpens it: trained by BSDF samples alone,
+                // the caustic leaf of caustic_cbox gave the sphere 54 % of its
+                // samples instead of 76 %); the final iteration with the leaf's choice
+                let fraction = if self.learn_fraction && !self.record {
+                    self.tree.leaves[leaf as usize].bsdf_fraction
+                } else {
+                    self.bsdf_fraction
+                };
+                Mixture {
+                    // BSDF sampling alone skips the guide
+                    guide: if fraction >= 1.0 { None } else { self.tree.guide(leaf) },
+                    bsdf_fraction: fraction,
+                }
             };
 
             if !delta && !scene.lights.is_empty() {
@@ -239,6 +294,10 @@ impl Guiding<'_> {
                                     cell: self.tree.record_cell(leaf, ls.wi),
                                     value: mean(ls.radiance) * w / light_pdf * tr,
                                     counted: false,
+                                    fq: 0.0,
+                                    q: 0.0,
+                                    pb: 0.0,
+                                    p: Vec2::ZERO,
                                 });
                             }
                         }
@@ -248,7 +307,7 @@ impl Guiding<'_> {
 
             let u_choice = sampler.next_1d();
             let uc = sampler.next_1d();
-            let Some(bs) = mixture.sample(&bsdf, it.wo, u_choice, Vec2::from(sampler.next_2d()), uc) else {
+            let Some((bs, square)) = mixture.sample_on_square(&bsdf, it.wo, u_choice, Vec2::from(sampler.next_2d()), uc) else {
                 break;
             };
             beta *= bs.weight;
@@ -257,11 +316,16 @@ impl Guiding<'_> {
                 break;
             }
             if self.record && !bs.delta {
+                let p = square.map_or_else(|| sphere_to_square(bs.wi), |g| g.p);
                 verts.push(Vertex {
                     leaf,
-                    cell: self.tree.record_cell(leaf, bs.wi),
+                    cell: self.tree.record_cell_at(leaf, p),
                     pdf: bs.pdf,
                     beta,
+                    weight: bs.weight,
+                    // without the guide the sample is the BSDF's own
+                    pb: square.map_or(bs.pdf, |g| g.pb),
+                    p,
                     l_before: l,
                 });
             }
@@ -291,6 +355,10 @@ impl Guiding<'_> {
                     cell: v.cell,
                     value: mean(arrived).max(0.0) / v.pdf,
                     counted: true,
+                    fq: mean(arrived * v.weight).max(0.0),
+                    q: v.pdf,
+                    pb: v.pb,
+                    p: v.p,
                 });
             }
         }

@@ -464,6 +464,9 @@ fn bad_xml_gives_one_line_errors_with_file_line_and_column() {
         ("thinlens aperture as a string", "<scene version=\"3.0.0\">\n  <sensor type=\"thinlens\">\n    <string name=\"aperture_radius\" value=\"wide\"/>\n  </sensor>\n</scene>\n".into(), "line 3, column 5", "expected a float, found a string"),
         ("thinlens negative aperture", "<scene version=\"3.0.0\">\n  <sensor type=\"thinlens\">\n    <float name=\"aperture_radius\" value=\"-1\"/>\n  </sensor>\n</scene>\n".into(), "line 3, column 5", "must be at least 0"),
         ("thinlens focus as a string", "<scene version=\"3.0.0\">\n  <sensor type=\"thinlens\">\n    <float name=\"aperture_radius\" value=\"0.1\"/><string name=\"focus_distance\" value=\"far\"/>\n  </sensor>\n</scene>\n".into(), "line 3, column 48", "expected a float, found a string"),
+        ("near_clip negative", "<scene version=\"3.0.0\">\n  <sensor type=\"perspective\">\n    <float name=\"near_clip\" value=\"-1\"/>\n  </sensor>\n</scene>\n".into(), "line 3, column 5", "must be a finite distance of at least 0"),
+        ("far_clip before near_clip", "<scene version=\"3.0.0\">\n  <sensor type=\"perspective\">\n    <float name=\"near_clip\" value=\"2\"/><float name=\"far_clip\" value=\"1\"/>\n  </sensor>\n</scene>\n".into(), "line 3, column 40", "must be greater than near_clip (2)"),
+        ("near_clip as a string", "<scene version=\"3.0.0\">\n  <sensor type=\"perspective\">\n    <string name=\"near_clip\" value=\"close\"/>\n  </sensor>\n</scene>\n".into(), "line 3, column 5", "expected a float, found a string"),
         ("thinlens zero focus", "<scene version=\"3.0.0\">\n  <sensor type=\"thinlens\">\n    <float name=\"aperture_radius\" value=\"0.1\"/><float name=\"focus_distance\" value=\"0\"/>\n  </sensor>\n</scene>\n".into(), "line 3, column 48", "must be positive"),
         ("thinlens scaled", "<scene version=\"3.0.0\">\n  <sensor type=\"thinlens\">\n    <float name=\"aperture_radius\" value=\"0.1\"/><transform name=\"to_world\"><scale value=\"2\"/></transform>\n  </sensor>\n</scene>\n".into(), "line 3, column 48", "cannot scale"),
         ("orthographic anisotropic", "<scene version=\"3.0.0\">\n  <sensor type=\"orthographic\">\n    <transform name=\"to_world\"><scale x=\"1\" y=\"2\"/></transform>\n  </sensor>\n</scene>\n".into(), "line 3, column 5", "scaled differently in x"),
@@ -1521,4 +1524,59 @@ fn bare_xml_conductors_and_plastics_are_one_sided_as_in_mitsuba() {
     convert(&j, &x);
     assert_same_scene("onesided XML → JSON", &d, &SceneDesc::load(&j, &[]).unwrap());
     assert_same_scene("onesided XML → JSON → XML", &d, &xml_desc(&x, &[]));
+}
+
+/// A sensor's `near_clip` and `far_clip` are applied (distances along the view axis, as
+/// Mitsuba's): a sphere nearer than `near_clip` vanishes from the image, the wall behind
+/// it shows; and `rdr convert` carries both keys to JSON and back.
+#[test]
+fn sensor_clipping_is_applied_and_converted() {
+    let dir = temp_dir("rdr-xml-clip");
+    let body = |clip: &str| {
+        format!(
+            r#"<scene version="3.0.0">
+  <sensor type="perspective">
+    <float name="fov" value="30"/>{clip}
+    <transform name="to_world"><lookat origin="0, 0, 0" target="0, 0, 1" up="0, 1, 0"/></transform>
+    <film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="8"/></film>
+  </sensor>
+  <shape type="sphere"><point name="center" x="0" y="0" z="2"/><float name="radius" value="0.5"/>
+    <emitter type="area"><rgb name="radiance" value="1, 0, 0"/></emitter></shape>
+  <shape type="rectangle"><transform name="to_world"><scale value="10"/><rotate y="1" angle="180"/><translate z="5"/></transform>
+    <emitter type="area"><rgb name="radiance" value="0, 0, 1"/></emitter></shape>
+</scene>
+"#
+        )
+    };
+    let centre = |xml: &str, name: &str| {
+        let path = dir.path().join(name);
+        std::fs::write(&path, xml).unwrap();
+        let out = dir.path().join(format!("{name}.exr"));
+        let o = std::process::Command::new(env!("CARGO_BIN_EXE_rdr"))
+            .args(["render", "-q", "--spp", "4"])
+            .arg(&path)
+            .arg("-o")
+            .arg(&out)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{name}: {}", String::from_utf8_lossy(&o.stderr));
+        let img = rdr::imageio::read_exr(&out).unwrap();
+        (img.pixels[4 * 8 + 4], path)
+    };
+    let (plain, _) = centre(&body(""), "plain.xml");
+    assert!(plain.x > 0.9 && plain.z < 0.1, "without clipping the sphere shows: {plain}");
+    let (clipped, path) = centre(&body(r#"<float name="near_clip" value="2.6"/>"#), "near.xml");
+    assert!(clipped.x < 0.1 && clipped.z > 0.9, "near_clip 2.6 hides the sphere: {clipped}");
+    let (far, _) = centre(&body(r#"<float name="far_clip" value="4"/>"#), "far.xml");
+    assert!(far.x > 0.9, "far_clip 4 keeps the sphere: {far}");
+    let (none, _) = centre(
+        &body(r#"<float name="near_clip" value="2.6"/><float name="far_clip" value="4"/>"#),
+        "both.xml",
+    );
+    assert!(none.max_element() < 0.1, "between 2.6 and 4 nothing is seen: {none}");
+    let (json, back) = (dir.path().join("near.json"), dir.path().join("near_back.xml"));
+    convert(&path, &json);
+    convert(&json, &back);
+    assert_eq!(xml_desc(&back, &[]).camera.near_clip, 2.6);
+    assert_eq!(SceneDesc::load(&json, &[]).unwrap().camera.near_clip, 2.6);
 }

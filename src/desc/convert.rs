@@ -960,9 +960,6 @@ pub fn to_xml(desc: &SceneDesc, out: &Path) -> Result<Converted> {
     };
     let c = &desc.camera;
     let f = &desc.film;
-    if c.near_clip != 0.0 || c.far_clip != f32::INFINITY {
-        w.push("the camera's near_clip and far_clip are left out".into());
-    }
     let filter = match f.filter {
         Filter::Box { radius } => format!("<rfilter type=\"box\"><float name=\"radius\" value=\"{radius}\"/></rfilter>"),
         Filter::Tent { radius } => format!("<rfilter type=\"tent\"><float name=\"radius\" value=\"{radius}\"/></rfilter>"),
@@ -1007,6 +1004,14 @@ pub fn to_xml(desc: &SceneDesc, out: &Path) -> Result<Converted> {
             ),
         ),
     };
+    // rdr's unbounded range is Mitsuba's default (0.01, 10⁴) when left out
+    let mut keys = keys;
+    if c.near_clip != 0.0 {
+        let _ = writeln!(keys, "    <float name=\"near_clip\" value=\"{}\"/>", c.near_clip);
+    }
+    if c.far_clip != f32::INFINITY {
+        let _ = writeln!(keys, "    <float name=\"far_clip\" value=\"{}\"/>", c.far_clip);
+    }
     let _ = write!(
         s,
         "  <sensor type=\"{sensor}\">\n{keys}    <transform name=\"to_world\">\n{scale}      <lookat origin=\"{}\" target=\"{}\" up=\"{}\"/>\n    </transform>\n    <film type=\"hdrfilm\">\n      <integer name=\"width\" value=\"{}\"/>\n      <integer name=\"height\" value=\"{}\"/>\n      <string name=\"pixel_format\" value=\"rgb\"/>\n      {filter}\n    </film>\n    <sampler type=\"independent\">\n      <integer name=\"sample_count\" value=\"{}\"/>\n    </sampler>\n  </sensor>\n",

@@ -4,7 +4,7 @@
 //! | element | plugins and properties (defaults) |
 //! |---|---|
 //! | `<integrator>` | `path` and `volpath` (rdr has no media: `volpath` is `path`, whose rays pass through `mask`s as volpath's do; `max_depth` −1 = unbounded, capped at [`MAX_DEPTH`]; `rr_depth` 5, read and checked: rdr's Russian roulette is its own and unbiased; `hide_emitters` false, only false), `direct` (= `path` with `max_depth` 2: light at the first surface by emitter and BSDF sampling; `emitter_samples`, `bsdf_samples` noted), `ptracer`, `bdpt` (`max_depth`), `photonmapper`/`photon` (`global_photons` 100000, `lookup_size` 64 … rdr's `photon`), `sppm` (`photon_count`, `initial_radius`, `alpha` 0.7). No integrator: `path`. |
-//! | `<sensor>` | `perspective`: `fov` (or `focal_length`, "50mm" on the 36×24 mm diagonal), `fov_axis` (`x` \| `y` \| `diagonal` \| `smaller` \| `larger`, `x`), `to_world` (a rigid transform, no mirroring); `thinlens`: as `perspective`, and `aperture_radius` (required; 0 is a pinhole), `focus_distance` (`far_clip`, 10⁴), no scale in `to_world` (JSON `camera.type` `thinlens`); `orthographic`: `to_world` whose scale s (equal in x and y) sizes the window as Mitsuba's, 2s wide and 2s·height/width tall (JSON `orthographic` with that `height`); `near_clip`, `far_clip` are read and not applied. One sensor; more are ignored with a warning. Example: `<sensor type="orthographic"><transform name="to_world"><scale value="1.1"/><lookat origin="0, 1, 6.8" target="0, 1, 0" up="0, 1, 0"/></transform></sensor>`. |
+//! | `<sensor>` | `perspective`: `fov` (or `focal_length`, "50mm" on the 36×24 mm diagonal), `fov_axis` (`x` \| `y` \| `diagonal` \| `smaller` \| `larger`, `x`), `to_world` (a rigid transform, no mirroring); `thinlens`: as `perspective`, and `aperture_radius` (required; 0 is a pinhole), `focus_distance` (`far_clip`, 10⁴), no scale in `to_world` (JSON `camera.type` `thinlens`); `orthographic`: `to_world` whose scale s (equal in x and y) sizes the window as Mitsuba's, 2s wide and 2s·height/width tall (JSON `orthographic` with that `height`); `near_clip`, `far_clip` (distances along the view axis, as Mitsuba's; applied only when given: 0 and unbounded otherwise). One sensor; more are ignored with a warning. Example: `<sensor type="orthographic"><transform name="to_world"><scale value="1.1"/><lookat origin="0, 1, 6.8" target="0, 1, 0" up="0, 1, 0"/></transform></sensor>`. |
 //! | `<film>` | `hdrfilm`: `width` 768, `height` 576, `rfilter` (default `gaussian`); `pixel_format`, `component_format`, `file_format`, `banner` noted. |
 //! | `<rfilter>` | `box` (`radius` 0.5), `tent` (`radius` 1), `gaussian` (`stddev` 0.5, radius 4·stddev), `mitchell` (`B`, `C` 1/3, radius 2) |
 //! | `<sampler>` | any type: `sample_count` (4) → spp; the type is noted, rdr uses its own sampler. |
@@ -605,8 +605,18 @@ impl<'a> Reader<'a> {
             "diagonal" => t * h / w.hypot(h),
             other => return Err(p.value_error("fov_axis", format!("unknown axis \"{other}\" (x, y, diagonal, smaller, larger)"))),
         };
-        for k in ["near_clip", "far_clip"] {
-            p.ignore(k);
+        // clipping only where the scene asks for it (Mitsuba's defaults, 0.01 and 10⁴, would
+        // hide nothing in the scenes rdr reads but change every ray's range)
+        let near_clip = p.float_opt("near_clip")?.unwrap_or(0.0);
+        let far_clip = p.float_opt("far_clip")?.unwrap_or(f32::INFINITY);
+        if !(near_clip >= 0.0 && near_clip.is_finite()) {
+            return Err(p.value_error("near_clip", format!("must be a finite distance of at least 0, found {near_clip}")));
+        }
+        if far_clip.is_nan() || far_clip <= near_clip {
+            return Err(p.value_error(
+                "far_clip",
+                format!("must be greater than near_clip ({near_clip}), found {far_clip}"),
+            ));
         }
         for k in ["principal_point_offset_x", "principal_point_offset_y"] {
             if p.float(k, 0.0)? != 0.0 {
@@ -676,7 +686,8 @@ impl<'a> Reader<'a> {
             fov: (2.0 * vt.atan()).to_degrees() as f32,
             focal_length: 1.0,
             projection,
-            ..CameraParams::default()
+            near_clip,
+            far_clip,
         };
         if origin.abs().max_element() > crate::limits::MAX_COORD || !crate::camera::Camera::new(&camera, 1, 1).is_finite() {
             return Err(p.value_error("to_world", "the camera's view basis is not finite"));

@@ -304,6 +304,20 @@ impl Camera {
     }
 }
 
+/// Checks a camera's clipping range: `Err((key, message))` naming the key at fault.
+pub fn check_clip_range(near_clip: f32, far_clip: f32) -> Result<(), (&'static str, String)> {
+    if !(near_clip >= 0.0 && near_clip.is_finite()) {
+        return Err(("near_clip", format!("must be a finite distance of at least 0, found {near_clip}")));
+    }
+    if far_clip.is_nan() || far_clip <= near_clip {
+        return Err((
+            "far_clip",
+            format!("must be greater than near_clip ({near_clip}), found {far_clip}"),
+        ));
+    }
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -1162,15 +1162,7 @@ fn parse_camera(p: &Props) -> Result<CameraParams> {
     } else {
         f32::INFINITY
     };
-    if !(near_clip >= 0.0 && near_clip.is_finite()) {
-        return Err(p.error("near_clip", format!("must be a finite distance of at least 0, found {near_clip}")));
-    }
-    if far_clip.is_nan() || far_clip <= near_clip {
-        return Err(p.error(
-            "far_clip",
-            format!("must be greater than near_clip ({near_clip}), found {far_clip}"),
-        ));
-    }
+    crate::camera::check_clip_range(near_clip, far_clip).map_err(|(key, why)| p.error(key, why))?;
     let c = CameraParams {
         position: point(p, "position", p.vec3_or("position", Vec3::new(0.0, 0.0, 1.0))?)?,
         look_at: point(p, "look_at", p.vec3_or("look_at", Vec3::ZERO)?)?,

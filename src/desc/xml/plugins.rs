@@ -609,15 +609,7 @@ impl<'a> Reader<'a> {
         // hide nothing in the scenes rdr reads but change every ray's range)
         let near_clip = p.float_opt("near_clip")?.unwrap_or(0.0);
         let far_clip = p.float_opt("far_clip")?.unwrap_or(f32::INFINITY);
-        if !(near_clip >= 0.0 && near_clip.is_finite()) {
-            return Err(p.value_error("near_clip", format!("must be a finite distance of at least 0, found {near_clip}")));
-        }
-        if far_clip.is_nan() || far_clip <= near_clip {
-            return Err(p.value_error(
-                "far_clip",
-                format!("must be greater than near_clip ({near_clip}), found {far_clip}"),
-            ));
-        }
+        crate::camera::check_clip_range(near_clip, far_clip).map_err(|(key, why)| p.value_error(key, why))?;
         for k in ["principal_point_offset_x", "principal_point_offset_y"] {
             if p.float(k, 0.0)? != 0.0 {
                 return Err(p.value_error(k, "an off-centre principal point is not supported"));

@@ -17,10 +17,10 @@ The rest of the scene is tests/refs/lights' (a diffuse ball on a large diffuse s
 Run from the repository root with the venv that has Mitsuba:
     /work/venv-mi/bin/python scripts/make_emitter_refs.py [--passes 8] [--spp 256] [NAME...]
 """
-import argparse
 import json
 import os
-import sys
+
+from mitsuba_refs import arguments, mitsuba, perspective_sensor, render_reference
 
 RES = 32
 MAX_DEPTH = 6
@@ -94,18 +94,7 @@ def scene_xml(name):
 <scene version="3.0.0">
   <default name="spp" value="256"/>
   <integrator type="path"><integer name="max_depth" value="{MAX_DEPTH}"/></integrator>
-  <sensor type="perspective">
-    <float name="fov" value="{c['fov']}"/>
-    <string name="fov_axis" value="y"/>
-    <transform name="to_world">
-      <lookat origin="{v(c['position'])}" target="{v(c['look_at'])}" up="{v(c['ref_up'])}"/>
-    </transform>
-    <film type="hdrfilm">
-      <integer name="width" value="{RES}"/><integer name="height" value="{RES}"/>
-      <string name="pixel_format" value="rgb"/><rfilter type="box"/>
-    </film>
-    <sampler type="independent"><integer name="sample_count" value="$spp"/></sampler>
-  </sensor>
+{perspective_sensor(c['fov'], v(c['position']), v(c['look_at']), v(c['ref_up']), RES)}
   <shape type="sphere">
     <point name="center" value="{v(FLOOR['center'])}"/><float name="radius" value="{FLOOR['radius']}"/>
     <bsdf type="diffuse"><rgb name="reflectance" value="{v(FLOOR['albedo'])}"/></bsdf>
@@ -151,15 +140,8 @@ def scene_json(name):
 
 
 def main():
-    ap = argparse.ArgumentParser()
-    ap.add_argument("--passes", type=int, default=8)
-    ap.add_argument("--spp", type=int, default=256)
-    ap.add_argument("--variant", default="scalar_rgb")
-    ap.add_argument("names", nargs="*")
-    args = ap.parse_args()
-    import mitsuba as mi
-    import numpy as np
-    mi.set_variant(args.variant)
+    args = arguments(__doc__)
+    mi = mitsuba(args.variant)
     os.makedirs(HERE, exist_ok=True)
     with open(os.path.join(HERE, "quad.obj"), "w") as f:
         f.write(QUAD_OBJ)
@@ -173,16 +155,7 @@ def main():
         with open(os.path.join(HERE, f"{name}.json"), "w") as f:
             json.dump(scene_json(name), f, indent=1)
             f.write("\n")
-        scene = mi.load_file(xml_path)
-        passes = np.stack([np.array(mi.render(scene, seed=p, spp=args.spp), dtype=np.float64)[..., :3]
-                           for p in range(args.passes)])
-        mean = passes.mean(axis=0)
-        var = passes.var(axis=0, ddof=1) / args.passes
-        # written synchronously (write_bitmap's background writer can hang at exit)
-        mi.Bitmap(mean.astype(np.float32), mi.Bitmap.PixelFormat.RGB).write(os.path.join(HERE, f"{name}.exr"))
-        mi.Bitmap(var.astype(np.float32), mi.Bitmap.PixelFormat.RGB).write(os.path.join(HERE, f"{name}.var.exr"))
-        rel = np.sqrt((var / (mean ** 2 + 0.01)).mean())
-        print(f"{name}: {args.passes}×{args.spp} spp, relMSE-noise {rel:.2e}, mean {mean.mean():.4f}", file=sys.stderr, flush=True)
+        render_reference(mi, mi.load_file(xml_path), HERE, name, args.passes, args.spp)
 
 
 if __name__ == "__main__":

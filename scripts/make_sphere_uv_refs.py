@@ -13,9 +13,9 @@ Each <name>.exr is the mean of K passes, <name>.var.exr the variance of that mea
 Run from the repository root with the venv that has Mitsuba:
     /work/venv-mi/bin/python scripts/make_sphere_uv_refs.py [--passes 16] [--spp 256]
 """
-import argparse
 import os
-import sys
+
+from mitsuba_refs import arguments, mitsuba, render_reference
 
 import numpy as np
 
@@ -76,29 +76,15 @@ def scenes():
 
 
 def main():
-    ap = argparse.ArgumentParser()
-    ap.add_argument("--passes", type=int, default=16)
-    ap.add_argument("--spp", type=int, default=256)
-    ap.add_argument("--variant", default="scalar_rgb")
-    ap.add_argument("names", nargs="*")
-    args = ap.parse_args()
-    import mitsuba as mi
-    mi.set_variant(args.variant)
+    args = arguments(__doc__, passes=16)
+    mi = mitsuba(args.variant)
     for name, xml in scenes():
         if args.names and name not in args.names:
             continue
         path = os.path.join(HERE, f"{name}.xml")
         with open(path, "w") as f:
             f.write(xml)
-        scene = mi.load_file(path)
-        passes = np.stack([np.array(mi.render(scene, seed=p, spp=args.spp), dtype=np.float64)[..., :3]
-                           for p in range(args.passes)])
-        mean = passes.mean(axis=0)
-        var = passes.var(axis=0, ddof=1) / args.passes
-        mi.Bitmap(mean.astype(np.float32), mi.Bitmap.PixelFormat.RGB).write(os.path.join(HERE, f"{name}.exr"))
-        mi.Bitmap(var.astype(np.float32), mi.Bitmap.PixelFormat.RGB).write(os.path.join(HERE, f"{name}.var.exr"))
-        rel = np.sqrt((var / (mean ** 2 + 0.01)).mean())
-        print(f"{name}: {args.passes}x{args.spp} spp, relMSE-noise {rel:.2e}", file=sys.stderr, flush=True)
+        render_reference(mi, mi.load_file(path), HERE, name, args.passes, args.spp)
 
 
 if __name__ == "__main__":

@@ -7,7 +7,6 @@
 
 mod common;
 use common::*;
-use rdr::metrics::compare;
 use rdr::Profile;
 use std::path::{Path, PathBuf};
 
@@ -19,24 +18,8 @@ fn converges(file: &Path, reference: &str) -> bool {
     converges_with(file, reference, &[], 256)
 }
 
-/// Whether two renders of `file` (with `overrides`, `spp` each, seeds 1 and 2) converge
-/// to `reference` under the noise-aware relative MSE.
 fn converges_with(file: &Path, reference: &str, overrides: &[&str], spp: u32) -> bool {
-    let s = load_scene(file, overrides, Profile::Physical);
-    let (a, b) = (render(&s, spp, 1), render(&s, spp, 2));
-    let r = read(&refs().join(format!("{reference}.exr")));
-    let vr = read(&refs().join(format!("{reference}.var.exr")));
-    let c = compare(&a, &b, &r, &vr);
-    eprintln!(
-        "{:>18} {:>8}: relMSE corrected {:+.2e} ± {:.1e}  (raw {:.2e}, noise {:.2e})",
-        file.file_name().unwrap().to_string_lossy(),
-        s.job.integrator.name(),
-        c.rel_mse_corrected,
-        c.std_error,
-        c.rel_mse_raw,
-        c.rel_mse_noise
-    );
-    c.rel_mse_corrected.abs() < 5.0 * c.std_error + 2e-4
+    converges_to_ref(&refs(), file, reference, overrides, spp)
 }
 
 #[test]
@@ -85,18 +68,7 @@ fn light_tracing_integrators_converge_with_delta_lights() {
 #[test]
 fn bdpt_mis_weights_sum_to_one_with_delta_lights() {
     for name in ["spot", "directional_small"] {
-        let s = load_scene(
-            &refs().join(format!("{name}.json")),
-            &[r#"{"integrator": {"type": "bdpt"}}"#],
-            Profile::Physical,
-        );
-        let f = &s.job.film;
-        let c = rdr::integrator::bdpt::mis_self_check(&s.scene, &s.job.camera, f.width, f.height, 6, 3000);
-        eprintln!("{name}: {c:?}");
-        assert!(
-            c.paths > 1000 && c.max_sum_error < 1e-3 && c.samples_off * 100 < 3000,
-            "{name}: {c:?}"
-        );
+        assert_bdpt_mis_sums_to_one(&refs().join(format!("{name}.json")));
     }
 }
 

@@ -492,10 +492,16 @@ fn white_furnace_is_one() {
 /// Per-pixel moments (Σy, Σy², n) and pixel means of `spp` samples a pixel from a
 /// heavy-tailed distribution: 0.5, or 100 with probability 1 %.
 fn firefly_iteration(rng: &mut Rng, pixels: usize, spp: u32) -> (Vec<[f64; 3]>, Vec<Vec3>) {
+    iteration_of(pixels, spp, |_, _| if rng.unit() < 0.01 { 100.0 } else { 0.5 })
+}
+
+/// Per-pixel moments (Σy, Σy², n) and pixel means of `spp` samples `sample(pixel, j)`
+/// a pixel, drawn pixel by pixel.
+fn iteration_of(pixels: usize, spp: u32, mut sample: impl FnMut(usize, u32) -> f64) -> (Vec<[f64; 3]>, Vec<Vec3>) {
     let mut moments = vec![[0.0f64; 3]; pixels];
-    for m in &mut moments {
-        for _ in 0..spp {
-            let y = if rng.unit() < 0.01 { 100.0 } else { 0.5 };
+    for (i, m) in moments.iter_mut().enumerate() {
+        for j in 0..spp {
+            let y = sample(i, j);
             m[0] += y;
             m[1] += y * y;
             m[2] += 1.0;
@@ -551,28 +557,20 @@ fn iteration_weights_follow_the_true_variance_of_heavy_tailed_iterations() {
 /// but their mean varies 16× less (what a stratified sampler does to a long
 /// iteration).
 fn stratified_iteration(rng: &mut Rng, mu: &[f64], spp: u32, paired: bool) -> (Vec<[f64; 3]>, Vec<Vec3>) {
-    let mut moments = vec![[0.0f64; 3]; mu.len()];
-    for (m, mu) in moments.iter_mut().zip(mu) {
-        let mut e = 0.0;
-        for j in 0..spp {
-            let noise = if paired {
-                if j % 2 == 0 {
-                    e = 2.0 * rng.unit() - 1.0;
-                } else {
-                    e = -e;
-                }
-                e + 0.25 * (2.0 * rng.unit() - 1.0)
+    let mut e = 0.0;
+    iteration_of(mu.len(), spp, |i, j| {
+        let noise = if paired {
+            if j % 2 == 0 {
+                e = 2.0 * rng.unit() - 1.0;
             } else {
-                2.0 * rng.unit() - 1.0
-            };
-            let y = mu + 0.1 * noise;
-            m[0] += y;
-            m[1] += y * y;
-            m[2] += 1.0;
-        }
-    }
-    let image = moments.iter().map(|m| Vec3::splat((m[0] / m[2]) as f32)).collect();
-    (moments, image)
+                e = -e;
+            }
+            e + 0.25 * (2.0 * rng.unit() - 1.0)
+        } else {
+            2.0 * rng.unit() - 1.0
+        };
+        mu[i] + 0.1 * noise
+    })
 }
 
 #[test]

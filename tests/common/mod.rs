@@ -60,6 +60,42 @@ pub fn render(loaded: &Loaded, spp: u32, seed: u32) -> Image {
     Image::new(out.width as usize, out.height as usize, out.pixels)
 }
 
+/// Whether two renders of `file` (with `overrides`, `spp` each, seeds 1 and 2) converge
+/// to the reference `refs/<reference>.exr` (with its `.var.exr`) under the noise-aware
+/// relative MSE: |corrected| below 5σ + 2e-4.
+pub fn converges_to_ref(refs: &Path, file: &Path, reference: &str, overrides: &[&str], spp: u32) -> bool {
+    let s = load_scene(file, overrides, Profile::Physical);
+    let (a, b) = (render(&s, spp, 1), render(&s, spp, 2));
+    let r = read(&refs.join(format!("{reference}.exr")));
+    let vr = read(&refs.join(format!("{reference}.var.exr")));
+    let c = rdr::metrics::compare(&a, &b, &r, &vr);
+    eprintln!(
+        "{:>18} {:>8}: relMSE corrected {:+.2e} ± {:.1e}  (raw {:.2e}, noise {:.2e})",
+        file.file_name().unwrap().to_string_lossy(),
+        s.job.integrator.name(),
+        c.rel_mse_corrected,
+        c.std_error,
+        c.rel_mse_raw,
+        c.rel_mse_noise
+    );
+    c.rel_mse_corrected.abs() < 5.0 * c.std_error + 2e-4
+}
+
+/// bdpt's MIS self-check on `file`: over 3000 paths the weights of the strategies that
+/// could make each path sum to 1 and the densities the connections assemble equal those
+/// recomputed from the vertices.
+pub fn assert_bdpt_mis_sums_to_one(file: &Path) {
+    let s = load_scene(file, &[r#"{"integrator": {"type": "bdpt"}}"#], Profile::Physical);
+    let f = &s.job.film;
+    let c = rdr::integrator::bdpt::mis_self_check(&s.scene, &s.job.camera, f.width, f.height, 6, 3000);
+    let name = file.display();
+    eprintln!("{name}: {c:?}");
+    assert!(
+        c.paths > 1000 && c.max_sum_error < 1e-3 && c.samples_off * 100 < 3000,
+        "{name}: {c:?}"
+    );
+}
+
 pub fn read(path: &Path) -> Image {
     rdr::imageio::read_exr(path).unwrap_or_else(|e| panic!("{e:#}"))
 }

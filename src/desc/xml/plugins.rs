@@ -219,19 +219,11 @@ pub fn scene(root: &Element, file: &Path) -> Result<SceneDesc> {
                 let (fov, axis) = match p.float_opt("fov")? {
                     Some(f) => (f, axis),
                     None => {
-                        let f = p.string("focal_length", "50mm")?;
-                        let mm: f32 = f
-                            .trim()
-                            .trim_end_matches("mm")
-                            .trim()
-                            .parse()
-                            .ok()
-                            .filter(|v: &f32| *v > 0.0)
-                            .ok_or_else(|| p.value_error("focal_length", format!("expected a length such as \"50mm\", found \"{f}\"")))?;
+                        let fov = focal_length_fov(&p)? as f32;
                         if p.has("fov_axis") {
                             ids.warn(el, "fov_axis is ignored with focal_length (the image's diagonal is used)");
                         }
-                        (2.0 * (36f32.hypot(24.0) / (2.0 * mm)).atan().to_degrees(), "diagonal".to_string())
+                        (fov, "diagonal".to_string())
                     }
                 };
                 let axis = crate::light::projector::FovAxis::parse(&axis)
@@ -560,27 +552,12 @@ impl<'a> Reader<'a> {
         let fov_deg = match p.float_opt("fov")? {
             Some(f) => f as f64,
             None => {
-                // a focal length on a 35 mm film's diagonal (36 × 24 mm)
-                let f = p.string("focal_length", "50mm")?;
-                let mm: f64 = f
-                    .trim()
-                    .trim_end_matches("mm")
-                    .trim()
-                    .parse()
-                    .ok()
-                    .filter(|v: &f64| *v > 0.0)
-                    .ok_or_else(|| p.value_error("focal_length", format!("expected a length such as \"50mm\", found \"{f}\"")))?;
+                let fov = focal_length_fov(&p)?;
                 if p.has("fov_axis") {
                     self.ids
                         .warn(el, "fov_axis is ignored with focal_length (the film's diagonal is used)");
                 }
-                return self.camera(
-                    &p,
-                    2.0 * (36f64.hypot(24.0) / (2.0 * mm)).atan().to_degrees(),
-                    "diagonal",
-                    film,
-                    spp,
-                );
+                return self.camera(&p, fov, "diagonal", film, spp);
             }
         };
         self.camera(&p, fov_deg, &axis, film, spp)
@@ -1053,28 +1030,12 @@ impl<'a> Reader<'a> {
                 match (front, back) {
                     // rdr's own two-sided diffuse; its roughconductor is two-sided already
                     (Material::Diffuse { texture, .. }, None) => Material::Diffuse { texture, twosided: true },
-                    (
-                        Material::RoughConductor {
-                            twosided: _,
-                            texture,
-                            eta_i,
-                            eta_t,
-                            k,
-                            alpha_x,
-                            alpha_y,
-                            distribution,
-                        },
-                        None,
-                    ) => Material::RoughConductor {
-                        texture,
-                        eta_i,
-                        eta_t,
-                        k,
-                        alpha_x,
-                        alpha_y,
-                        distribution,
-                        twosided: true,
-                    },
+                    (mut m @ Material::RoughConductor { .. }, None) => {
+                        if let Material::RoughConductor { twosided, .. } = &mut m {
+                            *twosided = true;
+                        }
+                        m
+                    }
                     // smooth glass is the same from both sides (the 0.6 course files wrap it)
                     (m @ (Material::Glass { .. } | Material::Refraction { .. }), None) => {
                         self.ids.convert_note(
@@ -1494,6 +1455,21 @@ impl<'a> Reader<'a> {
 
 /// The frame of a light's `to_world` (its x, y and z axes, normalised): Mitsuba's
 /// local frame of `spot` and `projector`.
+/// The diagonal field of view (degrees) of the `focal_length` key ("50mm" by default) on
+/// a 35 mm film's diagonal (36 × 24 mm), as Mitsuba's sensors and projector read it.
+fn focal_length_fov(p: &Plugin) -> Result<f64> {
+    let f = p.string("focal_length", "50mm")?;
+    let mm: f64 = f
+        .trim()
+        .trim_end_matches("mm")
+        .trim()
+        .parse()
+        .ok()
+        .filter(|v: &f64| *v > 0.0)
+        .ok_or_else(|| p.value_error("focal_length", format!("expected a length such as \"50mm\", found \"{f}\"")))?;
+    Ok(2.0 * (36f64.hypot(24.0) / (2.0 * mm)).atan().to_degrees())
+}
+
 fn light_frame(m: &Mat4) -> std::result::Result<crate::math::Frame, String> {
     let (s, t, n) = (
         m.transform_vector3(Vec3::X).normalize_or_zero(),

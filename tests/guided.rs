@@ -302,7 +302,7 @@ fn learned_distribution_in_caustic_cbox_points_at_the_light_and_the_glass_sphere
     let Some(shared) = shared() else { return };
     // the paper's mode (direct light learned too); a small image trains few vertices:
     // a lower split threshold gives the tree its cells
-    let o = r#"{"integrator": {"type": "guided", "learn_direct": true, "spatial_threshold": 300}, "film": {"resolution": [64, 64]}}"#;
+    let o = r#"{"integrator": {"type": "guided", "learn_direct": true, "spatial_threshold": 300, "min_gain": 0}, "film": {"resolution": [64, 64]}}"#;
     let loaded = load_scene(&shared.join("refs/scenes/caustic_cbox.json"), &[o], Profile::Physical);
     let (light, sphere) = (0u32, 6u32); // objects[0] is the ceiling light, objects[6] the glass sphere
     let film = train(&loaded, 64);
@@ -348,7 +348,9 @@ fn learned_distribution_in_caustic_cbox_points_at_the_light_and_the_glass_sphere
     );
 }
 
-const GUIDED: &str = r#"{"integrator": {"type": "guided"}}"#;
+/// Guiding tested as such: training by the schedule alone (`min_gain` 0), so the
+/// final iterations guide wherever the leaves chose to.
+const GUIDED: &str = r#"{"integrator": {"type": "guided", "min_gain": 0}}"#;
 
 /// `scene.json` of the references at 1/k resolution: two independent renders.
 fn reduced(shared: &Path, scene: &str, k: u64, spp: u32, extra: &[&str]) -> (Image, Image) {
@@ -393,6 +395,42 @@ fn converges_to_the_path_traced_references() {
         let c = check(&format!("guided {name}"), (&a, &b), &r, &vr);
         assert!(converges(&c), "{name}: {c:?}");
     }
+}
+
+/// `min_gain`: where guiding is estimated not to pay (env_sphere: one diffuse sphere
+/// under the sky, whose BSDF samples find the sky well), training stops after the
+/// third iteration and the rest of the budget is one final iteration that guides
+/// nowhere (`path`'s estimator); the image still converges. With `min_gain` 0 the
+/// schedule runs in full.
+#[test]
+fn training_stops_where_guiding_does_not_pay_and_the_image_converges() {
+    let Some(shared) = shared() else { return };
+    let path = shared.join("refs/scenes/env_sphere.json");
+    let k = 4;
+    let res = r#"{"film": {"resolution": [64, 64]}}"#;
+    let summary_of = |extra: &str| {
+        let s = load_scene(&path, &[r#"{"integrator": {"type": "guided"}}"#, res, extra], Profile::Physical);
+        let job = rdr::RenderJob { spp: 64, ..s.job.clone() };
+        let out = rdr::render(&s.scene, &job, &RenderControl::default());
+        out.summary.unwrap()
+    };
+    let stopped = summary_of("{}");
+    eprintln!("default: {stopped}");
+    assert!(stopped.contains("training stopped after 3 iterations"), "{stopped}");
+    assert!(stopped.contains("final 57 spp"), "1 + 2 + 4 training spp, then the rest: {stopped}");
+    let scheduled = summary_of(r#"{"integrator": {"min_gain": 0}}"#);
+    eprintln!("min_gain 0: {scheduled}");
+    assert!(
+        !scheduled.contains("training stopped") && scheduled.contains("final 33 spp"),
+        "{scheduled}"
+    );
+
+    let r = read(&shared.join("refs/env_sphere.exr")).block_average(k, false);
+    let vr = read(&shared.join("refs/env_sphere.var.exr")).block_average(k, true);
+    let s = load_scene(&path, &[r#"{"integrator": {"type": "guided"}}"#, res], Profile::Physical);
+    let (a, b) = (render(&s, 32, 1), render(&s, 32, 2));
+    let c = check("guided env_sphere, stopped", (&a, &b), &r, &vr);
+    assert!(converges(&c), "{c:?}");
 }
 
 #[test]
@@ -481,7 +519,7 @@ fn an_interrupted_render_is_the_shorter_render_and_time_budgets_are_followed() {
 fn white_furnace_is_one() {
     let Some(shared) = shared() else { return };
     // (the mean of 100² pixels at 256 spp has a standard error of 1.6e-4)
-    let o = r#"{"integrator": {"type": "guided", "spatial_threshold": 200}, "film": {"resolution": [100, 100]}}"#;
+    let o = r#"{"integrator": {"type": "guided", "spatial_threshold": 200, "min_gain": 0}, "film": {"resolution": [100, 100]}}"#;
     let s = load_scene(&shared.join("refs/scenes/sphere_furnace.json"), &[o], Profile::Physical);
     let img = render(&s, 256, 3);
     let m = img.mean();

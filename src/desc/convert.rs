@@ -230,6 +230,8 @@ pub fn to_json(desc: &SceneDesc, out: &Path) -> Result<Converted> {
             integ.insert("spatial_threshold".into(), num(g.spatial_threshold));
             integ.insert("learn_direct".into(), g.learn_direct.into());
             integ.insert("learn_fraction".into(), g.learn_fraction.into());
+            integ.insert("training_share".into(), num(g.training_share));
+            integ.insert("min_gain".into(), num(g.min_gain));
         }
         Integrator::Rdr171(_) => unreachable!("a description never holds the compat integrator"),
     }

@@ -162,7 +162,7 @@ use crate::integrator::{
 ///   [`PathTracer`] (`spp` 32, `max_depth` 12, `profile`, `rr_threshold`),
 ///   [`Bdpt`] (as `path`, and `mis`, `strategy`, `strategy_weighted`, `visualize_strategies`, `connection_roulette`), [`Guided`] (`spp` 64,
 ///   `max_depth` 12, `rr_threshold`, `bsdf_fraction` 0.5, `training_iterations`, `combine`,
-///   `spatial_threshold`, `learn_direct`, `training_share`, `learn_fraction`), [`Ptracer`]
+///   `spatial_threshold`, `learn_direct`, `training_share`, `learn_fraction`, `min_gain`), [`Ptracer`]
 ///   (`spp` 32, `max_depth` 12, `rr_threshold`),
 ///   [`PhotonMapper`] (`spp` 16, `n_photons`, `n_iterations`, `n_near_photons`, …),
 ///   [`Sppm`] (`spp` 64 iterations, `photons_per_iteration`, `initial_radius`, …),
@@ -937,7 +937,12 @@ fn parse_guided(p: &Props) -> Result<Guided> {
     if !(training_share > 0.0 && training_share <= 1.0) {
         return Err(p.error("training_share", "training_share must lie in (0, 1]"));
     }
+    let min_gain = p.f32_or("min_gain", d.min_gain)?;
+    if !(0.0..1.0).contains(&min_gain) {
+        return Err(p.error("min_gain", "min_gain must lie in [0, 1)"));
+    }
     Ok(Guided {
+        min_gain,
         training_share,
         learn_direct,
         learn_fraction,

@@ -140,6 +140,14 @@ impl Integrator {
         }
     }
 
+    /// Brings the film's image up to date before it is read (a snapshot, the final
+    /// image): `guided` combines its iterations only then.
+    pub fn prepare_image(&self, film: &mut Film) {
+        if let Integrator::Guided(g) = self {
+            g.prepare_image(film);
+        }
+    }
+
     /// Images an integrator makes besides the main one (`bdpt`'s strategy images),
     /// named, row 0 = top; `weights` gives the film's pixel weights over all passes (the
     /// film itself may hold only the last block's), `splat_scale` is 1 / samples per pixel.

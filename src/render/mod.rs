@@ -184,6 +184,7 @@ pub fn render_with_aov(scene: &Scene, job: &RenderJob, control: &RenderControl, 
             .filter(|&i| last_call[i].elapsed().as_secs_f64() >= control.periodic[i].every)
             .collect();
         if !due.is_empty() && next < range.end {
+            job.integrator.prepare_image(&mut film);
             let snap_state = with_partial(&state, &film, block_start, next);
             let pixels = image_of(&snap_state, &film);
             let snap = Snapshot {
@@ -201,6 +202,7 @@ pub fn render_with_aov(scene: &Scene, job: &RenderJob, control: &RenderControl, 
     }
     // the image: with no finished block the film alone (also a compat render's
     // finished columns of an interrupted pass), else the pieces and the film's block
+    job.integrator.prepare_image(&mut film);
     let image_state = with_partial(&state, &film, block_start, next);
     let pixels = if state.pieces.is_empty() {
         film.to_rgb_rows(1.0 / spp_of(&image_state).max(1) as f64)

@@ -41,7 +41,7 @@ pub use quadtree::{sphere_to_square, square_to_sphere, DTree};
 pub use sdtree::{SdTree, TreeStats};
 
 use super::pass::{differential_scale, tile_grid};
-use super::{PassContext, PassResult, RayCounts};
+use super::{PassContext, PassResult, PathProfile, PathTracer, RayCounts};
 use crate::film::{Film, FilmTile};
 use crate::math::{Vec2, Vec3};
 use crate::sampler::{hash_combine, PixelSampler};
@@ -92,6 +92,14 @@ pub enum Combine {
 /// * `training_share` (number in (0, 1], 0.12) — under `--time-limit`, the share of
 ///   the time budget training may take: a training iteration starts only when it
 ///   is predicted (twice the previous one) to end within it.
+/// * `min_gain` (number in [0, 1), 0.1) — with `learn_fraction` and no
+///   `training_iterations`, training stops after the third iteration (1 + 2 + 4
+///   spp) or any later one when the leaves' chosen fractions are estimated to
+///   reduce the vertex estimator's second moment, summed over the iteration's
+///   vertices, by less than this share against BSDF sampling alone: guiding does
+///   not pay there, and the rest of the budget goes to one final iteration, whose
+///   single stratified sequence is worth more than further training, with the
+///   guide off everywhere (0: train by the schedule alone).
 ///
 /// ```json
 /// {"type": "guided", "spp": 256, "bsdf_fraction": 0.5, "combine": "inverse_variance"}
@@ -107,6 +115,7 @@ pub struct Guided {
     pub learn_direct: bool,
     pub training_share: f32,
     pub learn_fraction: bool,
+    pub min_gain: f32,
 }
 
 impl Default for Guided {
@@ -121,6 +130,7 @@ impl Default for Guided {
             learn_direct: false,
             training_share: 0.12,
             learn_fraction: true,
+            min_gain: 0.1,
         }
     }
 }
@@ -135,6 +145,9 @@ pub struct IterationInfo {
     pub build_seconds: f64,
     /// Estimated relative variance of its image.
     pub variance: f64,
+    /// What the leaves' fractions chosen at its end are estimated to gain
+    /// ([`sdtree::ChoiceMoments::gain`]; `None` without a choice).
+    pub gain: Option<f64>,
     pub last: bool,
     /// The tree it sampled from.
     pub tree: TreeStats,
@@ -154,6 +167,10 @@ pub struct State {
     passes: u32,
     passes_total: u32,
     stop_training: bool,
+    /// Why training stopped early, for the summary.
+    stop_reason: Option<String>,
+    /// Whether passes ended since the film's image was made.
+    image_stale: bool,
     /// The current iteration's image (film rows, y up) and per-pixel moments of
     /// the samples' mean over channels: Σy, Σy², n.
     sum: Vec<[f64; 3]>,
@@ -234,6 +251,8 @@ impl Guided {
             passes: 0,
             passes_total: 0,
             stop_training: false,
+            stop_reason: None,
+            image_stale: false,
             sum: vec![[0.0; 3]; n],
             weight: vec![0.0; n],
             moments: vec![[0.0; 3]; n],
@@ -252,7 +271,7 @@ impl Guided {
         let training = match self.training_iterations {
             Some(n) => k < n,
             None if ctx.time_limit.is_some() => !s.stop_training,
-            None => k < Self::auto_training_iterations(ctx.spp),
+            None => !s.stop_training && k < Self::auto_training_iterations(ctx.spp),
         };
         s.last = !training || length >= remaining;
         s.length = if s.last { remaining } else { length };
@@ -282,7 +301,21 @@ impl Guided {
         // adaptive density that depends on them would be biased)
         let iteration = state.history.len() as u32 - 1;
         let seed = hash_combine(ctx.seed, 0x5eed_0000 + iteration);
-        let tiles = render_tiles(ctx, state.passes, seed, &guiding);
+        // a final iteration that guides nowhere is `path`'s estimator: `path`'s own
+        // code renders it, at `path`'s cost (the guided one's bookkeeping made such
+        // a sample 7 % dearer, 15 % with the tree's lookups)
+        let unguided = state.last
+            && if self.learn_fraction {
+                state.tree.leaves.iter().all(|l| l.bsdf_fraction >= 1.0)
+            } else {
+                self.bsdf_fraction >= 1.0
+            };
+        let path = unguided.then_some(PathTracer {
+            max_depth: self.max_depth,
+            profile: PathProfile::Mis,
+            rr_threshold: self.rr_threshold,
+        });
+        let tiles = render_tiles(ctx, state.passes, seed, &guiding, path.as_ref());
         let _ = pass;
         let mut result = PassResult {
             complete: tiles.iter().all(Option::is_some),
@@ -338,9 +371,28 @@ impl Guided {
         if s.passes >= s.length && !s.last {
             self.end_iteration(s, ctx);
         }
-        film.set_estimate(self.estimate(s, ctx.film.width as usize));
+        // the image is made when it is read ([`Guided::prepare_image`]): combining
+        // the iterations after every pass took 5 % of a minute's render
+        s.image_stale = true;
         film.set_aux(state);
         result
+    }
+
+    /// Makes the film's image from the iterations so far, if passes were rendered
+    /// since it was last made.
+    pub fn prepare_image(&self, film: &mut Film) {
+        let Some(mut state) = film.take_aux::<State>() else { return };
+        if state.image_stale {
+            film.set_estimate(self.estimate(&state, film.width as usize));
+            state.image_stale = false;
+        }
+        film.set_aux(state);
+    }
+
+    /// Whether training stops after `iterations_done` iterations whose last one's
+    /// fraction choice is estimated to gain `gain` (see `min_gain`).
+    fn stops_unprofitable(&self, iterations_done: usize, gain: f64) -> bool {
+        self.learn_fraction && self.training_iterations.is_none() && iterations_done >= 3 && gain < self.min_gain as f64
     }
 
     /// Keeps the finished training iteration's image, rebuilds the tree and
@@ -358,7 +410,7 @@ impl Guided {
         }
         let threshold = self.spatial_threshold as f64 * (s.length as f64).sqrt();
         let choice = std::mem::take(&mut s.choice);
-        s.tree.end_iteration(
+        let moments = s.tree.end_iteration(
             threshold,
             RHO,
             true,
@@ -370,12 +422,26 @@ impl Guided {
             let parts: Vec<Part> = s.finished.iter().map(Finished::part).collect();
             relative_variances(&parts).last().copied().unwrap_or(0.0)
         };
+        let iterations_done = s.history.len();
         let info = s.history.last_mut().expect("an iteration is running");
         info.build_seconds = build;
         info.variance = variance;
+        info.gain = self.learn_fraction.then(|| moments.gain());
+        let spent = info.seconds + build;
+        if self.stops_unprofitable(iterations_done, moments.gain()) {
+            // the few leaves that chose to guide would slow the final iteration
+            // (cbox: 28 of 366 leaves, 25 % more time per sample) for a gain
+            // estimated too small to pay
+            s.tree.leaves.iter_mut().for_each(|l| l.bsdf_fraction = 1.0);
+            s.stop_training = true;
+            s.stop_reason = Some(format!(
+                "training stopped after {iterations_done} iterations: estimated gain {:.1} % < min_gain {:.1} %",
+                100.0 * moments.gain(),
+                100.0 * self.min_gain
+            ));
+        }
         if let Some(limit) = ctx.time_limit {
             // the next iteration, twice as long, must end within the training share
-            let spent = info.seconds + build;
             let now = s.started.elapsed().as_secs_f64();
             if now + 2.0 * spent > self.training_share as f64 * limit {
                 s.stop_training = true;
@@ -417,7 +483,7 @@ impl Guided {
             .filter(|i| i.spp > 0)
             .map(|i| {
                 format!(
-                    "{}{} spp {:.2} s (tree {} leaves, {:.1} MB; build {:.1} ms{})",
+                    "{}{} spp {:.2} s (tree {} leaves, {:.1} MB; build {:.1} ms{}{})",
                     if i.last { "final " } else { "" },
                     i.spp,
                     i.seconds,
@@ -428,13 +494,15 @@ impl Guided {
                         format!(", variance {:.2e}", i.variance)
                     } else {
                         String::new()
-                    }
+                    },
+                    i.gain.map_or_else(String::new, |g| format!(", gain {:.1} %", 100.0 * g))
                 )
             })
             .collect();
         Some(format!(
-            "guided: schedule {}; combine {}; iterations: {}; SD-tree {} spatial leaves, {} directional nodes (depth ≤ {}), {:.1} MB; leaves per BSDF fraction {}",
+            "guided: schedule {}{}; combine {}; iterations: {}; SD-tree {} spatial leaves, {} directional nodes (depth ≤ {}), {:.1} MB; leaves per BSDF fraction {}",
             s.schedule,
+            s.stop_reason.as_ref().map_or_else(String::new, |r| format!(" ({r})")),
             match self.combine {
                 Combine::InverseVariance => "inverse variance",
                 Combine::Last => "last iteration",
@@ -461,7 +529,7 @@ pub fn learned_tree(film: &Film) -> Option<&SdTree> {
 
 /// Renders sample `sample` (of the sampler seeded by `seed`) of every pixel, tiles in parallel, each with its
 /// records and moments; `None` for tiles skipped after a stop.
-fn render_tiles(ctx: &PassContext, sample: u32, seed: u32, guiding: &Guiding) -> Vec<Option<TileOut>> {
+fn render_tiles(ctx: &PassContext, sample: u32, seed: u32, guiding: &Guiding, path: Option<&PathTracer>) -> Vec<Option<TileOut>> {
     let scene: &Scene = ctx.scene;
     let diff_scale = differential_scale(ctx.spp);
     let (w, h) = (ctx.film.width as i32, ctx.film.height as i32);
@@ -489,7 +557,10 @@ fn render_tiles(ctx: &PassContext, sample: u32, seed: u32, guiding: &Guiding) ->
                         (ctx.camera.sample_ray(pos.x, pos.y, u_lens), None)
                     };
                     let mark = scratch.records.len();
-                    let l = guiding.li(scene, ray, diff, &mut sampler, &mut counts, &mut scratch);
+                    let l = match path {
+                        Some(p) => p.li(scene, ray, diff, &mut sampler, &mut counts),
+                        None => guiding.li(scene, ray, diff, &mut sampler, &mut counts, &mut scratch),
+                    };
                     if l.is_finite() {
                         tile.add(pos, l, filter, w, h);
                         let yv = ((l.x + l.y + l.z) / 3.0) as f64;

@@ -51,6 +51,27 @@ const MIN_CHOICE_VERTICES: f64 = 128.0;
 /// of `path`, at a higher error per sample).
 const GUIDE_MARGIN: f64 = 0.6;
 
+/// The second moments, summed over the vertices of an iteration that chose the
+/// leaves' fractions, of the vertex estimator with each leaf's chosen fraction and
+/// with BSDF sampling alone: 1 − chosen/bsdf estimates what guiding gains.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ChoiceMoments {
+    pub chosen: f64,
+    pub bsdf: f64,
+}
+
+impl ChoiceMoments {
+    /// Estimated relative reduction of the vertex estimator's second moment by
+    /// guiding (0 without data).
+    pub fn gain(&self) -> f64 {
+        if self.bsdf > 0.0 && self.bsdf.is_finite() {
+            (1.0 - self.chosen / self.bsdf).max(0.0)
+        } else {
+            0.0
+        }
+    }
+}
+
 /// Deepest spatial level (a box of 2⁻¹⁶ of the cube's side per axis).
 const MAX_SPATIAL_DEPTH: u32 = 48;
 
@@ -150,8 +171,17 @@ impl SdTree {
     /// guide's density being the new tree's with the vertex's own deposit left out
     /// (leave-one-out: the tree was learned from these vertices, and without it
     /// every vertex would find the guide at its own direction); the others take
-    /// `default_fraction`.
-    pub fn end_iteration(&mut self, threshold: f64, rho: f32, refine: bool, choice: Option<&[ChoiceSample]>, default_fraction: f32) {
+    /// `default_fraction`. Returns the second moments the choice leads to
+    /// ([`ChoiceMoments`]; zero without `choice`).
+    pub fn end_iteration(
+        &mut self,
+        threshold: f64,
+        rho: f32,
+        refine: bool,
+        choice: Option<&[ChoiceSample]>,
+        default_fraction: f32,
+    ) -> ChoiceMoments {
+        let mut totals = ChoiceMoments::default();
         for leaf in &mut self.leaves {
             leaf.building.finish_recording();
             leaf.sampling = std::mem::take(&mut leaf.building);
@@ -188,7 +218,12 @@ impl SdTree {
             }
             for (leaf, (m, n)) in self.leaves.iter_mut().zip(moments) {
                 let last = FRACTIONS.len() - 1;
-                if (n as f64) < MIN_CHOICE_VERTICES || !(m[last] > 0.0 && m[last].is_finite()) {
+                if !(m[last] > 0.0 && m[last].is_finite()) {
+                    continue;
+                }
+                totals.bsdf += m[last];
+                if (n as f64) < MIN_CHOICE_VERTICES {
+                    totals.chosen += m[last];
                     continue;
                 }
                 let mut best = last;
@@ -198,6 +233,7 @@ impl SdTree {
                     }
                 }
                 leaf.bsdf_fraction = FRACTIONS[best];
+                totals.chosen += m[best];
             }
         }
         if refine {
@@ -227,6 +263,7 @@ impl SdTree {
             leaf.building = leaf.sampling.refined(rho);
             leaf.count = 0;
         }
+        totals
     }
 
     pub fn stats(&self) -> TreeStats {

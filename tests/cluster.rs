@@ -35,15 +35,47 @@ fn sh(cmd: &mut Command) -> String {
     String::from_utf8_lossy(&o.stdout).trim().to_string()
 }
 
-fn wait_for(what: &str, deadline: Instant, mut done: impl FnMut() -> bool) {
+/// Waits until `done`; on the deadline fails with what Slurm says of the queue and
+/// with the jobs' logs in `logs`, so a failure on CI can be read from its output.
+fn wait_for(what: &str, deadline: Instant, logs: &Path, mut done: impl FnMut() -> bool) {
     while !done() {
-        assert!(Instant::now() < deadline, "timed out waiting for {what}");
+        if Instant::now() >= deadline {
+            panic!("timed out waiting for {what}\n{}", slurm_diagnostics(logs));
+        }
         std::thread::sleep(Duration::from_millis(200));
     }
 }
 
+fn slurm_diagnostics(logs: &Path) -> String {
+    let run = |args: &[&str]| {
+        Command::new(args[0])
+            .args(&args[1..])
+            .output()
+            .map(|o| String::from_utf8_lossy(&o.stdout).into_owned() + &String::from_utf8_lossy(&o.stderr))
+            .unwrap_or_else(|e| format!("{args:?}: {e}"))
+    };
+    let mut out = String::new();
+    out += &format!("squeue:\n{}", run(&["squeue", "-a", "-o", "%i %T %r %S"]));
+    out += &format!("sinfo:\n{}", run(&["sinfo", "-R"]));
+    out += &format!("scontrol show job:\n{}", run(&["scontrol", "show", "job"]));
+    if let Ok(entries) = std::fs::read_dir(logs) {
+        let mut names: Vec<_> = entries.flatten().map(|e| e.path()).collect();
+        names.sort();
+        for log in names.iter().filter(|p| p.extension().is_some_and(|e| e == "log")) {
+            let text = std::fs::read_to_string(log).unwrap_or_default();
+            out += &format!("{}:\n{text}", log.display());
+        }
+    }
+    out
+}
+
 fn job_state(id: &str) -> String {
     let o = Command::new("squeue").args(["-h", "-j", id, "-o", "%T"]).output().unwrap();
+    String::from_utf8_lossy(&o.stdout).trim().to_string()
+}
+
+fn job_reason(id: &str) -> String {
+    let o = Command::new("squeue").args(["-h", "-j", id, "-o", "%r"]).output().unwrap();
     String::from_utf8_lossy(&o.stdout).trim().to_string()
 }
 
@@ -117,11 +149,11 @@ fn slurm_array_with_preemption_and_animation_merges_to_one_render() {
     // says RUNNING as soon as the task is allocated, before slurmd has launched the
     // batch script, and a signal sent then is dropped without an error (the task then
     // runs to the end and is never requeued: this test's old flake under load)
-    wait_for("task 0's first checkpoint", deadline, || part0.exists());
+    wait_for("task 0's first checkpoint", deadline, &out, || part0.exists());
     assert_eq!(job_state(&task0), "RUNNING", "task 0 after its first checkpoint");
     sh(Command::new("scancel").args(["--signal=TERM", "--batch", &task0]));
     // requeued tasks wait 2 minutes before they may start again: let it go at once
-    wait_for("task 0 to be requeued", deadline, || job_state(&task0) == "PENDING");
+    wait_for("task 0 to be requeued", deadline, &out, || job_state(&task0) == "PENDING");
     let held = rdr::render::statefile::read(&part0)
         .unwrap()
         .expect("the pre-empted shard saved its passes");
@@ -129,7 +161,25 @@ fn slurm_array_with_preemption_and_animation_merges_to_one_render() {
     assert!(saved > 0 && saved < 2400, "pre-empted shard holds {saved} of 2400 passes");
     sh(Command::new("scontrol").args(["update", &format!("jobid={task0}"), "StartTime=now"]));
     let merged = out.join("frame_0.exr");
-    wait_for("the merge job", deadline, || job_state(&merge).is_empty() && merged.exists());
+    // the update is repeated while the task still waits for its begin time (once it
+    // raced the requeue on a loaded machine, we think: CI timed out here), and a
+    // merge whose dependency can no longer be met fails at once
+    let mut kicked = Instant::now();
+    wait_for("the merge job", deadline, &out, || {
+        if job_reason(&task0) == "BeginTime" && kicked.elapsed() > Duration::from_secs(3) {
+            let _ = Command::new("scontrol")
+                .args(["update", &format!("jobid={task0}"), "StartTime=now"])
+                .output();
+            kicked = Instant::now();
+        }
+        let reason = job_reason(&merge);
+        assert!(
+            reason != "DependencyNeverSatisfied",
+            "the merge job can never run\n{}",
+            slurm_diagnostics(&out)
+        );
+        job_state(&merge).is_empty() && merged.exists()
+    });
     let log = std::fs::read_to_string(out.join("render_0.log")).unwrap();
     assert!(log.contains("requeueing") && log.contains("(restart 1)"), "task 0 log:\n{log}");
     let local = dir.path().join("local.exr");
@@ -156,7 +206,7 @@ fn slurm_array_with_preemption_and_animation_merges_to_one_render() {
         &[("RDR_FRAME_OVERRIDES", &per_frame)],
     );
     let deadline = Instant::now() + Duration::from_secs(120);
-    wait_for("the animation's merge", deadline, || {
+    wait_for("the animation's merge", deadline, &anim, || {
         job_state(&merge).is_empty() && anim.join("frame_4.exr").exists()
     });
     for (f, fov) in [(3, fovs[0]), (4, fovs[1])] {

@@ -22,11 +22,13 @@
 //!
 //! Schedule: with an spp budget, iterations double while the rest still holds
 //! at least one more doubling, and the last takes what remains (64 spp: 1, 2, 4,
-//! 8, 16, then 33). Under `--time-limit` training stops when the predicted
-//! variance of the final image, (V_k·T_k) / (budget left at the start of
-//! iteration k), rises from one iteration to the next (the paper's balancing),
-//! or when the next iteration could not end within the limit; the last iteration
-//! then renders until the render loop stops it.
+//! 8, 16, then 33). Under `--time-limit` a training iteration starts only if it
+//! is predicted to end within `training_share` of the limit (the paper's
+//! variance-times-time balancing trained too long for a minute's render); the
+//! last iteration then renders until the render loop stops it. Either way
+//! training also stops early, with the guide turned off, once the leaves' chosen
+//! fractions are estimated to gain less than `min_gain` over BSDF sampling; a
+//! final iteration that guides nowhere runs `path`'s own code.
 //!
 //! Deterministic: records are kept per tile and deposited in tile order after
 //! each pass, so the trees, and with them the image, do not depend on the

@@ -1,0 +1,38 @@
+#!/usr/bin/env bash
+# Mitsuba 3 (LLVM) and rdr on the same reference scenes, side by side (the README's "Against
+# Mitsuba 3 (LLVM)" table): per scene and round, scripts/mitsuba_time.py, then `rdr bench`
+# (2 threads) under /usr/bin/time; best of ROUNDS (default 2) for each; ratio = rdr's samples
+# per CPU second over Mitsuba's (above 1: rdr faster).
+#
+#   scripts/mitsuba-vs-rdr.sh [ROUNDS] [RDR]
+#
+# MI_PY (default /work/venv-mi/bin/python) runs Mitsuba; setup in scripts/mitsuba_time.py.
+set -euo pipefail
+here=$(cd "$(dirname "$0")/.." && pwd)
+shared=$(realpath -m "${SHARED:-$here/../shared}")
+rounds=${1:-2}
+rdr=${2:-$here/target/release/rdr}
+py=${MI_PY:-/work/venv-mi/bin/python}
+export DRJIT_LIBLLVM_PATH=${DRJIT_LIBLLVM_PATH:-/usr/lib/x86_64-linux-gnu/libLLVM.so.19.1}
+"$rdr" bench "$shared/refs/scenes/cbox_point.json" --spp 1 --threads 1 | grep '^cpu'
+# scene spp res(for Mitsuba's file; empty: the file's own)
+while read -r scene spp res; do
+  best_mw=inf best_mc=inf best_rw=inf best_rc=inf
+  for _ in $(seq "$rounds"); do
+    read -r mw mc < <("$py" "$here/scripts/mitsuba_time.py" "$shared/refs/mitsuba/$scene.xml" "$spp" ${res:+--res "$res"} |
+      awk '{print $3, $6}')
+    t=$( { /usr/bin/time -f 'cpu %U %S' "$rdr" bench "$shared/refs/scenes/$scene.json" --spp "$spp" --threads 2 >/tmp/mvr.out; } 2>&1 | awk '/^cpu/ {print $2 + $3}')
+    rw=$(grep -oE 'in [0-9.]+ s' /tmp/mvr.out | head -1 | awk '{print $2}')
+    best_mw=$(echo "$mw $best_mw" | awk '{print ($1 < $2 || $2 == "inf") ? $1 : $2}')
+    best_mc=$(echo "$mc $best_mc" | awk '{print ($1 < $2 || $2 == "inf") ? $1 : $2}')
+    best_rw=$(echo "$rw $best_rw" | awk '{print ($1 < $2 || $2 == "inf") ? $1 : $2}')
+    best_rc=$(echo "$t $best_rc" | awk '{print ($1 < $2 || $2 == "inf") ? $1 : $2}')
+  done
+  ratio=$(echo "$best_mc $best_rc" | awk '{printf "%.2f", $1 / $2}')
+  echo "$scene spp $spp: mitsuba wall $best_mw s cpu $best_mc s | rdr wall $best_rw s cpu $best_rc s | rdr/mitsuba per CPU s ${ratio}x"
+done <<'LIST'
+cbox_point 32 512
+cbox_path 64 256
+env_sphere 64
+caustic_cbox 64 256
+LIST

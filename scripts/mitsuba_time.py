@@ -1,0 +1,49 @@
+#!/usr/bin/env python3
+"""Mitsuba 3 timed on a reference scene, for side-by-side runs with `rdr bench` (the README's
+"Against Mitsuba 3 (LLVM)" table). An oracle run by hand, never by tests or CI.
+
+Setup (once): python3 -m venv /work/venv-mi && /work/venv-mi/bin/pip install mitsuba numpy;
+apt-get install libllvm19; export DRJIT_LIBLLVM_PATH=/usr/lib/x86_64-linux-gnu/libLLVM.so.19.1
+
+Usage: /work/venv-mi/bin/python scripts/mitsuba_time.py ../shared/refs/mitsuba/X.xml SPP [--res R]
+       [--reps 2] [--variant llvm_ad_rgb]
+Loads the file (spp and, when given, res as parameters), renders once to warm the JIT up, then
+`--reps` timed renders (`mi.render` plus evaluation of the image). Prints, for scripts:
+    mitsuba wall W s cpu C s samples S
+with the best wall clock and the best process CPU time (`time.process_time`, all threads).
+"""
+import argparse, time
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("xml")
+    ap.add_argument("spp", type=int)
+    ap.add_argument("--res", type=int)
+    ap.add_argument("--reps", type=int, default=2)
+    ap.add_argument("--variant", default="llvm_ad_rgb")
+    a = ap.parse_args()
+    import mitsuba as mi
+    import drjit as dr
+
+    mi.set_variant(a.variant)
+    params = {"spp": a.spp}
+    if a.res:
+        params["res"] = a.res
+    scene = mi.load_file(a.xml, **params)
+    img = mi.render(scene, spp=a.spp)
+    dr.eval(img)
+    best_wall = best_cpu = float("inf")
+    for _ in range(a.reps):
+        w0, c0 = time.perf_counter(), time.process_time()
+        img = mi.render(scene, spp=a.spp)
+        dr.eval(img)
+        dr.sync_thread()
+        best_wall = min(best_wall, time.perf_counter() - w0)
+        best_cpu = min(best_cpu, time.process_time() - c0)
+    size = scene.sensors()[0].film().crop_size()
+    print(f"mitsuba wall {best_wall:.3f} s cpu {best_cpu:.3f} s samples {int(size[0]) * int(size[1]) * a.spp}")
+
+
+if __name__ == "__main__":
+    main()

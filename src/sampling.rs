@@ -219,8 +219,14 @@ pub struct Distribution2D {
 impl Distribution2D {
     /// `weights[v * nu + u]`.
     pub fn new(weights: &[f32], nu: usize, nv: usize) -> Self {
-        let (mut func, mut cdf, mut guide) = (Vec::with_capacity(nu * nv), Vec::with_capacity((nu + 1) * nv), Vec::with_capacity(nu * nv));
-        let integrals: Vec<f32> = (0..nv).map(|v| build_tables(&weights[v * nu..(v + 1) * nu], &mut func, &mut cdf, &mut guide)).collect();
+        let (mut func, mut cdf, mut guide) = (
+            Vec::with_capacity(nu * nv),
+            Vec::with_capacity((nu + 1) * nv),
+            Vec::with_capacity(nu * nv),
+        );
+        let integrals: Vec<f32> = (0..nv)
+            .map(|v| build_tables(&weights[v * nu..(v + 1) * nu], &mut func, &mut cdf, &mut guide))
+            .collect();
         let marginal = Distribution1D::new(&integrals);
         // a row of no weights is one zero weight (as `Distribution1D::new(&[])`)
         let nu = nu.max(1);
@@ -250,6 +256,15 @@ impl Distribution2D {
         let (v, pdf_v, row) = self.marginal.sample_continuous(u.y);
         let (x, pdf_u, _) = self.row(row).sample_continuous(u.x);
         (Vec2::new(x, v), pdf_u * pdf_v)
+    }
+
+    /// Prefetches the weight [`Self::pdf`] reads at `p` (a hint).
+    #[inline]
+    pub fn prefetch(&self, p: Vec2) {
+        let nv = self.integrals.len();
+        let row = ((p.y * nv as f32) as usize).min(nv.saturating_sub(1));
+        let col = ((p.x * self.nu as f32) as usize).min(self.nu - 1);
+        crate::math::prefetch(&self.func, row * self.nu + col);
     }
 
     pub fn pdf(&self, p: Vec2) -> f32 {
@@ -390,7 +405,15 @@ mod tests {
         let mut rng = SplitMix64(11);
         for (nu, nv) in [(1usize, 1usize), (5, 3), (64, 32), (300, 7)] {
             let w: Vec<f32> = (0..nu * nv)
-                .map(|k| if (k / nu) % 3 == 1 { 0.0 } else if rng.next_u64() % 5 == 0 { 0.0 } else { rng.unit_f32() * 10.0 })
+                .map(|k| {
+                    if (k / nu) % 3 == 1 {
+                        0.0
+                    } else if rng.next_u64() % 5 == 0 {
+                        0.0
+                    } else {
+                        rng.unit_f32() * 10.0
+                    }
+                })
                 .collect();
             let d = Distribution2D::new(&w, nu, nv);
             let rows: Vec<Distribution1D> = (0..nv).map(|v| Distribution1D::new(&w[v * nu..(v + 1) * nu])).collect();
@@ -400,7 +423,10 @@ mod tests {
                 let (v, pv, row) = marginal.sample_continuous(u.y);
                 let (x, pu, _) = rows[row].sample_continuous(u.x);
                 let (p, pdf) = d.sample(u);
-                assert_eq!((p.x.to_bits(), p.y.to_bits(), pdf.to_bits()), (x.to_bits(), v.to_bits(), (pu * pv).to_bits()));
+                assert_eq!(
+                    (p.x.to_bits(), p.y.to_bits(), pdf.to_bits()),
+                    (x.to_bits(), v.to_bits(), (pu * pv).to_bits())
+                );
                 let q = Vec2::new(rng.unit_f32(), rng.unit_f32());
                 let r = ((q.y * nv as f32) as usize).min(nv - 1);
                 assert_eq!(d.pdf(q).to_bits(), (marginal.pdf(q.y) * rows[r].pdf(q.x)).to_bits());

@@ -7,7 +7,7 @@
 //! convention 10): `x = u·W − ½` wrapping, `y = v·(H − 1)`, bilinear.
 
 use super::{LightSample, LightSampling, ShadowTarget};
-use crate::math::{luminance, Mat4, Vec2, Vec3, PI};
+use crate::math::{floor_f32, luminance, prefetch, Mat4, Vec2, Vec3, PI};
 use crate::sampling::{uniform_sphere, Distribution2D};
 use crate::texture::UvMapping;
 use glam::Mat3;
@@ -138,17 +138,48 @@ impl EnvironmentLight {
                 let (w, h) = (*width as i64, *height as i64);
                 let x = st.x * w as f32 - 0.5;
                 let y = (st.y * (h - 1) as f32).clamp(0.0, (h - 1) as f32);
-                let (x0, y0) = (x.floor(), y.floor());
+                let (x0, y0) = (floor_f32(x), floor_f32(y));
                 let (fx, fy) = (x - x0, y - y0);
-                let xi = |k: i64| k.rem_euclid(w) as usize;
-                let yi = |k: i64| k.clamp(0, h - 1) as usize;
                 let (x0, y0) = (x0 as i64, y0 as i64);
-                let t = |xx: usize, yy: usize| texels[yy * *width + xx];
-                let top = t(xi(x0), yi(y0)) * (1.0 - fx) + t(xi(x0 + 1), yi(y0)) * fx;
-                let bottom = t(xi(x0), yi(y0 + 1)) * (1.0 - fx) + t(xi(x0 + 1), yi(y0 + 1)) * fx;
+                // columns wrap around (no division inside the image), rows clamp
+                let (c0, c1) = if x0 >= 0 && x0 + 1 < w {
+                    (x0 as usize, x0 as usize + 1)
+                } else {
+                    (x0.rem_euclid(w) as usize, (x0 + 1).rem_euclid(w) as usize)
+                };
+                let (r0, r1) = (y0.clamp(0, h - 1) as usize, (y0 + 1).clamp(0, h - 1) as usize);
+                let (row0, row1) = (&texels[r0 * *width..][..*width], &texels[r1 * *width..][..*width]);
+                let top = row0[c0] * (1.0 - fx) + row0[c1] * fx;
+                let bottom = row1[c0] * (1.0 - fx) + row1[c1] * fx;
                 top * (1.0 - fy) + bottom * fy
             }
         }
+    }
+
+    /// Prefetches the texels [`Self::lookup`] reads at `uv` (a hint: the lines of the
+    /// nearest texel and the one below it).
+    #[inline]
+    fn prefetch_texels(&self, uv: Vec2) {
+        if let EnvImage::Image {
+            width,
+            height,
+            texels,
+            mapping,
+        } = &self.image
+        {
+            let st = mapping.map(uv);
+            // `as` saturates (and takes NaN to 0); `prefetch` ignores indices past the end
+            let x = ((st.x * *width as f32) as usize).min(width - 1);
+            let y = (st.y * (*height - 1) as f32) as usize;
+            prefetch(texels, y * width + x);
+            prefetch(texels, (y + 1) * width + x);
+        }
+    }
+
+    /// Prefetches the weight [`Self::pdf_at`] reads at `uv`.
+    #[inline]
+    pub fn prefetch_pdf(&self, uv: Vec2) {
+        self.distribution.prefetch(uv);
     }
 
     /// Radiance arriving from direction `w` (towards the sky).
@@ -163,17 +194,7 @@ impl EnvironmentLight {
     }
 
     pub fn sample(&self, u: Vec2, mode: LightSampling) -> Option<LightSample> {
-        let (wi, pdf) = match mode {
-            LightSampling::Uniform => (uniform_sphere(u), 1.0 / (4.0 * PI)),
-            LightSampling::Importance => {
-                let (uv, pdf_uv) = self.distribution.sample(u);
-                let (wi, sin_theta) = self.uv_to_direction(uv);
-                if sin_theta <= 0.0 || pdf_uv <= 0.0 {
-                    return None;
-                }
-                (wi, pdf_uv / (2.0 * PI * PI * sin_theta))
-            }
-        };
+        let (wi, pdf) = self.sample_direction(u, mode)?;
         Some(LightSample {
             radiance: self.radiance(wi),
             wi,
@@ -181,6 +202,25 @@ impl EnvironmentLight {
             delta: false,
             target: ShadowTarget::Infinity,
         })
+    }
+
+    /// The direction and solid-angle pdf of [`Self::sample`], without its radiance
+    /// ([`Self::radiance`] of the direction).
+    #[inline]
+    pub fn sample_direction(&self, u: Vec2, mode: LightSampling) -> Option<(Vec3, f32)> {
+        match mode {
+            LightSampling::Uniform => Some((uniform_sphere(u), 1.0 / (4.0 * PI))),
+            LightSampling::Importance => {
+                let (uv, pdf_uv) = self.distribution.sample(u);
+                // the radiance will be looked up at (about) `uv`, after the trigonometry
+                self.prefetch_texels(uv);
+                let (wi, sin_theta) = self.uv_to_direction(uv);
+                if sin_theta <= 0.0 || pdf_uv <= 0.0 {
+                    return None;
+                }
+                Some((wi, pdf_uv / (2.0 * PI * PI * sin_theta)))
+            }
+        }
     }
 
     pub fn pdf(&self, wi: Vec3, mode: LightSampling) -> f32 {

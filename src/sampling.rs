@@ -83,10 +83,20 @@ impl Tables<'_> {
             return (0, self.cdf[0], self.cdf[1], self.func[0]);
         }
         // `as` saturates: negative u gives 0
-        let g = self.guide[((u * n as f32) as usize).min(n - 1)];
+        let k = ((u * n as f32) as usize).min(n - 1);
+        let g = self.guide[k];
         // the search below would stop at once where it starts
         if g.lo <= u && u < g.hi {
             return (g.i as usize, g.lo, g.hi, g.func);
+        }
+        // or where the next bucket's entry starts (the bucket holds one cdf value: u is
+        // past it, in the interval that reaches into the next bucket), whose entry is
+        // beside this one: the search would pass the intervals between the two
+        // (the cdf does not decrease) and stop there
+        if let Some(g) = self.guide.get(k + 1) {
+            if g.lo <= u && u < g.hi {
+                return (g.i as usize, g.lo, g.hi, g.func);
+            }
         }
         let mut i = g.i as usize;
         // the guide is a start; rounding of u·n may put it one bucket off either way
@@ -219,11 +229,12 @@ pub struct Distribution2D {
 impl Distribution2D {
     /// `weights[v * nu + u]`.
     pub fn new(weights: &[f32], nu: usize, nv: usize) -> Self {
-        let (mut func, mut cdf, mut guide) = (
-            Vec::with_capacity(nu * nv),
-            Vec::with_capacity((nu + 1) * nv),
-            Vec::with_capacity(nu * nv),
-        );
+        // on huge pages: samples read them all over (see `crate::pages`)
+        let (mut func, mut cdf, mut guide) = (Vec::new(), Vec::new(), Vec::new());
+        let cells = nu.max(1) * nv;
+        crate::pages::reserve_huge(&mut func, cells);
+        crate::pages::reserve_huge(&mut cdf, cells + nv);
+        crate::pages::reserve_huge(&mut guide, cells);
         let integrals: Vec<f32> = (0..nv)
             .map(|v| build_tables(&weights[v * nu..(v + 1) * nu], &mut func, &mut cdf, &mut guide))
             .collect();
@@ -256,6 +267,15 @@ impl Distribution2D {
         let (v, pdf_v, row) = self.marginal.sample_continuous(u.y);
         let (x, pdf_u, _) = self.row(row).sample_continuous(u.x);
         (Vec2::new(x, v), pdf_u * pdf_v)
+    }
+
+    /// Prefetches the guide entries [`Self::sample`] will read for `u` (a hint: the
+    /// marginal's search is repeated, its tables are small and cached).
+    #[inline]
+    pub fn prefetch_sample(&self, u: Vec2) {
+        let row = self.marginal.tables().find(u.y).0;
+        let col = ((u.x * self.nu as f32) as usize).min(self.nu - 1);
+        crate::math::prefetch(&self.guide, row * self.nu + col);
     }
 
     /// Prefetches the weight [`Self::pdf`] reads at `p` (a hint).

@@ -118,11 +118,18 @@ fn li(
         let Some(material) = scene.material_of(&it) else { break };
         let bsdf = material.bsdf_at(&it, &scene.textures);
 
+        // the BSDF's numbers follow the light's (the same order as drawn one after the
+        // other), drawn before the light sample is taken, while its tables load
+        let (uc, u_bsdf);
         if profile != PathProfile::RandomWalk && !bsdf.is_delta() && !scene.lights.is_empty() {
             let (index, pmf, _) = scene.light_sampler.sample(sampler.next_1d());
             let light: &Light = &scene.lights[index];
+            let u_light = Vec2::from(sampler.next_2d());
+            light.prefetch_sample(u_light, mode);
+            uc = sampler.next_1d();
+            u_bsdf = Vec2::from(sampler.next_2d());
             // the environment's radiance only for directions the BSDF reflects
-            if let Some(mut ls) = light.sample_unlit(it.p, Vec2::from(sampler.next_2d()), mode) {
+            if let Some(mut ls) = light.sample_unlit(it.p, u_light, mode) {
                 let f = bsdf.eval(it.wo, ls.wi);
                 let cos = it.ns.dot(ls.wi).abs();
                 if f != Vec3::ZERO && ls.pdf > 0.0 && pmf > 0.0 && {
@@ -142,10 +149,12 @@ fn li(
                     }
                 }
             }
+        } else {
+            uc = sampler.next_1d();
+            u_bsdf = Vec2::from(sampler.next_2d());
         }
 
-        let uc = sampler.next_1d();
-        let Some(bs) = bsdf.sample(it.wo, Vec2::from(sampler.next_2d()), uc) else {
+        let Some(bs) = bsdf.sample(it.wo, u_bsdf, uc) else {
             break;
         };
         beta *= bs.weight;
@@ -165,6 +174,10 @@ fn li(
             beta /= q;
         }
         ray = spawn_ray(&it, bs.wi);
+        if let Some((_, sky)) = scene.environment_light() {
+            // should the ray escape, its texels load during the traversal
+            sky.prefetch_direction(ray.d);
+        }
         segment += 1;
     }
     l

@@ -202,6 +202,15 @@ impl Light {
         }
     }
 
+    /// Prefetches what [`Self::sample`] with `u` will read first (a hint, for the
+    /// environment's tables), so that other work overlaps the loads.
+    #[inline]
+    pub fn prefetch_sample(&self, u: Vec2, mode: LightSampling) {
+        if let Light::Environment(e) = self {
+            e.prefetch_sample(u, mode);
+        }
+    }
+
     /// The radiance of a sample from [`Self::sample_unlit`]: what [`Self::sample`]
     /// would have given.
     #[inline]

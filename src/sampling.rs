@@ -2,6 +2,7 @@
 //! square. Each has a matching pdf; `tests/sampling_chi2.rs` checks them.
 
 use crate::math::{Vec2, Vec3, PI};
+use crate::pages::HugeBuf;
 
 /// One bucket of a guide table: `i`, the last interval whose cdf is ≤ k/n, and that
 /// interval's bounds and weight, so that a `u` inside `[lo, hi)` (most draws) is
@@ -218,9 +219,9 @@ impl Distribution1D {
 #[derive(Clone, Debug)]
 pub struct Distribution2D {
     nu: usize,
-    func: Vec<f32>,
-    cdf: Vec<f32>,
-    guide: Vec<Guide>,
+    func: HugeBuf<f32>,
+    cdf: HugeBuf<f32>,
+    guide: HugeBuf<Guide>,
     /// The rows' integrals (the marginal's weights).
     integrals: Vec<f32>,
     marginal: Distribution1D,
@@ -229,23 +230,20 @@ pub struct Distribution2D {
 impl Distribution2D {
     /// `weights[v * nu + u]`.
     pub fn new(weights: &[f32], nu: usize, nv: usize) -> Self {
-        // on huge pages: samples read them all over (see `crate::pages`)
-        let (mut func, mut cdf, mut guide) = (Vec::new(), Vec::new(), Vec::new());
         let cells = nu.max(1) * nv;
-        crate::pages::reserve_huge(&mut func, cells);
-        crate::pages::reserve_huge(&mut cdf, cells + nv);
-        crate::pages::reserve_huge(&mut guide, cells);
+        let (mut func, mut cdf, mut guide) = (Vec::with_capacity(cells), Vec::with_capacity(cells + nv), Vec::with_capacity(cells));
         let integrals: Vec<f32> = (0..nv)
             .map(|v| build_tables(&weights[v * nu..(v + 1) * nu], &mut func, &mut cdf, &mut guide))
             .collect();
         let marginal = Distribution1D::new(&integrals);
         // a row of no weights is one zero weight (as `Distribution1D::new(&[])`)
         let nu = nu.max(1);
+        // on huge pages: samples read them all over
         Distribution2D {
             nu,
-            func,
-            cdf,
-            guide,
+            func: HugeBuf::from_slice(&func),
+            cdf: HugeBuf::from_slice(&cdf),
+            guide: HugeBuf::from_slice(&guide),
             integrals,
             marginal,
         }
@@ -426,9 +424,8 @@ mod tests {
         for (nu, nv) in [(1usize, 1usize), (5, 3), (64, 32), (300, 7)] {
             let w: Vec<f32> = (0..nu * nv)
                 .map(|k| {
-                    if (k / nu) % 3 == 1 {
-                        0.0
-                    } else if rng.next_u64() % 5 == 0 {
+                    // every third row all zero, a fifth of the other weights zero
+                    if (k / nu) % 3 == 1 || rng.next_u64().is_multiple_of(5) {
                         0.0
                     } else {
                         rng.unit_f32() * 10.0

@@ -8,25 +8,27 @@
 
 use super::{LightSample, LightSampling, ShadowTarget};
 use crate::math::{floor_f32, luminance, prefetch, Mat4, Vec2, Vec3, PI};
+use crate::pages::HugeBuf;
 use crate::sampling::{uniform_sphere, Distribution2D};
 use crate::texture::UvMapping;
 use glam::Mat3;
 
-/// The picture of the sky: an image with its `uvmapping2d`, or one colour.
+/// The picture of the sky: an image with its `uvmapping2d`, or one colour. The light
+/// keeps its texels on huge pages ([`HugeBuf`]).
 #[derive(Clone, Debug)]
-pub enum EnvImage {
+pub enum EnvImage<T = Vec<Vec3>> {
     Constant(Vec3),
     Image {
         width: usize,
         height: usize,
-        texels: Vec<Vec3>,
+        texels: T,
         mapping: UvMapping,
     },
 }
 
 #[derive(Clone, Debug)]
 pub struct EnvironmentLight {
-    image: EnvImage,
+    image: EnvImage<HugeBuf<Vec3>>,
     scale: f32,
     to_world: Mat3,
     to_local: Mat3,
@@ -39,21 +41,30 @@ const CONSTANT_GRID: (usize, usize) = (8, 64);
 
 impl EnvironmentLight {
     /// Negative texels are clamped to zero (lossy EXR compression leaves some).
-    pub fn new(mut image: EnvImage, scale: f32, transform: &Mat4) -> Self {
-        if let EnvImage::Image { texels, .. } = &mut image {
-            // a copy on huge pages: lookups land all over the image
-            *texels = crate::pages::collect_huge(
-                texels.len(),
-                texels.iter().map(|t| {
-                    let t = t.max(Vec3::ZERO);
-                    if t.is_finite() {
-                        t
-                    } else {
-                        Vec3::ZERO
+    pub fn new(image: EnvImage, scale: f32, transform: &Mat4) -> Self {
+        let image = match image {
+            EnvImage::Constant(c) => EnvImage::Constant(c),
+            EnvImage::Image {
+                width,
+                height,
+                mut texels,
+                mapping,
+            } => {
+                for t in texels.iter_mut() {
+                    *t = t.max(Vec3::ZERO);
+                    if !t.is_finite() {
+                        *t = Vec3::ZERO;
                     }
-                }),
-            );
-        }
+                }
+                // on huge pages: lookups land all over the image
+                EnvImage::Image {
+                    width,
+                    height,
+                    texels: HugeBuf::from_slice(&texels),
+                    mapping,
+                }
+            }
+        };
         let c = Mat3::from_cols(Vec3::new(0.0, 0.0, -1.0), Vec3::new(1.0, 0.0, 0.0), Vec3::new(0.0, 1.0, 0.0));
         let to_world = Mat3::from_mat4(*transform) * c;
         let to_local = to_world.inverse();
@@ -198,7 +209,8 @@ impl EnvironmentLight {
     pub fn prefetch_direction(&self, w: Vec3) {
         let l = self.to_local * w;
         let len = l.length();
-        if !(len > 0.0) {
+        // a zero or non-finite direction: nothing to fetch
+        if len.is_nan() || len <= 0.0 {
             return;
         }
         let uv = Vec2::new(approx_atan2_turns(l.y, l.x), approx_acos(l.z / len) * (1.0 / PI));

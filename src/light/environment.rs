@@ -188,8 +188,13 @@ impl EnvironmentLight {
             // `as` saturates (and takes NaN to 0); `prefetch` ignores indices past the end
             let x = ((st.x * *width as f32) as usize).min(width - 1);
             let y = (st.y * (*height - 1) as f32) as usize;
-            prefetch(texels, y * width + x);
-            prefetch(texels, (y + 1) * width + x);
+            // the texels left and right of the nearest (the pair a lookup blends is one
+            // of theirs), in this row and the next
+            let (a, b) = (x.saturating_sub(1), (x + 1).min(width - 1));
+            for r in [y * width, (y + 1) * width] {
+                prefetch(texels, r + a);
+                prefetch(texels, r + b);
+            }
         }
     }
 

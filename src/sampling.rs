@@ -5,9 +5,9 @@ use crate::math::{Vec2, Vec3, PI};
 use crate::pages::HugeBuf;
 
 /// One bucket of a guide table: `i`, the last interval whose cdf is ≤ k/n, and that
-/// interval's bounds and weight, so that a `u` inside `[lo, hi)` (most draws) is
+/// interval's bounds and density, so that a `u` inside `[lo, hi)` (most draws) is
 /// sampled from this one entry, with one memory access instead of a dependent chain
-/// guide → cdf → weight (each of them a cache miss on a large map's rows).
+/// guide → cdf → density (each of them a cache miss on a large map's rows).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 #[repr(C, align(16))]
 struct Guide {
@@ -17,7 +17,8 @@ struct Guide {
     i: u32,
 }
 
-/// Builds the tables of one piecewise-constant distribution: `func` (clamped weights),
+/// Builds the tables of one piecewise-constant distribution: `func` (densities: the
+/// clamped weights over their mean),
 /// `cdf` (n + 1 entries) and `guide` (n entries) are appended; returns the integral.
 fn build_tables(weights: &[f32], func: &mut Vec<f32>, cdf: &mut Vec<f32>, guide: &mut Vec<Guide>) -> f32 {
     let n = weights.len().max(1);
@@ -27,15 +28,22 @@ fn build_tables(weights: &[f32], func: &mut Vec<f32>, cdf: &mut Vec<f32>, guide:
     } else {
         func.extend(weights.iter().map(|w| if w.is_finite() { w.max(0.0) } else { 0.0 }));
     }
-    let func = &func[f0..];
+    let weights = &func[f0..];
     cdf.resize(c0 + n + 1, 0.0);
     let cdf = &mut cdf[c0..];
     let mut acc = 0.0f64;
     for i in 0..n {
-        acc += func[i] as f64 / n as f64;
+        acc += weights[i] as f64 / n as f64;
         cdf[i + 1] = acc as f32;
     }
     let integral = acc as f32;
+    // from here on `func` holds densities, `func[i] / integral` (1 when all are zero),
+    // what sampling and `pdf` return, so they need no division
+    let func = &mut func[f0..];
+    for f in func.iter_mut() {
+        *f = if integral > 0.0 { *f / integral } else { 1.0 };
+    }
+    let func = &*func;
     if integral == 0.0 {
         for (i, c) in cdf.iter_mut().enumerate() {
             *c = i as f32 / n as f32;
@@ -70,7 +78,6 @@ struct Tables<'a> {
     func: &'a [f32],
     cdf: &'a [f32],
     guide: &'a [Guide],
-    integral: f32,
 }
 
 impl Tables<'_> {
@@ -128,7 +135,8 @@ impl Tables<'_> {
         let width = hi - lo;
         let du = if width > 0.0 { (u - lo) / width } else { 0.0 };
         let n = self.func.len() as f32;
-        let pdf = if self.integral > 0.0 { func / self.integral } else { 1.0 };
+        // `func` holds densities (see `build_tables`)
+        let pdf = func;
         (((i as f32 + du) / n).min(1.0 - f32::EPSILON), pdf, i)
     }
 
@@ -136,11 +144,7 @@ impl Tables<'_> {
     fn pdf(&self, x: f32) -> f32 {
         let n = self.func.len();
         let i = ((x * n as f32) as usize).min(n - 1);
-        if self.integral > 0.0 {
-            self.func[i] / self.integral
-        } else {
-            1.0
-        }
+        self.func[i]
     }
 }
 
@@ -175,7 +179,6 @@ impl Distribution1D {
             func: &self.func,
             cdf: &self.cdf,
             guide: &self.guide,
-            integral: self.integral,
         }
     }
 
@@ -256,7 +259,6 @@ impl Distribution2D {
             func: &self.func[r * nu..(r + 1) * nu],
             cdf: &self.cdf[r * (nu + 1)..(r + 1) * (nu + 1)],
             guide: &self.guide[r * nu..(r + 1) * nu],
-            integral: self.integrals[r],
         }
     }
 

@@ -15,6 +15,7 @@ pub mod limits;
 pub mod material;
 pub mod math;
 pub mod metrics;
+mod pages;
 pub mod render;
 pub mod robustness;
 pub mod sampler;

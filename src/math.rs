@@ -124,9 +124,95 @@ pub fn luminance(c: Vec3) -> f32 {
     0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z
 }
 
+/// `x.floor()`, bit for bit (signed zeros, NaN, infinities included), without a
+/// call: the baseline x86-64 target has no rounding instruction, so `f32::floor`
+/// is a library call. Below 2²³ in magnitude a float truncates exactly through
+/// `i32`; from there on every float is an integer.
+#[inline]
+pub fn floor_f32(x: f32) -> f32 {
+    if x.abs() < 8_388_608.0 {
+        let t = x as i32 as f32;
+        // truncation rounds towards zero: one down for negative non-integers
+        if t > x {
+            t - 1.0
+        } else {
+            // keeps the sign of a zero (−0.0 and −0.3 truncate to +0.0 and −1 …)
+            t.copysign(x)
+        }
+    } else {
+        x
+    }
+}
+
+/// Asks the CPU to bring `s[i]`'s cache line closer (a hint only; nothing when `i`
+/// is out of range or on other architectures), so that a load expected later
+/// overlaps the work before it.
+#[inline]
+pub fn prefetch<T>(s: &[T], i: usize) {
+    #[cfg(target_arch = "x86_64")]
+    if let Some(p) = s.get(i) {
+        use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
+        // SAFETY: prefetching has no architectural effect (it cannot fault), and SSE
+        // is part of the x86-64 baseline; the address is that of a live element.
+        unsafe { _mm_prefetch::<_MM_HINT_T0>((p as *const T).cast::<i8>()) };
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = (s, i);
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn floor_f32_is_floor_bit_for_bit() {
+        let mut xs = vec![
+            0.0f32,
+            -0.0,
+            0.5,
+            -0.5,
+            1.0,
+            -1.0,
+            1.5,
+            -1.5,
+            8_388_607.5,
+            -8_388_607.5,
+            8_388_608.0,
+            -8_388_609.0,
+            1e30,
+            -1e30,
+        ];
+        xs.extend([
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            f32::NAN,
+            f32::MIN_POSITIVE,
+            -f32::MIN_POSITIVE,
+            1e-45,
+            -1e-45,
+            f32::MAX,
+            f32::MIN,
+        ]);
+        for k in -300_000..300_000 {
+            let x = k as f32 / 64.0;
+            xs.extend([x, x.next_up(), x.next_down()]);
+        }
+        // every 97th bit pattern over the whole range
+        xs.extend((0..u32::MAX / 97).map(|k| f32::from_bits(k * 97)));
+        for x in xs {
+            let (a, b) = (floor_f32(x), x.floor());
+            assert!(a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan()), "{x:e}: {a:e} != {b:e}");
+        }
+    }
+
+    #[test]
+    fn prefetch_accepts_any_index() {
+        let v = [1u8, 2, 3];
+        prefetch(&v, 0);
+        prefetch(&v, 3);
+        prefetch(&v, usize::MAX);
+        prefetch::<u32>(&[], 0);
+    }
 
     #[test]
     fn coordinate_system_is_orthonormal() {

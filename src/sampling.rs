@@ -2,6 +2,151 @@
 //! square. Each has a matching pdf; `tests/sampling_chi2.rs` checks them.
 
 use crate::math::{Vec2, Vec3, PI};
+use crate::pages::HugeBuf;
+
+/// One bucket of a guide table: `i`, the last interval whose cdf is ≤ k/n, and that
+/// interval's bounds and density, so that a `u` inside `[lo, hi)` (most draws) is
+/// sampled from this one entry, with one memory access instead of a dependent chain
+/// guide → cdf → density (each of them a cache miss on a large map's rows).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[repr(C, align(16))]
+struct Guide {
+    lo: f32,
+    hi: f32,
+    func: f32,
+    i: u32,
+}
+
+/// Builds the tables of one piecewise-constant distribution: `func` (densities: the
+/// clamped weights over their mean),
+/// `cdf` (n + 1 entries) and `guide` (n entries) are appended; returns the integral.
+fn build_tables(weights: &[f32], func: &mut Vec<f32>, cdf: &mut Vec<f32>, guide: &mut Vec<Guide>) -> f32 {
+    let n = weights.len().max(1);
+    let (f0, c0) = (func.len(), cdf.len());
+    if weights.is_empty() {
+        func.push(0.0);
+    } else {
+        func.extend(weights.iter().map(|w| if w.is_finite() { w.max(0.0) } else { 0.0 }));
+    }
+    let weights = &func[f0..];
+    cdf.resize(c0 + n + 1, 0.0);
+    let cdf = &mut cdf[c0..];
+    let mut acc = 0.0f64;
+    for i in 0..n {
+        acc += weights[i] as f64 / n as f64;
+        cdf[i + 1] = acc as f32;
+    }
+    let integral = acc as f32;
+    // from here on `func` holds densities, `func[i] / integral` (1 when all are zero),
+    // what sampling and `pdf` return, so they need no division
+    let func = &mut func[f0..];
+    for f in func.iter_mut() {
+        *f = if integral > 0.0 { *f / integral } else { 1.0 };
+    }
+    let func = &*func;
+    if integral == 0.0 {
+        for (i, c) in cdf.iter_mut().enumerate() {
+            *c = i as f32 / n as f32;
+        }
+    } else {
+        for c in cdf.iter_mut() {
+            *c /= integral;
+        }
+    }
+    cdf[n] = 1.0;
+    guide.reserve(n);
+    let mut i = 0;
+    for k in 0..n {
+        let lo = k as f32 / n as f32;
+        while i + 1 < n && cdf[i + 1] <= lo {
+            i += 1;
+        }
+        guide.push(Guide {
+            lo: cdf[i],
+            hi: cdf[i + 1],
+            func: func[i],
+            i: i as u32,
+        });
+    }
+    integral
+}
+
+/// A borrowed view of one distribution's tables (a [`Distribution1D`] or a row of a
+/// [`Distribution2D`]).
+#[derive(Clone, Copy)]
+struct Tables<'a> {
+    func: &'a [f32],
+    cdf: &'a [f32],
+    guide: &'a [Guide],
+}
+
+impl Tables<'_> {
+    /// The largest `i < n` with `cdf[i] <= u` (0 when there is none), with `cdf[i]`,
+    /// `cdf[i + 1]` and `func[i]`.
+    #[inline]
+    fn find(&self, u: f32) -> (usize, f32, f32, f32) {
+        let n = self.func.len();
+        // a single entry (a scene's only light) needs no search
+        if n <= 1 || u.is_nan() {
+            return (0, self.cdf[0], self.cdf[1], self.func[0]);
+        }
+        // `as` saturates: negative u gives 0
+        let k = ((u * n as f32) as usize).min(n - 1);
+        let g = self.guide[k];
+        // the search below would stop at once where it starts
+        if g.lo <= u && u < g.hi {
+            return (g.i as usize, g.lo, g.hi, g.func);
+        }
+        // or where the next bucket's entry starts (the bucket holds one cdf value: u is
+        // past it, in the interval that reaches into the next bucket), whose entry is
+        // beside this one: the search would pass the intervals between the two
+        // (the cdf does not decrease) and stop there
+        if let Some(g) = self.guide.get(k + 1) {
+            if g.lo <= u && u < g.hi {
+                return (g.i as usize, g.lo, g.hi, g.func);
+            }
+        }
+        let mut i = g.i as usize;
+        // the guide is a start; rounding of u·n may put it one bucket off either way
+        while i > 0 && self.cdf[i] > u {
+            i -= 1;
+        }
+        while i + 1 < n && self.cdf[i + 1] <= u {
+            i += 1;
+        }
+        (i, self.cdf[i], self.cdf[i + 1], self.func[i])
+    }
+
+    #[inline]
+    fn sample_discrete(&self, u: f32) -> (usize, f32, f32) {
+        let (i, lo, hi, _) = self.find(u);
+        let width = hi - lo;
+        let rest = if width > 0.0 {
+            ((u - lo) / width).clamp(0.0, 1.0 - f32::EPSILON)
+        } else {
+            0.0
+        };
+        (i, width, rest)
+    }
+
+    #[inline]
+    fn sample_continuous(&self, u: f32) -> (f32, f32, usize) {
+        let (i, lo, hi, func) = self.find(u);
+        let width = hi - lo;
+        let du = if width > 0.0 { (u - lo) / width } else { 0.0 };
+        let n = self.func.len() as f32;
+        // `func` holds densities (see `build_tables`)
+        let pdf = func;
+        (((i as f32 + du) / n).min(1.0 - f32::EPSILON), pdf, i)
+    }
+
+    #[inline]
+    fn pdf(&self, x: f32) -> f32 {
+        let n = self.func.len();
+        let i = ((x * n as f32) as usize).min(n - 1);
+        self.func[i]
+    }
+}
 
 /// Piecewise-constant 1D distribution over `[0, 1)` (pbrt's `Distribution1D`).
 /// All-zero weights give the uniform distribution.
@@ -13,48 +158,27 @@ pub struct Distribution1D {
     /// `guide[k]`: the last bucket whose cdf is ≤ k/n, where the search for a
     /// `u` in [k/n, (k+1)/n) starts (a guide table: a step or two instead of a
     /// binary search whose dependent loads miss the cache on large maps).
-    guide: Vec<u32>,
+    guide: Vec<Guide>,
 }
 
 impl Distribution1D {
     pub fn new(weights: &[f32]) -> Self {
-        let n = weights.len().max(1);
-        let func: Vec<f32> = if weights.is_empty() {
-            vec![0.0]
-        } else {
-            weights.iter().map(|w| if w.is_finite() { w.max(0.0) } else { 0.0 }).collect()
-        };
-        let mut cdf = vec![0.0f32; n + 1];
-        let mut acc = 0.0f64;
-        for i in 0..n {
-            acc += func[i] as f64 / n as f64;
-            cdf[i + 1] = acc as f32;
-        }
-        let integral = acc as f32;
-        if integral == 0.0 {
-            for (i, c) in cdf.iter_mut().enumerate() {
-                *c = i as f32 / n as f32;
-            }
-        } else {
-            for c in cdf.iter_mut() {
-                *c /= integral;
-            }
-        }
-        cdf[n] = 1.0;
-        let mut guide = Vec::with_capacity(n);
-        let mut i = 0;
-        for k in 0..n {
-            let lo = k as f32 / n as f32;
-            while i + 1 < n && cdf[i + 1] <= lo {
-                i += 1;
-            }
-            guide.push(i as u32);
-        }
+        let (mut func, mut cdf, mut guide) = (Vec::new(), Vec::new(), Vec::new());
+        let integral = build_tables(weights, &mut func, &mut cdf, &mut guide);
         Distribution1D {
             func,
             cdf,
             integral,
             guide,
+        }
+    }
+
+    #[inline]
+    fn tables(&self) -> Tables<'_> {
+        Tables {
+            func: &self.func,
+            cdf: &self.cdf,
+            guide: &self.guide,
         }
     }
 
@@ -64,37 +188,16 @@ impl Distribution1D {
     }
 
     /// The largest `i < n` with `cdf[i] <= u` (0 when there is none).
-    #[inline]
+    #[cfg(test)]
     fn find(&self, u: f32) -> usize {
-        let n = self.func.len();
-        // a single entry (a scene's only light) needs no search
-        if n <= 1 || u.is_nan() {
-            return 0;
-        }
-        // `as` saturates: negative u gives 0
-        let mut i = self.guide[((u * n as f32) as usize).min(n - 1)] as usize;
-        // the guide is a start; rounding of u·n may put it one bucket off either way
-        while i > 0 && self.cdf[i] > u {
-            i -= 1;
-        }
-        while i + 1 < n && self.cdf[i + 1] <= u {
-            i += 1;
-        }
-        i
+        self.tables().find(u).0
     }
 
     /// Index `i` with probability `w_i / Σw`, that probability, and `u` re-used:
     /// its position inside the chosen bucket, in [0, 1).
     #[inline]
     pub fn sample_discrete(&self, u: f32) -> (usize, f32, f32) {
-        let i = self.find(u);
-        let width = self.cdf[i + 1] - self.cdf[i];
-        let rest = if width > 0.0 {
-            ((u - self.cdf[i]) / width).clamp(0.0, 1.0 - f32::EPSILON)
-        } else {
-            0.0
-        };
-        (i, self.pmf(i), rest)
+        self.tables().sample_discrete(u)
     }
 
     #[inline]
@@ -104,52 +207,90 @@ impl Distribution1D {
 
     /// A continuous sample in [0, 1), its density, and the bucket.
     pub fn sample_continuous(&self, u: f32) -> (f32, f32, usize) {
-        let i = self.find(u);
-        let width = self.cdf[i + 1] - self.cdf[i];
-        let du = if width > 0.0 { (u - self.cdf[i]) / width } else { 0.0 };
-        let n = self.func.len() as f32;
-        let pdf = if self.integral > 0.0 { self.func[i] / self.integral } else { 1.0 };
-        (((i as f32 + du) / n).min(1.0 - f32::EPSILON), pdf, i)
+        self.tables().sample_continuous(u)
     }
 
     /// Density at `x` in [0, 1).
     pub fn pdf(&self, x: f32) -> f32 {
-        let n = self.func.len();
-        let i = ((x * n as f32) as usize).min(n - 1);
-        if self.integral > 0.0 {
-            self.func[i] / self.integral
-        } else {
-            1.0
-        }
+        self.tables().pdf(x)
     }
 }
 
 /// Piecewise-constant 2D distribution over `[0, 1)²` (rows are `v`, columns `u`).
+/// The rows' conditional distributions live in flat arrays (row `r`'s weights at
+/// `r·nu…`, its cdf at `r·(nu + 1)…`), so a sample touches no per-row header.
 #[derive(Clone, Debug)]
 pub struct Distribution2D {
-    conditional: Vec<Distribution1D>,
+    nu: usize,
+    func: HugeBuf<f32>,
+    cdf: HugeBuf<f32>,
+    guide: HugeBuf<Guide>,
+    /// The rows' integrals (the marginal's weights).
+    integrals: Vec<f32>,
     marginal: Distribution1D,
 }
 
 impl Distribution2D {
     /// `weights[v * nu + u]`.
     pub fn new(weights: &[f32], nu: usize, nv: usize) -> Self {
-        let conditional: Vec<Distribution1D> = (0..nv).map(|v| Distribution1D::new(&weights[v * nu..(v + 1) * nu])).collect();
-        let marginal = Distribution1D::new(&conditional.iter().map(|c| c.integral()).collect::<Vec<_>>());
-        Distribution2D { conditional, marginal }
+        let cells = nu.max(1) * nv;
+        let (mut func, mut cdf, mut guide) = (Vec::with_capacity(cells), Vec::with_capacity(cells + nv), Vec::with_capacity(cells));
+        let integrals: Vec<f32> = (0..nv)
+            .map(|v| build_tables(&weights[v * nu..(v + 1) * nu], &mut func, &mut cdf, &mut guide))
+            .collect();
+        let marginal = Distribution1D::new(&integrals);
+        // a row of no weights is one zero weight (as `Distribution1D::new(&[])`)
+        let nu = nu.max(1);
+        // on huge pages: samples read them all over
+        Distribution2D {
+            nu,
+            func: HugeBuf::from_slice(&func),
+            cdf: HugeBuf::from_slice(&cdf),
+            guide: HugeBuf::from_slice(&guide),
+            integrals,
+            marginal,
+        }
+    }
+
+    #[inline]
+    fn row(&self, r: usize) -> Tables<'_> {
+        let nu = self.nu;
+        Tables {
+            func: &self.func[r * nu..(r + 1) * nu],
+            cdf: &self.cdf[r * (nu + 1)..(r + 1) * (nu + 1)],
+            guide: &self.guide[r * nu..(r + 1) * nu],
+        }
     }
 
     /// A point `(u, v)` and its density with respect to area in `[0, 1)²`.
     pub fn sample(&self, u: Vec2) -> (Vec2, f32) {
         let (v, pdf_v, row) = self.marginal.sample_continuous(u.y);
-        let (x, pdf_u, _) = self.conditional[row].sample_continuous(u.x);
+        let (x, pdf_u, _) = self.row(row).sample_continuous(u.x);
         (Vec2::new(x, v), pdf_u * pdf_v)
     }
 
+    /// Prefetches the guide entries [`Self::sample`] will read for `u` (a hint: the
+    /// marginal's search is repeated, its tables are small and cached).
+    #[inline]
+    pub fn prefetch_sample(&self, u: Vec2) {
+        let row = self.marginal.tables().find(u.y).0;
+        let col = ((u.x * self.nu as f32) as usize).min(self.nu - 1);
+        crate::math::prefetch(&self.guide, row * self.nu + col);
+    }
+
+    /// Prefetches the weight [`Self::pdf`] reads at `p` (a hint).
+    #[inline]
+    pub fn prefetch(&self, p: Vec2) {
+        let nv = self.integrals.len();
+        let row = ((p.y * nv as f32) as usize).min(nv.saturating_sub(1));
+        let col = ((p.x * self.nu as f32) as usize).min(self.nu - 1);
+        crate::math::prefetch(&self.func, row * self.nu + col);
+    }
+
     pub fn pdf(&self, p: Vec2) -> f32 {
-        let nv = self.conditional.len();
+        let nv = self.integrals.len();
         let row = ((p.y * nv as f32) as usize).min(nv - 1);
-        self.marginal.pdf(p.y) * self.conditional[row].pdf(p.x)
+        self.marginal.pdf(p.y) * self.row(row).pdf(p.x)
     }
 }
 
@@ -273,6 +414,41 @@ mod tests {
             us.extend((0..2000).map(|_| rng.unit_f32()));
             for u in us {
                 assert_eq!(d.find(u), binary(u), "u = {u} with {} weights", w.len());
+            }
+        }
+    }
+
+    /// The flat rows of a 2D distribution sample and evaluate exactly as one
+    /// `Distribution1D` per row would, bit for bit, including all-zero rows.
+    #[test]
+    fn flat_rows_match_one_distribution_per_row() {
+        let mut rng = SplitMix64(11);
+        for (nu, nv) in [(1usize, 1usize), (5, 3), (64, 32), (300, 7)] {
+            let w: Vec<f32> = (0..nu * nv)
+                .map(|k| {
+                    // every third row all zero, a fifth of the other weights zero
+                    if (k / nu) % 3 == 1 || rng.next_u64().is_multiple_of(5) {
+                        0.0
+                    } else {
+                        rng.unit_f32() * 10.0
+                    }
+                })
+                .collect();
+            let d = Distribution2D::new(&w, nu, nv);
+            let rows: Vec<Distribution1D> = (0..nv).map(|v| Distribution1D::new(&w[v * nu..(v + 1) * nu])).collect();
+            let marginal = Distribution1D::new(&rows.iter().map(|r| r.integral()).collect::<Vec<_>>());
+            for _ in 0..5000 {
+                let u = Vec2::new(rng.unit_f32(), rng.unit_f32());
+                let (v, pv, row) = marginal.sample_continuous(u.y);
+                let (x, pu, _) = rows[row].sample_continuous(u.x);
+                let (p, pdf) = d.sample(u);
+                assert_eq!(
+                    (p.x.to_bits(), p.y.to_bits(), pdf.to_bits()),
+                    (x.to_bits(), v.to_bits(), (pu * pv).to_bits())
+                );
+                let q = Vec2::new(rng.unit_f32(), rng.unit_f32());
+                let r = ((q.y * nv as f32) as usize).min(nv - 1);
+                assert_eq!(d.pdf(q).to_bits(), (marginal.pdf(q.y) * rows[r].pdf(q.x)).to_bits());
             }
         }
     }

@@ -84,6 +84,10 @@ fn li(
             if let Some((env, sky)) = scene.environment_light() {
                 // the direction's texture coordinates once, for radiance and pdf
                 let uv = sky.direction_to_uv(ray.d);
+                if profile == PathProfile::Mis && !after_delta {
+                    // the pdf's weight loads while the texels do
+                    sky.prefetch_pdf(uv);
+                }
                 let le = sky.radiance_at(uv);
                 if le != Vec3::ZERO {
                     let w = emitter_weight(profile, after_delta, bsdf_pdf, || {
@@ -114,13 +118,24 @@ fn li(
         let Some(material) = scene.material_of(&it) else { break };
         let bsdf = material.bsdf_at(&it, &scene.textures);
 
+        // the BSDF's numbers follow the light's (the same order as drawn one after the
+        // other), drawn before the light sample is taken, while its tables load
+        let (uc, u_bsdf);
         if profile != PathProfile::RandomWalk && !bsdf.is_delta() && !scene.lights.is_empty() {
             let (index, pmf, _) = scene.light_sampler.sample(sampler.next_1d());
             let light: &Light = &scene.lights[index];
-            if let Some(ls) = light.sample(it.p, Vec2::from(sampler.next_2d()), mode) {
+            let u_light = Vec2::from(sampler.next_2d());
+            light.prefetch_sample(u_light, mode);
+            uc = sampler.next_1d();
+            u_bsdf = Vec2::from(sampler.next_2d());
+            // the environment's radiance only for directions the BSDF reflects
+            if let Some(mut ls) = light.sample_unlit(it.p, u_light, mode) {
                 let f = bsdf.eval(it.wo, ls.wi);
                 let cos = it.ns.dot(ls.wi).abs();
-                if f != Vec3::ZERO && ls.pdf > 0.0 && ls.radiance != Vec3::ZERO && pmf > 0.0 {
+                if f != Vec3::ZERO && ls.pdf > 0.0 && pmf > 0.0 && {
+                    ls.radiance = light.radiance_of(&ls);
+                    ls.radiance != Vec3::ZERO
+                } {
                     counts.rays += 1;
                     let tr = scene.transmittance(&super::shadow_ray(&it, &ls));
                     if tr > 0.0 {
@@ -134,10 +149,12 @@ fn li(
                     }
                 }
             }
+        } else {
+            uc = sampler.next_1d();
+            u_bsdf = Vec2::from(sampler.next_2d());
         }
 
-        let uc = sampler.next_1d();
-        let Some(bs) = bsdf.sample(it.wo, Vec2::from(sampler.next_2d()), uc) else {
+        let Some(bs) = bsdf.sample(it.wo, u_bsdf, uc) else {
             break;
         };
         beta *= bs.weight;
@@ -157,6 +174,10 @@ fn li(
             beta /= q;
         }
         ray = spawn_ray(&it, bs.wi);
+        if let Some((_, sky)) = scene.environment_light() {
+            // should the ray escape, its texels load during the traversal
+            sky.prefetch_direction(ray.d);
+        }
         segment += 1;
     }
     l

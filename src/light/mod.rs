@@ -185,6 +185,42 @@ impl Light {
         }
     }
 
+    /// [`Self::sample`], except that an environment's radiance is left zero for
+    /// [`Self::radiance_of`] to give: a caller that may drop the sample first (a
+    /// direction the BSDF does not reflect) saves the environment lookup.
+    #[inline]
+    pub fn sample_unlit(&self, p: Vec3, u: Vec2, mode: LightSampling) -> Option<LightSample> {
+        match self {
+            Light::Environment(e) => e.sample_direction(u, mode).map(|(wi, pdf)| LightSample {
+                radiance: Vec3::ZERO,
+                wi,
+                pdf,
+                delta: false,
+                target: ShadowTarget::Infinity,
+            }),
+            _ => self.sample(p, u, mode),
+        }
+    }
+
+    /// Prefetches what [`Self::sample`] with `u` will read first (a hint, for the
+    /// environment's tables), so that other work overlaps the loads.
+    #[inline]
+    pub fn prefetch_sample(&self, u: Vec2, mode: LightSampling) {
+        if let Light::Environment(e) = self {
+            e.prefetch_sample(u, mode);
+        }
+    }
+
+    /// The radiance of a sample from [`Self::sample_unlit`]: what [`Self::sample`]
+    /// would have given.
+    #[inline]
+    pub fn radiance_of(&self, ls: &LightSample) -> Vec3 {
+        match self {
+            Light::Environment(e) => e.radiance(ls.wi),
+            _ => ls.radiance,
+        }
+    }
+
     /// Solid-angle density with which `sample(p, ..)` would produce direction `wi`
     /// that reaches the light at `hit` (point and geometric normal on the light;
     /// `None` for the environment).

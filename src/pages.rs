@@ -1,0 +1,143 @@
+//! Large lookup tables on transparent huge pages.
+//!
+//! An environment map's texels and sampling tables (6–8 MB each for a 1k map, 4× that for
+//! 2k) are read at random places, one or two cache lines per sample: with 4 KiB pages
+//! nearly every such read also misses the TLB and pays a page walk. Where the kernel leaves
+//! transparent huge pages to `madvise` (the usual default), a [`HugeBuf`] of 2 MiB or more
+//! starts on a 2 MiB boundary, is rounded up to whole 2 MiB pages and is advised
+//! `MADV_HUGEPAGE` before it is written, so all of it is faulted in as huge pages (advising
+//! an ordinary vector covers only the whole huge pages that happen to lie inside it: about
+//! half of these tables). A hint only: without huge pages (or off Linux) nothing changes.
+//! (`accel::wide::pages` advises the BVH's vectors the ordinary way.)
+
+use std::alloc::{alloc, dealloc, handle_alloc_error, Layout};
+use std::ptr::NonNull;
+
+/// Huge page size the advice aims at (x86-64).
+const HUGE: usize = 2 << 20;
+
+/// A fixed-length copy of a slice, on huge pages when it is large (see the module).
+pub struct HugeBuf<T: Copy> {
+    ptr: NonNull<T>,
+    len: usize,
+}
+
+// SAFETY: a `HugeBuf` owns its elements as a `Box<[T]>` would; it hands out only shared
+// references to them (`Deref`), so it is `Send`/`Sync` when `T` is.
+unsafe impl<T: Copy + Send> Send for HugeBuf<T> {}
+// SAFETY: as above.
+unsafe impl<T: Copy + Sync> Sync for HugeBuf<T> {}
+
+impl<T: Copy> HugeBuf<T> {
+    /// The allocation for `len` elements: 2 MiB-aligned whole huge pages from 2 MiB on,
+    /// else the elements' own alignment; `None` when nothing is to be allocated.
+    fn layout(len: usize) -> Option<Layout> {
+        let bytes = len.checked_mul(size_of::<T>())?;
+        if bytes == 0 {
+            return None;
+        }
+        let layout = if bytes >= HUGE {
+            Layout::from_size_align(bytes.checked_next_multiple_of(HUGE)?, HUGE)
+        } else {
+            Layout::from_size_align(bytes, align_of::<T>())
+        };
+        Some(layout.expect("a slice's size is a valid layout"))
+    }
+
+    pub fn from_slice(s: &[T]) -> Self {
+        let Some(layout) = Self::layout(s.len()) else {
+            return HugeBuf {
+                ptr: NonNull::dangling(),
+                len: s.len(),
+            };
+        };
+        // SAFETY: `layout` has a non-zero size.
+        let p = unsafe { alloc(layout) }.cast::<T>();
+        let Some(ptr) = NonNull::new(p) else { handle_alloc_error(layout) };
+        if layout.align() == HUGE {
+            advise(p as usize, layout.size());
+        }
+        // SAFETY: the fresh allocation holds `s.len()` elements of `T` (its size is at
+        // least that, its alignment at least `T`'s) and cannot overlap `s`.
+        unsafe { std::ptr::copy_nonoverlapping(s.as_ptr(), p, s.len()) };
+        HugeBuf { ptr, len: s.len() }
+    }
+}
+
+impl<T: Copy> std::ops::Deref for HugeBuf<T> {
+    type Target = [T];
+    #[inline]
+    fn deref(&self) -> &[T] {
+        // SAFETY: `ptr` holds `len` initialised elements (written in `from_slice`, never
+        // changed), or is dangling and well aligned for an empty or zero-sized slice.
+        unsafe { std::slice::from_raw_parts(self.ptr.as_ptr(), self.len) }
+    }
+}
+
+impl<T: Copy> Drop for HugeBuf<T> {
+    fn drop(&mut self) {
+        if let Some(layout) = Self::layout(self.len) {
+            // SAFETY: allocated in `from_slice` with this same layout (it depends on `len`
+            // alone); `T: Copy` has no destructor to run.
+            unsafe { dealloc(self.ptr.as_ptr().cast(), layout) };
+        }
+    }
+}
+
+impl<T: Copy> Clone for HugeBuf<T> {
+    fn clone(&self) -> Self {
+        HugeBuf::from_slice(self)
+    }
+}
+
+impl<T: Copy + std::fmt::Debug> std::fmt::Debug for HugeBuf<T> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        (**self).fmt(f)
+    }
+}
+
+/// Advises `[start, start + bytes)` (whole huge pages) for huge pages.
+fn advise(start: usize, bytes: usize) {
+    #[cfg(target_os = "linux")]
+    {
+        // SAFETY: `[start, start + bytes)` is one live allocation that holds no values
+        // yet. `MADV_HUGEPAGE` changes only how the kernel backs those pages, never their
+        // contents or validity; a failure (no THP support) leaves them as they were, so
+        // the result is ignored.
+        unsafe { libc::madvise(start as *mut libc::c_void, bytes, libc::MADV_HUGEPAGE) };
+    }
+    #[cfg(not(target_os = "linux"))]
+    let _ = (start, bytes);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Copies hold the slice's values, whatever its size (empty, small, just below,
+    /// at and above one huge page, several), and large ones start on a huge page;
+    /// clones are equal; zero-sized elements work.
+    #[test]
+    fn copies_keep_their_contents() {
+        let value = |i: usize| (i as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1;
+        for n in [0usize, 1, 1000, HUGE / 8 - 1, HUGE / 8, HUGE / 8 + 1, 3 * HUGE / 8 + 5] {
+            let v: Vec<u64> = (0..n).map(value).collect();
+            let h = HugeBuf::from_slice(&v);
+            assert_eq!(&*h, &v[..], "{n} values");
+            if n >= HUGE / 8 {
+                assert_eq!(h.as_ptr() as usize % HUGE, 0, "{n} values not on a huge page");
+            }
+            let c = h.clone();
+            drop(h);
+            assert_eq!(&*c, &v[..]);
+        }
+        let z = HugeBuf::from_slice(&[(); 5]);
+        assert_eq!(z.len(), 5);
+        #[derive(Clone, Copy, Debug, PartialEq)]
+        #[repr(align(16))]
+        struct A(f32);
+        let a = HugeBuf::from_slice(&[A(1.0), A(2.0)]);
+        assert_eq!(a.as_ptr() as usize % 16, 0);
+        assert_eq!(&*a, &[A(1.0), A(2.0)]);
+    }
+}

@@ -7,13 +7,16 @@
 //! the light's own importance, or uniformly for comparisons) and as many BSDF
 //! samples each, combined by MIS.
 
+use super::pass::CameraBlock;
 use super::{shadow_ray, spawn_ray, RayCounts};
+use crate::accel::wide::PACKET;
 use crate::geometry::{Ray, RayDifferential};
+use crate::light::Light;
 use crate::material::Material;
 use crate::math::{reflect, refract, Frame, Vec2, Vec3, INV_PI};
 use crate::sampler::PixelSampler;
 use crate::sampling::{cosine_hemisphere, power_heuristic};
-use crate::scene::{Interaction, Scene};
+use crate::scene::{Hit, Interaction, Scene};
 
 /// Parameters (JSON `integrator` keys, besides `type` and `spp`):
 /// * `max_depth` (int ≥ 1, 16) — path segments, the camera ray being the first;
@@ -36,48 +39,207 @@ impl IntersectionTest {
     /// none (pbrt would refract the differentials too, which needs normal derivatives),
     /// so textures seen through a refractor are looked up on their finest MIP level.
     pub fn li(&self, scene: &Scene, ray: Ray, diff: Option<RayDifferential>, sampler: &mut PixelSampler, counts: &mut RayCounts) -> Vec3 {
-        li(scene, self, ray, diff, sampler, counts)
+        counts.rays += 1;
+        let hit = scene.intersect(&ray);
+        li_from(scene, self, ray, hit, diff, sampler, counts)
+    }
+
+    /// [`IntersectionTest::li`] of a pixel block's camera samples, each radiance
+    /// exactly as `li` computes it: the camera rays are traced as a packet, and
+    /// where every light is a delta light (one shadow ray each, no sampler), the
+    /// shadow rays of the diffuse first hits are traced as one packet per light.
+    pub fn li_block(&self, scene: &Scene, block: &mut CameraBlock, out: &mut [Vec3]) {
+        let n = block.rays.len().min(PACKET);
+        let mut hits = [None; PACKET];
+        scene.intersect_packet(&block.rays[..n], (1 << n) - 1, &mut hits);
+        block.counts.rays += n as u64;
+        let lights = &scene.lights;
+        // shadow rays are 0 or 1 without masks (`Scene::transmittance`)
+        let deferred = self.max_depth > 1 && !scene.has_masks && lights.len() <= MAX_DEFERRED && lights.iter().all(Light::is_delta);
+        // diffuse first hits waiting for their shadow rays: the path's total and the
+        // albedo, and per light the unoccluded term and its shadow ray
+        let mut wait = 0u32;
+        let mut first = [(Vec3::ZERO, Vec3::ZERO); PACKET];
+        let mut terms = [[None::<(Vec3, Ray)>; PACKET]; MAX_DEFERRED];
+        for i in 0..n {
+            let (ray, diff, sampler) = (block.rays[i], block.diffs[i], &mut block.samplers[i]);
+            if !deferred {
+                out[i] = li_from(scene, self, ray, hits[i], diff, sampler, block.counts);
+                continue;
+            }
+            let Some(hit) = hits[i] else {
+                out[i] = scene.environment_radiance(ray.d);
+                continue;
+            };
+            let mut total = Vec3::ZERO;
+            match surface(scene, &ray, &hit, diff.as_ref(), &mut total) {
+                Surface::Diffuse(it, texture, twosided) => {
+                    // max_depth > 1: the light segment fits
+                    let albedo = scene.textures[texture as usize].eval(it.tex_coord());
+                    let Some(nrm) = facing_normal(&it, twosided) else {
+                        out[i] = total + Vec3::ZERO; // what `direct_diffuse` returns there
+                        continue;
+                    };
+                    for (l, light) in lights.iter().enumerate() {
+                        terms[l][i] = delta_term(scene, &it, nrm, light);
+                    }
+                    first[i] = (total, albedo);
+                    wait |= 1 << i;
+                }
+                Surface::Refracted(next) => out[i] = li_path(scene, self, next, 2, total, sampler, block.counts),
+                Surface::Done => out[i] = total,
+            }
+        }
+        if wait == 0 {
+            return;
+        }
+        let mut lit = [0u32; MAX_DEFERRED];
+        for (l, terms) in terms.iter().enumerate().take(lights.len()) {
+            let mut rays = [Ray::new(Vec3::ZERO, Vec3::Z); PACKET];
+            let mut active = 0u32;
+            for i in (0..n).filter(|&i| wait >> i & 1 != 0) {
+                if let Some((_, r)) = terms[i] {
+                    rays[i] = r;
+                    active |= 1 << i;
+                }
+            }
+            block.counts.rays += active.count_ones() as u64;
+            lit[l] = active & !scene.occluded_packet(&rays[..n], active);
+        }
+        for i in (0..n).filter(|&i| wait >> i & 1 != 0) {
+            let (total, albedo) = first[i];
+            // `direct_diffuse`'s sum, in light order; transmittance 1 on an unoccluded shadow ray
+            let mut direct = Vec3::ZERO;
+            for l in 0..lights.len() {
+                if let (true, Some((c, _))) = (lit[l] >> i & 1 != 0, terms[l][i]) {
+                    direct += c * 1.0;
+                }
+            }
+            out[i] = total + albedo * INV_PI * direct;
+        }
+    }
+
+    /// Whether [`IntersectionTest::li_block`] traces packets in `scene` (else the
+    /// pass goes ray by ray).
+    pub fn packets(&self, scene: &Scene) -> bool {
+        scene.packets()
     }
 }
 
-fn li(
+/// Lights a block's shadow rays are deferred for (more: ray by ray).
+const MAX_DEFERRED: usize = 4;
+
+/// What the path meets at a hit (its emission added to `total`).
+enum Surface {
+    /// A diffuse surface: texture, two-sided.
+    Diffuse(Interaction, u32, bool),
+    /// Through a refractor: the next segment.
+    Refracted(Ray),
+    /// Nothing more to follow (no material, or one this integrator does not handle).
+    Done,
+}
+
+/// The surface a segment's ray hit: its emission into `total`, and what follows.
+/// `diff` sets the texture footprint (camera rays only).
+fn surface(scene: &Scene, ray: &Ray, hit: &Hit, diff: Option<&RayDifferential>, total: &mut Vec3) -> Surface {
+    let mut it = scene.interaction(ray, hit);
+    if let Some(d) = diff {
+        it.compute_uv_derivatives(d);
+    }
+    if let Some((_, light)) = scene.area_light_of(&it) {
+        *total += light.emitted(it.ng, it.wo, it.uv);
+    }
+    match scene.material_of(&it) {
+        Some(Material::Refraction { eta }) => Surface::Refracted(spawn_ray(&it, perfect_refraction(it.wo, it.ns, *eta))),
+        Some(Material::Diffuse { texture, twosided }) => Surface::Diffuse(it, *texture, *twosided),
+        // no material (a light without a BSDF), glass, rough conductor: not this integrator's
+        _ => Surface::Done,
+    }
+}
+
+/// The path from its camera ray, whose closest hit `hit` is traced already.
+fn li_from(
     scene: &Scene,
     params: &IntersectionTest,
-    mut ray: Ray,
+    ray: Ray,
+    hit: Option<Hit>,
     diff: Option<RayDifferential>,
     sampler: &mut PixelSampler,
     counts: &mut RayCounts,
 ) -> Vec3 {
-    let max_depth = params.max_depth;
+    let Some(hit) = hit else {
+        return scene.environment_radiance(ray.d);
+    };
     let mut total = Vec3::ZERO;
-    // `segment` is the number of path segments so far, the camera ray being the first.
-    for segment in 1..=max_depth {
+    match surface(scene, &ray, &hit, diff.as_ref(), &mut total) {
+        Surface::Diffuse(it, texture, twosided) => diffuse_end(scene, params, &it, texture, twosided, 1, total, sampler, counts),
+        Surface::Refracted(next) => li_path(scene, params, next, 2, total, sampler, counts),
+        Surface::Done => total,
+    }
+}
+
+/// The path on from path segment `first` (the camera ray being the first), with
+/// `total` gathered so far.
+fn li_path(
+    scene: &Scene,
+    params: &IntersectionTest,
+    mut ray: Ray,
+    first: u32,
+    mut total: Vec3,
+    sampler: &mut PixelSampler,
+    counts: &mut RayCounts,
+) -> Vec3 {
+    for segment in first..=params.max_depth {
         counts.rays += 1;
         let Some(hit) = scene.intersect(&ray) else {
             return total + scene.environment_radiance(ray.d);
         };
-        let mut it = scene.interaction(&ray, &hit);
-        if let (1, Some(d)) = (segment, &diff) {
-            it.compute_uv_derivatives(d);
-        }
-        if let Some((_, light)) = scene.area_light_of(&it) {
-            total += light.emitted(it.ng, it.wo, it.uv);
-        }
-        match scene.material_of(&it) {
-            Some(Material::Refraction { eta }) => ray = spawn_ray(&it, perfect_refraction(it.wo, it.ns, *eta)),
-            Some(Material::Diffuse { texture, twosided }) => {
-                // The light segment must fit into max_depth too (Mitsuba's counting).
-                if segment >= max_depth {
-                    return total;
-                }
-                let albedo = scene.textures[*texture as usize].eval(it.tex_coord());
-                return total + direct_diffuse(scene, &it, albedo, *twosided, params.light_samples, sampler, counts);
+        match surface(scene, &ray, &hit, None, &mut total) {
+            Surface::Diffuse(it, texture, twosided) => {
+                return diffuse_end(scene, params, &it, texture, twosided, segment, total, sampler, counts)
             }
-            // no material (a light without a BSDF), glass, rough conductor: not this integrator's
-            _ => return total,
+            Surface::Refracted(next) => ray = next,
+            Surface::Done => return total,
         }
     }
     total
+}
+
+/// The end of a path at a diffuse surface reached by segment `segment`.
+#[allow(clippy::too_many_arguments)]
+fn diffuse_end(
+    scene: &Scene,
+    params: &IntersectionTest,
+    it: &Interaction,
+    texture: u32,
+    twosided: bool,
+    segment: u32,
+    total: Vec3,
+    sampler: &mut PixelSampler,
+    counts: &mut RayCounts,
+) -> Vec3 {
+    // The light segment must fit into max_depth too (Mitsuba's counting).
+    if segment >= params.max_depth {
+        return total;
+    }
+    let albedo = scene.textures[texture as usize].eval(it.tex_coord());
+    total + direct_diffuse(scene, it, albedo, twosided, params.light_samples, sampler, counts)
+}
+
+/// The normal on the side the ray came from, or `None` at the back of a one-sided
+/// surface (which is black).
+fn facing_normal(it: &Interaction, twosided: bool) -> Option<Vec3> {
+    let n = if twosided && it.ns.dot(it.wo) < 0.0 { -it.ns } else { it.ns };
+    (n.dot(it.wo) > 0.0).then_some(n)
+}
+
+/// A delta light's direct term at a diffuse point before the albedo and the
+/// shadow ray's transmittance (`L·cosθ`), and that shadow ray; `None` if the
+/// light does not reach the point's front side.
+fn delta_term(scene: &Scene, it: &Interaction, n: Vec3, light: &Light) -> Option<(Vec3, Ray)> {
+    let ls = light.sample(it.p, Vec2::ZERO, scene.light_sampling)?;
+    let cos = n.dot(ls.wi);
+    (cos > 0.0).then(|| (ls.radiance * cos, shadow_ray(it, &ls)))
 }
 
 /// Perfect refraction with vacuum outside: a ray entering (from the side `ns`
@@ -103,21 +265,17 @@ fn direct_diffuse(
     sampler: &mut PixelSampler,
     counts: &mut RayCounts,
 ) -> Vec3 {
-    let n = if twosided && it.ns.dot(it.wo) < 0.0 { -it.ns } else { it.ns };
-    if n.dot(it.wo) <= 0.0 {
+    let Some(n) = facing_normal(it, twosided) else {
         return Vec3::ZERO; // the back of a one-sided surface is black
-    }
+    };
     let mut total = Vec3::ZERO;
     for (index, light) in scene.lights.iter().enumerate() {
         if light.is_delta() {
-            if let Some(ls) = light.sample(it.p, Vec2::ZERO, scene.light_sampling) {
-                let cos = n.dot(ls.wi);
-                if cos > 0.0 {
-                    counts.rays += 1;
-                    let tr = scene.transmittance(&shadow_ray(it, &ls));
-                    if tr > 0.0 {
-                        total += ls.radiance * cos * tr;
-                    }
+            if let Some((c, ray)) = delta_term(scene, it, n, light) {
+                counts.rays += 1;
+                let tr = scene.transmittance(&ray);
+                if tr > 0.0 {
+                    total += c * tr;
                 }
             }
             continue;

@@ -39,9 +39,9 @@ use crate::accel::build::{self, PrimRef};
 use crate::geometry::prim::{Hit, Prim};
 use crate::geometry::{Aabb, Ray};
 use node::{decode, EMPTY};
+use packet::{any_packet, closest_packet, Lanes};
 use std::sync::atomic::{AtomicU64, Ordering};
 pub use traverse::Leaves;
-use packet::{any_packet, closest_packet, Lanes};
 use traverse::{any, closest, Portable};
 
 /// Stack sizes: the small one serves every tree whose worst path needs it.
@@ -425,7 +425,13 @@ impl WideBvh {
             let a = active >> start & ((1u32 << (end - start)) - 1);
             if a != 0 {
                 let rs = &rays[start..end];
-                let h = dispatch_packet!(self, any_packet, [any_avx2_8, any_avx2_16], [any_avx512_8, any_avx512_16], (self, leaves, rs, a));
+                let h = dispatch_packet!(
+                    self,
+                    any_packet,
+                    [any_avx2_8, any_avx2_16],
+                    [any_avx512_8, any_avx512_16],
+                    (self, leaves, rs, a)
+                );
                 hit |= h << start;
             }
         }

@@ -230,7 +230,7 @@ pub(super) struct Packet<'r, V: Simd<N>, const N: usize> {
 impl<'r, V: Simd<N>, const N: usize> Packet<'r, V, N> {
     #[inline(always)]
     fn new(rays: &'r [Ray], active: u32) -> Self {
-        let mut a = [[0.0f32; N]; 16];
+        let mut a = [[0.0f32; N]; 14];
         let mut t_max = [0.0f32; N];
         let mut groups = [([0usize; 3], 0u32); 6];
         let (mut n_groups, mut valid, mut tri_ok) = (0, 0u32, 0u32);
@@ -260,18 +260,33 @@ impl<'r, V: Simd<N>, const N: usize> Packet<'r, V, N> {
                 }
             }
         }
-        let v = |k: usize| V::load(&a[k]);
+        let v: [V; 14] = [
+            V::load(&a[0]),
+            V::load(&a[1]),
+            V::load(&a[2]),
+            V::load(&a[3]),
+            V::load(&a[4]),
+            V::load(&a[5]),
+            V::load(&a[6]),
+            V::load(&a[7]),
+            V::load(&a[8]),
+            V::load(&a[9]),
+            V::load(&a[10]),
+            V::load(&a[11]),
+            V::load(&a[12]),
+            V::load(&a[13]),
+        ];
         let zero = V::splat(0.0);
         Packet {
             rays,
-            o: [v(0), v(1), v(2)],
-            inv: [v(3), v(4), v(5)],
-            neg: [v(3).lt(zero), v(4).lt(zero), v(5).lt(zero)],
-            t_min: v(6),
+            o: [v[0], v[1], v[2]],
+            inv: [v[3], v[4], v[5]],
+            neg: [v[3].lt(zero), v[4].lt(zero), v[5].lt(zero)],
+            t_min: v[6],
             t_max,
-            op: [v(7), v(8), v(9)],
-            s: [v(10), v(11), v(12)],
-            dz_abs: v(13),
+            op: [v[7], v[8], v[9]],
+            s: [v[10], v[11], v[12]],
+            dz_abs: v[13],
             groups,
             n_groups,
             valid,
@@ -284,19 +299,36 @@ impl<'r, V: Simd<N>, const N: usize> Packet<'r, V, N> {
 /// node test computes them (`x86::slabs`: same operations, same order).
 #[inline(always)]
 fn child_slabs<V: Simd<N>, const N: usize>(n: &WideNode, i: usize, p: &Packet<V, N>, lim: V) -> (V, V) {
-    let pl = |row: usize| V::splat(n.planes[row][i]);
-    let near_far = |a: usize| {
-        let lo = pl(2 * a).sub(p.o[a]).mul(p.inv[a]);
-        let hi = pl(2 * a + 1).sub(p.o[a]).mul(p.inv[a]);
-        (V::select(p.neg[a], hi, lo), V::select(p.neg[a], lo, hi))
-    };
-    let (n0, f0) = near_far(0);
-    let (n1, f1) = near_far(1);
-    let (n2, f2) = near_far(2);
+    // no closures here: they would not inline into the entry points' instruction set
+    let (n0, f0) = axis_slab(n, i, p, 0);
+    let (n1, f1) = axis_slab(n, i, p, 1);
+    let (n2, f2) = axis_slab(n, i, p, 2);
     let t0 = n0.max(n1).max(n2.max(p.t_min));
     let t1 = f0.min(f1).min(f2);
     let t1 = t1.mul(V::splat(FAR_SCALE)).min(lim);
     (t0, t1)
+}
+
+/// Near and far distance of child `i`'s slab on axis `a`.
+#[inline(always)]
+fn axis_slab<V: Simd<N>, const N: usize>(n: &WideNode, i: usize, p: &Packet<V, N>, a: usize) -> (V, V) {
+    let lo = V::splat(n.planes[2 * a][i]).sub(p.o[a]).mul(p.inv[a]);
+    let hi = V::splat(n.planes[2 * a + 1][i]).sub(p.o[a]).mul(p.inv[a]);
+    (V::select(p.neg[a], hi, lo), V::select(p.neg[a], lo, hi))
+}
+
+/// Vertex `v` of triangle `j` relative to each ray's origin, permuted by `k`, sheared.
+#[inline(always)]
+fn vertex<V: Simd<N>, const N: usize>(blk: &TriBlock, v: usize, j: usize, k: [usize; 3], p: &Packet<V, N>) -> (V, V, V) {
+    let x = V::splat(blk.v[v][k[0]][j]).sub(p.op[0]);
+    let y = V::splat(blk.v[v][k[1]][j]).sub(p.op[1]);
+    let z = V::splat(blk.v[v][k[2]][j]).sub(p.op[2]);
+    (x.add(p.s[0].mul(z)), y.add(p.s[1].mul(z)), z)
+}
+
+#[inline(always)]
+fn max3<V: Simd<N>, const N: usize>(a: V, b: V, c: V) -> V {
+    a.abs().max(b.abs()).max(c.abs())
 }
 
 /// The best hit of each lane in one block (lowest `t`, the first lane on ties,
@@ -328,7 +360,6 @@ fn block<V: Simd<N>, const N: usize, const CLOSEST: bool>(blk: &TriBlock, p: &Pa
         if gm == 0 {
             continue;
         }
-        let [kx, ky, kz] = k;
         for j in 0..LANES {
             // a short block repeats its last triangle: same hits, never picked over the first
             if j > 0 && blk.prim[j] == blk.prim[j - 1] {
@@ -341,15 +372,9 @@ fn block<V: Simd<N>, const N: usize, const CLOSEST: bool>(blk: &TriBlock, p: &Pa
                 }
             }
             let gm_m = V::from_bits(gm);
-            let vert = |v: usize| {
-                let x = V::splat(blk.v[v][kx][j]).sub(p.op[0]);
-                let y = V::splat(blk.v[v][ky][j]).sub(p.op[1]);
-                let z = V::splat(blk.v[v][kz][j]).sub(p.op[2]);
-                (x.add(p.s[0].mul(z)), y.add(p.s[1].mul(z)), z)
-            };
-            let (p0x, p0y, p0z) = vert(0);
-            let (p1x, p1y, p1z) = vert(1);
-            let (p2x, p2y, p2z) = vert(2);
+            let (p0x, p0y, p0z) = vertex(blk, 0, j, k, p);
+            let (p1x, p1y, p1z) = vertex(blk, 1, j, k, p);
+            let (p2x, p2y, p2z) = vertex(blk, 2, j, k, p);
             let e0 = p1x.mul(p2y).sub(p1y.mul(p2x));
             let e1 = p2x.mul(p0y).sub(p2y.mul(p0x));
             let e2 = p0x.mul(p1y).sub(p0y.mul(p1x));
@@ -380,7 +405,6 @@ fn block<V: Simd<N>, const N: usize, const CLOSEST: bool>(blk: &TriBlock, p: &Pa
             if hits != 0 {
                 let mut rej = or(t.lt(p.t_min), t.gt(lim));
                 // the conservative bound on t
-                let max3 = |a: V, b: V, c: V| a.abs().max(b.abs()).max(c.abs());
                 let max_zt = max3(p0z, p1z, p2z);
                 let delta_z = V::splat(gamma(3)).mul(max_zt);
                 let max_xt = max3(p0x, p1x, p2x);
@@ -438,7 +462,16 @@ fn block<V: Simd<N>, const N: usize, const CLOSEST: bool>(blk: &TriBlock, p: &Pa
 #[cold]
 #[inline(never)]
 #[allow(clippy::too_many_arguments)]
-fn edge_rays<V: Simd<N>, const N: usize>(blk: &TriBlock, j: usize, p: &Packet<V, N>, lim: V, rays: u32, hits: &mut u32, t: &mut V, b: &mut [V; 3]) {
+fn edge_rays<V: Simd<N>, const N: usize>(
+    blk: &TriBlock,
+    j: usize,
+    p: &Packet<V, N>,
+    lim: V,
+    rays: u32,
+    hits: &mut u32,
+    t: &mut V,
+    b: &mut [V; 3],
+) {
     let (mut ta, mut ba, mut la) = ([0.0f32; N], [[0.0f32; N]; 3], [0.0f32; N]);
     t.store(&mut ta);
     for a in 0..3 {

@@ -337,8 +337,8 @@ struct BlockBest<V: Simd<N>, const N: usize> {
     has: u32,
     t: V,
     b: [V; 3],
-    /// The block lane of the best hit, per ray.
-    lane: [u8; N],
+    /// The block lane of the best hit, per ray (as `f32`).
+    lane: V,
 }
 
 /// Tests the block's triangles against the rays in `mask` (a subset of
@@ -352,7 +352,7 @@ fn block<V: Simd<N>, const N: usize, const CLOSEST: bool>(blk: &TriBlock, p: &Pa
         has: 0,
         t: zero,
         b: [zero; 3],
-        lane: [0; N],
+        lane: zero,
     };
     let mut has_m = V::from_bits(0);
     for &(k, g) in &p.groups[..p.n_groups] {
@@ -360,18 +360,19 @@ fn block<V: Simd<N>, const N: usize, const CLOSEST: bool>(blk: &TriBlock, p: &Pa
         if gm == 0 {
             continue;
         }
+        let mut gm_m = V::from_bits(gm);
         for j in 0..LANES {
             // a short block repeats its last triangle: same hits, never picked over the first
             if j > 0 && blk.prim[j] == blk.prim[j - 1] {
                 continue;
             }
-            if !CLOSEST {
+            if !CLOSEST && gm & best.has != 0 {
                 gm &= !best.has;
                 if gm == 0 {
                     break;
                 }
+                gm_m = V::from_bits(gm);
             }
-            let gm_m = V::from_bits(gm);
             let (p0x, p0y, p0z) = vertex(blk, 0, j, k, p);
             let (p1x, p1y, p1z) = vertex(blk, 1, j, k, p);
             let (p2x, p2y, p2z) = vertex(blk, 2, j, k, p);
@@ -383,6 +384,10 @@ fn block<V: Simd<N>, const N: usize, const CLOSEST: bool>(blk: &TriBlock, p: &Pa
             let neg = or(or(e0.lt(zero), e1.lt(zero)), e2.lt(zero));
             let pos = or(or(e0.gt(zero), e1.gt(zero)), e2.gt(zero));
             let mut reject = V::and(neg, pos);
+            // most rays miss most triangles here: skip the rest when all do
+            if V::bits(V::andnot(reject, gm_m)) & !on_edge == 0 && on_edge == 0 {
+                continue;
+            }
             let det = e0.add(e1).add(e2);
             reject = or(reject, det.eq(zero));
             reject = or(reject, det.abs().not_lt(inf));
@@ -446,9 +451,7 @@ fn block<V: Simd<N>, const N: usize, const CLOSEST: bool>(blk: &TriBlock, p: &Pa
                 for a in 0..3 {
                     best.b[a] = V::select(upd, b[a], best.b[a]);
                 }
-                for r in each_bit(V::bits(upd)) {
-                    best.lane[r] = j as u8;
-                }
+                best.lane = V::select(upd, V::splat(j as f32), best.lane);
                 has_m = V::or(has_m, acc);
             }
             best.has |= hits;
@@ -632,8 +635,10 @@ pub(super) fn closest_packet<V: Simd<N>, L: Leaves + ?Sized, const N: usize, con
                     let h = block::<V, N, true>(blk, &p, best.lim, m);
                     if h.has != 0 {
                         let acc = best.offer(h.has, h.t, &h.b);
+                        let mut lane = [0.0f32; N];
+                        h.lane.store(&mut lane);
                         for r in each_bit(acc) {
-                            best.prim[r] = blk.prim[h.lane[r] as usize];
+                            best.prim[r] = blk.prim[lane[r] as usize];
                             best.sub[r] = 0;
                         }
                     }

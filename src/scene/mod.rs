@@ -134,7 +134,7 @@ impl Scene {
     }
 
     /// Closest hit, masks not applied: the scene's own BVH, or its two levels.
-    #[inline]
+    #[inline(always)]
     fn intersect_unmasked(&self, ray: &Ray) -> Option<Hit> {
         if self.instances.is_empty() {
             self.bvh.intersect(&self.prims, ray)
@@ -163,7 +163,7 @@ impl Scene {
         self.intersect(ray).is_some()
     }
 
-    #[inline]
+    #[inline(always)]
     fn occluded_unmasked(&self, ray: &Ray) -> bool {
         if self.instances.is_empty() {
             self.bvh.occluded(&self.prims, ray)

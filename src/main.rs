@@ -912,10 +912,14 @@ fn bench_scene(args: &SceneArgs, isa: Option<&str>, packet: Option<usize>) -> Re
     let _ = writeln!(t, "scene            {}", args.scene.display());
     let _ = writeln!(t, "threads          {}", rayon::current_num_threads());
     let _ = writeln!(t, "cpu              {}", rdr::bench::cpu_line(scene.bvh.isa()));
-    let _ = writeln!(t, "packets          {}", match scene.bvh.packet_width() {
-        0 => "off".to_string(),
-        w => format!("{w} rays"),
-    });
+    let _ = writeln!(
+        t,
+        "packets          {}",
+        match scene.bvh.packet_width() {
+            0 => "off".to_string(),
+            w => format!("{w} rays"),
+        }
+    );
     let _ = writeln!(t, "primitives       {} ({} triangles)", scene.prims.len(), scene.triangle_count());
     let _ = writeln!(
         t,

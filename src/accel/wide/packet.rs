@@ -22,7 +22,7 @@
 //! order, so NaN and signed-zero cases round alike too).
 
 use super::node::{leaf_range, TriBlock, WideNode, EMPTY, GENERIC, LANES, LEAF, WIDTH};
-use super::traverse::{prefetch, Leaves, RayData, FAR_SCALE};
+use super::traverse::{prefetch, Leaves, FAR_SCALE};
 use super::WideBvh;
 use crate::geometry::prim::Hit;
 use crate::geometry::triangle::intersect_watertight;
@@ -54,6 +54,10 @@ pub(super) trait Simd<const N: usize>: Copy {
     fn min(self, o: Self) -> Self;
     fn max(self, o: Self) -> Self;
     fn abs(self) -> Self;
+    /// `-self` (the sign bit flipped).
+    fn neg(self) -> Self;
+    /// `self`'s magnitude with `sign`'s sign bit.
+    fn copysign(self, sign: Self) -> Self;
     fn lt(self, o: Self) -> Self::M;
     fn le(self, o: Self) -> Self::M;
     fn gt(self, o: Self) -> Self::M;
@@ -132,6 +136,14 @@ impl<const N: usize> Simd<N> for Lanes<N> {
     #[inline(always)]
     fn abs(self) -> Self {
         Lanes(self.0.map(f32::abs))
+    }
+    #[inline(always)]
+    fn neg(self) -> Self {
+        Lanes(self.0.map(|x| -x))
+    }
+    #[inline(always)]
+    fn copysign(self, sign: Self) -> Self {
+        self.map2(sign, f32::copysign)
     }
     #[inline(always)]
     fn lt(self, o: Self) -> u32 {
@@ -213,7 +225,7 @@ pub(super) struct Packet<'r, V: Simd<N>, const N: usize> {
     /// Lanes whose direction is negative on each axis: they enter a box at its high plane.
     neg: [V::M; 3],
     t_min: V,
-    t_max: [f32; N],
+    t_max: V,
     /// Watertight kernel per ray: permuted origin, shear, |d_z|.
     op: [V; 3],
     s: [V; 3],
@@ -228,71 +240,84 @@ pub(super) struct Packet<'r, V: Simd<N>, const N: usize> {
 }
 
 impl<'r, V: Simd<N>, const N: usize> Packet<'r, V, N> {
+    /// The ray data of [`RayData::new`] and the test of `super::usable`, lane by
+    /// lane with the same operations.
     #[inline(always)]
     fn new(rays: &'r [Ray], active: u32) -> Self {
-        let mut a = [[0.0f32; N]; 14];
-        let mut t_max = [0.0f32; N];
-        let mut groups = [([0usize; 3], 0u32); 6];
-        let (mut n_groups, mut valid, mut tri_ok) = (0, 0u32, 0u32);
-        for (i, ray) in rays.iter().enumerate().take(N) {
-            // unused lanes get a harmless ray (masked out everywhere)
-            let usable = active >> i & 1 != 0 && super::usable(ray);
-            let r = RayData::new(if usable { ray } else { &rays[0] });
-            let row = [
-                r.o.x, r.o.y, r.o.z, r.inv[0], r.inv[1], r.inv[2], r.t_min, r.op[0], r.op[1], r.op[2], r.s[0], r.s[1], r.s[2], r.dz_abs,
-            ];
+        // rows: origin, direction, t_min, t_max (lanes past the rays stay zero)
+        let mut a = [[0.0f32; N]; 8];
+        for (i, r) in rays.iter().enumerate().take(N) {
+            let row = [r.o.x, r.o.y, r.o.z, r.d.x, r.d.y, r.d.z, r.t_min, r.t_max];
             for (k, v) in row.into_iter().enumerate() {
                 a[k][i] = v;
             }
-            t_max[i] = ray.t_max;
-            if !usable {
-                continue;
-            }
-            valid |= 1 << i;
-            if r.tri_ok {
-                tri_ok |= 1 << i;
-                match groups[..n_groups].iter_mut().find(|g| g.0 == r.k) {
-                    Some(g) => g.1 |= 1 << i,
-                    None => {
-                        groups[n_groups] = (r.k, 1 << i);
-                        n_groups += 1;
-                    }
-                }
+        }
+        let o = [V::load(&a[0]), V::load(&a[1]), V::load(&a[2])];
+        let d = [V::load(&a[3]), V::load(&a[4]), V::load(&a[5])];
+        let (t_min, t_max) = (V::load(&a[6]), V::load(&a[7]));
+        let zero = V::splat(0.0);
+        let inf = V::splat(f32::INFINITY);
+        let active = active & full::<N>() & ((1u64 << rays.len().min(N)) - 1) as u32;
+        // `usable`: the sum of the coordinates is finite, the range not NaN
+        let sum = o[0].add(o[1]).add(o[2].add(d[0])).add(d[1].add(d[2]));
+        let ok = V::bits(V::and(sum.abs().lt(inf), t_max.ge(t_min)));
+        let mut valid = active & ok;
+        for i in each_bit(active & !ok) {
+            // the rare rest (counts bad rays; an empty range is a plain miss)
+            if super::usable(&rays[i]) {
+                valid |= 1 << i;
             }
         }
-        let v: [V; 14] = [
-            V::load(&a[0]),
-            V::load(&a[1]),
-            V::load(&a[2]),
-            V::load(&a[3]),
-            V::load(&a[4]),
-            V::load(&a[5]),
-            V::load(&a[6]),
-            V::load(&a[7]),
-            V::load(&a[8]),
-            V::load(&a[9]),
-            V::load(&a[10]),
-            V::load(&a[11]),
-            V::load(&a[12]),
-            V::load(&a[13]),
-        ];
-        let zero = V::splat(0.0);
+        // `safe_inverse`: a zero component becomes ±1e-30
+        let inv = [safe_inv(d[0]), safe_inv(d[1]), safe_inv(d[2])];
+        // `watertight_axes`: kz the largest |d| component (x before y before z on ties
+        // as there), then kx, ky cyclically after it
+        let ad = [d[0].abs(), d[1].abs(), d[2].abs()];
+        let m0 = V::and(ad[0].gt(ad[1]), ad[0].gt(ad[2]));
+        let m1 = V::andnot(m0, ad[1].gt(ad[2]));
+        // (no closures in the kernels: they would not inline into the entry points' instruction set)
+        let (dkx, dky, dkz) = (pick3(m0, m1, &d, 0), pick3(m0, m1, &d, 1), pick3(m0, m1, &d, 2));
+        let op = [pick3(m0, m1, &o, 0), pick3(m0, m1, &o, 1), pick3(m0, m1, &o, 2)];
+        let tri_ok = valid & !V::bits(dkz.eq(zero));
+        let (b0, b1) = (V::bits(m0), V::bits(m1));
+        let mut groups = [([0usize; 3], 0u32); 6];
+        let mut n_groups = 0;
+        for (k, g) in [([1, 2, 0], b0), ([2, 0, 1], b1 & !b0), ([0, 1, 2], !(b0 | b1))] {
+            if g & tri_ok != 0 {
+                groups[n_groups] = (k, g & tri_ok);
+                n_groups += 1;
+            }
+        }
         Packet {
             rays,
-            o: [v[0], v[1], v[2]],
-            inv: [v[3], v[4], v[5]],
-            neg: [v[3].lt(zero), v[4].lt(zero), v[5].lt(zero)],
-            t_min: v[6],
+            o,
+            inv,
+            neg: [inv[0].lt(zero), inv[1].lt(zero), inv[2].lt(zero)],
+            t_min,
             t_max,
-            op: [v[7], v[8], v[9]],
-            s: [v[10], v[11], v[12]],
-            dz_abs: v[13],
+            op,
+            s: [dkx.neg().div(dkz), dky.neg().div(dkz), V::splat(1.0).div(dkz)],
+            dz_abs: dkz.abs(),
             groups,
             n_groups,
             valid,
             tri_ok,
         }
     }
+}
+
+/// `1 / safe_inverse`'s fixed component: a zero becomes ±1e-30.
+#[inline(always)]
+fn safe_inv<V: Simd<N>, const N: usize>(c: V) -> V {
+    let fixed = V::select(c.eq(V::splat(0.0)), V::splat(1e-30).copysign(c), c);
+    V::splat(1.0).div(fixed)
+}
+
+/// Component `a` of `v` in each lane's watertight order `(kx, ky, kz)`: with
+/// `kz` = 0 (`m0`) that is `(y, z, x)`, with `kz` = 1 (`m1`) `(z, x, y)`, else `(x, y, z)`.
+#[inline(always)]
+fn pick3<V: Simd<N>, const N: usize>(m0: V::M, m1: V::M, v: &[V; 3], a: usize) -> V {
+    V::select(m0, v[(a + 1) % 3], V::select(m1, v[(a + 2) % 3], v[a]))
 }
 
 /// Entry and exit distances of child `i` for every lane, as the single-ray
@@ -381,8 +406,11 @@ fn block<V: Simd<N>, const N: usize, const CLOSEST: bool>(blk: &TriBlock, p: &Pa
             let e2 = p0x.mul(p1y).sub(p0y.mul(p1x));
             let or = V::or;
             let on_edge = V::bits(or(or(e0.eq(zero), e1.eq(zero)), e2.eq(zero))) & gm;
-            let neg = or(or(e0.lt(zero), e1.lt(zero)), e2.lt(zero));
-            let pos = or(or(e0.gt(zero), e1.gt(zero)), e2.gt(zero));
+            // edge functions of both signs: outside (by min and max, fewer operations
+            // than six compares; a NaN lane may decide otherwise here, but its det
+            // is NaN and rejects it below)
+            let neg = e0.min(e1).min(e2).lt(zero);
+            let pos = e0.max(e1).max(e2).gt(zero);
             let mut reject = V::and(neg, pos);
             // most rays miss most triangles here: skip the rest when all do
             if V::bits(V::andnot(reject, gm_m)) & !on_edge == 0 && on_edge == 0 {
@@ -548,7 +576,7 @@ pub(super) fn closest_packet<V: Simd<N>, L: Leaves + ?Sized, const N: usize, con
     out: &mut [Option<Hit>],
 ) -> u32 {
     let p = Packet::<V, N>::new(rays, active);
-    let t_max = V::load(&p.t_max);
+    let t_max = p.t_max;
     let zero = V::splat(0.0);
     let mut best = Best {
         found: 0,
@@ -696,7 +724,7 @@ pub(super) fn any_packet<V: Simd<N>, L: Leaves + ?Sized, const N: usize, const S
     active: u32,
 ) -> u32 {
     let p = Packet::<V, N>::new(rays, active);
-    let t_max = V::load(&p.t_max);
+    let t_max = p.t_max;
     let mut st = [MaybeUninit::<(u32, u32)>::uninit(); S];
     let mut sp = 0usize;
     let mut cur = 0u32;

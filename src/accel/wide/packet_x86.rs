@@ -106,6 +106,19 @@ impl Simd<8> for Y8 {
         Y8(unsafe { _mm256_andnot_ps(_mm256_set1_ps(-0.0), self.0) })
     }
     #[inline(always)]
+    fn neg(self) -> Self {
+        // SAFETY: see above.
+        Y8(unsafe { _mm256_xor_ps(_mm256_set1_ps(-0.0), self.0) })
+    }
+    #[inline(always)]
+    fn copysign(self, sign: Self) -> Self {
+        // SAFETY: see above.
+        Y8(unsafe {
+            let s = _mm256_set1_ps(-0.0);
+            _mm256_or_ps(_mm256_andnot_ps(s, self.0), _mm256_and_ps(s, sign.0))
+        })
+    }
+    #[inline(always)]
     fn select(m: __m256, a: Self, b: Self) -> Self {
         // SAFETY: see above.
         Y8(unsafe { _mm256_blendv_ps(b.0, a.0, m) })
@@ -193,6 +206,14 @@ impl Simd<16> for Y16 {
         Y16([Y8(self.0[0]).abs().0, Y8(self.0[1]).abs().0])
     }
     #[inline(always)]
+    fn neg(self) -> Self {
+        Y16([Y8(self.0[0]).neg().0, Y8(self.0[1]).neg().0])
+    }
+    #[inline(always)]
+    fn copysign(self, sign: Self) -> Self {
+        Y16([Y8(self.0[0]).copysign(Y8(sign.0[0])).0, Y8(self.0[1]).copysign(Y8(sign.0[1])).0])
+    }
+    #[inline(always)]
     fn select(m: [__m256; 2], a: Self, b: Self) -> Self {
         Y16([
             Y8::select(m[0], Y8(a.0[0]), Y8(b.0[0])).0,
@@ -253,6 +274,20 @@ impl Simd<16> for Z16 {
     fn abs(self) -> Self {
         // SAFETY: see above.
         Z16(unsafe { _mm512_abs_ps(self.0) })
+    }
+    #[inline(always)]
+    fn neg(self) -> Self {
+        // SAFETY: see above (integer forms: float xor is AVX-512DQ).
+        Z16(unsafe { _mm512_castsi512_ps(_mm512_xor_si512(_mm512_castps_si512(self.0), _mm512_set1_epi32(i32::MIN))) })
+    }
+    #[inline(always)]
+    fn copysign(self, sign: Self) -> Self {
+        // SAFETY: as in `neg`.
+        Z16(unsafe {
+            let (m, s) = (_mm512_castps_si512(self.0), _mm512_castps_si512(sign.0));
+            let bit = _mm512_set1_epi32(i32::MIN);
+            _mm512_castsi512_ps(_mm512_or_si512(_mm512_andnot_si512(bit, m), _mm512_and_si512(bit, s)))
+        })
     }
     #[inline(always)]
     fn select(m: __mmask16, a: Self, b: Self) -> Self {

@@ -13,7 +13,7 @@ use crate::accel::wide::PACKET;
 use crate::geometry::{Ray, RayDifferential};
 use crate::light::Light;
 use crate::material::Material;
-use crate::math::{reflect, refract, Frame, Vec2, Vec3, INV_PI};
+use crate::math::{offset_ray_origin, reflect, refract, Frame, Vec2, Vec3, INV_4PI, INV_PI};
 use crate::sampler::PixelSampler;
 use crate::sampling::{cosine_hemisphere, power_heuristic};
 use crate::scene::{Hit, Interaction, Scene};
@@ -46,8 +46,9 @@ impl IntersectionTest {
 
     /// [`IntersectionTest::li`] of a pixel block's camera samples, each radiance
     /// exactly as `li` computes it: the camera rays are traced as a packet, and
-    /// where every light is a delta light (one shadow ray each, no sampler), the
-    /// shadow rays of the diffuse first hits are traced as one packet per light.
+    /// where every light is a point light (one shadow ray each, no sampler), the
+    /// shadow rays of the diffuse first hits are made and traced as one packet per
+    /// light.
     pub fn li_block(&self, scene: &Scene, block: &mut CameraBlock, out: &mut [Vec3]) {
         let n = block.rays.len().min(PACKET);
         let mut hits = [None; PACKET];
@@ -55,12 +56,13 @@ impl IntersectionTest {
         block.counts.rays += n as u64;
         let lights = &scene.lights;
         // shadow rays are 0 or 1 without masks (`Scene::transmittance`)
-        let deferred = self.max_depth > 1 && !scene.has_masks && lights.len() <= MAX_DEFERRED && lights.iter().all(Light::is_delta);
-        // diffuse first hits waiting for their shadow rays: the path's total and the
-        // albedo, and per light the unoccluded term and its shadow ray
+        let point = |l: &Light| matches!(l, Light::Point { .. });
+        let deferred = self.max_depth > 1 && !scene.has_masks && lights.len() <= MAX_DEFERRED && lights.iter().all(point);
+        // diffuse first hits waiting for their shadow rays: the path's total, the
+        // albedo, the point and its normals
         let mut wait = 0u32;
         let mut first = [(Vec3::ZERO, Vec3::ZERO); PACKET];
-        let mut terms = [[None::<(Vec3, Ray)>; PACKET]; MAX_DEFERRED];
+        let mut at = ShadingPoints::default();
         for i in 0..n {
             let (ray, diff, sampler) = (block.rays[i], block.diffs[i], &mut block.samplers[i]);
             if !deferred {
@@ -80,10 +82,8 @@ impl IntersectionTest {
                         out[i] = total + Vec3::ZERO; // what `direct_diffuse` returns there
                         continue;
                     };
-                    for (l, light) in lights.iter().enumerate() {
-                        terms[l][i] = delta_term(scene, &it, nrm, light);
-                    }
                     first[i] = (total, albedo);
+                    at.set(i, &it, nrm);
                     wait |= 1 << i;
                 }
                 Surface::Refracted(next) => out[i] = li_path(scene, self, next, 2, total, sampler, block.counts),
@@ -93,16 +93,15 @@ impl IntersectionTest {
         if wait == 0 {
             return;
         }
+        // per light: the unoccluded terms (`L·cosθ`) of the points it reaches
+        let mut terms = [[Vec3::ZERO; PACKET]; MAX_DEFERRED];
         let mut lit = [0u32; MAX_DEFERRED];
-        for (l, terms) in terms.iter().enumerate().take(lights.len()) {
+        for (l, light) in lights.iter().enumerate() {
             let mut rays = [Ray::new(Vec3::ZERO, Vec3::Z); PACKET];
-            let mut active = 0u32;
-            for i in (0..n).filter(|&i| wait >> i & 1 != 0) {
-                if let Some((_, r)) = terms[i] {
-                    rays[i] = r;
-                    active |= 1 << i;
-                }
-            }
+            let Light::Point { position, flux } = *light else {
+                unreachable!("deferred only with point lights")
+            };
+            let active = at.point_terms(position, flux, wait, &mut terms[l], &mut rays);
             block.counts.rays += active.count_ones() as u64;
             lit[l] = active & !scene.occluded_packet(&rays[..n], active);
         }
@@ -111,8 +110,8 @@ impl IntersectionTest {
             // `direct_diffuse`'s sum, in light order; transmittance 1 on an unoccluded shadow ray
             let mut direct = Vec3::ZERO;
             for l in 0..lights.len() {
-                if let (true, Some((c, _))) = (lit[l] >> i & 1 != 0, terms[l][i]) {
-                    direct += c * 1.0;
+                if lit[l] >> i & 1 != 0 {
+                    direct += terms[l][i] * 1.0;
                 }
             }
             out[i] = total + albedo * INV_PI * direct;
@@ -128,6 +127,91 @@ impl IntersectionTest {
 
 /// Lights a block's shadow rays are deferred for (more: ray by ray).
 const MAX_DEFERRED: usize = 4;
+
+/// A block's diffuse shading points by lane, in structure-of-arrays form: position,
+/// geometric normal and the shading normal facing the ray.
+#[derive(Default)]
+struct ShadingPoints {
+    p: [[f32; PACKET]; 3],
+    ng: [[f32; PACKET]; 3],
+    nf: [[f32; PACKET]; 3],
+}
+
+impl ShadingPoints {
+    fn set(&mut self, i: usize, it: &Interaction, n: Vec3) {
+        for a in 0..3 {
+            (self.p[a][i], self.ng[a][i], self.nf[a][i]) = (it.p[a], it.ng[a], n[a]);
+        }
+    }
+
+    /// [`delta_term`] of a point light for the lanes in `mask`: the terms and shadow
+    /// rays of the lanes it reaches (returned as a mask), lane by lane with
+    /// `Light::sample`'s and `shadow_ray`'s operations in their order; the arrays
+    /// let the compiler do the square roots and divisions four lanes at a time.
+    fn point_terms(&self, position: Vec3, flux: Vec3, mask: u32, c: &mut [Vec3; PACKET], rays: &mut [Ray; PACKET]) -> u32 {
+        const L: usize = PACKET;
+        let (p, ng, nf) = (&self.p, &self.ng, &self.nf);
+        let mut v = [[0.0f32; L]; 3];
+        for a in 0..3 {
+            for i in 0..L {
+                v[a][i] = position[a] - p[a][i];
+            }
+        }
+        let dot = |u: &[[f32; L]; 3], w: &[[f32; L]; 3], i: usize| (u[0][i] * w[0][i]) + (u[1][i] * w[1][i]) + (u[2][i] * w[2][i]);
+        let mut d2 = [0.0f32; L];
+        let mut root = [0.0f32; L];
+        for i in 0..L {
+            d2[i] = dot(&v, &v, i);
+            root[i] = d2[i].sqrt();
+        }
+        // wi = v / √d2; cos θ = n·wi
+        let mut wi = [[0.0f32; L]; 3];
+        for a in 0..3 {
+            for i in 0..L {
+                wi[a][i] = v[a][i] / root[i];
+            }
+        }
+        let scaled = flux * INV_4PI;
+        let mut reach = 0u32;
+        for i in 0..L {
+            let cos = dot(nf, &wi, i);
+            reach |= ((d2[i] != 0.0 && cos > 0.0) as u32) << i;
+            let radiance = Vec3::new(scaled.x / d2[i], scaled.y / d2[i], scaled.z / d2[i]);
+            c[i] = radiance * cos;
+        }
+        let reach = reach & mask;
+        // the shadow ray: from the point pushed off its surface towards the light
+        let mut to = [[0.0f32; L]; 3];
+        for i in 0..L {
+            let n = Vec3::new(ng[0][i], ng[1][i], ng[2][i]);
+            let side = if dot(&v, ng, i) >= 0.0 { n } else { -n };
+            let o = if reach >> i & 1 != 0 {
+                offset_ray_origin(Vec3::new(p[0][i], p[1][i], p[2][i]), side)
+            } else {
+                position // unused lane: anything harmless
+            };
+            for a in 0..3 {
+                to[a][i] = position[a] - o[a];
+            }
+            rays[i].o = o;
+        }
+        let mut dist = [0.0f32; L];
+        for i in 0..L {
+            dist[i] = dot(&to, &to, i).sqrt();
+        }
+        let mut d = [[0.0f32; L]; 3];
+        for a in 0..3 {
+            for i in 0..L {
+                d[a][i] = to[a][i] / dist[i];
+            }
+        }
+        for i in 0..L {
+            rays[i].d = Vec3::new(d[0][i], d[1][i], d[2][i]);
+            (rays[i].t_min, rays[i].t_max) = (0.0, dist[i] * (1.0 - 1e-5));
+        }
+        reach
+    }
+}
 
 /// What the path meets at a hit (its emission added to `total`).
 enum Surface {

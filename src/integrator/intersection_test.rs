@@ -144,7 +144,7 @@ impl ShadingPoints {
         }
     }
 
-    /// [`delta_term`] of a point light for the lanes in `mask`: the terms and shadow
+    /// `direct_diffuse`'s light term `L·cosθ` of a point light for the lanes in `mask`: the terms and shadow
     /// rays of the lanes it reaches (returned as a mask), lane by lane with
     /// `Light::sample`'s and `shadow_ray`'s operations in their order; the arrays
     /// let the compiler do the square roots and divisions four lanes at a time.
@@ -225,6 +225,7 @@ enum Surface {
 
 /// The surface a segment's ray hit: its emission into `total`, and what follows.
 /// `diff` sets the texture footprint (camera rays only).
+#[inline(always)]
 fn surface(scene: &Scene, ray: &Ray, hit: &Hit, diff: Option<&RayDifferential>, total: &mut Vec3) -> Surface {
     let mut it = scene.interaction(ray, hit);
     if let Some(d) = diff {
@@ -242,6 +243,7 @@ fn surface(scene: &Scene, ray: &Ray, hit: &Hit, diff: Option<&RayDifferential>, 
 }
 
 /// The path from its camera ray, whose closest hit `hit` is traced already.
+#[inline(always)]
 fn li_from(
     scene: &Scene,
     params: &IntersectionTest,
@@ -291,6 +293,7 @@ fn li_path(
 
 /// The end of a path at a diffuse surface reached by segment `segment`.
 #[allow(clippy::too_many_arguments)]
+#[inline(always)]
 fn diffuse_end(
     scene: &Scene,
     params: &IntersectionTest,
@@ -311,19 +314,10 @@ fn diffuse_end(
 }
 
 /// The normal on the side the ray came from, or `None` at the back of a one-sided
-/// surface (which is black).
+/// surface (which is black): `direct_diffuse`'s test.
 fn facing_normal(it: &Interaction, twosided: bool) -> Option<Vec3> {
     let n = if twosided && it.ns.dot(it.wo) < 0.0 { -it.ns } else { it.ns };
     (n.dot(it.wo) > 0.0).then_some(n)
-}
-
-/// A delta light's direct term at a diffuse point before the albedo and the
-/// shadow ray's transmittance (`L·cosθ`), and that shadow ray; `None` if the
-/// light does not reach the point's front side.
-fn delta_term(scene: &Scene, it: &Interaction, n: Vec3, light: &Light) -> Option<(Vec3, Ray)> {
-    let ls = light.sample(it.p, Vec2::ZERO, scene.light_sampling)?;
-    let cos = n.dot(ls.wi);
-    (cos > 0.0).then(|| (ls.radiance * cos, shadow_ray(it, &ls)))
 }
 
 /// Perfect refraction with vacuum outside: a ray entering (from the side `ns`
@@ -340,6 +334,7 @@ pub fn perfect_refraction(wo: Vec3, ns: Vec3, eta: f32) -> Vec3 {
 /// cosine-weighted BSDF samples, combined by multiple importance sampling (power
 /// heuristic), so neither a small bright source nor a broad sky that is mostly
 /// behind the surface makes the estimate noisy.
+#[inline(always)]
 fn direct_diffuse(
     scene: &Scene,
     it: &Interaction,
@@ -349,17 +344,21 @@ fn direct_diffuse(
     sampler: &mut PixelSampler,
     counts: &mut RayCounts,
 ) -> Vec3 {
-    let Some(n) = facing_normal(it, twosided) else {
+    let n = if twosided && it.ns.dot(it.wo) < 0.0 { -it.ns } else { it.ns };
+    if n.dot(it.wo) <= 0.0 {
         return Vec3::ZERO; // the back of a one-sided surface is black
-    };
+    }
     let mut total = Vec3::ZERO;
     for (index, light) in scene.lights.iter().enumerate() {
         if light.is_delta() {
-            if let Some((c, ray)) = delta_term(scene, it, n, light) {
-                counts.rays += 1;
-                let tr = scene.transmittance(&ray);
-                if tr > 0.0 {
-                    total += c * tr;
+            if let Some(ls) = light.sample(it.p, Vec2::ZERO, scene.light_sampling) {
+                let cos = n.dot(ls.wi);
+                if cos > 0.0 {
+                    counts.rays += 1;
+                    let tr = scene.transmittance(&shadow_ray(it, &ls));
+                    if tr > 0.0 {
+                        total += ls.radiance * cos * tr;
+                    }
                 }
             }
             continue;

@@ -150,6 +150,7 @@ where
 
 /// The camera sample of pixel `(x, y)` at sample index `pass`: its sampler (film
 /// position and lens point drawn), the film position, the ray and its differentials.
+#[inline(always)]
 fn camera_sample(ctx: &PassContext, x: i32, y: i32, pass: u32, diff_scale: f32) -> (PixelSampler, Vec2, Ray, Option<RayDifferential>) {
     let mut sampler = PixelSampler::new(x as u32, y as u32, pass, ctx.seed);
     let (u, v) = sampler.next_2d();

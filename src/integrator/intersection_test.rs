@@ -137,6 +137,8 @@ struct ShadingPoints {
     nf: [[f32; PACKET]; 3],
 }
 
+// lanes are indexed in step across several arrays
+#[allow(clippy::needless_range_loop)]
 impl ShadingPoints {
     fn set(&mut self, i: usize, it: &Interaction, n: Vec3) {
         for a in 0..3 {

@@ -21,6 +21,9 @@
 //! vectors in `packet_x86` (with the single-ray kernels' operations and operand
 //! order, so NaN and signed-zero cases round alike too).
 
+// lanes and axes are indexed in step across several arrays
+#![allow(clippy::needless_range_loop)]
+
 use super::node::{leaf_range, TriBlock, WideNode, EMPTY, GENERIC, LANES, LEAF, WIDTH};
 use super::traverse::{prefetch, Leaves, FAR_SCALE};
 use super::WideBvh;
@@ -167,7 +170,7 @@ impl<const N: usize> Simd<N> for Lanes<N> {
     }
     #[inline(always)]
     fn not_lt(self, o: Self) -> u32 {
-        self.cmp(o, |a, b| !(a < b))
+        self.cmp(o, |a, b| a.partial_cmp(&b) != Some(std::cmp::Ordering::Less))
     }
     #[inline(always)]
     fn select(m: u32, a: Self, b: Self) -> Self {

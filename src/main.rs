@@ -206,9 +206,13 @@ enum Command {
         /// Mesh benchmark: best of this many runs of each measurement.
         #[arg(long, default_value_t = 3)]
         repeat: usize,
-        /// Mesh benchmark: kernels to time (portable, avx2, avx512; default the best available).
+        /// Kernels to time (portable, avx2, avx512; default the best available).
         #[arg(long)]
         isa: Option<String>,
+        /// Scene benchmark: rays a packet traversal takes (8 or 16, 0: every ray alone;
+        /// default 16) where the integrator traces packets.
+        #[arg(long)]
+        packet: Option<usize>,
         /// Mesh benchmark: ray sets to time, comma-separated (primary, incoherent, bounce; default all).
         #[arg(long, value_delimiter = ',')]
         rays: Vec<String>,
@@ -279,6 +283,7 @@ fn main() -> ExitCode {
             args,
             repeat,
             isa,
+            packet,
             rays,
             trace_only,
             ray_file,
@@ -287,7 +292,7 @@ fn main() -> ExitCode {
             if ext == "obj" || ext == "ply" {
                 bench_mesh(&args, repeat, isa.as_deref(), rays, trace_only, ray_file)
             } else {
-                bench_scene(&args)
+                bench_scene(&args, isa.as_deref(), packet)
             }
         }
     };
@@ -802,6 +807,17 @@ fn merge(parts: &[PathBuf], output: &Path, partial: bool, quiet: bool) -> Result
     Ok(ExitCode::SUCCESS)
 }
 
+/// `--isa NAME`.
+fn parse_isa(isa: Option<&str>) -> Result<Option<rdr::accel::Isa>> {
+    Ok(match isa {
+        None => None,
+        Some("portable") => Some(rdr::accel::Isa::Portable),
+        Some("avx2") => Some(rdr::accel::Isa::Avx2),
+        Some("avx512") => Some(rdr::accel::Isa::Avx512),
+        Some(other) => anyhow::bail!("--isa: unknown instruction set '{other}' (portable, avx2, avx512)"),
+    })
+}
+
 /// `rdr bench MESH`: the BVH benchmark.
 fn bench_mesh(
     args: &SceneArgs,
@@ -820,13 +836,7 @@ fn bench_mesh(
     if all > 1 {
         threads.push(all);
     }
-    let isa = match isa {
-        None => None,
-        Some("portable") => Some(rdr::accel::Isa::Portable),
-        Some("avx2") => Some(rdr::accel::Isa::Avx2),
-        Some("avx512") => Some(rdr::accel::Isa::Avx512),
-        Some(other) => anyhow::bail!("--isa: unknown instruction set '{other}' (portable, avx2, avx512)"),
-    };
+    let isa = parse_isa(isa)?;
     let opts = rdr::bench::Options {
         repeat,
         threads,
@@ -881,17 +891,35 @@ fn convert(input: &Path, output: &Path, overrides: &[String], defines: &[(String
 }
 
 /// `rdr bench SCENE.json`: load, build and render without writing.
-fn bench_scene(args: &SceneArgs) -> Result<ExitCode> {
+fn bench_scene(args: &SceneArgs, isa: Option<&str>, packet: Option<usize>) -> Result<ExitCode> {
     setup_threads(args.threads)?;
+    let isa = parse_isa(isa)?;
     let t0 = Instant::now();
-    let Loaded { scene, job } = load(args, true)?;
+    let Loaded { mut scene, job } = load(args, true)?;
     let load_s = t0.elapsed().as_secs_f64();
+    let trees = std::iter::once(&mut scene.bvh).chain(scene.groups.iter_mut().map(|g| &mut g.bvh));
+    for bvh in trees {
+        if let Some(i) = isa {
+            anyhow::ensure!(bvh.set_isa(i), "--isa {}: this CPU cannot run these kernels", i.name());
+        }
+        if let Some(w) = packet {
+            anyhow::ensure!(bvh.set_packet_width(w), "--packet {w}: 8, 16 or 0");
+        }
+    }
     let out = rdr::render(&scene, &job, &RenderControl::default());
     use std::fmt::Write as _;
     let mut t = String::new();
     let _ = writeln!(t, "scene            {}", args.scene.display());
     let _ = writeln!(t, "threads          {}", rayon::current_num_threads());
     let _ = writeln!(t, "cpu              {}", rdr::bench::cpu_line(scene.bvh.isa()));
+    let _ = writeln!(
+        t,
+        "packets          {}",
+        match scene.bvh.packet_width() {
+            0 => "off".to_string(),
+            w => format!("{w} rays"),
+        }
+    );
     let _ = writeln!(t, "primitives       {} ({} triangles)", scene.prims.len(), scene.triangle_count());
     let _ = writeln!(
         t,

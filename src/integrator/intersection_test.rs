@@ -7,13 +7,16 @@
 //! the light's own importance, or uniformly for comparisons) and as many BSDF
 //! samples each, combined by MIS.
 
+use super::pass::CameraBlock;
 use super::{shadow_ray, spawn_ray, RayCounts};
+use crate::accel::wide::PACKET;
 use crate::geometry::{Ray, RayDifferential};
+use crate::light::Light;
 use crate::material::Material;
-use crate::math::{reflect, refract, Frame, Vec2, Vec3, INV_PI};
+use crate::math::{offset_ray_origin, reflect, refract, Frame, Vec2, Vec3, INV_4PI, INV_PI};
 use crate::sampler::PixelSampler;
 use crate::sampling::{cosine_hemisphere, power_heuristic};
-use crate::scene::{Interaction, Scene};
+use crate::scene::{Hit, Interaction, Scene};
 
 /// Parameters (JSON `integrator` keys, besides `type` and `spp`):
 /// * `max_depth` (int ≥ 1, 16) — path segments, the camera ray being the first;
@@ -36,48 +39,287 @@ impl IntersectionTest {
     /// none (pbrt would refract the differentials too, which needs normal derivatives),
     /// so textures seen through a refractor are looked up on their finest MIP level.
     pub fn li(&self, scene: &Scene, ray: Ray, diff: Option<RayDifferential>, sampler: &mut PixelSampler, counts: &mut RayCounts) -> Vec3 {
-        li(scene, self, ray, diff, sampler, counts)
+        counts.rays += 1;
+        let hit = scene.intersect(&ray);
+        li_from(scene, self, ray, hit, diff, sampler, counts)
+    }
+
+    /// [`IntersectionTest::li`] of a pixel block's camera samples, each radiance
+    /// exactly as `li` computes it: the camera rays are traced as a packet, and
+    /// where every light is a point light (one shadow ray each, no sampler), the
+    /// shadow rays of the diffuse first hits are made and traced as one packet per
+    /// light.
+    pub fn li_block(&self, scene: &Scene, block: &mut CameraBlock, out: &mut [Vec3]) {
+        let n = block.rays.len().min(PACKET);
+        let mut hits = [None; PACKET];
+        scene.intersect_packet(&block.rays[..n], (1 << n) - 1, &mut hits);
+        block.counts.rays += n as u64;
+        let lights = &scene.lights;
+        // shadow rays are 0 or 1 without masks (`Scene::transmittance`)
+        let point = |l: &Light| matches!(l, Light::Point { .. });
+        let deferred = self.max_depth > 1 && !scene.has_masks && lights.len() <= MAX_DEFERRED && lights.iter().all(point);
+        // diffuse first hits waiting for their shadow rays: the path's total, the
+        // albedo, the point and its normals
+        let mut wait = 0u32;
+        let mut first = [(Vec3::ZERO, Vec3::ZERO); PACKET];
+        let mut at = ShadingPoints::default();
+        for i in 0..n {
+            let (ray, diff, sampler) = (block.rays[i], block.diffs[i], &mut block.samplers[i]);
+            if !deferred {
+                out[i] = li_from(scene, self, ray, hits[i], diff, sampler, block.counts);
+                continue;
+            }
+            let Some(hit) = hits[i] else {
+                out[i] = scene.environment_radiance(ray.d);
+                continue;
+            };
+            let mut total = Vec3::ZERO;
+            match surface(scene, &ray, &hit, diff.as_ref(), &mut total) {
+                Surface::Diffuse(it, texture, twosided) => {
+                    // max_depth > 1: the light segment fits
+                    let albedo = scene.textures[texture as usize].eval(it.tex_coord());
+                    let Some(nrm) = facing_normal(&it, twosided) else {
+                        out[i] = total + Vec3::ZERO; // what `direct_diffuse` returns there
+                        continue;
+                    };
+                    first[i] = (total, albedo);
+                    at.set(i, &it, nrm);
+                    wait |= 1 << i;
+                }
+                Surface::Refracted(next) => out[i] = li_path(scene, self, next, 2, total, sampler, block.counts),
+                Surface::Done => out[i] = total,
+            }
+        }
+        if wait == 0 {
+            return;
+        }
+        // per light: the unoccluded terms (`L·cosθ`) of the points it reaches
+        let mut terms = [[Vec3::ZERO; PACKET]; MAX_DEFERRED];
+        let mut lit = [0u32; MAX_DEFERRED];
+        for (l, light) in lights.iter().enumerate() {
+            let mut rays = [Ray::new(Vec3::ZERO, Vec3::Z); PACKET];
+            let Light::Point { position, flux } = *light else {
+                unreachable!("deferred only with point lights")
+            };
+            let active = at.point_terms(position, flux, wait, &mut terms[l], &mut rays);
+            block.counts.rays += active.count_ones() as u64;
+            lit[l] = active & !scene.occluded_packet(&rays[..n], active);
+        }
+        for i in (0..n).filter(|&i| wait >> i & 1 != 0) {
+            let (total, albedo) = first[i];
+            // `direct_diffuse`'s sum, in light order; transmittance 1 on an unoccluded shadow ray
+            let mut direct = Vec3::ZERO;
+            for l in 0..lights.len() {
+                if lit[l] >> i & 1 != 0 {
+                    direct += terms[l][i] * 1.0;
+                }
+            }
+            out[i] = total + albedo * INV_PI * direct;
+        }
+    }
+
+    /// Whether [`IntersectionTest::li_block`] traces packets in `scene` (else the
+    /// pass goes ray by ray).
+    pub fn packets(&self, scene: &Scene) -> bool {
+        scene.packets()
     }
 }
 
-fn li(
+/// Lights a block's shadow rays are deferred for (more: ray by ray).
+const MAX_DEFERRED: usize = 4;
+
+/// A block's diffuse shading points by lane, in structure-of-arrays form: position,
+/// geometric normal and the shading normal facing the ray.
+#[derive(Default)]
+struct ShadingPoints {
+    p: [[f32; PACKET]; 3],
+    ng: [[f32; PACKET]; 3],
+    nf: [[f32; PACKET]; 3],
+}
+
+// lanes are indexed in step across several arrays
+#[allow(clippy::needless_range_loop)]
+impl ShadingPoints {
+    fn set(&mut self, i: usize, it: &Interaction, n: Vec3) {
+        for a in 0..3 {
+            (self.p[a][i], self.ng[a][i], self.nf[a][i]) = (it.p[a], it.ng[a], n[a]);
+        }
+    }
+
+    /// `direct_diffuse`'s light term `L·cosθ` of a point light for the lanes in `mask`: the terms and shadow
+    /// rays of the lanes it reaches (returned as a mask), lane by lane with
+    /// `Light::sample`'s and `shadow_ray`'s operations in their order; the arrays
+    /// let the compiler do the square roots and divisions four lanes at a time.
+    fn point_terms(&self, position: Vec3, flux: Vec3, mask: u32, c: &mut [Vec3; PACKET], rays: &mut [Ray; PACKET]) -> u32 {
+        const L: usize = PACKET;
+        let (p, ng, nf) = (&self.p, &self.ng, &self.nf);
+        let mut v = [[0.0f32; L]; 3];
+        for a in 0..3 {
+            for i in 0..L {
+                v[a][i] = position[a] - p[a][i];
+            }
+        }
+        let dot = |u: &[[f32; L]; 3], w: &[[f32; L]; 3], i: usize| (u[0][i] * w[0][i]) + (u[1][i] * w[1][i]) + (u[2][i] * w[2][i]);
+        let mut d2 = [0.0f32; L];
+        let mut root = [0.0f32; L];
+        for i in 0..L {
+            d2[i] = dot(&v, &v, i);
+            root[i] = d2[i].sqrt();
+        }
+        // wi = v / √d2; cos θ = n·wi
+        let mut wi = [[0.0f32; L]; 3];
+        for a in 0..3 {
+            for i in 0..L {
+                wi[a][i] = v[a][i] / root[i];
+            }
+        }
+        let scaled = flux * INV_4PI;
+        let mut reach = 0u32;
+        for i in 0..L {
+            let cos = dot(nf, &wi, i);
+            reach |= ((d2[i] != 0.0 && cos > 0.0) as u32) << i;
+            let radiance = Vec3::new(scaled.x / d2[i], scaled.y / d2[i], scaled.z / d2[i]);
+            c[i] = radiance * cos;
+        }
+        let reach = reach & mask;
+        // the shadow ray: from the point pushed off its surface towards the light
+        let mut to = [[0.0f32; L]; 3];
+        for i in 0..L {
+            let n = Vec3::new(ng[0][i], ng[1][i], ng[2][i]);
+            let side = if dot(&v, ng, i) >= 0.0 { n } else { -n };
+            let o = if reach >> i & 1 != 0 {
+                offset_ray_origin(Vec3::new(p[0][i], p[1][i], p[2][i]), side)
+            } else {
+                position // unused lane: anything harmless
+            };
+            for a in 0..3 {
+                to[a][i] = position[a] - o[a];
+            }
+            rays[i].o = o;
+        }
+        let mut dist = [0.0f32; L];
+        for i in 0..L {
+            dist[i] = dot(&to, &to, i).sqrt();
+        }
+        let mut d = [[0.0f32; L]; 3];
+        for a in 0..3 {
+            for i in 0..L {
+                d[a][i] = to[a][i] / dist[i];
+            }
+        }
+        for i in 0..L {
+            rays[i].d = Vec3::new(d[0][i], d[1][i], d[2][i]);
+            (rays[i].t_min, rays[i].t_max) = (0.0, dist[i] * (1.0 - 1e-5));
+        }
+        reach
+    }
+}
+
+/// What the path meets at a hit (its emission added to `total`).
+enum Surface {
+    /// A diffuse surface: texture, two-sided.
+    Diffuse(Interaction, u32, bool),
+    /// Through a refractor: the next segment.
+    Refracted(Ray),
+    /// Nothing more to follow (no material, or one this integrator does not handle).
+    Done,
+}
+
+/// The surface a segment's ray hit: its emission into `total`, and what follows.
+/// `diff` sets the texture footprint (camera rays only).
+#[inline(always)]
+fn surface(scene: &Scene, ray: &Ray, hit: &Hit, diff: Option<&RayDifferential>, total: &mut Vec3) -> Surface {
+    let mut it = scene.interaction(ray, hit);
+    if let Some(d) = diff {
+        it.compute_uv_derivatives(d);
+    }
+    if let Some((_, light)) = scene.area_light_of(&it) {
+        *total += light.emitted(it.ng, it.wo, it.uv);
+    }
+    match scene.material_of(&it) {
+        Some(Material::Refraction { eta }) => Surface::Refracted(spawn_ray(&it, perfect_refraction(it.wo, it.ns, *eta))),
+        Some(Material::Diffuse { texture, twosided }) => Surface::Diffuse(it, *texture, *twosided),
+        // no material (a light without a BSDF), glass, rough conductor: not this integrator's
+        _ => Surface::Done,
+    }
+}
+
+/// The path from its camera ray, whose closest hit `hit` is traced already.
+#[inline(always)]
+fn li_from(
     scene: &Scene,
     params: &IntersectionTest,
-    mut ray: Ray,
+    ray: Ray,
+    hit: Option<Hit>,
     diff: Option<RayDifferential>,
     sampler: &mut PixelSampler,
     counts: &mut RayCounts,
 ) -> Vec3 {
-    let max_depth = params.max_depth;
+    let Some(hit) = hit else {
+        return scene.environment_radiance(ray.d);
+    };
     let mut total = Vec3::ZERO;
-    // `segment` is the number of path segments so far, the camera ray being the first.
-    for segment in 1..=max_depth {
+    match surface(scene, &ray, &hit, diff.as_ref(), &mut total) {
+        Surface::Diffuse(it, texture, twosided) => diffuse_end(scene, params, &it, texture, twosided, 1, total, sampler, counts),
+        Surface::Refracted(next) => li_path(scene, params, next, 2, total, sampler, counts),
+        Surface::Done => total,
+    }
+}
+
+/// The path on from path segment `first` (the camera ray being the first), with
+/// `total` gathered so far.
+fn li_path(
+    scene: &Scene,
+    params: &IntersectionTest,
+    mut ray: Ray,
+    first: u32,
+    mut total: Vec3,
+    sampler: &mut PixelSampler,
+    counts: &mut RayCounts,
+) -> Vec3 {
+    for segment in first..=params.max_depth {
         counts.rays += 1;
         let Some(hit) = scene.intersect(&ray) else {
             return total + scene.environment_radiance(ray.d);
         };
-        let mut it = scene.interaction(&ray, &hit);
-        if let (1, Some(d)) = (segment, &diff) {
-            it.compute_uv_derivatives(d);
-        }
-        if let Some((_, light)) = scene.area_light_of(&it) {
-            total += light.emitted(it.ng, it.wo, it.uv);
-        }
-        match scene.material_of(&it) {
-            Some(Material::Refraction { eta }) => ray = spawn_ray(&it, perfect_refraction(it.wo, it.ns, *eta)),
-            Some(Material::Diffuse { texture, twosided }) => {
-                // The light segment must fit into max_depth too (Mitsuba's counting).
-                if segment >= max_depth {
-                    return total;
-                }
-                let albedo = scene.textures[*texture as usize].eval(it.tex_coord());
-                return total + direct_diffuse(scene, &it, albedo, *twosided, params.light_samples, sampler, counts);
+        match surface(scene, &ray, &hit, None, &mut total) {
+            Surface::Diffuse(it, texture, twosided) => {
+                return diffuse_end(scene, params, &it, texture, twosided, segment, total, sampler, counts)
             }
-            // no material (a light without a BSDF), glass, rough conductor: not this integrator's
-            _ => return total,
+            Surface::Refracted(next) => ray = next,
+            Surface::Done => return total,
         }
     }
     total
+}
+
+/// The end of a path at a diffuse surface reached by segment `segment`.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn diffuse_end(
+    scene: &Scene,
+    params: &IntersectionTest,
+    it: &Interaction,
+    texture: u32,
+    twosided: bool,
+    segment: u32,
+    total: Vec3,
+    sampler: &mut PixelSampler,
+    counts: &mut RayCounts,
+) -> Vec3 {
+    // The light segment must fit into max_depth too (Mitsuba's counting).
+    if segment >= params.max_depth {
+        return total;
+    }
+    let albedo = scene.textures[texture as usize].eval(it.tex_coord());
+    total + direct_diffuse(scene, it, albedo, twosided, params.light_samples, sampler, counts)
+}
+
+/// The normal on the side the ray came from, or `None` at the back of a one-sided
+/// surface (which is black): `direct_diffuse`'s test.
+fn facing_normal(it: &Interaction, twosided: bool) -> Option<Vec3> {
+    let n = if twosided && it.ns.dot(it.wo) < 0.0 { -it.ns } else { it.ns };
+    (n.dot(it.wo) > 0.0).then_some(n)
 }
 
 /// Perfect refraction with vacuum outside: a ray entering (from the side `ns`
@@ -94,6 +336,7 @@ pub fn perfect_refraction(wo: Vec3, ns: Vec3, eta: f32) -> Vec3 {
 /// cosine-weighted BSDF samples, combined by multiple importance sampling (power
 /// heuristic), so neither a small bright source nor a broad sky that is mostly
 /// behind the surface makes the estimate noisy.
+#[inline(always)]
 fn direct_diffuse(
     scene: &Scene,
     it: &Interaction,

@@ -22,7 +22,7 @@ pub use bdpt::Bdpt;
 pub use guided::Guided;
 pub use intersection_test::IntersectionTest;
 pub use normals::Normals;
-pub use pass::{camera_pass, lens_sample, CameraSample, PassContext, PassResult, RayCounts, StopToken};
+pub use pass::{camera_pass, camera_pass_blocks, lens_sample, CameraBlock, CameraSample, PassContext, PassResult, RayCounts, StopToken};
 pub use path::{PathProfile, PathTracer};
 pub use photon::PhotonMapper;
 pub use ptracer::Ptracer;
@@ -127,6 +127,7 @@ impl Integrator {
     pub fn render_pass(&self, ctx: &PassContext, pass: u32, film: &mut Film) -> PassResult {
         let scene = ctx.scene;
         match self {
+            Integrator::IntersectionTest(i) if i.packets(scene) => camera_pass_blocks(ctx, pass, film, |b, out| i.li_block(scene, b, out)),
             Integrator::IntersectionTest(i) => camera_pass(ctx, pass, film, |s| i.li(scene, s.ray, s.diff, s.sampler, s.counts)),
             Integrator::Path(p) => camera_pass(ctx, pass, film, |s| p.li(scene, s.ray, s.diff, s.sampler, s.counts)),
             Integrator::Bdpt(b) if b.visualize_strategies => bdpt::strategies::render_pass(b, ctx, pass, film),

@@ -121,17 +121,7 @@ where
             let mut aov = with_aov.then(|| AovTile::new(x0, y0, x1, y1));
             for y in y0..y1 {
                 for x in x0..x1 {
-                    let mut sampler = PixelSampler::new(x as u32, y as u32, pass, ctx.seed);
-                    let (u, v) = sampler.next_2d();
-                    let pos = Vec2::new(x as f32 + u, y as f32 + v);
-                    let u_lens = lens_sample(ctx.camera, &mut sampler);
-                    // differentials only matter to image textures: skip them otherwise
-                    let (ray, diff) = if scene.uses_footprints {
-                        let (ray, diff) = ctx.camera.sample_ray_differential(pos.x, pos.y, u_lens);
-                        (ray, Some(diff.scaled(&ray, diff_scale)))
-                    } else {
-                        (ctx.camera.sample_ray(pos.x, pos.y, u_lens), None)
-                    };
+                    let (mut sampler, pos, ray, diff) = camera_sample(ctx, x, y, pass, diff_scale);
                     if let Some(aov) = &mut aov {
                         let mut aux = super::aov::aov_sampler(x as u32, y as u32, pass, ctx.seed);
                         aov.add(x, y, &super::aov::features(scene, &ray, &mut aux));
@@ -155,6 +145,30 @@ where
             Some((tile, splats, counts, aov))
         })
         .collect();
+    merge_tiles(done, film)
+}
+
+/// The camera sample of pixel `(x, y)` at sample index `pass`: its sampler (film
+/// position and lens point drawn), the film position, the ray and its differentials.
+#[inline(always)]
+fn camera_sample(ctx: &PassContext, x: i32, y: i32, pass: u32, diff_scale: f32) -> (PixelSampler, Vec2, Ray, Option<RayDifferential>) {
+    let mut sampler = PixelSampler::new(x as u32, y as u32, pass, ctx.seed);
+    let (u, v) = sampler.next_2d();
+    let pos = Vec2::new(x as f32 + u, y as f32 + v);
+    let u_lens = lens_sample(ctx.camera, &mut sampler);
+    // differentials only matter to image textures: skip them otherwise
+    let (ray, diff) = if ctx.scene.uses_footprints {
+        let (ray, diff) = ctx.camera.sample_ray_differential(pos.x, pos.y, u_lens);
+        (ray, Some(diff.scaled(&ray, diff_scale)))
+    } else {
+        (ctx.camera.sample_ray(pos.x, pos.y, u_lens), None)
+    };
+    (sampler, pos, ray, diff)
+}
+
+/// Merges a pass's tiles (and splats, feature sums) into the film in tile order, if
+/// every tile was rendered.
+fn merge_tiles(done: Vec<Option<TileResult>>, film: &mut Film) -> PassResult {
     let mut result = PassResult {
         complete: done.iter().all(Option::is_some),
         counts: RayCounts::default(),
@@ -172,6 +186,104 @@ where
         }
     }
     result
+}
+
+/// Pixel blocks of [`camera_pass_blocks`]: 4×4, one packet of coherent camera rays.
+pub const BLOCK_W: i32 = 4;
+pub const BLOCK_H: i32 = 4;
+
+/// The camera samples of a pixel block (up to [`BLOCK_W`]×[`BLOCK_H`] pixels, rows
+/// in order): what a packet integrator shades together.
+pub struct CameraBlock<'s> {
+    pub pos: &'s [Vec2],
+    pub rays: &'s [Ray],
+    pub diffs: &'s [Option<RayDifferential>],
+    pub samplers: &'s mut [PixelSampler],
+    pub counts: &'s mut RayCounts,
+    pub splats: &'s mut Splats,
+}
+
+/// [`camera_pass`] with the samples handed to `li` a pixel block at a time (it
+/// writes one radiance per sample into its second argument). The image is the
+/// same as [`camera_pass`]'s with the same per-sample radiance: each pixel's
+/// sampler is its own, and the tile adds the samples in the same (row) order.
+pub fn camera_pass_blocks<F>(ctx: &PassContext, pass: u32, film: &mut Film, li: F) -> PassResult
+where
+    F: Fn(&mut CameraBlock, &mut [Vec3]) + Sync,
+{
+    const N: usize = (BLOCK_W * BLOCK_H) as usize;
+    let scene = ctx.scene;
+    let diff_scale = differential_scale(ctx.target_spp);
+    let tiles = tile_grid(ctx.film);
+    let (w, h) = (ctx.film.width as i32, ctx.film.height as i32);
+    let filter = &ctx.film.filter;
+    let with_aov = film.aov().is_some();
+    let done: Vec<Option<TileResult>> = tiles
+        .par_iter()
+        .map(|&(x0, y0, x1, y1)| {
+            if ctx.stop.is_stopped() {
+                return None;
+            }
+            let mut tile = FilmTile::new(x0, y0, x1, y1, filter.reach(), w, h);
+            let mut counts = RayCounts::default();
+            let mut splats = Splats::default();
+            let mut aov = with_aov.then(|| AovTile::new(x0, y0, x1, y1));
+            let tw = (x1 - x0) as usize;
+            // each pixel's film position and radiance, added in row order at the end
+            let mut done_px = vec![(Vec2::ZERO, Vec3::ZERO); tw * (y1 - y0) as usize];
+            let mut samplers = Vec::with_capacity(N);
+            for by in (y0..y1).step_by(BLOCK_H as usize) {
+                for bx in (x0..x1).step_by(BLOCK_W as usize) {
+                    let px: Vec<(i32, i32)> = (by..(by + BLOCK_H).min(y1))
+                        .flat_map(|y| (bx..(bx + BLOCK_W).min(x1)).map(move |x| (x, y)))
+                        .collect();
+                    let n = px.len();
+                    let mut pos = [Vec2::ZERO; N];
+                    let mut rays = [Ray::new(Vec3::ZERO, Vec3::Z); N];
+                    let mut diffs = [None; N];
+                    samplers.clear();
+                    for (i, &(x, y)) in px.iter().enumerate() {
+                        let (s, p, r, d) = camera_sample(ctx, x, y, pass, diff_scale);
+                        (pos[i], rays[i], diffs[i]) = (p, r, d);
+                        samplers.push(s);
+                    }
+                    let mut l = [Vec3::ZERO; N];
+                    li(
+                        &mut CameraBlock {
+                            pos: &pos[..n],
+                            rays: &rays[..n],
+                            diffs: &diffs[..n],
+                            samplers: &mut samplers,
+                            counts: &mut counts,
+                            splats: &mut splats,
+                        },
+                        &mut l[..n],
+                    );
+                    for (i, &(x, y)) in px.iter().enumerate() {
+                        done_px[(y - y0) as usize * tw + (x - x0) as usize] = (pos[i], l[i]);
+                    }
+                }
+            }
+            for y in y0..y1 {
+                for x in x0..x1 {
+                    if let Some(aov) = &mut aov {
+                        let ray = camera_sample(ctx, x, y, pass, diff_scale).2;
+                        let mut aux = super::aov::aov_sampler(x as u32, y as u32, pass, ctx.seed);
+                        aov.add(x, y, &super::aov::features(scene, &ray, &mut aux));
+                    }
+                    let (pos, l) = done_px[(y - y0) as usize * tw + (x - x0) as usize];
+                    if l.is_finite() {
+                        tile.add(pos, l, filter, w, h);
+                    } else {
+                        counts.invalid += 1; // dropped, reported at the end
+                    }
+                }
+            }
+            (ctx.progress)(((x1 - x0) * (y1 - y0)) as u64);
+            Some((tile, splats, counts, aov))
+        })
+        .collect();
+    merge_tiles(done, film)
 }
 
 /// The lens point's sample for a camera ray: a thin lens takes the pixel sampler's next

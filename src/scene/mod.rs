@@ -134,7 +134,7 @@ impl Scene {
     }
 
     /// Closest hit, masks not applied: the scene's own BVH, or its two levels.
-    #[inline]
+    #[inline(always)]
     fn intersect_unmasked(&self, ray: &Ray) -> Option<Hit> {
         if self.instances.is_empty() {
             self.bvh.intersect(&self.prims, ray)
@@ -163,13 +163,43 @@ impl Scene {
         self.intersect(ray).is_some()
     }
 
-    #[inline]
+    #[inline(always)]
     fn occluded_unmasked(&self, ray: &Ray) -> bool {
         if self.instances.is_empty() {
             self.bvh.occluded(&self.prims, ray)
         } else {
             self.two_level().occluded(&self.bvh, ray)
         }
+    }
+
+    /// Whether packet queries ([`Scene::intersect_packet`], [`Scene::occluded_packet`])
+    /// trace rays together: a one-level tree without masks, with packets on.
+    #[inline]
+    pub fn packets(&self) -> bool {
+        self.bvh.packet_width() != 0 && !self.has_masks && self.instances.is_empty()
+    }
+
+    /// [`Scene::intersect`] of up to [`crate::accel::wide::PACKET`] rays (bit `i` of
+    /// `active` for `rays[i]`, into `out[i]`), traced together when
+    /// [`Scene::packets`] says so.
+    pub fn intersect_packet(&self, rays: &[Ray], active: u32, out: &mut [Option<Hit>]) {
+        if self.packets() {
+            self.bvh.intersect_packet(&self.prims, rays, active, out);
+        } else {
+            for (i, r) in rays.iter().enumerate().filter(|(i, _)| active >> i & 1 != 0) {
+                out[i] = self.intersect(r);
+            }
+        }
+    }
+
+    /// [`Scene::occluded`] of up to [`crate::accel::wide::PACKET`] rays: bit `i` for
+    /// `rays[i]` (0 outside `active`).
+    pub fn occluded_packet(&self, rays: &[Ray], active: u32) -> u32 {
+        if self.packets() {
+            return self.bvh.occluded_packet(&self.prims, rays, active);
+        }
+        let hit = |(i, r): (usize, &Ray)| active >> i & 1 != 0 && self.occluded(r);
+        rays.iter().enumerate().filter(|&x| hit(x)).fold(0, |m, (i, _)| m | 1 << i)
     }
 
     /// The fraction of light that passes along a shadow ray or a connection within

@@ -10,7 +10,10 @@
 //!   portable kernels;
 //! * `x86`: the AVX2 and AVX-512 kernels, bit-identical to the scalar ones, and
 //!   the `#[target_feature]` entry points that instantiate the traversal with
-//!   them (the dependency goes one way: `x86` uses `traverse`).
+//!   them (the dependency goes one way: `x86` uses `traverse`);
+//! * `packet`: coherent rays traversed together ([`WideBvh::intersect_packet`],
+//!   [`WideBvh::occluded_packet`]), generic over SIMD lanes across rays, with
+//!   the single-ray results; `packet_x86` holds its AVX2 / AVX-512 lanes.
 //!
 //! Instruction sets ([`Isa`]) are picked at run time; the portable one runs
 //! everywhere and can be forced with [`WideBvh::set_isa`] (the tests run every
@@ -21,17 +24,22 @@
 
 mod collapse;
 pub mod node;
+mod packet;
+#[cfg(target_arch = "x86_64")]
+mod packet_x86;
 mod pages;
 mod traverse;
 #[cfg(target_arch = "x86_64")]
 mod x86;
 
 pub use node::{ChildRef, TriBlock, WideNode, LANES, WIDTH};
+pub use packet::PACKET;
 
 use crate::accel::build::{self, PrimRef};
 use crate::geometry::prim::{Hit, Prim};
 use crate::geometry::{Aabb, Ray};
 use node::{decode, EMPTY};
+use packet::{any_packet, closest_packet, Lanes};
 use std::sync::atomic::{AtomicU64, Ordering};
 pub use traverse::Leaves;
 use traverse::{any, closest, Portable};
@@ -102,6 +110,8 @@ pub struct WideBvh {
     stack_need: usize,
     /// Use the large stack even where the small one would do (tests).
     large_stack: bool,
+    /// Rays a packet traversal takes at once (8 or 16); 0: packet calls trace ray by ray.
+    packet_width: usize,
 }
 
 /// A clone keeps the node and block arrays on huge pages (`pages`).
@@ -116,6 +126,7 @@ impl Clone for WideBvh {
             isa: self.isa,
             stack_need: self.stack_need,
             large_stack: self.large_stack,
+            packet_width: self.packet_width,
         }
     }
 }
@@ -131,6 +142,7 @@ impl Default for WideBvh {
             isa: Isa::detect(),
             stack_need: 1,
             large_stack: false,
+            packet_width: PACKET,
         }
     }
 }
@@ -170,6 +182,51 @@ macro_rules! dispatch {
             }
         }
     }};
+}
+
+/// The packet traversals' [`dispatch!`]: instruction set, then width
+/// (`$p8`/`$p16` the x86 entry points of 8 and 16 lanes), then stack size.
+macro_rules! dispatch_packet {
+    ($bvh:expr, $portable:ident, [$a8:ident, $a16:ident], [$z8:ident, $z16:ident], ($($arg:expr),*)) => {{
+        let small = $bvh.stack_need <= STACK_SMALL && !$bvh.large_stack;
+        let wide = $bvh.packet_width > 8;
+        match $bvh.isa {
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: `isa` is only ever set to an instruction set the CPU has (`set_isa`, `Isa::detect`).
+            Isa::Avx512 => unsafe {
+                match (wide, small) {
+                    (true, true) => packet_x86::$z16::<_, STACK_SMALL>($($arg),*),
+                    (true, false) => packet_x86::$z16::<_, STACK_LARGE>($($arg),*),
+                    (false, true) => packet_x86::$z8::<_, STACK_SMALL>($($arg),*),
+                    (false, false) => packet_x86::$z8::<_, STACK_LARGE>($($arg),*),
+                }
+            },
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: as above.
+            Isa::Avx2 => unsafe {
+                match (wide, small) {
+                    (true, true) => packet_x86::$a16::<_, STACK_SMALL>($($arg),*),
+                    (true, false) => packet_x86::$a16::<_, STACK_LARGE>($($arg),*),
+                    (false, true) => packet_x86::$a8::<_, STACK_SMALL>($($arg),*),
+                    (false, false) => packet_x86::$a8::<_, STACK_LARGE>($($arg),*),
+                }
+            },
+            _ => match (wide, small) {
+                (true, true) => $portable::<Lanes<16>, _, 16, STACK_SMALL>($($arg),*),
+                (true, false) => $portable::<Lanes<16>, _, 16, STACK_LARGE>($($arg),*),
+                (false, true) => $portable::<Lanes<8>, _, 8, STACK_SMALL>($($arg),*),
+                (false, false) => $portable::<Lanes<8>, _, 8, STACK_LARGE>($($arg),*),
+            },
+        }
+    }};
+}
+
+/// Closest-hit rays of packets traced again alone (near ties, see `packet`).
+static PACKET_RETRACED: AtomicU64 = AtomicU64::new(0);
+
+/// How many rays of closest-hit packets were traced again by the single-ray kernel.
+pub fn packet_retraced() -> u64 {
+    PACKET_RETRACED.load(Ordering::Relaxed)
 }
 
 /// Rays with a NaN or infinite origin or direction (or a NaN range) seen by
@@ -284,6 +341,101 @@ impl WideBvh {
             return false;
         }
         dispatch!(self, any, any_avx2, any_avx512, (self, leaves, ray))
+    }
+
+    /// Rays per packet traversal (8 or 16), 0 if packet calls trace ray by ray.
+    pub fn packet_width(&self) -> usize {
+        self.packet_width
+    }
+
+    /// Sets the packet width: 8, 16, or 0 (packet calls then trace ray by ray);
+    /// `false` (and no change) for any other.
+    pub fn set_packet_width(&mut self, w: usize) -> bool {
+        let ok = matches!(w, 0 | 8 | 16);
+        if ok {
+            self.packet_width = w;
+        }
+        ok
+    }
+
+    /// Closest hits of up to [`PACKET`] coherent rays: `out[i]` gets what
+    /// [`WideBvh::intersect`] returns for `rays[i]`, for each bit `i` of `active`
+    /// (other entries are left alone).
+    #[inline]
+    pub fn intersect_packet(&self, prims: &[Prim], rays: &[Ray], active: u32, out: &mut [Option<Hit>]) {
+        self.intersect_packet_with(prims, rays, active, out)
+    }
+
+    /// Which of up to [`PACKET`] rays are occluded: bit `i` is what
+    /// [`WideBvh::occluded`] returns for `rays[i]`, for each bit `i` of `active`
+    /// (0 elsewhere).
+    #[inline]
+    pub fn occluded_packet(&self, prims: &[Prim], rays: &[Ray], active: u32) -> u32 {
+        self.occluded_packet_with(prims, rays, active)
+    }
+
+    /// [`WideBvh::intersect_packet`] with generic leaves tested by `leaves`.
+    pub fn intersect_packet_with<L: Leaves + ?Sized>(&self, leaves: &L, rays: &[Ray], active: u32, out: &mut [Option<Hit>]) {
+        let n = rays.len().min(PACKET).min(out.len());
+        let active = active & ((1u32 << n) - 1);
+        let w = self.packet_width;
+        if w == 0 || self.nodes.is_empty() {
+            for i in (0..n).filter(|i| active >> i & 1 != 0) {
+                out[i] = self.intersect_with(leaves, &rays[i]);
+            }
+            return;
+        }
+        let mut flagged = 0u32;
+        for start in (0..n).step_by(w) {
+            let end = (start + w).min(n);
+            let a = active >> start & ((1u32 << (end - start)) - 1);
+            if a != 0 {
+                let (rs, os) = (&rays[start..end], &mut out[start..end]);
+                let f = dispatch_packet!(
+                    self,
+                    closest_packet,
+                    [closest_avx2_8, closest_avx2_16],
+                    [closest_avx512_8, closest_avx512_16],
+                    (self, leaves, rs, a, os)
+                );
+                flagged |= f << start;
+            }
+        }
+        if flagged != 0 {
+            PACKET_RETRACED.fetch_add(flagged.count_ones() as u64, Ordering::Relaxed);
+            for i in (0..n).filter(|i| flagged >> i & 1 != 0) {
+                out[i] = self.intersect_with(leaves, &rays[i]);
+            }
+        }
+    }
+
+    /// [`WideBvh::occluded_packet`] with generic leaves tested by `leaves`.
+    pub fn occluded_packet_with<L: Leaves + ?Sized>(&self, leaves: &L, rays: &[Ray], active: u32) -> u32 {
+        let n = rays.len().min(PACKET);
+        let active = active & ((1u32 << n) - 1);
+        let w = self.packet_width;
+        if w == 0 || self.nodes.is_empty() {
+            return (0..n)
+                .filter(|&i| active >> i & 1 != 0 && self.occluded_with(leaves, &rays[i]))
+                .fold(0, |m, i| m | 1 << i);
+        }
+        let mut hit = 0u32;
+        for start in (0..n).step_by(w) {
+            let end = (start + w).min(n);
+            let a = active >> start & ((1u32 << (end - start)) - 1);
+            if a != 0 {
+                let rs = &rays[start..end];
+                let h = dispatch_packet!(
+                    self,
+                    any_packet,
+                    [any_avx2_8, any_avx2_16],
+                    [any_avx512_8, any_avx512_16],
+                    (self, leaves, rs, a)
+                );
+                hit |= h << start;
+            }
+        }
+        hit
     }
 
     /// Every child reference: `(node, slot, child)` for checks and statistics.

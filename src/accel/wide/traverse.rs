@@ -225,7 +225,7 @@ impl Kernel for Portable {
 /// Starts loading a child that will be visited later (if no nearer hit culls
 /// it), so its memory latency overlaps the work on the nearer ones.
 #[inline(always)]
-fn prefetch(bvh: &WideBvh, c: u32) {
+pub(super) fn prefetch(bvh: &WideBvh, c: u32) {
     #[cfg(target_arch = "x86_64")]
     {
         use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};

@@ -1,0 +1,317 @@
+//! The x86 lanes of the packet traversal ([`super::packet`]): 8 rays in one AVX2
+//! register, 16 in two, or 16 in one AVX-512 register; and the
+//! `#[target_feature]` entry points that instantiate the traversal with them.
+//!
+//! The lane types are private here and named only inside the entry points: their
+//! safe methods run AVX2 / AVX-512 instructions, so they must never be reachable
+//! from code that has not checked the CPU (the same rule as `x86`'s kernels).
+//! `min`/`max` are the instructions' `a < b ? a : b`, as in the single-ray kernels.
+
+use super::packet::{any_packet, closest_packet, Simd};
+use super::traverse::Leaves;
+use super::WideBvh;
+use crate::geometry::prim::Hit;
+use crate::geometry::Ray;
+use std::arch::x86_64::*;
+
+/// Entry points: `$closest`/`$any` run the traversal with lanes `$v` of width `$n`
+/// in code compiled for `$feat`. Callers must have detected the features at run time
+/// (`super::Isa::available`).
+macro_rules! entry {
+    ($feat:literal, $v:ty, $n:literal, $closest:ident, $any:ident) => {
+        #[target_feature(enable = $feat)]
+        pub(super) fn $closest<L: Leaves + ?Sized, const S: usize>(
+            bvh: &WideBvh,
+            prims: &L,
+            rays: &[Ray],
+            active: u32,
+            out: &mut [Option<Hit>],
+        ) -> u32 {
+            closest_packet::<$v, L, $n, S>(bvh, prims, rays, active, out)
+        }
+        #[target_feature(enable = $feat)]
+        pub(super) fn $any<L: Leaves + ?Sized, const S: usize>(bvh: &WideBvh, prims: &L, rays: &[Ray], active: u32) -> u32 {
+            any_packet::<$v, L, $n, S>(bvh, prims, rays, active)
+        }
+    };
+}
+
+entry!("avx2,fma", Y8, 8, closest_avx2_8, any_avx2_8);
+entry!("avx2,fma", Y16, 16, closest_avx2_16, any_avx2_16);
+entry!("avx2,fma,avx512f,avx512vl", Y8, 8, closest_avx512_8, any_avx512_8);
+entry!("avx2,fma,avx512f,avx512vl", Z16, 16, closest_avx512_16, any_avx512_16);
+
+/// Eight lanes in an AVX2 register; masks are all-ones lanes.
+#[derive(Clone, Copy)]
+struct Y8(__m256);
+
+/// Sixteen lanes in two AVX2 registers.
+#[derive(Clone, Copy)]
+struct Y16([__m256; 2]);
+
+/// Sixteen lanes in an AVX-512 register; masks are mask registers.
+#[derive(Clone, Copy)]
+struct Z16(__m512);
+
+// SAFETY (every `unsafe` block in the impls below): the lane types are only
+// instantiated inside the entry points above, which enable the instructions
+// used (AVX for Y8/Y16, AVX-512F for Z16) and are only called once the CPU is
+// known to have them; loads and stores go through references to arrays of
+// exactly the lanes' size (unaligned forms).
+
+macro_rules! y8_cmp {
+    ($($name:ident => $pred:ident),*) => {$(
+        #[inline(always)]
+        fn $name(self, o: Self) -> __m256 {
+            // SAFETY: see above.
+            unsafe { _mm256_cmp_ps::<$pred>(self.0, o.0) }
+        }
+    )*};
+}
+
+macro_rules! y8_op {
+    ($($name:ident => $f:ident),*) => {$(
+        #[inline(always)]
+        fn $name(self, o: Self) -> Self {
+            // SAFETY: see above.
+            Y8(unsafe { $f(self.0, o.0) })
+        }
+    )*};
+}
+
+impl Simd<8> for Y8 {
+    type M = __m256;
+    y8_op!(add => _mm256_add_ps, sub => _mm256_sub_ps, mul => _mm256_mul_ps, div => _mm256_div_ps,
+           min => _mm256_min_ps, max => _mm256_max_ps);
+    y8_cmp!(lt => _CMP_LT_OQ, le => _CMP_LE_OQ, gt => _CMP_GT_OQ, ge => _CMP_GE_OQ, eq => _CMP_EQ_OQ,
+            not_lt => _CMP_NLT_UQ);
+    #[inline(always)]
+    fn splat(x: f32) -> Self {
+        // SAFETY: see above.
+        Y8(unsafe { _mm256_set1_ps(x) })
+    }
+    #[inline(always)]
+    fn load(a: &[f32; 8]) -> Self {
+        // SAFETY: see above.
+        Y8(unsafe { _mm256_loadu_ps(a.as_ptr()) })
+    }
+    #[inline(always)]
+    fn store(self, a: &mut [f32; 8]) {
+        // SAFETY: see above.
+        unsafe { _mm256_storeu_ps(a.as_mut_ptr(), self.0) }
+    }
+    #[inline(always)]
+    fn abs(self) -> Self {
+        // SAFETY: see above.
+        Y8(unsafe { _mm256_andnot_ps(_mm256_set1_ps(-0.0), self.0) })
+    }
+    #[inline(always)]
+    fn neg(self) -> Self {
+        // SAFETY: see above.
+        Y8(unsafe { _mm256_xor_ps(_mm256_set1_ps(-0.0), self.0) })
+    }
+    #[inline(always)]
+    fn copysign(self, sign: Self) -> Self {
+        // SAFETY: see above.
+        Y8(unsafe {
+            let s = _mm256_set1_ps(-0.0);
+            _mm256_or_ps(_mm256_andnot_ps(s, self.0), _mm256_and_ps(s, sign.0))
+        })
+    }
+    #[inline(always)]
+    fn select(m: __m256, a: Self, b: Self) -> Self {
+        // SAFETY: see above.
+        Y8(unsafe { _mm256_blendv_ps(b.0, a.0, m) })
+    }
+    #[inline(always)]
+    fn and(a: __m256, b: __m256) -> __m256 {
+        // SAFETY: see above.
+        unsafe { _mm256_and_ps(a, b) }
+    }
+    #[inline(always)]
+    fn or(a: __m256, b: __m256) -> __m256 {
+        // SAFETY: see above.
+        unsafe { _mm256_or_ps(a, b) }
+    }
+    #[inline(always)]
+    fn andnot(a: __m256, b: __m256) -> __m256 {
+        // SAFETY: see above.
+        unsafe { _mm256_andnot_ps(a, b) }
+    }
+    #[inline(always)]
+    fn bits(m: __m256) -> u32 {
+        // SAFETY: see above.
+        unsafe { _mm256_movemask_ps(m) as u32 }
+    }
+    #[inline(always)]
+    fn from_bits(b: u32) -> __m256 {
+        // SAFETY: see above.
+        unsafe {
+            let lane = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
+            let m = _mm256_and_si256(_mm256_set1_epi32(b as i32), lane);
+            _mm256_castsi256_ps(_mm256_cmpeq_epi32(m, lane))
+        }
+    }
+}
+
+/// Both halves of a [`Y16`] through [`Y8`].
+macro_rules! y16_op {
+    ($($name:ident),*) => {$(
+        #[inline(always)]
+        fn $name(self, o: Self) -> Self {
+            Y16([Y8(self.0[0]).$name(Y8(o.0[0])).0, Y8(self.0[1]).$name(Y8(o.0[1])).0])
+        }
+    )*};
+}
+macro_rules! y16_cmp {
+    ($($name:ident),*) => {$(
+        #[inline(always)]
+        fn $name(self, o: Self) -> [__m256; 2] {
+            [Y8(self.0[0]).$name(Y8(o.0[0])), Y8(self.0[1]).$name(Y8(o.0[1]))]
+        }
+    )*};
+}
+macro_rules! y16_mask {
+    ($($name:ident),*) => {$(
+        #[inline(always)]
+        fn $name(a: [__m256; 2], b: [__m256; 2]) -> [__m256; 2] {
+            [Y8::$name(a[0], b[0]), Y8::$name(a[1], b[1])]
+        }
+    )*};
+}
+
+impl Simd<16> for Y16 {
+    type M = [__m256; 2];
+    y16_op!(add, sub, mul, div, min, max);
+    y16_cmp!(lt, le, gt, ge, eq, not_lt);
+    y16_mask!(and, or, andnot);
+    #[inline(always)]
+    fn splat(x: f32) -> Self {
+        let h = Y8::splat(x).0;
+        Y16([h, h])
+    }
+    #[inline(always)]
+    fn load(a: &[f32; 16]) -> Self {
+        let (lo, hi) = a.split_at(8);
+        Y16([Y8::load(lo.try_into().unwrap()).0, Y8::load(hi.try_into().unwrap()).0])
+    }
+    #[inline(always)]
+    fn store(self, a: &mut [f32; 16]) {
+        let (lo, hi) = a.split_at_mut(8);
+        Y8(self.0[0]).store(lo.try_into().unwrap());
+        Y8(self.0[1]).store(hi.try_into().unwrap());
+    }
+    #[inline(always)]
+    fn abs(self) -> Self {
+        Y16([Y8(self.0[0]).abs().0, Y8(self.0[1]).abs().0])
+    }
+    #[inline(always)]
+    fn neg(self) -> Self {
+        Y16([Y8(self.0[0]).neg().0, Y8(self.0[1]).neg().0])
+    }
+    #[inline(always)]
+    fn copysign(self, sign: Self) -> Self {
+        Y16([Y8(self.0[0]).copysign(Y8(sign.0[0])).0, Y8(self.0[1]).copysign(Y8(sign.0[1])).0])
+    }
+    #[inline(always)]
+    fn select(m: [__m256; 2], a: Self, b: Self) -> Self {
+        Y16([
+            Y8::select(m[0], Y8(a.0[0]), Y8(b.0[0])).0,
+            Y8::select(m[1], Y8(a.0[1]), Y8(b.0[1])).0,
+        ])
+    }
+    #[inline(always)]
+    fn bits(m: [__m256; 2]) -> u32 {
+        Y8::bits(m[0]) | Y8::bits(m[1]) << 8
+    }
+    #[inline(always)]
+    fn from_bits(b: u32) -> [__m256; 2] {
+        [Y8::from_bits(b & 0xff), Y8::from_bits(b >> 8 & 0xff)]
+    }
+}
+
+macro_rules! z16_cmp {
+    ($($name:ident => $pred:ident),*) => {$(
+        #[inline(always)]
+        fn $name(self, o: Self) -> __mmask16 {
+            // SAFETY: see above.
+            unsafe { _mm512_cmp_ps_mask::<$pred>(self.0, o.0) }
+        }
+    )*};
+}
+macro_rules! z16_op {
+    ($($name:ident => $f:ident),*) => {$(
+        #[inline(always)]
+        fn $name(self, o: Self) -> Self {
+            // SAFETY: see above.
+            Z16(unsafe { $f(self.0, o.0) })
+        }
+    )*};
+}
+
+impl Simd<16> for Z16 {
+    type M = __mmask16;
+    z16_op!(add => _mm512_add_ps, sub => _mm512_sub_ps, mul => _mm512_mul_ps, div => _mm512_div_ps,
+            min => _mm512_min_ps, max => _mm512_max_ps);
+    z16_cmp!(lt => _CMP_LT_OQ, le => _CMP_LE_OQ, gt => _CMP_GT_OQ, ge => _CMP_GE_OQ, eq => _CMP_EQ_OQ,
+             not_lt => _CMP_NLT_UQ);
+    #[inline(always)]
+    fn splat(x: f32) -> Self {
+        // SAFETY: see above.
+        Z16(unsafe { _mm512_set1_ps(x) })
+    }
+    #[inline(always)]
+    fn load(a: &[f32; 16]) -> Self {
+        // SAFETY: see above.
+        Z16(unsafe { _mm512_loadu_ps(a.as_ptr()) })
+    }
+    #[inline(always)]
+    fn store(self, a: &mut [f32; 16]) {
+        // SAFETY: see above.
+        unsafe { _mm512_storeu_ps(a.as_mut_ptr(), self.0) }
+    }
+    #[inline(always)]
+    fn abs(self) -> Self {
+        // SAFETY: see above.
+        Z16(unsafe { _mm512_abs_ps(self.0) })
+    }
+    #[inline(always)]
+    fn neg(self) -> Self {
+        // SAFETY: see above (integer forms: float xor is AVX-512DQ).
+        Z16(unsafe { _mm512_castsi512_ps(_mm512_xor_si512(_mm512_castps_si512(self.0), _mm512_set1_epi32(i32::MIN))) })
+    }
+    #[inline(always)]
+    fn copysign(self, sign: Self) -> Self {
+        // SAFETY: as in `neg`.
+        Z16(unsafe {
+            let (m, s) = (_mm512_castps_si512(self.0), _mm512_castps_si512(sign.0));
+            let bit = _mm512_set1_epi32(i32::MIN);
+            _mm512_castsi512_ps(_mm512_or_si512(_mm512_andnot_si512(bit, m), _mm512_and_si512(bit, s)))
+        })
+    }
+    #[inline(always)]
+    fn select(m: __mmask16, a: Self, b: Self) -> Self {
+        // SAFETY: see above.
+        Z16(unsafe { _mm512_mask_blend_ps(m, b.0, a.0) })
+    }
+    #[inline(always)]
+    fn and(a: __mmask16, b: __mmask16) -> __mmask16 {
+        a & b
+    }
+    #[inline(always)]
+    fn or(a: __mmask16, b: __mmask16) -> __mmask16 {
+        a | b
+    }
+    #[inline(always)]
+    fn andnot(a: __mmask16, b: __mmask16) -> __mmask16 {
+        !a & b
+    }
+    #[inline(always)]
+    fn bits(m: __mmask16) -> u32 {
+        m as u32
+    }
+    #[inline(always)]
+    fn from_bits(b: u32) -> __mmask16 {
+        b as __mmask16
+    }
+}

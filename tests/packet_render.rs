@@ -27,7 +27,13 @@ fn check(file: &Path, overrides: &[&str]) {
             assert!(loaded.scene.bvh.set_isa(isa) && loaded.scene.bvh.set_packet_width(w));
             let got = bits(&common::render(&loaded, 3, 5));
             let diff = got.iter().zip(&alone).filter(|(a, b)| a != b).count();
-            assert_eq!(diff, 0, "{} {} x{w}: {diff} pixels differ from ray-by-ray", file.display(), isa.name());
+            assert_eq!(
+                diff,
+                0,
+                "{} {} x{w}: {diff} pixels differ from ray-by-ray",
+                file.display(),
+                isa.name()
+            );
         }
     }
 }

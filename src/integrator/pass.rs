@@ -103,46 +103,89 @@ pub fn camera_pass<F>(ctx: &PassContext, pass: u32, film: &mut Film, li: F) -> P
 where
     F: Fn(&mut CameraSample) -> Vec3 + Sync,
 {
-    let scene = ctx.scene;
     let diff_scale = differential_scale(ctx.target_spp);
-    let tiles = tile_grid(ctx.film);
+    tile_pass(ctx, pass, film, |t| {
+        let (x0, y0, x1, y1) = t.rect;
+        for y in y0..y1 {
+            for x in x0..x1 {
+                let (mut sampler, pos, ray, diff) = camera_sample(ctx, x, y, pass, diff_scale);
+                t.add_features(x, y, &ray);
+                let l = li(&mut CameraSample {
+                    pos,
+                    ray,
+                    diff,
+                    sampler: &mut sampler,
+                    counts: &mut t.counts,
+                    splats: &mut t.splats,
+                });
+                t.add(pos, l);
+            }
+        }
+    })
+}
+
+/// What a tile of a camera pass collects: its samples, splats, counters and
+/// feature sums.
+struct TileWork<'c, 'a> {
+    ctx: &'c PassContext<'a>,
+    pass: u32,
+    /// The tile's pixels: x0, y0 (inclusive), x1, y1 (exclusive).
+    rect: (i32, i32, i32, i32),
+    tile: FilmTile,
+    counts: RayCounts,
+    splats: Splats,
+    aov: Option<AovTile>,
+}
+
+impl TileWork<'_, '_> {
+    /// Adds a sample's radiance at film position `pos`; a non-finite one is
+    /// dropped and counted, reported at the end.
+    fn add(&mut self, pos: Vec2, l: Vec3) {
+        let film = self.ctx.film;
+        if l.is_finite() {
+            self.tile.add(pos, l, &film.filter, film.width as i32, film.height as i32);
+        } else {
+            self.counts.invalid += 1;
+        }
+    }
+
+    /// With `--aov`, adds the features of pixel `(x, y)`'s camera ray.
+    fn add_features(&mut self, x: i32, y: i32, ray: &Ray) {
+        if let Some(aov) = &mut self.aov {
+            let mut aux = super::aov::aov_sampler(x as u32, y as u32, self.pass, self.ctx.seed);
+            aov.add(x, y, &super::aov::features(self.ctx.scene, ray, &mut aux));
+        }
+    }
+}
+
+/// Runs `render_tile` on every tile of the film in parallel and merges the tiles
+/// into `film` in tile order, so the result does not depend on the thread count.
+/// When the stop token is set, tiles not yet started are skipped and nothing of
+/// the pass is merged.
+fn tile_pass<F>(ctx: &PassContext, pass: u32, film: &mut Film, render_tile: F) -> PassResult
+where
+    F: Fn(&mut TileWork) + Sync,
+{
     let (w, h) = (ctx.film.width as i32, ctx.film.height as i32);
-    let filter = &ctx.film.filter;
     let with_aov = film.aov().is_some();
-    let done: Vec<Option<TileResult>> = tiles
+    let done: Vec<Option<TileResult>> = tile_grid(ctx.film)
         .par_iter()
         .map(|&(x0, y0, x1, y1)| {
             if ctx.stop.is_stopped() {
                 return None;
             }
-            let mut tile = FilmTile::new(x0, y0, x1, y1, filter.reach(), w, h);
-            let mut counts = RayCounts::default();
-            let mut splats = Splats::default();
-            let mut aov = with_aov.then(|| AovTile::new(x0, y0, x1, y1));
-            for y in y0..y1 {
-                for x in x0..x1 {
-                    let (mut sampler, pos, ray, diff) = camera_sample(ctx, x, y, pass, diff_scale);
-                    if let Some(aov) = &mut aov {
-                        let mut aux = super::aov::aov_sampler(x as u32, y as u32, pass, ctx.seed);
-                        aov.add(x, y, &super::aov::features(scene, &ray, &mut aux));
-                    }
-                    let l = li(&mut CameraSample {
-                        pos,
-                        ray,
-                        diff,
-                        sampler: &mut sampler,
-                        counts: &mut counts,
-                        splats: &mut splats,
-                    });
-                    if l.is_finite() {
-                        tile.add(pos, l, filter, w, h);
-                    } else {
-                        counts.invalid += 1; // dropped, reported at the end
-                    }
-                }
-            }
+            let mut t = TileWork {
+                ctx,
+                pass,
+                rect: (x0, y0, x1, y1),
+                tile: FilmTile::new(x0, y0, x1, y1, ctx.film.filter.reach(), w, h),
+                counts: RayCounts::default(),
+                splats: Splats::default(),
+                aov: with_aov.then(|| AovTile::new(x0, y0, x1, y1)),
+            };
+            render_tile(&mut t);
             (ctx.progress)(((x1 - x0) * (y1 - y0)) as u64);
-            Some((tile, splats, counts, aov))
+            Some((t.tile, t.splats, t.counts, t.aov))
         })
         .collect();
     merge_tiles(done, film)
@@ -212,78 +255,56 @@ where
     F: Fn(&mut CameraBlock, &mut [Vec3]) + Sync,
 {
     const N: usize = (BLOCK_W * BLOCK_H) as usize;
-    let scene = ctx.scene;
     let diff_scale = differential_scale(ctx.target_spp);
-    let tiles = tile_grid(ctx.film);
-    let (w, h) = (ctx.film.width as i32, ctx.film.height as i32);
-    let filter = &ctx.film.filter;
-    let with_aov = film.aov().is_some();
-    let done: Vec<Option<TileResult>> = tiles
-        .par_iter()
-        .map(|&(x0, y0, x1, y1)| {
-            if ctx.stop.is_stopped() {
-                return None;
-            }
-            let mut tile = FilmTile::new(x0, y0, x1, y1, filter.reach(), w, h);
-            let mut counts = RayCounts::default();
-            let mut splats = Splats::default();
-            let mut aov = with_aov.then(|| AovTile::new(x0, y0, x1, y1));
-            let tw = (x1 - x0) as usize;
-            // each pixel's film position and radiance, added in row order at the end
-            let mut done_px = vec![(Vec2::ZERO, Vec3::ZERO); tw * (y1 - y0) as usize];
-            let mut samplers = Vec::with_capacity(N);
-            for by in (y0..y1).step_by(BLOCK_H as usize) {
-                for bx in (x0..x1).step_by(BLOCK_W as usize) {
-                    let px: Vec<(i32, i32)> = (by..(by + BLOCK_H).min(y1))
-                        .flat_map(|y| (bx..(bx + BLOCK_W).min(x1)).map(move |x| (x, y)))
-                        .collect();
-                    let n = px.len();
-                    let mut pos = [Vec2::ZERO; N];
-                    let mut rays = [Ray::new(Vec3::ZERO, Vec3::Z); N];
-                    let mut diffs = [None; N];
-                    samplers.clear();
-                    for (i, &(x, y)) in px.iter().enumerate() {
-                        let (s, p, r, d) = camera_sample(ctx, x, y, pass, diff_scale);
-                        (pos[i], rays[i], diffs[i]) = (p, r, d);
-                        samplers.push(s);
-                    }
-                    let mut l = [Vec3::ZERO; N];
-                    li(
-                        &mut CameraBlock {
-                            pos: &pos[..n],
-                            rays: &rays[..n],
-                            diffs: &diffs[..n],
-                            samplers: &mut samplers,
-                            counts: &mut counts,
-                            splats: &mut splats,
-                        },
-                        &mut l[..n],
-                    );
-                    for (i, &(x, y)) in px.iter().enumerate() {
-                        done_px[(y - y0) as usize * tw + (x - x0) as usize] = (pos[i], l[i]);
-                    }
+    tile_pass(ctx, pass, film, |t| {
+        let (x0, y0, x1, y1) = t.rect;
+        let tw = (x1 - x0) as usize;
+        // each pixel's film position and radiance, added in row order at the end
+        let mut done_px = vec![(Vec2::ZERO, Vec3::ZERO); tw * (y1 - y0) as usize];
+        let mut samplers = Vec::with_capacity(N);
+        for by in (y0..y1).step_by(BLOCK_H as usize) {
+            for bx in (x0..x1).step_by(BLOCK_W as usize) {
+                let px: Vec<(i32, i32)> = (by..(by + BLOCK_H).min(y1))
+                    .flat_map(|y| (bx..(bx + BLOCK_W).min(x1)).map(move |x| (x, y)))
+                    .collect();
+                let n = px.len();
+                let mut pos = [Vec2::ZERO; N];
+                let mut rays = [Ray::new(Vec3::ZERO, Vec3::Z); N];
+                let mut diffs = [None; N];
+                samplers.clear();
+                for (i, &(x, y)) in px.iter().enumerate() {
+                    let (s, p, r, d) = camera_sample(ctx, x, y, pass, diff_scale);
+                    (pos[i], rays[i], diffs[i]) = (p, r, d);
+                    samplers.push(s);
+                }
+                let mut l = [Vec3::ZERO; N];
+                li(
+                    &mut CameraBlock {
+                        pos: &pos[..n],
+                        rays: &rays[..n],
+                        diffs: &diffs[..n],
+                        samplers: &mut samplers,
+                        counts: &mut t.counts,
+                        splats: &mut t.splats,
+                    },
+                    &mut l[..n],
+                );
+                for (i, &(x, y)) in px.iter().enumerate() {
+                    done_px[(y - y0) as usize * tw + (x - x0) as usize] = (pos[i], l[i]);
                 }
             }
-            for y in y0..y1 {
-                for x in x0..x1 {
-                    if let Some(aov) = &mut aov {
-                        let ray = camera_sample(ctx, x, y, pass, diff_scale).2;
-                        let mut aux = super::aov::aov_sampler(x as u32, y as u32, pass, ctx.seed);
-                        aov.add(x, y, &super::aov::features(scene, &ray, &mut aux));
-                    }
-                    let (pos, l) = done_px[(y - y0) as usize * tw + (x - x0) as usize];
-                    if l.is_finite() {
-                        tile.add(pos, l, filter, w, h);
-                    } else {
-                        counts.invalid += 1; // dropped, reported at the end
-                    }
+        }
+        for y in y0..y1 {
+            for x in x0..x1 {
+                if t.aov.is_some() {
+                    let ray = camera_sample(ctx, x, y, pass, diff_scale).2;
+                    t.add_features(x, y, &ray);
                 }
+                let (pos, l) = done_px[(y - y0) as usize * tw + (x - x0) as usize];
+                t.add(pos, l);
             }
-            (ctx.progress)(((x1 - x0) * (y1 - y0)) as u64);
-            Some((tile, splats, counts, aov))
-        })
-        .collect();
-    merge_tiles(done, film)
+        }
+    })
 }
 
 /// The lens point's sample for a camera ray: a thin lens takes the pixel sampler's next

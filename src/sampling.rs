@@ -71,6 +71,10 @@ fn build_tables(weights: &[f32], func: &mut Vec<f32>, cdf: &mut Vec<f32>, guide:
     integral
 }
 
+/// Distributions of at most this many buckets (a scene's lights, a light's
+/// triangles) are searched by counting.
+const SMALL: usize = 16;
+
 /// A borrowed view of one distribution's tables (a [`Distribution1D`] or a row of a
 /// [`Distribution2D`]).
 #[derive(Clone, Copy)]
@@ -89,6 +93,12 @@ impl Tables<'_> {
         // a single entry (a scene's only light) needs no search
         if n <= 1 || u.is_nan() {
             return (0, self.cdf[0], self.cdf[1], self.func[0]);
+        }
+        if n <= SMALL {
+            // the cdf rising (cdf[0] = 0), the answer counts the bounds ≤ u: compares
+            // without the branches of a walk, which go either way at random
+            let i = self.cdf[1..n].iter().filter(|&&c| c <= u).count();
+            return (i, self.cdf[i], self.cdf[i + 1], self.func[i]);
         }
         // `as` saturates: negative u gives 0
         let k = ((u * n as f32) as usize).min(n - 1);
@@ -393,7 +403,7 @@ mod tests {
     fn guided_search_matches_binary_search() {
         let mut rng = SplitMix64(7);
         let mut cases: Vec<Vec<f32>> = vec![vec![1.0], vec![0.0, 0.0, 0.0], vec![0.0, 5.0, 0.0, 0.0, 1.0, 0.0]];
-        for n in [2usize, 3, 17, 256, 1000] {
+        for n in [2usize, 3, 15, 16, 17, 256, 1000] {
             cases.push(
                 (0..n)
                     .map(|_| match rng.next_u64() % 4 {

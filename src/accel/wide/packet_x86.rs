@@ -59,31 +59,33 @@ struct Z16(__m512);
 // known to have them; loads and stores go through references to arrays of
 // exactly the lanes' size (unaligned forms).
 
-macro_rules! y8_cmp {
-    ($($name:ident => $pred:ident),*) => {$(
+/// Comparisons of a lane type whose intrinsic `$cmp::<PREDICATE>` gives mask `$m`.
+macro_rules! lane_cmp {
+    ($m:ty, $cmp:ident; $($name:ident => $pred:ident),*) => {$(
         #[inline(always)]
-        fn $name(self, o: Self) -> __m256 {
+        fn $name(self, o: Self) -> $m {
             // SAFETY: see above.
-            unsafe { _mm256_cmp_ps::<$pred>(self.0, o.0) }
+            unsafe { $cmp::<$pred>(self.0, o.0) }
         }
     )*};
 }
 
-macro_rules! y8_op {
-    ($($name:ident => $f:ident),*) => {$(
+/// Lane-wise binary operations of the lane type `$lanes` (a one-register wrapper).
+macro_rules! lane_op {
+    ($lanes:ident; $($name:ident => $f:ident),*) => {$(
         #[inline(always)]
         fn $name(self, o: Self) -> Self {
             // SAFETY: see above.
-            Y8(unsafe { $f(self.0, o.0) })
+            $lanes(unsafe { $f(self.0, o.0) })
         }
     )*};
 }
 
 impl Simd<8> for Y8 {
     type M = __m256;
-    y8_op!(add => _mm256_add_ps, sub => _mm256_sub_ps, mul => _mm256_mul_ps, div => _mm256_div_ps,
+    lane_op!(Y8; add => _mm256_add_ps, sub => _mm256_sub_ps, mul => _mm256_mul_ps, div => _mm256_div_ps,
            min => _mm256_min_ps, max => _mm256_max_ps);
-    y8_cmp!(lt => _CMP_LT_OQ, le => _CMP_LE_OQ, gt => _CMP_GT_OQ, ge => _CMP_GE_OQ, eq => _CMP_EQ_OQ,
+    lane_cmp!(__m256, _mm256_cmp_ps; lt => _CMP_LT_OQ, le => _CMP_LE_OQ, gt => _CMP_GT_OQ, ge => _CMP_GE_OQ, eq => _CMP_EQ_OQ,
             not_lt => _CMP_NLT_UQ);
     #[inline(always)]
     fn splat(x: f32) -> Self {
@@ -230,30 +232,11 @@ impl Simd<16> for Y16 {
     }
 }
 
-macro_rules! z16_cmp {
-    ($($name:ident => $pred:ident),*) => {$(
-        #[inline(always)]
-        fn $name(self, o: Self) -> __mmask16 {
-            // SAFETY: see above.
-            unsafe { _mm512_cmp_ps_mask::<$pred>(self.0, o.0) }
-        }
-    )*};
-}
-macro_rules! z16_op {
-    ($($name:ident => $f:ident),*) => {$(
-        #[inline(always)]
-        fn $name(self, o: Self) -> Self {
-            // SAFETY: see above.
-            Z16(unsafe { $f(self.0, o.0) })
-        }
-    )*};
-}
-
 impl Simd<16> for Z16 {
     type M = __mmask16;
-    z16_op!(add => _mm512_add_ps, sub => _mm512_sub_ps, mul => _mm512_mul_ps, div => _mm512_div_ps,
+    lane_op!(Z16; add => _mm512_add_ps, sub => _mm512_sub_ps, mul => _mm512_mul_ps, div => _mm512_div_ps,
             min => _mm512_min_ps, max => _mm512_max_ps);
-    z16_cmp!(lt => _CMP_LT_OQ, le => _CMP_LE_OQ, gt => _CMP_GT_OQ, ge => _CMP_GE_OQ, eq => _CMP_EQ_OQ,
+    lane_cmp!(__mmask16, _mm512_cmp_ps_mask; lt => _CMP_LT_OQ, le => _CMP_LE_OQ, gt => _CMP_GT_OQ, ge => _CMP_GE_OQ, eq => _CMP_EQ_OQ,
              not_lt => _CMP_NLT_UQ);
     #[inline(always)]
     fn splat(x: f32) -> Self {

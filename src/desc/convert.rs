@@ -232,6 +232,11 @@ pub fn to_json(desc: &SceneDesc, out: &Path) -> Result<Converted> {
             integ.insert("learn_fraction".into(), g.learn_fraction.into());
             integ.insert("training_share".into(), num(g.training_share));
             integ.insert("min_gain".into(), num(g.min_gain));
+            let learn_from = match g.learn_from {
+                crate::integrator::guided::LearnFrom::Paths => "paths",
+                crate::integrator::guided::LearnFrom::Photons => "photons",
+            };
+            integ.insert("learn_from".into(), learn_from.into());
         }
         Integrator::Rdr171(_) => unreachable!("a description never holds the compat integrator"),
     }

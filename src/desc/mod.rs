@@ -909,7 +909,7 @@ fn parse_integrator(p: &Props) -> Result<IntegratorDesc> {
 /// The keys of [`Guided`] (documented there).
 fn parse_guided(p: &Props) -> Result<Guided> {
     let d = Guided::default();
-    let rr_threshold = p.f32_or("rr_threshold", d.rr_threshold)?;
+    let rr_threshold = unit_interval(p, "rr_threshold")?;
     let max_depth = capped(p, "max_depth", p.int_at_least("max_depth", d.max_depth as i32, 1)?, MAX_DEPTH);
     let bsdf_fraction = p.f32_or("bsdf_fraction", d.bsdf_fraction)?;
     if !(bsdf_fraction > 0.0 && bsdf_fraction <= 1.0) {
@@ -937,12 +937,18 @@ fn parse_guided(p: &Props) -> Result<Guided> {
     if !(training_share > 0.0 && training_share <= 1.0) {
         return Err(p.error("training_share", "training_share must lie in (0, 1]"));
     }
+    let learn_from = match p.string_or("learn_from", "photons")?.as_str() {
+        "paths" => guided::LearnFrom::Paths,
+        "photons" => guided::LearnFrom::Photons,
+        other => return Err(p.error("learn_from", format!("unknown learn_from '{other}' (available: paths, photons)"))),
+    };
     let min_gain = p.f32_or("min_gain", d.min_gain)?;
     if !(0.0..1.0).contains(&min_gain) {
         return Err(p.error("min_gain", "min_gain must lie in [0, 1)"));
     }
     Ok(Guided {
         min_gain,
+        learn_from,
         training_share,
         learn_direct,
         learn_fraction,

@@ -80,21 +80,36 @@ pub struct Shooting {
     /// Longest photon path stored (segments).
     pub max_segments: u32,
     pub rr_threshold: f32,
+    /// Shortest photon path stored: 2 for the photon maps (direct light comes
+    /// from light sampling), 1 where direct light is wanted too.
+    pub min_segments: u32,
 }
 
-/// One chunk's photons: positions, payloads, rays cast.
-type Chunk = (Vec<[f32; 3]>, Vec<Photon>, u64);
+/// Photon deposits: positions, payloads (same order), rays cast.
+pub type Deposits = (Vec<Vec3>, Vec<Photon>, u64);
 
 /// Shoots `s.count` photons for `iteration`; `None` when the stop token was set.
 pub fn shoot(scene: &Scene, s: Shooting, iteration: u32, seed: u32, stop: &StopToken) -> Option<PhotonMap> {
+    let (pts, photons, rays) = shoot_deposits(scene, s, iteration, seed, stop)?;
+    let tree = KdTree::build(pts.into_iter().map(|p| p.to_array()).collect());
+    let photons = tree.permute(&photons);
+    Some(PhotonMap {
+        tree,
+        photons,
+        emitted: s.count as u64,
+        rays,
+    })
+}
+
+/// The deposits of `s.count` photons for `iteration` (positions, payloads, in
+/// photon order whatever the thread count) and the rays cast; `None` when the
+/// stop token was set.
+pub fn shoot_deposits(scene: &Scene, s: Shooting, iteration: u32, seed: u32, stop: &StopToken) -> Option<Deposits> {
     let n = s.count as usize;
-    if scene.lights.is_empty() || n == 0 || s.max_segments < 2 {
-        return Some(PhotonMap {
-            emitted: n as u64,
-            ..PhotonMap::default()
-        });
+    if scene.lights.is_empty() || n == 0 || s.max_segments < s.min_segments.max(1) {
+        return Some((Vec::new(), Vec::new(), 0));
     }
-    let chunks: Vec<Option<Chunk>> = (0..n.div_ceil(CHUNK))
+    let chunks: Vec<Option<Deposits>> = (0..n.div_ceil(CHUNK))
         .into_par_iter()
         .map(|c| {
             if stop.is_stopped() {
@@ -105,7 +120,7 @@ pub fn shoot(scene: &Scene, s: Shooting, iteration: u32, seed: u32, stop: &StopT
                 let key = (seed as u64) << 40 ^ (iteration as u64) << 32 ^ i as u64;
                 let mut rng = SplitMix64(key.wrapping_mul(0x9e37_79b9_7f4a_7c15));
                 rays += trace_photon(scene, s, &mut rng, &mut |p, photon| {
-                    pts.push(p.to_array());
+                    pts.push(p);
                     ph.push(photon);
                 });
             }
@@ -121,14 +136,7 @@ pub fn shoot(scene: &Scene, s: Shooting, iteration: u32, seed: u32, stop: &StopT
         photons.extend(ph);
         rays += r;
     }
-    let tree = KdTree::build(pts);
-    let photons = tree.permute(&photons);
-    Some(PhotonMap {
-        tree,
-        photons,
-        emitted: n as u64,
-        rays,
-    })
+    Some((pts, photons, rays))
 }
 
 /// Traces one photon, calling `store` at each deposit; returns the rays cast.
@@ -164,7 +172,7 @@ fn trace_photon(scene: &Scene, s: Shooting, rng: &mut SplitMix64, store: &mut im
         let it = scene.interaction(&ray, &hit);
         let Some(material) = scene.material_of(&it) else { break };
         let bsdf = material.bsdf_at(&it, &scene.textures);
-        if !bsdf.is_delta() && segments >= 2 {
+        if !bsdf.is_delta() && segments >= s.min_segments {
             store(
                 it.p,
                 Photon {
@@ -393,6 +401,7 @@ impl PhotonMapper {
                 count: self.n_photons,
                 max_segments: self.max_depth.saturating_sub(1),
                 rr_threshold: self.rr_threshold,
+                min_segments: 2,
             };
             let Some(map) = shoot(scene, shooting, iteration, ctx.seed, ctx.stop) else {
                 if let Some(s) = state {

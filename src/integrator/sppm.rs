@@ -74,6 +74,7 @@ impl Sppm {
             count: self.photons_per_iteration,
             max_segments: self.max_depth.saturating_sub(1),
             rr_threshold: self.rr_threshold,
+            min_segments: 2,
         };
         let Some(map) = shoot(scene, shooting, pass, ctx.seed, ctx.stop) else {
             return PassResult::default();

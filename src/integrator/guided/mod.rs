@@ -43,6 +43,7 @@ pub use quadtree::{sphere_to_square, square_to_sphere, DTree};
 pub use sdtree::{SdTree, TreeStats};
 
 use super::pass::{differential_scale, tile_grid};
+use super::photon::{shoot_deposits, Shooting};
 use super::{PassContext, PassResult, PathProfile, PathTracer, RayCounts};
 use crate::film::{Film, FilmTile};
 use crate::math::{Vec2, Vec3};
@@ -51,8 +52,25 @@ use crate::scene::Scene;
 use rayon::prelude::*;
 use std::time::Instant;
 
+/// Photons' roulette threshold when the tree learns from them (the photon
+/// integrators' default).
+const PHOTON_RR_THRESHOLD: f32 = 0.1;
+
 /// Energy share above which a directional cell is split (the paper's ρ).
 pub const RHO: f32 = 0.01;
+
+/// Where training iterations learn the incident light from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum LearnFrom {
+    /// The camera paths' vertices (the paper): radiance arriving along sampled
+    /// directions divided by their density.
+    Paths,
+    /// Photons shot from the lights, one per pixel and pass, deposited with their
+    /// flux where they land (the camera paths still count vertices for the
+    /// spatial splits and choose the leaves' BSDF fractions).
+    #[default]
+    Photons,
+}
 
 /// How the iterations' images make the final one.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
@@ -121,6 +139,7 @@ pub struct Guided {
     pub training_share: f32,
     pub learn_fraction: bool,
     pub min_gain: f32,
+    pub learn_from: LearnFrom,
 }
 
 impl Default for Guided {
@@ -136,6 +155,7 @@ impl Default for Guided {
             training_share: 0.12,
             learn_fraction: true,
             min_gain: 0.25,
+            learn_from: LearnFrom::Photons,
         }
     }
 }
@@ -297,6 +317,7 @@ impl Guided {
             bsdf_fraction: self.bsdf_fraction,
             record: !state.last,
             max_depth: self.max_depth,
+            rr_threshold: self.rr_threshold,
             record_direct: self.learn_direct,
             learn_fraction: self.learn_fraction,
         };
@@ -346,12 +367,13 @@ impl Guided {
                     d[c] += m[c];
                 }
             }
+            let from_paths = self.learn_from == LearnFrom::Paths;
             for r in &t.records {
                 let leaf = &mut s.tree.leaves[r.leaf as usize];
                 if r.counted {
                     leaf.count += 1;
                 }
-                if r.value > 0.0 && r.value.is_finite() {
+                if from_paths && r.value > 0.0 && r.value.is_finite() {
                     leaf.building.deposit(r.cell, r.value);
                 }
                 // the first pass's vertices choose the leaves' fractions
@@ -362,12 +384,38 @@ impl Guided {
                         q: r.q,
                         pb: r.pb,
                         p: r.p,
-                        value: r.value,
+                        // the tree learned from photons, not from this vertex
+                        value: if from_paths { r.value } else { 0.0 },
                     });
                 }
             }
         }
         drop(tiles);
+        if !s.last && self.learn_from == LearnFrom::Photons {
+            // a vertex after the camera's first segment receives paths of at most
+            // max_depth − 1 segments; its direct light only when that is learned
+            let shooting = Shooting {
+                count: ctx.film.width * ctx.film.height,
+                max_segments: self.max_depth.saturating_sub(1),
+                rr_threshold: PHOTON_RR_THRESHOLD,
+                min_segments: if self.learn_direct { 1 } else { 2 },
+            };
+            let Some((points, photons, rays)) = shoot_deposits(ctx.scene, shooting, s.passes_total, seed, ctx.stop) else {
+                film.set_aux(state);
+                return PassResult { complete: false, ..result };
+            };
+            result.counts.rays += rays;
+            for (p, photon) in points.iter().zip(&photons) {
+                let leaf = s.tree.leaf_of(*p);
+                let cell = s.tree.record_cell(leaf, photon.wi);
+                let value = (photon.power.x + photon.power.y + photon.power.z) * (1.0 / 3.0);
+                let leaf = &mut s.tree.leaves[leaf as usize];
+                leaf.count += 1;
+                if value > 0.0 && value.is_finite() {
+                    leaf.building.deposit(cell, value);
+                }
+            }
+        }
         s.passes += 1;
         s.passes_total += 1;
         let info = s.history.last_mut().expect("an iteration is running");

@@ -278,6 +278,14 @@ fn cases() -> Vec<Case> {
             s["integrator"] = json!({"type": "guided", "min_gain": 1.0})
         })
         .err(&["integrator.min_gain", "[0, 1)"]),
+        edit("guided unknown learn_from", |s| {
+            s["integrator"] = json!({"type": "guided", "learn_from": "importons"})
+        })
+        .err(&["integrator.learn_from", "importons", "paths, photons"]),
+        edit("guided rr_threshold above 1", |s| {
+            s["integrator"] = json!({"type": "guided", "rr_threshold": 2.0})
+        })
+        .err(&["integrator.rr_threshold", "[0, 1]"]),
         edit("unknown object type", |s| s["objects"][0]["type"] = json!("cube")).err(&["objects[0].type", "cube"]),
         edit("unknown filter", |s| s["film"]["filter"]["type"] = json!("lanczos")).err(&["film.filter.type", "lanczos"]),
         edit("unknown texture type", |s| s["textures"]["white"]["type"] = json!("noise")).err(&["textures.white.type", "noise"]),

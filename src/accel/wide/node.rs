@@ -1,6 +1,8 @@
 //! Node and block layout, and how child references are encoded.
 //!
-//! * **Nodes** ([`WideNode`], 224 bytes) hold the boxes of up to eight children as
+//! * **Nodes** ([`WideNode`], 224 bytes of data in 256: aligned to a cache line, so
+//!   a node is four whole lines and its address a shift of its index rather than a
+//!   multiply on the traversal's dependency chain) hold the boxes of up to eight children as
 //!   six rows of eight floats (`lo x, hi x, lo y, hi y, lo z, hi z`), so one ray
 //!   tests all eight with a handful of 8-wide operations: per ray the near and far
 //!   planes of each axis are picked once by the sign of the direction. The slab
@@ -32,7 +34,7 @@ pub(super) const EMPTY: u32 = u32::MAX;
 pub(super) const INDEX_BITS: u32 = 26;
 
 #[derive(Clone, Copy, Debug)]
-#[repr(C, align(32))]
+#[repr(C, align(64))]
 pub struct WideNode {
     /// `lo x, hi x, lo y, hi y, lo z, hi z` of each child (padded boxes).
     pub planes: [[f32; WIDTH]; 6],

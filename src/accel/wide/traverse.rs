@@ -130,8 +130,9 @@ impl RayData {
         let near = [0, 1, 2].map(|a| 2 * a + (inv[a] < 0.0) as usize);
         let far = [0, 1, 2].map(|a| 2 * a + (inv[a] >= 0.0) as usize);
         // the watertight kernel's permutation and shear, exactly as it computes them
-        let d = ray.d;
-        let (kx, ky, kz) = watertight_axes(d);
+        let (kx, ky, kz) = watertight_axes(ray.d);
+        // arrays, not `Vec3` indexing (a match on the axis, which became branches)
+        let (d, o) = (ray.d.to_array(), ray.o.to_array());
         let dz = d[kz];
         RayData {
             o: ray.o,
@@ -141,7 +142,7 @@ impl RayData {
             near,
             far,
             k: [kx, ky, kz],
-            op: [ray.o[kx], ray.o[ky], ray.o[kz]],
+            op: [o[kx], o[ky], o[kz]],
             s: [-d[kx] / dz, -d[ky] / dz, 1.0 / dz],
             dz_abs: dz.abs(),
             tri_ok: dz != 0.0,
@@ -229,23 +230,27 @@ pub(super) fn prefetch(bvh: &WideBvh, c: u32) {
     #[cfg(target_arch = "x86_64")]
     {
         use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
-        let (p, bytes) = if c & LEAF == 0 {
-            (
-                bvh.nodes.as_ptr().wrapping_add(c as usize).cast::<i8>(),
-                std::mem::size_of::<WideNode>(),
-            )
-        } else if c & GENERIC == 0 {
-            (
-                bvh.blocks.as_ptr().wrapping_add(leaf_range(c).0).cast::<i8>(),
-                std::mem::size_of::<TriBlock>(),
-            )
-        } else {
-            return;
-        };
-        for off in (0..bytes).step_by(64) {
+        // straight-line prefetches (no loop over the size): a node's 224 bytes lie
+        // in the four lines from its start, a block's 320 in five
+        let pf = |p: *const i8| {
             // SAFETY: a prefetch is a hint that never faults, whatever the address;
             // SSE is part of x86_64.
-            unsafe { _mm_prefetch::<_MM_HINT_T0>(p.wrapping_add(off)) };
+            unsafe { _mm_prefetch::<_MM_HINT_T0>(p) }
+        };
+        const _: () = assert!(std::mem::size_of::<WideNode>() <= 4 * 64 && std::mem::size_of::<TriBlock>() <= 5 * 64);
+        if c & LEAF == 0 {
+            let p = bvh.nodes.as_ptr().wrapping_add(c as usize).cast::<i8>();
+            pf(p);
+            pf(p.wrapping_add(64));
+            pf(p.wrapping_add(128));
+            pf(p.wrapping_add(192));
+        } else if c & GENERIC == 0 {
+            let p = bvh.blocks.as_ptr().wrapping_add(leaf_range(c).0).cast::<i8>();
+            pf(p);
+            pf(p.wrapping_add(64));
+            pf(p.wrapping_add(128));
+            pf(p.wrapping_add(192));
+            pf(p.wrapping_add(256));
         }
     }
     #[cfg(not(target_arch = "x86_64"))]

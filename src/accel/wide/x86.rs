@@ -106,8 +106,12 @@ fn slabs(n: &WideNode, r: &RayData, t_max: f32) -> (__m256, __m256) {
     let near = |a: usize| _mm256_mul_ps(_mm256_sub_ps(row(n, r.near[a]), o[a]), inv[a]);
     let far = |a: usize| _mm256_mul_ps(_mm256_sub_ps(row(n, r.far[a]), o[a]), inv[a]);
     let t0 = _mm256_max_ps(_mm256_max_ps(near(0), near(1)), _mm256_max_ps(near(2), _mm256_set1_ps(r.t_min)));
-    let t1 = _mm256_min_ps(_mm256_min_ps(far(0), far(1)), far(2));
-    let t1 = _mm256_min_ps(_mm256_mul_ps(t1, _mm256_set1_ps(FAR_SCALE)), _mm256_set1_ps(t_max));
+    // RN(min(f0, f1, f2)·s) = min(RN(f0·s), RN(f1·s), RN(f2·s)) for s > 0 (rounding is
+    // monotonic), so scaling each axis first gives the scalar test's value bit for bit
+    // with a dependency chain two operations shorter
+    let s = _mm256_set1_ps(FAR_SCALE);
+    let far = |a: usize| _mm256_mul_ps(far(a), s);
+    let t1 = _mm256_min_ps(_mm256_min_ps(far(0), far(1)), _mm256_min_ps(far(2), _mm256_set1_ps(t_max)));
     (t0, t1)
 }
 
@@ -136,61 +140,108 @@ fn node_avx512(n: &WideNode, r: &RayData, t_max: f32) -> (u32, [f32; WIDTH]) {
 /// The watertight kernel on eight triangles, operation for operation as the
 /// scalar [`intersect_watertight`] (AVX arithmetic rounds alike and nothing
 /// is fused), so every lane's result is bit-identical to it.
-#[target_feature(enable = "avx2,fma")]
-#[inline]
-fn block_avx(blk: &TriBlock, r: &RayData, t_max: f32) -> BlockHits {
+///
+/// Inlined (not a `#[target_feature]` function, which the compiler left as a call:
+/// the call spilled every ray constant around each block test) into the entry
+/// points, whose features its intrinsics then inline under. The body uses macros,
+/// not closures: a closure is a function of its own without the target features,
+/// so the intrinsics inside it would stay calls (2.5× slower traversal).
+///
+/// # Safety
+///
+/// The CPU must have AVX2 and FMA (the callers, `Avx2` and `Avx512`, only run
+/// inside entry points called after run-time detection).
+#[inline(always)]
+unsafe fn block_avx(blk: &TriBlock, r: &RayData, t_max: f32) -> BlockHits {
     let [kx, ky, kz] = r.k;
-    let set = |x: f32| _mm256_set1_ps(x);
+    macro_rules! set {
+        ($x:expr) => {
+            _mm256_set1_ps($x)
+        };
+    }
+    macro_rules! abs {
+        ($v:expr) => {
+            _mm256_andnot_ps(_mm256_set1_ps(-0.0), $v)
+        };
+    }
+    // SAFETY (every use): each row is 8 f32s, 32-byte aligned (TriBlock is
+    // `repr(align(32))` and every row is 32 bytes).
+    macro_rules! ld {
+        ($a:expr) => {
+            _mm256_load_ps(($a).as_ptr())
+        };
+    }
+    macro_rules! cmp {
+        ($op:ident, $a:expr, $b:expr) => {
+            _mm256_cmp_ps::<$op>($a, $b)
+        };
+    }
+    macro_rules! or {
+        ($a:expr, $b:expr) => {
+            _mm256_or_ps($a, $b)
+        };
+    }
+    macro_rules! max3 {
+        ($a:expr, $b:expr, $c:expr) => {
+            _mm256_max_ps(_mm256_max_ps(abs!($a), abs!($b)), abs!($c))
+        };
+    }
     let zero = _mm256_setzero_ps();
-    let abs = |v: __m256| _mm256_andnot_ps(_mm256_set1_ps(-0.0), v);
-    // SAFETY: each row is 8 f32s, 32-byte aligned (TriBlock is `repr(align(32))`
-    // and every row is 32 bytes).
-    let ld = |a: &[f32; LANES]| unsafe { _mm256_load_ps(a.as_ptr()) };
     // vertices relative to the origin, permuted, sheared
-    let vert = |k: usize| {
-        // SAFETY: k < 3 and kx, ky, kz < 3 (a permutation of the axes).
-        let v = unsafe { blk.v.get_unchecked(k) };
-        // SAFETY: as above.
-        let (x, y, z) = unsafe { (v.get_unchecked(kx), v.get_unchecked(ky), v.get_unchecked(kz)) };
-        let x = _mm256_sub_ps(ld(x), set(r.op[0]));
-        let y = _mm256_sub_ps(ld(y), set(r.op[1]));
-        let z = _mm256_sub_ps(ld(z), set(r.op[2]));
-        let x = _mm256_add_ps(x, _mm256_mul_ps(set(r.s[0]), z));
-        let y = _mm256_add_ps(y, _mm256_mul_ps(set(r.s[1]), z));
-        (x, y, z)
-    };
-    let (p0x, p0y, p0z) = vert(0);
-    let (p1x, p1y, p1z) = vert(1);
-    let (p2x, p2y, p2z) = vert(2);
+    macro_rules! vert {
+        ($k:expr) => {{
+            // SAFETY: k < 3 and kx, ky, kz < 3 (a permutation of the axes).
+            let v = blk.v.get_unchecked($k);
+            let (x, y, z) = (v.get_unchecked(kx), v.get_unchecked(ky), v.get_unchecked(kz));
+            let x = _mm256_sub_ps(ld!(x), set!(r.op[0]));
+            let y = _mm256_sub_ps(ld!(y), set!(r.op[1]));
+            let z = _mm256_sub_ps(ld!(z), set!(r.op[2]));
+            let x = _mm256_add_ps(x, _mm256_mul_ps(set!(r.s[0]), z));
+            let y = _mm256_add_ps(y, _mm256_mul_ps(set!(r.s[1]), z));
+            (x, y, z)
+        }};
+    }
+    let (p0x, p0y, p0z) = vert!(0);
+    let (p1x, p1y, p1z) = vert!(1);
+    let (p2x, p2y, p2z) = vert!(2);
     let e0 = _mm256_sub_ps(_mm256_mul_ps(p1x, p2y), _mm256_mul_ps(p1y, p2x));
     let e1 = _mm256_sub_ps(_mm256_mul_ps(p2x, p0y), _mm256_mul_ps(p2y, p0x));
     let e2 = _mm256_sub_ps(_mm256_mul_ps(p0x, p1y), _mm256_mul_ps(p0y, p1x));
-    let cmp_eq = |a, b| _mm256_cmp_ps::<_CMP_EQ_OQ>(a, b);
-    let cmp_lt = |a, b| _mm256_cmp_ps::<_CMP_LT_OS>(a, b);
-    let cmp_le = |a, b| _mm256_cmp_ps::<_CMP_LE_OS>(a, b);
-    let cmp_gt = |a, b| _mm256_cmp_ps::<_CMP_GT_OS>(a, b);
-    let cmp_ge = |a, b| _mm256_cmp_ps::<_CMP_GE_OS>(a, b);
-    let or = |a, b| _mm256_or_ps(a, b);
     // lanes with an edge function exactly zero: the scalar kernel (f64) decides
-    let on_edge = _mm256_movemask_ps(or(or(cmp_eq(e0, zero), cmp_eq(e1, zero)), cmp_eq(e2, zero))) as u32;
-    let neg = or(or(cmp_lt(e0, zero), cmp_lt(e1, zero)), cmp_lt(e2, zero));
-    let pos = or(or(cmp_gt(e0, zero), cmp_gt(e1, zero)), cmp_gt(e2, zero));
+    let on_edge = _mm256_movemask_ps(or!(
+        or!(cmp!(_CMP_EQ_OQ, e0, zero), cmp!(_CMP_EQ_OQ, e1, zero)),
+        cmp!(_CMP_EQ_OQ, e2, zero)
+    )) as u32;
+    let neg = or!(
+        or!(cmp!(_CMP_LT_OS, e0, zero), cmp!(_CMP_LT_OS, e1, zero)),
+        cmp!(_CMP_LT_OS, e2, zero)
+    );
+    let pos = or!(
+        or!(cmp!(_CMP_GT_OS, e0, zero), cmp!(_CMP_GT_OS, e1, zero)),
+        cmp!(_CMP_GT_OS, e2, zero)
+    );
     let mut reject = _mm256_and_ps(neg, pos);
     let det = _mm256_add_ps(_mm256_add_ps(e0, e1), e2);
     // det == 0 or not finite (NaN: "not less than" is true when unordered)
-    reject = or(reject, cmp_eq(det, zero));
-    reject = or(reject, _mm256_cmp_ps::<_CMP_NLT_US>(abs(det), set(f32::INFINITY)));
-    let sz = set(r.s[2]);
+    reject = or!(reject, cmp!(_CMP_EQ_OQ, det, zero));
+    reject = or!(reject, cmp!(_CMP_NLT_US, abs!(det), set!(f32::INFINITY)));
+    let sz = set!(r.s[2]);
     let (p0z, p1z, p2z) = (_mm256_mul_ps(p0z, sz), _mm256_mul_ps(p1z, sz), _mm256_mul_ps(p2z, sz));
     let ts = _mm256_add_ps(
         _mm256_add_ps(_mm256_mul_ps(e0, p0z), _mm256_mul_ps(e1, p1z)),
         _mm256_mul_ps(e2, p2z),
     );
-    let tmd = _mm256_mul_ps(set(t_max), det);
-    let det_neg = cmp_lt(det, zero);
-    let det_pos = cmp_gt(det, zero);
-    reject = or(reject, _mm256_and_ps(det_neg, or(cmp_ge(ts, zero), cmp_lt(ts, tmd))));
-    reject = or(reject, _mm256_and_ps(det_pos, or(cmp_le(ts, zero), cmp_gt(ts, tmd))));
+    let tmd = _mm256_mul_ps(set!(t_max), det);
+    let det_neg = cmp!(_CMP_LT_OS, det, zero);
+    let det_pos = cmp!(_CMP_GT_OS, det, zero);
+    reject = or!(
+        reject,
+        _mm256_and_ps(det_neg, or!(cmp!(_CMP_GE_OS, ts, zero), cmp!(_CMP_LT_OS, ts, tmd)))
+    );
+    reject = or!(
+        reject,
+        _mm256_and_ps(det_pos, or!(cmp!(_CMP_LE_OS, ts, zero), cmp!(_CMP_GT_OS, ts, tmd)))
+    );
     let mut mask = !(_mm256_movemask_ps(reject) as u32) & 0xff & !on_edge;
     let mut h = BlockHits {
         mask: 0,
@@ -198,49 +249,45 @@ fn block_avx(blk: &TriBlock, r: &RayData, t_max: f32) -> BlockHits {
         b: [[0.0; LANES]; 3],
     };
     if mask != 0 {
-        let inv_det = _mm256_div_ps(set(1.0), det);
+        let inv_det = _mm256_div_ps(set!(1.0), det);
         let t = _mm256_mul_ps(ts, inv_det);
-        let mut rej = or(cmp_lt(t, set(r.t_min)), cmp_gt(t, set(t_max)));
+        let mut rej = or!(cmp!(_CMP_LT_OS, t, set!(r.t_min)), cmp!(_CMP_GT_OS, t, set!(t_max)));
         // the conservative bound on t
-        let max3 = |a, b, c| _mm256_max_ps(_mm256_max_ps(abs(a), abs(b)), abs(c));
-        let max_zt = max3(p0z, p1z, p2z);
-        let delta_z = _mm256_mul_ps(set(gamma(3)), max_zt);
-        let max_xt = max3(p0x, p1x, p2x);
-        let max_yt = max3(p0y, p1y, p2y);
-        let max_z = _mm256_mul_ps(max_zt, set(r.dz_abs));
-        let delta_x = _mm256_mul_ps(set(gamma(5)), _mm256_add_ps(max_xt, max_z));
-        let delta_y = _mm256_mul_ps(set(gamma(5)), _mm256_add_ps(max_yt, max_z));
+        let max_zt = max3!(p0z, p1z, p2z);
+        let delta_z = _mm256_mul_ps(set!(gamma(3)), max_zt);
+        let max_xt = max3!(p0x, p1x, p2x);
+        let max_yt = max3!(p0y, p1y, p2y);
+        let max_z = _mm256_mul_ps(max_zt, set!(r.dz_abs));
+        let delta_x = _mm256_mul_ps(set!(gamma(5)), _mm256_add_ps(max_xt, max_z));
+        let delta_y = _mm256_mul_ps(set!(gamma(5)), _mm256_add_ps(max_yt, max_z));
         let delta_e = _mm256_mul_ps(
-            set(2.0),
+            set!(2.0),
             _mm256_add_ps(
                 _mm256_add_ps(
-                    _mm256_mul_ps(_mm256_mul_ps(set(gamma(2)), max_xt), max_yt),
+                    _mm256_mul_ps(_mm256_mul_ps(set!(gamma(2)), max_xt), max_yt),
                     _mm256_mul_ps(delta_y, max_xt),
                 ),
                 _mm256_mul_ps(delta_x, max_yt),
             ),
         );
-        let max_e = max3(e0, e1, e2);
+        let max_e = max3!(e0, e1, e2);
         let sum = _mm256_add_ps(
             _mm256_add_ps(
-                _mm256_mul_ps(_mm256_mul_ps(set(gamma(3)), max_e), max_zt),
+                _mm256_mul_ps(_mm256_mul_ps(set!(gamma(3)), max_e), max_zt),
                 _mm256_mul_ps(delta_e, max_zt),
             ),
             _mm256_mul_ps(delta_z, max_e),
         );
-        let delta_t = _mm256_mul_ps(_mm256_mul_ps(set(3.0), sum), abs(inv_det));
-        rej = or(rej, cmp_le(t, delta_t));
+        let delta_t = _mm256_mul_ps(_mm256_mul_ps(set!(3.0), sum), abs!(inv_det));
+        rej = or!(rej, cmp!(_CMP_LE_OS, t, delta_t));
         mask &= !(_mm256_movemask_ps(rej) as u32);
         if mask != 0 {
             h.mask = mask;
-            let st = |dst: &mut [f32; LANES], v: __m256| {
-                // SAFETY: `dst` is 8 writable f32s; the store is unaligned.
-                unsafe { _mm256_storeu_ps(dst.as_mut_ptr(), v) }
-            };
-            st(&mut h.t, t);
-            st(&mut h.b[0], _mm256_mul_ps(e0, inv_det));
-            st(&mut h.b[1], _mm256_mul_ps(e1, inv_det));
-            st(&mut h.b[2], _mm256_mul_ps(e2, inv_det));
+            // SAFETY: each destination is 8 writable f32s; the stores are unaligned.
+            _mm256_storeu_ps(h.t.as_mut_ptr(), t);
+            _mm256_storeu_ps(h.b[0].as_mut_ptr(), _mm256_mul_ps(e0, inv_det));
+            _mm256_storeu_ps(h.b[1].as_mut_ptr(), _mm256_mul_ps(e1, inv_det));
+            _mm256_storeu_ps(h.b[2].as_mut_ptr(), _mm256_mul_ps(e2, inv_det));
         }
     }
     if on_edge != 0 {

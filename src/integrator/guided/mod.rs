@@ -575,9 +575,13 @@ impl Guided {
             })
             .collect();
         Some(format!(
-            "guided: schedule {}{}; combine {}; iterations: {}; SD-tree {} spatial leaves, {} directional nodes (depth ≤ {}), {:.1} MB; leaves per BSDF fraction {}",
+            "guided: schedule {}{}; learned from {}; combine {}; iterations: {}; SD-tree {} spatial leaves, {} directional nodes (depth ≤ {}), {:.1} MB; leaves per BSDF fraction {}",
             s.schedule,
             s.stop_reason.as_ref().map_or_else(String::new, |r| format!(" ({r})")),
+            match self.learn_from {
+                LearnFrom::Photons => "photons (one per pixel and training pass)",
+                LearnFrom::Paths => "camera paths",
+            },
             match self.combine {
                 Combine::InverseVariance => "inverse variance",
                 Combine::Last => "last iteration",

@@ -7,7 +7,7 @@
 //! at surfaces. Rendering goes in iterations of 1, 2, 4, … samples per pixel;
 //! each training iteration samples from the tree the previous one recorded and
 //! records into the next: by default the flux of photons shot from the lights
-//! (one per pixel and pass) into the cell of the direction they arrive from, so
+//! (one per pixel and pass, at most 2²⁰) into the cell of the direction they arrive from, so
 //! a leaf's density follows L_i·cos, sharp where light is focused (Vorba et
 //! al. 2014 train their guiding from photons too); or, as in the paper
 //! (`learn_from: "paths"`), what the camera paths find (radiance from light
@@ -65,6 +65,10 @@ use std::time::Instant;
 /// integrators' default).
 const PHOTON_RR_THRESHOLD: f32 = 0.1;
 
+/// Most photons a training pass shoots (one per pixel below it): their deposits,
+/// a few per photon, are held until the pass ends.
+pub const MAX_PHOTONS_PER_PASS: u32 = 1 << 20;
+
 /// Energy share above which a directional cell is split (the paper's ρ).
 pub const RHO: f32 = 0.01;
 
@@ -74,7 +78,7 @@ pub enum LearnFrom {
     /// The camera paths' vertices (the paper): radiance arriving along sampled
     /// directions divided by their density.
     Paths,
-    /// Photons shot from the lights, one per pixel and pass, deposited with their
+    /// Photons shot from the lights, one per pixel and pass (at most 2²⁰), deposited with their
     /// flux where they land (the camera paths still count vertices for the
     /// spatial splits and choose the leaves' BSDF fractions).
     #[default]
@@ -100,7 +104,8 @@ pub enum Combine {
 ///   `path`'s rule, min(β, 0.95), ends the very paths guiding finds the light by
 ///   (caustic_cbox's ceiling: per-sample relative variance 60 with it, 8 with this);
 /// * `learn_from` (`"photons"` | `"paths"`, `"photons"`) — what training
-///   iterations learn from: photons shot from the lights, one per pixel and pass,
+///   iterations learn from: photons shot from the lights, one per pixel and pass
+///   (at most 2²⁰),
 ///   deposited with their flux (segments ≥ 2 unless `learn_direct`; the camera
 ///   paths still count vertices for the splits and choose the BSDF fractions), or
 ///   the camera paths' vertices as in the paper. Photons find light that arrives
@@ -376,6 +381,20 @@ impl Guided {
             film.set_aux(state);
             return result;
         }
+        // the pass's photons before anything is merged: a pass stopped while shooting
+        // them leaves the state as it was
+        let photon_deposits = if !state.last && self.learn_from == LearnFrom::Photons {
+            match self.training_photons(ctx, &state.tree, state.passes_total, seed, &mut result.counts) {
+                Some(d) => d,
+                None => {
+                    film.set_aux(state);
+                    result.complete = false;
+                    return result;
+                }
+            }
+        } else {
+            Vec::new()
+        };
         let s = &mut *state;
         let w = ctx.film.width as i32;
         for t in tiles.iter().flatten() {
@@ -413,30 +432,10 @@ impl Guided {
             }
         }
         drop(tiles);
-        if !s.last && self.learn_from == LearnFrom::Photons {
-            // a vertex after the camera's first segment receives paths of at most
-            // max_depth − 1 segments; its direct light only when that is learned
-            let shooting = Shooting {
-                count: ctx.film.width * ctx.film.height,
-                max_segments: self.max_depth.saturating_sub(1),
-                rr_threshold: PHOTON_RR_THRESHOLD,
-                min_segments: if self.learn_direct { 1 } else { 2 },
-            };
-            let Some((points, photons, rays)) = shoot_deposits(ctx.scene, shooting, s.passes_total, seed, ctx.stop) else {
-                film.set_aux(state);
-                return PassResult { complete: false, ..result };
-            };
-            result.counts.rays += rays;
-            for (p, photon) in points.iter().zip(&photons) {
-                let leaf = s.tree.leaf_of(*p);
-                let cell = s.tree.record_cell(leaf, photon.wi);
-                let value = (photon.power.x + photon.power.y + photon.power.z) * (1.0 / 3.0);
-                let leaf = &mut s.tree.leaves[leaf as usize];
-                leaf.count += 1;
-                if value > 0.0 && value.is_finite() {
-                    leaf.building.deposit(cell, value);
-                }
-            }
+        for &(leaf, cell, value) in &photon_deposits {
+            let leaf = &mut s.tree.leaves[leaf as usize];
+            leaf.count += 1;
+            leaf.building.deposit(cell, value);
         }
         s.passes += 1;
         s.passes_total += 1;
@@ -451,6 +450,38 @@ impl Guided {
         s.image_stale = true;
         film.set_aux(state);
         result
+    }
+
+    /// A training pass's photons (one per pixel, at most [`MAX_PHOTONS_PER_PASS`]) as
+    /// deposits (leaf, recording cell, flux); `None` when the stop token was set.
+    fn training_photons(
+        &self,
+        ctx: &PassContext,
+        tree: &SdTree,
+        pass: u32,
+        seed: u32,
+        counts: &mut RayCounts,
+    ) -> Option<Vec<(u32, u32, f32)>> {
+        // a vertex after the camera's first segment receives paths of at most
+        // max_depth − 1 segments; its direct light only when that is learned
+        let shooting = Shooting {
+            count: (ctx.film.width * ctx.film.height).min(MAX_PHOTONS_PER_PASS),
+            max_segments: self.max_depth.saturating_sub(1),
+            rr_threshold: PHOTON_RR_THRESHOLD,
+            min_segments: if self.learn_direct { 1 } else { 2 },
+        };
+        let (points, photons, rays) = shoot_deposits(ctx.scene, shooting, 0, pass, seed, ctx.stop)?;
+        counts.rays += rays;
+        let deposits = points
+            .iter()
+            .zip(&photons)
+            .filter_map(|(p, photon)| {
+                let value = (photon.power.x + photon.power.y + photon.power.z) * (1.0 / 3.0);
+                let leaf = tree.leaf_of(*p);
+                (value > 0.0 && value.is_finite()).then(|| (leaf, tree.record_cell(leaf, photon.wi), value))
+            })
+            .collect();
+        Some(deposits)
     }
 
     /// Makes the film's image from the iterations so far, if passes were rendered

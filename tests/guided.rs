@@ -411,6 +411,7 @@ fn photon_guide_and_guided_roulette_cut_the_ceiling_variance_of_caustic_cbox() {
         tree,
         bsdf_fraction: 0.5,
         record: false,
+        record_radiance: false,
         max_depth: 12,
         rr_threshold: 0.1,
         record_direct: false,

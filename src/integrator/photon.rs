@@ -86,12 +86,12 @@ pub struct Shooting {
 }
 
 /// Photon deposits: positions, payloads (same order), rays cast.
-pub type Deposits = (Vec<Vec3>, Vec<Photon>, u64);
+pub type Deposits = (Vec<[f32; 3]>, Vec<Photon>, u64);
 
 /// Shoots `s.count` photons for `iteration`; `None` when the stop token was set.
 pub fn shoot(scene: &Scene, s: Shooting, iteration: u32, seed: u32, stop: &StopToken) -> Option<PhotonMap> {
-    let (pts, photons, rays) = shoot_deposits(scene, s, 0, iteration, seed, stop)?;
-    let tree = KdTree::build(pts.into_iter().map(|p| p.to_array()).collect());
+    let (pts, photons, rays) = shoot_deposits(scene, s, iteration, seed, stop)?;
+    let tree = KdTree::build(pts);
     let photons = tree.permute(&photons);
     Some(PhotonMap {
         tree,
@@ -101,10 +101,10 @@ pub fn shoot(scene: &Scene, s: Shooting, iteration: u32, seed: u32, stop: &StopT
     })
 }
 
-/// The deposits of `s.count` photons for `iteration`, numbered from `first` (so a
-/// long run can be shot in batches), with positions and payloads in photon order
-/// whatever the thread count, and the rays cast; `None` when the stop token was set.
-pub fn shoot_deposits(scene: &Scene, s: Shooting, first: usize, iteration: u32, seed: u32, stop: &StopToken) -> Option<Deposits> {
+/// The deposits of `s.count` photons for `iteration`, positions and payloads in
+/// photon order whatever the thread count, and the rays cast; `None` when the stop
+/// token was set.
+pub fn shoot_deposits(scene: &Scene, s: Shooting, iteration: u32, seed: u32, stop: &StopToken) -> Option<Deposits> {
     let n = s.count as usize;
     if scene.lights.is_empty() || n == 0 || s.max_segments < s.min_segments.max(1) {
         return Some((Vec::new(), Vec::new(), 0));
@@ -116,11 +116,11 @@ pub fn shoot_deposits(scene: &Scene, s: Shooting, first: usize, iteration: u32, 
                 return None;
             }
             let (mut pts, mut ph, mut rays) = (Vec::new(), Vec::new(), 0u64);
-            for i in first + c * CHUNK..first + ((c + 1) * CHUNK).min(n) {
+            for i in c * CHUNK..((c + 1) * CHUNK).min(n) {
                 let key = (seed as u64) << 40 ^ (iteration as u64) << 32 ^ i as u64;
                 let mut rng = SplitMix64(key.wrapping_mul(0x9e37_79b9_7f4a_7c15));
                 rays += trace_photon(scene, s, &mut rng, &mut |p, photon| {
-                    pts.push(p);
+                    pts.push(p.to_array());
                     ph.push(photon);
                 });
             }

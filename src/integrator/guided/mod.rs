@@ -343,6 +343,7 @@ impl Guided {
             tree: &state.tree,
             bsdf_fraction: self.bsdf_fraction,
             record: !state.last,
+            record_radiance: self.learn_from == LearnFrom::Paths,
             max_depth: self.max_depth,
             rr_threshold: self.rr_threshold,
             record_direct: self.learn_direct,
@@ -408,13 +409,12 @@ impl Guided {
                     d[c] += m[c];
                 }
             }
-            let from_paths = self.learn_from == LearnFrom::Paths;
             for r in &t.records {
                 let leaf = &mut s.tree.leaves[r.leaf as usize];
                 if r.counted {
                     leaf.count += 1;
                 }
-                if from_paths && r.value > 0.0 && r.value.is_finite() {
+                if r.value > 0.0 && r.value.is_finite() {
                     leaf.building.deposit(r.cell, r.value);
                 }
                 // the first pass's vertices choose the leaves' fractions
@@ -425,8 +425,7 @@ impl Guided {
                         q: r.q,
                         pb: r.pb,
                         p: r.p,
-                        // the tree learned from photons, not from this vertex
-                        value: if from_paths { r.value } else { 0.0 },
+                        value: r.value,
                     });
                 }
             }
@@ -470,14 +469,14 @@ impl Guided {
             rr_threshold: PHOTON_RR_THRESHOLD,
             min_segments: if self.learn_direct { 1 } else { 2 },
         };
-        let (points, photons, rays) = shoot_deposits(ctx.scene, shooting, 0, pass, seed, ctx.stop)?;
+        let (points, photons, rays) = shoot_deposits(ctx.scene, shooting, pass, seed, ctx.stop)?;
         counts.rays += rays;
         let deposits = points
             .iter()
             .zip(&photons)
             .filter_map(|(p, photon)| {
-                let value = (photon.power.x + photon.power.y + photon.power.z) * (1.0 / 3.0);
-                let leaf = tree.leaf_of(*p);
+                let value = path::mean(photon.power);
+                let leaf = tree.leaf_of(Vec3::from_array(*p));
                 (value > 0.0 && value.is_finite()).then(|| (leaf, tree.record_cell(leaf, photon.wi), value))
             })
             .collect();

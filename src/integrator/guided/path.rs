@@ -161,13 +161,17 @@ pub struct Scratch {
 /// weight than BSDF sampling would; judged by β they were ended for exactly
 /// that (caustic_cbox: a ceiling vertex's estimate had the same variance with
 /// the learned mixture as with BSDF sampling under Mitsuba's rule, 2.5× less
-/// with this one, 60 → 12 per-sample relative variance), and the light through
+/// with this one, 60 → 8–12 per-sample relative variance), and the light through
 /// the glass arrives after the 5th segment.
 pub struct Guiding<'a> {
     pub tree: &'a SdTree,
     pub bsdf_fraction: f32,
     /// Record what paths find (training iterations).
     pub record: bool,
+    /// With `record`: also the radiance paths find, for the tree to learn from
+    /// (`learn_from: "paths"`); otherwise only the vertices (for the spatial splits
+    /// and the choice of BSDF fractions), with no cells and values.
+    pub record_radiance: bool,
     pub max_depth: u32,
     /// Roulette's threshold (see above).
     pub rr_threshold: f32,
@@ -195,7 +199,7 @@ fn add_emission(l: &mut Vec3, verts: &mut [Vertex], c: Vec3, skip_last: bool) {
 }
 
 #[inline]
-fn mean(v: Vec3) -> f32 {
+pub(super) fn mean(v: Vec3) -> f32 {
     (v.x + v.y + v.z) * (1.0 / 3.0)
 }
 
@@ -304,7 +308,7 @@ impl Guiding<'_> {
                             };
                             l += beta * f * ls.radiance * (cos * w / light_pdf) * tr;
                             // a point light is no direction a guided sample can find
-                            if self.record && self.record_direct && !ls.delta {
+                            if self.record && self.record_radiance && self.record_direct && !ls.delta {
                                 records.push(Record {
                                     leaf,
                                     cell: self.tree.record_cell(leaf, ls.wi),
@@ -340,7 +344,11 @@ impl Guiding<'_> {
                 let p = square.map_or_else(|| sphere_to_square(bs.wi), |g| g.p);
                 verts.push(Vertex {
                     leaf,
-                    cell: self.tree.record_cell_at(leaf, p),
+                    cell: if self.record_radiance {
+                        self.tree.record_cell_at(leaf, p)
+                    } else {
+                        0
+                    },
                     pdf: bs.pdf,
                     beta,
                     weight: bs.weight,
@@ -378,7 +386,13 @@ impl Guiding<'_> {
                 records.push(Record {
                     leaf: v.leaf,
                     cell: v.cell,
-                    value: mean(arrived).max(0.0) / v.pdf,
+                    // nothing to deposit (and no deposit to leave out of the fraction
+                    // choice) when the tree learns from elsewhere
+                    value: if self.record_radiance {
+                        mean(arrived).max(0.0) / v.pdf
+                    } else {
+                        0.0
+                    },
                     counted: true,
                     fq: mean(arrived * v.weight).max(0.0),
                     q: v.pdf,

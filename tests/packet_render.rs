@@ -1,6 +1,7 @@
-//! The packet pass of `intersection_test` (4×4 pixel blocks: camera rays and
-//! point-light shadow rays as packets, shading points in SoA form) renders the
-//! same pixels, bit for bit, as the pass that traces every ray alone, for both
+//! The packet passes of `intersection_test` (4×4 pixel blocks: camera rays and
+//! point-light shadow rays as packets, shading points in SoA form) and of `path`
+//! (camera rays and their shadow rays as packets, then each path alone) render the
+//! same pixels, bit for bit, as the passes that trace every ray alone, for both
 //! packet widths and every instruction set this CPU has. The bundled Cornell box
 //! has two point lights, a refracting sphere (a generic leaf, and paths that go
 //! on after the first hit) and tiles cut by the film's edge (a 4×4 block does not
@@ -44,5 +45,17 @@ fn packet_pass_matches_ray_by_ray() {
     check(&Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell.json"), &[film]);
     if let Some(s) = common::shared() {
         check(&s.join("refs/scenes/cbox_point.json"), &[film]);
+    }
+}
+
+#[test]
+fn path_packet_pass_matches_ray_by_ray() {
+    let over = r#"{"film": {"resolution": [37, 29], "filter": {"type": "gaussian", "radius": 1.5}},
+                   "integrator": {"type": "path", "max_depth": 8}}"#;
+    check(&Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell.json"), &[over]);
+    if let Some(s) = common::shared() {
+        // an area light and a glass sphere; the sky
+        check(&s.join("refs/scenes/caustic_cbox.json"), &[over]);
+        check(&s.join("refs/scenes/env_sphere.json"), &[over]);
     }
 }

@@ -10,13 +10,15 @@
 //! probability min(0.95, max throughput·η²), where η² undoes the radiance scaling
 //! of refraction; survivors are reweighted, so the estimate stays unbiased.
 
+use super::pass::CameraBlock;
 use super::{spawn_ray, RayCounts};
+use crate::accel::wide::PACKET;
 use crate::geometry::{Ray, RayDifferential};
 use crate::light::Light;
 use crate::math::{Vec2, Vec3};
 use crate::sampler::PixelSampler;
 use crate::sampling::power_heuristic;
-use crate::scene::Scene;
+use crate::scene::{Hit, Scene};
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum PathProfile {
@@ -59,68 +61,190 @@ pub struct PathTracer {
 
 impl PathTracer {
     pub fn li(&self, scene: &Scene, ray: Ray, diff: Option<RayDifferential>, sampler: &mut PixelSampler, counts: &mut RayCounts) -> Vec3 {
-        li(scene, ray, diff, sampler, counts, self.profile, self.max_depth)
+        self.finish(scene, PathState::new(ray), 1, diff.as_ref(), sampler, counts)
+    }
+
+    /// Traces `path` from segment `segment` (its ray) to its end; its radiance.
+    fn finish(
+        &self,
+        scene: &Scene,
+        mut path: PathState,
+        mut segment: u32,
+        diff: Option<&RayDifferential>,
+        sampler: &mut PixelSampler,
+        counts: &mut RayCounts,
+    ) -> Vec3 {
+        loop {
+            counts.rays += 1;
+            let hit = scene.intersect(&path.ray);
+            let (shadow, goes_on) = path.advance(self, scene, hit, segment, diff, sampler, counts);
+            if let Some(s) = shadow {
+                path.add_unoccluded(&s, scene.transmittance(&s.ray));
+            }
+            if !goes_on {
+                return path.l;
+            }
+            segment += 1;
+        }
+    }
+
+    /// [`PathTracer::li`] of a pixel block's camera samples, each radiance exactly
+    /// as `li` computes it: the camera rays, and then the shadow rays of their
+    /// hits, are traced as one packet each (a packet query gives the single-ray
+    /// answer; without masks a shadow ray's transmittance is 1 or 0); each path
+    /// then goes on alone, as later segments' rays scatter and trace faster one at
+    /// a time (README, "Speed"). Each path draws its numbers in `li`'s order and
+    /// sums its terms in the same order.
+    pub fn li_block(&self, scene: &Scene, block: &mut CameraBlock, out: &mut [Vec3]) {
+        let n = block.rays.len().min(PACKET);
+        let mut hits = [None; PACKET];
+        scene.intersect_packet(&block.rays[..n], (1 << n) - 1, &mut hits);
+        block.counts.rays += n as u64;
+        let mut paths = [PathState::new(Ray::new(Vec3::ZERO, Vec3::Z)); PACKET];
+        let mut shadows = [None; PACKET];
+        let mut rays = [Ray::new(Vec3::ZERO, Vec3::Z); PACKET];
+        let (mut going, mut waiting) = (0u32, 0u32);
+        for i in 0..n {
+            paths[i] = PathState::new(block.rays[i]);
+            let diff = block.diffs[i].as_ref();
+            let (shadow, goes_on) = paths[i].advance(self, scene, hits[i], 1, diff, &mut block.samplers[i], block.counts);
+            if let Some(s) = shadow {
+                rays[i] = s.ray;
+                shadows[i] = Some(s);
+                waiting |= 1 << i;
+            }
+            going |= (goes_on as u32) << i;
+        }
+        let lit = if scene.packets() {
+            waiting & !scene.occluded_packet(&rays[..n], waiting)
+        } else {
+            0
+        };
+        for i in 0..n {
+            if let Some(s) = &shadows[i] {
+                let tr = if scene.packets() {
+                    if lit >> i & 1 != 0 {
+                        1.0
+                    } else {
+                        0.0
+                    }
+                } else {
+                    scene.transmittance(&s.ray)
+                };
+                paths[i].add_unoccluded(s, tr);
+            }
+            out[i] = if going >> i & 1 != 0 {
+                self.finish(scene, paths[i], 2, block.diffs[i].as_ref(), &mut block.samplers[i], block.counts)
+            } else {
+                paths[i].l
+            };
+        }
     }
 }
 
-fn li(
-    scene: &Scene,
-    mut ray: Ray,
-    diff: Option<RayDifferential>,
-    sampler: &mut PixelSampler,
-    counts: &mut RayCounts,
-    profile: PathProfile,
-    max_depth: u32,
-) -> Vec3 {
-    let mode = scene.light_sampling;
-    let mut l = Vec3::ZERO;
-    let mut beta = Vec3::ONE;
-    let mut eta_scale = 1.0f32;
-    let (mut after_delta, mut bsdf_pdf, mut prev_p) = (true, 0.0f32, ray.o);
-    let mut segment = 1u32;
-    loop {
-        counts.rays += 1;
-        let Some(hit) = scene.intersect(&ray) else {
+/// A light sample's term, waiting for its shadow ray.
+#[derive(Clone, Copy)]
+struct Shadow {
+    ray: Ray,
+    /// The term if the light is unoccluded (transmittance 1).
+    term: Vec3,
+}
+
+/// A path between segments: its next ray and what it carries to the next vertex.
+#[derive(Clone, Copy)]
+struct PathState {
+    ray: Ray,
+    l: Vec3,
+    beta: Vec3,
+    eta_scale: f32,
+    after_delta: bool,
+    bsdf_pdf: f32,
+    prev_p: Vec3,
+}
+
+impl PathState {
+    fn new(ray: Ray) -> PathState {
+        PathState {
+            ray,
+            l: Vec3::ZERO,
+            beta: Vec3::ONE,
+            eta_scale: 1.0,
+            after_delta: true,
+            bsdf_pdf: 0.0,
+            prev_p: ray.o,
+        }
+    }
+
+    /// A light term times the transmittance of its shadow ray.
+    #[inline]
+    fn add_unoccluded(&mut self, s: &Shadow, tr: f32) {
+        if tr > 0.0 {
+            self.l += s.term * tr;
+        }
+    }
+
+    /// Ends segment `segment` (`self.ray`, which found `hit`): adds the emission it
+    /// finds, takes the next-event light sample (returned with its shadow ray, for
+    /// the caller to trace) and samples the next segment into `self.ray`. Returns
+    /// whether the path goes on.
+    #[allow(clippy::too_many_arguments)]
+    #[inline]
+    fn advance(
+        &mut self,
+        tracer: &PathTracer,
+        scene: &Scene,
+        hit: Option<Hit>,
+        segment: u32,
+        diff: Option<&RayDifferential>,
+        sampler: &mut PixelSampler,
+        counts: &mut RayCounts,
+    ) -> (Option<Shadow>, bool) {
+        let (profile, mode, ray) = (tracer.profile, scene.light_sampling, self.ray);
+        let Some(hit) = hit else {
             if let Some((env, sky)) = scene.environment_light() {
                 // the direction's texture coordinates once, for radiance and pdf
                 let uv = sky.direction_to_uv(ray.d);
-                if profile == PathProfile::Mis && !after_delta {
+                if profile == PathProfile::Mis && !self.after_delta {
                     // the pdf's weight loads while the texels do
                     sky.prefetch_pdf(uv);
                 }
                 let le = sky.radiance_at(uv);
                 if le != Vec3::ZERO {
-                    let w = emitter_weight(profile, after_delta, bsdf_pdf, || {
+                    let w = emitter_weight(profile, self.after_delta, self.bsdf_pdf, || {
                         scene.light_sampler.pmf(env as usize) * sky.pdf_at(uv, mode)
                     });
-                    l += beta * le * w;
+                    self.l += self.beta * le * w;
                 }
             }
-            break;
+            return (None, false);
         };
         let mut it = scene.interaction(&ray, &hit);
-        if let (1, Some(d)) = (segment, &diff) {
+        if let (1, Some(d)) = (segment, diff) {
             it.compute_uv_derivatives(d);
         }
         if let Some((index, area)) = scene.area_light_of(&it) {
             let le = area.emitted(it.ng, it.wo, it.uv);
             if le != Vec3::ZERO {
-                let w = emitter_weight(profile, after_delta, bsdf_pdf, || {
-                    scene.light_sampler.pmf(index as usize) * scene.lights[index as usize].pdf(prev_p, ray.d, Some((it.p, it.ng)), mode)
+                let w = emitter_weight(profile, self.after_delta, self.bsdf_pdf, || {
+                    scene.light_sampler.pmf(index as usize)
+                        * scene.lights[index as usize].pdf(self.prev_p, ray.d, Some((it.p, it.ng)), mode)
                 });
-                l += beta * le * w;
+                self.l += self.beta * le * w;
             }
         }
-        if segment >= max_depth {
-            break;
+        if segment >= tracer.max_depth {
+            return (None, false);
         }
         // an emitter without a material does not reflect (Mitsuba gives it a black BSDF)
-        let Some(material) = scene.material_of(&it) else { break };
+        let Some(material) = scene.material_of(&it) else {
+            return (None, false);
+        };
         let bsdf = material.bsdf_at(&it, &scene.textures);
 
         // the BSDF's numbers follow the light's (the same order as drawn one after the
         // other), drawn before the light sample is taken, while its tables load
         let (uc, u_bsdf);
+        let mut shadow = None;
         if profile != PathProfile::RandomWalk && !bsdf.is_delta() && !scene.lights.is_empty() {
             let (index, pmf, _) = scene.light_sampler.sample(sampler.next_1d());
             let light: &Light = &scene.lights[index];
@@ -137,16 +261,16 @@ fn li(
                     ls.radiance != Vec3::ZERO
                 } {
                     counts.rays += 1;
-                    let tr = scene.transmittance(&super::shadow_ray(&it, &ls));
-                    if tr > 0.0 {
-                        let light_pdf = pmf * ls.pdf;
-                        let w = if ls.delta || profile == PathProfile::NextEvent {
-                            1.0
-                        } else {
-                            power_heuristic(light_pdf, bsdf.pdf(it.wo, ls.wi))
-                        };
-                        l += beta * f * ls.radiance * (cos * w / light_pdf) * tr;
-                    }
+                    let light_pdf = pmf * ls.pdf;
+                    let w = if ls.delta || profile == PathProfile::NextEvent {
+                        1.0
+                    } else {
+                        power_heuristic(light_pdf, bsdf.pdf(it.wo, ls.wi))
+                    };
+                    shadow = Some(Shadow {
+                        ray: super::shadow_ray(&it, &ls),
+                        term: self.beta * f * ls.radiance * (cos * w / light_pdf),
+                    });
                 }
             }
         } else {
@@ -155,30 +279,29 @@ fn li(
         }
 
         let Some(bs) = bsdf.sample(it.wo, u_bsdf, uc) else {
-            break;
+            return (shadow, false);
         };
-        beta *= bs.weight;
+        self.beta *= bs.weight;
         // refraction scales radiance by 1/η²; roulette judges the path without it
-        eta_scale *= bs.eta * bs.eta;
-        if beta == Vec3::ZERO || !beta.is_finite() {
-            break;
+        self.eta_scale *= bs.eta * bs.eta;
+        if self.beta == Vec3::ZERO || !self.beta.is_finite() {
+            return (shadow, false);
         }
-        after_delta = bs.delta;
-        bsdf_pdf = bs.pdf;
-        prev_p = it.p;
+        self.after_delta = bs.delta;
+        self.bsdf_pdf = bs.pdf;
+        self.prev_p = it.p;
         if segment >= RR_DEPTH {
-            let q = (beta.max_element() * eta_scale).min(0.95);
+            let q = (self.beta.max_element() * self.eta_scale).min(0.95);
             if sampler.next_1d() >= q {
-                break;
+                return (shadow, false);
             }
-            beta /= q;
+            self.beta /= q;
         }
-        ray = spawn_ray(&it, bs.wi);
+        self.ray = spawn_ray(&it, bs.wi);
         if let Some((_, sky)) = scene.environment_light() {
             // should the ray escape, its texels load during the traversal
-            sky.prefetch_direction(ray.d);
+            sky.prefetch_direction(self.ray.d);
         }
-        segment += 1;
+        (shadow, true)
     }
-    l
 }

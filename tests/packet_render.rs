@@ -1,7 +1,8 @@
 //! The packet passes of `intersection_test` (4×4 pixel blocks: camera rays and
 //! point-light shadow rays as packets, shading points in SoA form) and of `path`
 //! (camera rays and their shadow rays as packets, then each path alone) render the
-//! same pixels, bit for bit, as the passes that trace every ray alone, for both
+//! same pixels, bit for bit, as the passes that trace every ray alone (and make
+//! every camera ray alone: a block's pinhole rays are made together), for both
 //! packet widths and every instruction set this CPU has. The bundled Cornell box
 //! has two point lights, a refracting sphere (a generic leaf, and paths that go
 //! on after the first hit) and tiles cut by the film's edge (a 4×4 block does not

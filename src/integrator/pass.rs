@@ -256,6 +256,10 @@ where
 {
     const N: usize = (BLOCK_W * BLOCK_H) as usize;
     let diff_scale = differential_scale(ctx.target_spp);
+    // no lens, no differentials, no clipping: the block's rays are made together
+    let plain_pinhole = !ctx.camera.has_lens()
+        && !ctx.scene.uses_footprints
+        && ctx.camera.pinhole_rays(&[0.5], &[0.5], 1, &mut [Ray::new(Vec3::ZERO, Vec3::Z)]);
     tile_pass(ctx, pass, film, |t| {
         let (x0, y0, x1, y1) = t.rect;
         let tw = (x1 - x0) as usize;
@@ -264,18 +268,36 @@ where
         let mut samplers = Vec::with_capacity(N);
         for by in (y0..y1).step_by(BLOCK_H as usize) {
             for bx in (x0..x1).step_by(BLOCK_W as usize) {
-                let px: Vec<(i32, i32)> = (by..(by + BLOCK_H).min(y1))
-                    .flat_map(|y| (bx..(bx + BLOCK_W).min(x1)).map(move |x| (x, y)))
-                    .collect();
-                let n = px.len();
+                // the block's pixels, rows in order (no allocation per block)
+                let (mut px, mut n) = ([(0, 0); N], 0);
+                for y in by..(by + BLOCK_H).min(y1) {
+                    for x in bx..(bx + BLOCK_W).min(x1) {
+                        px[n] = (x, y);
+                        n += 1;
+                    }
+                }
+                let px = &px[..n];
                 let mut pos = [Vec2::ZERO; N];
                 let mut rays = [Ray::new(Vec3::ZERO, Vec3::Z); N];
                 let mut diffs = [None; N];
                 samplers.clear();
-                for (i, &(x, y)) in px.iter().enumerate() {
-                    let (s, p, r, d) = camera_sample(ctx, x, y, pass, diff_scale);
-                    (pos[i], rays[i], diffs[i]) = (p, r, d);
-                    samplers.push(s);
+                if plain_pinhole {
+                    // `camera_sample` with the rays made together
+                    let (mut fx, mut fy) = ([0.0f32; N], [0.0f32; N]);
+                    for (i, &(x, y)) in px.iter().enumerate() {
+                        let mut sampler = PixelSampler::new(x as u32, y as u32, pass, ctx.seed);
+                        let (u, v) = sampler.next_2d();
+                        pos[i] = Vec2::new(x as f32 + u, y as f32 + v);
+                        (fx[i], fy[i]) = (pos[i].x, pos[i].y);
+                        samplers.push(sampler);
+                    }
+                    ctx.camera.pinhole_rays(&fx, &fy, n, &mut rays);
+                } else {
+                    for (i, &(x, y)) in px.iter().enumerate() {
+                        let (s, p, r, d) = camera_sample(ctx, x, y, pass, diff_scale);
+                        (pos[i], rays[i], diffs[i]) = (p, r, d);
+                        samplers.push(s);
+                    }
                 }
                 let mut l = [Vec3::ZERO; N];
                 li(

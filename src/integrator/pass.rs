@@ -168,6 +168,18 @@ where
 {
     let (w, h) = (ctx.film.width as i32, ctx.film.height as i32);
     let with_aov = film.aov().is_some();
+    let reach = ctx.film.filter.reach();
+    let spare = std::sync::Mutex::new(std::mem::take(&mut film.spare_tiles));
+    let new_tile = |x0, y0, x1, y1| {
+        let reused = spare.lock().ok().and_then(|mut s| s.pop());
+        match reused {
+            Some(mut t) => {
+                t.reset(x0, y0, x1, y1, reach, w, h);
+                t
+            }
+            None => FilmTile::new(x0, y0, x1, y1, reach, w, h),
+        }
+    };
     let done: Vec<Option<TileResult>> = tile_grid(ctx.film)
         .par_iter()
         .map(|&(x0, y0, x1, y1)| {
@@ -178,7 +190,7 @@ where
                 ctx,
                 pass,
                 rect: (x0, y0, x1, y1),
-                tile: FilmTile::new(x0, y0, x1, y1, ctx.film.filter.reach(), w, h),
+                tile: new_tile(x0, y0, x1, y1),
                 counts: RayCounts::default(),
                 splats: Splats::default(),
                 aov: with_aov.then(|| AovTile::new(x0, y0, x1, y1)),
@@ -219,14 +231,15 @@ fn merge_tiles(done: Vec<Option<TileResult>>, film: &mut Film) -> PassResult {
     for (_, _, c, _) in done.iter().flatten() {
         result.counts += *c;
     }
-    if result.complete {
-        for (tile, splats, _, aov) in done.iter().flatten() {
-            film.merge(tile);
-            film.add_splats(splats);
-            if let Some(aov) = aov {
+    for (tile, splats, _, aov) in done.into_iter().flatten() {
+        if result.complete {
+            film.merge(&tile);
+            film.add_splats(&splats);
+            if let Some(aov) = &aov {
                 film.merge_aov(aov);
             }
         }
+        film.spare_tiles.push(tile);
     }
     result
 }

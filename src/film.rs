@@ -133,7 +133,7 @@ impl FilmTile {
     /// [`FilmTile::new`]'s tile in this tile's buffers (a tile of an earlier
     /// pass), zeroed: a pass's tiles reuse the last pass's memory instead of
     /// faulting in fresh pages from the allocator (10 % of a `cbox_point` pass).
-    pub fn reset(&mut self, x0: i32, y0: i32, x1: i32, y1: i32, reach: i32, film_w: i32, film_h: i32) {
+    pub fn reset(&mut self, (x0, y0, x1, y1): (i32, i32, i32, i32), reach: i32, film_w: i32, film_h: i32) {
         let (ax, ay) = ((x0 - reach).max(0), (y0 - reach).max(0));
         let (bx, by) = ((x1 + reach).min(film_w), (y1 + reach).min(film_h));
         let (w, h) = (bx - ax, by - ay);

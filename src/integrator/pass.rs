@@ -174,7 +174,7 @@ where
         let reused = spare.lock().ok().and_then(|mut s| s.pop());
         match reused {
             Some(mut t) => {
-                t.reset(x0, y0, x1, y1, reach, w, h);
+                t.reset((x0, y0, x1, y1), reach, w, h);
                 t
             }
             None => FilmTile::new(x0, y0, x1, y1, reach, w, h),

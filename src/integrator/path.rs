@@ -14,10 +14,12 @@ use super::pass::CameraBlock;
 use super::{spawn_ray, RayCounts};
 use crate::accel::wide::PACKET;
 use crate::geometry::{Ray, RayDifferential};
-use crate::light::Light;
+use crate::light::{Light, LightSample};
+use crate::material::bsdf::Bsdf;
 use crate::math::{Vec2, Vec3};
 use crate::sampler::PixelSampler;
 use crate::sampling::power_heuristic;
+use crate::scene::Interaction;
 use crate::scene::{Hit, Scene};
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
@@ -104,10 +106,34 @@ impl PathTracer {
         let mut shadows = [None; PACKET];
         let mut rays = [Ray::new(Vec3::ZERO, Vec3::Z); PACKET];
         let (mut going, mut waiting) = (0u32, 0u32);
-        for i in 0..n {
-            paths[i] = PathState::new(block.rays[i]);
-            let diff = block.diffs[i].as_ref();
-            let (shadow, goes_on) = paths[i].advance(self, scene, hits[i], 1, diff, &mut block.samplers[i], block.counts);
+        let mut steps = [(None, false); PACKET];
+        for (path, &ray) in paths.iter_mut().zip(block.rays) {
+            *path = PathState::new(ray);
+        }
+        if scene.environment_light().is_some() {
+            // `advance` a step at a time over the block, so that the sky's table and
+            // texel loads overlap across paths (elsewhere the split costs more)
+            let mut vertices: [Option<Vertex>; PACKET] = [const { None }; PACKET];
+            for i in 0..n {
+                let diff = block.diffs[i].as_ref();
+                vertices[i] = paths[i].begin(self, scene, hits[i], 1, diff, &mut block.samplers[i]);
+            }
+            let mut samples = [None; PACKET];
+            for i in 0..n {
+                samples[i] = vertices[i].as_ref().and_then(|v| v.light_sample(scene));
+            }
+            for i in 0..n {
+                if let Some(v) = &vertices[i] {
+                    steps[i] = paths[i].end(self, scene, v, samples[i], 1, &mut block.samplers[i], block.counts);
+                }
+            }
+        } else {
+            for i in 0..n {
+                let diff = block.diffs[i].as_ref();
+                steps[i] = paths[i].advance(self, scene, hits[i], 1, diff, &mut block.samplers[i], block.counts);
+            }
+        }
+        for (i, (shadow, goes_on)) in steps.into_iter().enumerate().take(n) {
             if let Some(s) = shadow {
                 rays[i] = s.ray;
                 shadows[i] = Some(s);
@@ -150,6 +176,26 @@ struct Shadow {
     term: Vec3,
 }
 
+/// A path's vertex with its numbers drawn, before its light sample is taken.
+struct Vertex {
+    it: Interaction,
+    bsdf: Bsdf,
+    /// The light chosen for next-event estimation: its index, probability and
+    /// sample numbers (`None`: no light sample here).
+    light: Option<(usize, f32, Vec2)>,
+    uc: f32,
+    u_bsdf: Vec2,
+}
+
+impl Vertex {
+    /// The next-event light sample, its radiance left to [`PathState::end`].
+    #[inline(always)]
+    fn light_sample(&self, scene: &Scene) -> Option<LightSample> {
+        let (index, _, u_light) = self.light?;
+        scene.lights[index].sample_unlit(self.it.p, u_light, scene.light_sampling)
+    }
+}
+
 /// A path between segments: its next ray and what it carries to the next vertex.
 #[derive(Clone, Copy)]
 struct PathState {
@@ -186,9 +232,10 @@ impl PathState {
     /// Ends segment `segment` (`self.ray`, which found `hit`): adds the emission it
     /// finds, takes the next-event light sample (returned with its shadow ray, for
     /// the caller to trace) and samples the next segment into `self.ray`. Returns
-    /// whether the path goes on.
+    /// whether the path goes on. The three steps of [`PathState::begin`],
+    /// [`Vertex::light_sample`] and [`PathState::end`].
     #[allow(clippy::too_many_arguments)]
-    #[inline]
+    #[inline(always)]
     fn advance(
         &mut self,
         tracer: &PathTracer,
@@ -199,6 +246,28 @@ impl PathState {
         sampler: &mut PixelSampler,
         counts: &mut RayCounts,
     ) -> (Option<Shadow>, bool) {
+        match self.begin(tracer, scene, hit, segment, diff, sampler) {
+            Some(v) => {
+                let ls = v.light_sample(scene);
+                self.end(tracer, scene, &v, ls, segment, sampler, counts)
+            }
+            None => (None, false),
+        }
+    }
+
+    /// The first step of [`PathState::advance`]: the emission the segment finds, and
+    /// the vertex it reaches with its BSDF and all its numbers but roulette's (the
+    /// light's tables are prefetched); `None` where the path ends.
+    #[inline(always)]
+    fn begin(
+        &mut self,
+        tracer: &PathTracer,
+        scene: &Scene,
+        hit: Option<Hit>,
+        segment: u32,
+        diff: Option<&RayDifferential>,
+        sampler: &mut PixelSampler,
+    ) -> Option<Vertex> {
         let (profile, mode, ray) = (tracer.profile, scene.light_sampling, self.ray);
         let Some(hit) = hit else {
             if let Some((env, sky)) = scene.environment_light() {
@@ -216,7 +285,7 @@ impl PathState {
                     self.l += self.beta * le * w;
                 }
             }
-            return (None, false);
+            return None;
         };
         let mut it = scene.interaction(&ray, &hit);
         if let (1, Some(d)) = (segment, diff) {
@@ -233,49 +302,70 @@ impl PathState {
             }
         }
         if segment >= tracer.max_depth {
-            return (None, false);
+            return None;
         }
         // an emitter without a material does not reflect (Mitsuba gives it a black BSDF)
-        let Some(material) = scene.material_of(&it) else {
-            return (None, false);
-        };
+        let material = scene.material_of(&it)?;
         let bsdf = material.bsdf_at(&it, &scene.textures);
 
         // the BSDF's numbers follow the light's (the same order as drawn one after the
         // other), drawn before the light sample is taken, while its tables load
-        let (uc, u_bsdf);
-        let mut shadow = None;
+        let mut light = None;
         if profile != PathProfile::RandomWalk && !bsdf.is_delta() && !scene.lights.is_empty() {
             let (index, pmf, _) = scene.light_sampler.sample(sampler.next_1d());
-            let light: &Light = &scene.lights[index];
             let u_light = Vec2::from(sampler.next_2d());
-            light.prefetch_sample(u_light, mode);
-            uc = sampler.next_1d();
-            u_bsdf = Vec2::from(sampler.next_2d());
-            // the environment's radiance only for directions the BSDF reflects
-            if let Some(mut ls) = light.sample_unlit(it.p, u_light, mode) {
-                let f = bsdf.eval(it.wo, ls.wi);
-                let cos = it.ns.dot(ls.wi).abs();
-                if f != Vec3::ZERO && ls.pdf > 0.0 && pmf > 0.0 && {
-                    ls.radiance = light.radiance_of(&ls);
-                    ls.radiance != Vec3::ZERO
-                } {
-                    counts.rays += 1;
-                    let light_pdf = pmf * ls.pdf;
-                    let w = if ls.delta || profile == PathProfile::NextEvent {
-                        1.0
-                    } else {
-                        power_heuristic(light_pdf, bsdf.pdf(it.wo, ls.wi))
-                    };
-                    shadow = Some(Shadow {
-                        ray: super::shadow_ray(&it, &ls),
-                        term: self.beta * f * ls.radiance * (cos * w / light_pdf),
-                    });
-                }
+            scene.lights[index].prefetch_sample(u_light, mode);
+            light = Some((index, pmf, u_light));
+        }
+        let uc = sampler.next_1d();
+        let u_bsdf = Vec2::from(sampler.next_2d());
+        Some(Vertex {
+            it,
+            bsdf,
+            light,
+            uc,
+            u_bsdf,
+        })
+    }
+
+    /// The last step of [`PathState::advance`]: the light sample's term and shadow
+    /// ray, the BSDF sample, roulette, the next segment's ray.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn end(
+        &mut self,
+        tracer: &PathTracer,
+        scene: &Scene,
+        v: &Vertex,
+        ls: Option<LightSample>,
+        segment: u32,
+        sampler: &mut PixelSampler,
+        counts: &mut RayCounts,
+    ) -> (Option<Shadow>, bool) {
+        let (profile, it, bsdf) = (tracer.profile, &v.it, &v.bsdf);
+        let (uc, u_bsdf) = (v.uc, v.u_bsdf);
+        let mut shadow = None;
+        // the environment's radiance only for directions the BSDF reflects
+        if let (Some((index, pmf, _)), Some(mut ls)) = (v.light, ls) {
+            let light: &Light = &scene.lights[index];
+            let f = bsdf.eval(it.wo, ls.wi);
+            let cos = it.ns.dot(ls.wi).abs();
+            if f != Vec3::ZERO && ls.pdf > 0.0 && pmf > 0.0 && {
+                ls.radiance = light.radiance_of(&ls);
+                ls.radiance != Vec3::ZERO
+            } {
+                counts.rays += 1;
+                let light_pdf = pmf * ls.pdf;
+                let w = if ls.delta || profile == PathProfile::NextEvent {
+                    1.0
+                } else {
+                    power_heuristic(light_pdf, bsdf.pdf(it.wo, ls.wi))
+                };
+                shadow = Some(Shadow {
+                    ray: super::shadow_ray(it, &ls),
+                    term: self.beta * f * ls.radiance * (cos * w / light_pdf),
+                });
             }
-        } else {
-            uc = sampler.next_1d();
-            u_bsdf = Vec2::from(sampler.next_2d());
         }
 
         let Some(bs) = bsdf.sample(it.wo, u_bsdf, uc) else {
@@ -297,7 +387,7 @@ impl PathState {
             }
             self.beta /= q;
         }
-        self.ray = spawn_ray(&it, bs.wi);
+        self.ray = spawn_ray(it, bs.wi);
         if let Some((_, sky)) = scene.environment_light() {
             // should the ray escape, its texels load during the traversal
             sky.prefetch_direction(self.ray.d);

@@ -79,7 +79,7 @@ impl PathTracer {
         loop {
             counts.rays += 1;
             let hit = scene.intersect(&path.ray);
-            let (shadow, goes_on) = path.advance(self, scene, hit, segment, diff, sampler, counts);
+            let (shadow, goes_on) = path.advance(self, scene, Found { hit, segment, diff }, sampler, counts);
             if let Some(s) = shadow {
                 path.add_unoccluded(&s, scene.transmittance(&s.ray));
             }
@@ -110,13 +110,18 @@ impl PathTracer {
         for (path, &ray) in paths.iter_mut().zip(block.rays) {
             *path = PathState::new(ray);
         }
+        let diffs = block.diffs;
+        let found = |i: usize| Found {
+            hit: hits[i],
+            segment: 1,
+            diff: diffs[i].as_ref(),
+        };
         if scene.environment_light().is_some() {
             // `advance` a step at a time over the block, so that the sky's table and
             // texel loads overlap across paths (elsewhere the split costs more)
             let mut vertices: [Option<Vertex>; PACKET] = [const { None }; PACKET];
             for i in 0..n {
-                let diff = block.diffs[i].as_ref();
-                vertices[i] = paths[i].begin(self, scene, hits[i], 1, diff, &mut block.samplers[i]);
+                vertices[i] = paths[i].begin(self, scene, found(i), &mut block.samplers[i]);
             }
             let mut samples = [None; PACKET];
             for i in 0..n {
@@ -129,8 +134,7 @@ impl PathTracer {
             }
         } else {
             for i in 0..n {
-                let diff = block.diffs[i].as_ref();
-                steps[i] = paths[i].advance(self, scene, hits[i], 1, diff, &mut block.samplers[i], block.counts);
+                steps[i] = paths[i].advance(self, scene, found(i), &mut block.samplers[i], block.counts);
             }
         }
         for (i, (shadow, goes_on)) in steps.into_iter().enumerate().take(n) {
@@ -174,6 +178,14 @@ struct Shadow {
     ray: Ray,
     /// The term if the light is unoccluded (transmittance 1).
     term: Vec3,
+}
+
+/// What a segment's ray found: its hit (if any), the segment's number (1: the
+/// camera ray) and, for the camera ray, its differentials.
+struct Found<'a> {
+    hit: Option<Hit>,
+    segment: u32,
+    diff: Option<&'a RayDifferential>,
 }
 
 /// A path's vertex with its numbers drawn, before its light sample is taken.
@@ -229,24 +241,22 @@ impl PathState {
         }
     }
 
-    /// Ends segment `segment` (`self.ray`, which found `hit`): adds the emission it
+    /// Ends the segment (`self.ray`, which found `found.hit`): adds the emission it
     /// finds, takes the next-event light sample (returned with its shadow ray, for
     /// the caller to trace) and samples the next segment into `self.ray`. Returns
     /// whether the path goes on. The three steps of [`PathState::begin`],
     /// [`Vertex::light_sample`] and [`PathState::end`].
-    #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     fn advance(
         &mut self,
         tracer: &PathTracer,
         scene: &Scene,
-        hit: Option<Hit>,
-        segment: u32,
-        diff: Option<&RayDifferential>,
+        found: Found,
         sampler: &mut PixelSampler,
         counts: &mut RayCounts,
     ) -> (Option<Shadow>, bool) {
-        match self.begin(tracer, scene, hit, segment, diff, sampler) {
+        let segment = found.segment;
+        match self.begin(tracer, scene, found, sampler) {
             Some(v) => {
                 let ls = v.light_sample(scene);
                 self.end(tracer, scene, &v, ls, segment, sampler, counts)
@@ -259,16 +269,9 @@ impl PathState {
     /// the vertex it reaches with its BSDF and all its numbers but roulette's (the
     /// light's tables are prefetched); `None` where the path ends.
     #[inline(always)]
-    fn begin(
-        &mut self,
-        tracer: &PathTracer,
-        scene: &Scene,
-        hit: Option<Hit>,
-        segment: u32,
-        diff: Option<&RayDifferential>,
-        sampler: &mut PixelSampler,
-    ) -> Option<Vertex> {
+    fn begin(&mut self, tracer: &PathTracer, scene: &Scene, found: Found, sampler: &mut PixelSampler) -> Option<Vertex> {
         let (profile, mode, ray) = (tracer.profile, scene.light_sampling, self.ray);
+        let Found { hit, segment, diff } = found;
         let Some(hit) = hit else {
             if let Some((env, sky)) = scene.environment_light() {
                 // the direction's texture coordinates once, for radiance and pdf

@@ -6,6 +6,9 @@
 #
 #   scripts/mitsuba-vs-rdr.sh [ROUNDS] [RDR]
 #
+# ISA=avx2 runs rdr with `--isa avx2` and Mitsuba's JIT for a Haswell CPU, 8 lanes
+# (`mitsuba_time.py --llvm-target haswell:8`): an AVX2-only machine on an AVX-512 one.
+#
 # MI_PY (default /work/venv-mi/bin/python) runs Mitsuba; setup in scripts/mitsuba_time.py.
 set -euo pipefail
 here=$(cd "$(dirname "$0")/.." && pwd)
@@ -13,15 +16,19 @@ shared=$(realpath -m "${SHARED:-$here/../shared}")
 rounds=${1:-2}
 rdr=${2:-$here/target/release/rdr}
 py=${MI_PY:-/work/venv-mi/bin/python}
+isa_rdr=() isa_mi=()
+if [ "${ISA:-}" = avx2 ]; then
+  isa_rdr=(--isa avx2) isa_mi=(--llvm-target haswell:8)
+fi
 export DRJIT_LIBLLVM_PATH=${DRJIT_LIBLLVM_PATH:-/usr/lib/x86_64-linux-gnu/libLLVM.so.19.1}
-"$rdr" bench "$shared/refs/scenes/cbox_point.json" --spp 1 --threads 1 | grep '^cpu'
+"$rdr" bench "$shared/refs/scenes/cbox_point.json" --spp 1 --threads 1 "${isa_rdr[@]}" | grep '^cpu'
 # scene spp res(for Mitsuba's file; empty: the file's own)
 while read -r scene spp res; do
   best_mw=inf best_mc=inf best_rw=inf best_rc=inf
   for _ in $(seq "$rounds"); do
-    read -r mw mc < <("$py" "$here/scripts/mitsuba_time.py" "$shared/refs/mitsuba/$scene.xml" "$spp" ${res:+--res "$res"} |
+    read -r mw mc < <("$py" "$here/scripts/mitsuba_time.py" "$shared/refs/mitsuba/$scene.xml" "$spp" ${res:+--res "$res"} "${isa_mi[@]}" |
       awk '{print $3, $6}')
-    t=$( { /usr/bin/time -f 'cpu %U %S' "$rdr" bench "$shared/refs/scenes/$scene.json" --spp "$spp" --threads 2 >/tmp/mvr.out; } 2>&1 | awk '/^cpu/ {print $2 + $3}')
+    t=$( { /usr/bin/time -f 'cpu %U %S' "$rdr" bench "$shared/refs/scenes/$scene.json" --spp "$spp" --threads 2 "${isa_rdr[@]}" >/tmp/mvr.out; } 2>&1 | awk '/^cpu/ {print $2 + $3}')
     rw=$(grep -oE 'in [0-9.]+ s' /tmp/mvr.out | head -1 | awk '{print $2}')
     best_mw=$(echo "$mw $best_mw" | awk '{print ($1 < $2 || $2 == "inf") ? $1 : $2}')
     best_mc=$(echo "$mc $best_mc" | awk '{print ($1 < $2 || $2 == "inf") ? $1 : $2}')

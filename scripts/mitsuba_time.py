@@ -6,13 +6,31 @@ Setup (once): python3 -m venv /work/venv-mi && /work/venv-mi/bin/pip install mit
 apt-get install libllvm19; export DRJIT_LIBLLVM_PATH=/usr/lib/x86_64-linux-gnu/libLLVM.so.19.1
 
 Usage: /work/venv-mi/bin/python scripts/mitsuba_time.py ../shared/refs/mitsuba/X.xml SPP [--res R]
-       [--reps 2] [--variant llvm_ad_rgb]
+       [--reps 2] [--variant llvm_ad_rgb] [--llvm-target CPU:WIDTH]
+--llvm-target (e.g. haswell:8) makes Dr.Jit's LLVM backend compile for that CPU and vector width
+(its C++ `jit_llvm_set_target`, through ctypes) instead of the host's: an AVX2-only machine on an
+AVX-512 one, as far as the JIT's code goes (libraries Mitsuba calls pick their own kernels).
 Loads the file (spp and, when given, res as parameters), renders once to warm the JIT up, then
 `--reps` timed renders (`mi.render` plus evaluation of the image). Prints, for scripts:
     mitsuba wall W s cpu C s samples S
 with the best wall clock and the best process CPU time (`time.process_time`, all threads).
 """
 import argparse, time
+
+
+def set_llvm_target(dr, spec):
+    """Dr.Jit's `jit_llvm_set_target(cpu, nullptr, width)` (C++ symbol of libdrjit-core)."""
+    import ctypes, os, sys
+
+    cpu, width = spec.split(":")
+    dr.eval(dr.llvm.Float(1.0) + 1)  # the LLVM backend is up
+    lib = ctypes.CDLL(os.path.join(os.path.dirname(dr.__file__), "libdrjit-core.so"))
+    set_target = lib["_Z19jit_llvm_set_targetPKcS0_j"]
+    set_target.argtypes = [ctypes.c_char_p, ctypes.c_char_p, ctypes.c_uint32]
+    set_target(cpu.encode(), None, int(width))
+    target_cpu, vector_width = lib["_Z19jit_llvm_target_cpuv"], lib["_Z21jit_llvm_vector_widthv"]
+    target_cpu.restype, vector_width.restype = ctypes.c_char_p, ctypes.c_uint32
+    print(f"llvm target {target_cpu().decode()} width {vector_width()}", file=sys.stderr)
 
 
 def main():
@@ -22,11 +40,14 @@ def main():
     ap.add_argument("--res", type=int)
     ap.add_argument("--reps", type=int, default=2)
     ap.add_argument("--variant", default="llvm_ad_rgb")
+    ap.add_argument("--llvm-target")
     a = ap.parse_args()
     import mitsuba as mi
     import drjit as dr
 
     mi.set_variant(a.variant)
+    if a.llvm_target:
+        set_llvm_target(dr, a.llvm_target)
     params = {"spp": a.spp}
     if a.res:
         params["res"] = a.res

@@ -368,6 +368,55 @@ mod tests {
         assert!((right.x / -right.z - 2.0).abs() < 1e-6);
     }
 
+    /// `pinhole_rays` is `sample_ray` bit for bit, over odd cameras and positions
+    /// on and off the film (a lane-by-lane rewrite must keep the operation order).
+    #[test]
+    fn pinhole_rays_are_sample_ray_bit_for_bit() {
+        let mut state = 0x2545_f491u32;
+        let mut next = move || {
+            state ^= state << 13;
+            state ^= state >> 17;
+            state ^= state << 5;
+            state as f32 / u32::MAX as f32
+        };
+        for (fov, w, h, pos, look) in [
+            (19.5, 512, 512, Vec3::new(0.0, 1.0, 6.8), Vec3::new(0.0, 1.0, 0.0)),
+            (90.0, 37, 29, Vec3::new(-3.1, 0.2, 1e3), Vec3::new(0.3, -7.0, 2.0)),
+            (1.0, 1920, 1080, Vec3::new(1e-3, 5e4, -2.0), Vec3::new(0.0, 0.0, 0.0)),
+        ] {
+            let d = CameraParams {
+                position: pos,
+                look_at: look,
+                ref_up: Vec3::Y,
+                fov,
+                focal_length: 1.3,
+                ..Default::default()
+            };
+            let c = Camera::new(&d, w, h);
+            for _ in 0..200 {
+                let (mut x, mut y) = ([0.0f32; 16], [0.0f32; 16]);
+                for i in 0..16 {
+                    x[i] = (next() * 1.2 - 0.1) * w as f32;
+                    y[i] = (next() * 1.2 - 0.1) * h as f32;
+                }
+                let mut out = [Ray::new(Vec3::ZERO, Vec3::Z); 16];
+                assert!(c.pinhole_rays(&x, &y, 16, &mut out));
+                for i in 0..16 {
+                    let r = c.sample_ray(x[i], y[i], Vec2::ZERO);
+                    assert_eq!(out[i].o.to_array().map(f32::to_bits), r.o.to_array().map(f32::to_bits));
+                    assert_eq!(
+                        out[i].d.to_array().map(f32::to_bits),
+                        r.d.to_array().map(f32::to_bits),
+                        "({}, {})",
+                        x[i],
+                        y[i]
+                    );
+                    assert_eq!((out[i].t_min, out[i].t_max), (r.t_min, r.t_max));
+                }
+            }
+        }
+    }
+
     #[test]
     fn projection_inverts_directions_and_densities_integrate_to_one() {
         let d = CameraParams {

@@ -509,6 +509,20 @@ fn filter_integral(filter: &Filter) -> f64 {
 mod tests {
     use super::*;
 
+    /// A reused tile is a new one: same rectangle, zero sums, whatever it held.
+    #[test]
+    fn reset_tile_is_a_new_tile() {
+        let mut t = FilmTile::new(0, 0, 16, 16, 2, 40, 30);
+        t.splat(3, 4, Vec3::splat(2.0), 0.5);
+        for (rect, reach) in [((16, 16, 32, 30), 2), ((32, 0, 40, 16), 0), ((0, 0, 40, 30), 3), ((8, 8, 9, 9), 1)] {
+            t.reset(rect, reach, 40, 30);
+            let fresh = FilmTile::new(rect.0, rect.1, rect.2, rect.3, reach, 40, 30);
+            assert_eq!((t.x0, t.y0, t.w, t.h), (fresh.x0, fresh.y0, fresh.w, fresh.h));
+            assert_eq!((&t.sum, &t.weight), (&fresh.sum, &fresh.weight));
+            t.splat(t.x0, t.y0, Vec3::ONE, 1.0);
+        }
+    }
+
     #[test]
     fn floor_to_i32_is_floor() {
         for x in [

@@ -154,12 +154,17 @@ impl Camera {
         self.clipped(o, d)
     }
 
+    /// A pinhole camera without clipping planes ([`Camera::pinhole_rays`]).
+    pub fn is_plain_pinhole(&self) -> bool {
+        matches!(self.projection, Projection::Pinhole) && self.near_clip == 0.0 && self.far_clip == f32::INFINITY
+    }
+
     /// [`Camera::sample_ray`] of a pinhole camera without clipping planes for
     /// film positions `(x[i], y[i])`, `i < n`: the same rays, bit for bit, computed
     /// a step at a time over all positions (which the compiler vectorizes). `false`
     /// (nothing written) for other cameras.
     pub fn pinhole_rays<const N: usize>(&self, x: &[f32; N], y: &[f32; N], n: usize, out: &mut [Ray; N]) -> bool {
-        if !matches!(self.projection, Projection::Pinhole) || self.near_clip != 0.0 || self.far_clip != f32::INFINITY {
+        if !self.is_plain_pinhole() {
             return false;
         }
         // `direction`'s operations in its order: the film position's offsets, the

@@ -117,17 +117,16 @@ fn floor_to_i32(x: f32) -> i32 {
 impl FilmTile {
     /// A tile for samples taken in pixels `[x0, x1) × [y0, y1)` of a `film_w × film_h` film.
     pub fn new(x0: i32, y0: i32, x1: i32, y1: i32, reach: i32, film_w: i32, film_h: i32) -> Self {
-        let (ax, ay) = ((x0 - reach).max(0), (y0 - reach).max(0));
-        let (bx, by) = ((x1 + reach).min(film_w), (y1 + reach).min(film_h));
-        let (w, h) = (bx - ax, by - ay);
-        FilmTile {
-            x0: ax,
-            y0: ay,
-            w,
-            h,
-            sum: vec![[0.0; 3]; (w * h) as usize],
-            weight: vec![0.0; (w * h) as usize],
-        }
+        let mut tile = FilmTile {
+            x0: 0,
+            y0: 0,
+            w: 0,
+            h: 0,
+            sum: Vec::new(),
+            weight: Vec::new(),
+        };
+        tile.reset((x0, y0, x1, y1), reach, film_w, film_h);
+        tile
     }
 
     /// [`FilmTile::new`]'s tile in this tile's buffers (a tile of an earlier

@@ -203,13 +203,19 @@ where
     merge_tiles(done, film)
 }
 
+/// Pixel `(x, y)`'s sampler at sample index `pass` and the film position it draws first.
+#[inline(always)]
+fn film_sample(ctx: &PassContext, x: i32, y: i32, pass: u32) -> (PixelSampler, Vec2) {
+    let mut sampler = PixelSampler::new(x as u32, y as u32, pass, ctx.seed);
+    let (u, v) = sampler.next_2d();
+    (sampler, Vec2::new(x as f32 + u, y as f32 + v))
+}
+
 /// The camera sample of pixel `(x, y)` at sample index `pass`: its sampler (film
 /// position and lens point drawn), the film position, the ray and its differentials.
 #[inline(always)]
 fn camera_sample(ctx: &PassContext, x: i32, y: i32, pass: u32, diff_scale: f32) -> (PixelSampler, Vec2, Ray, Option<RayDifferential>) {
-    let mut sampler = PixelSampler::new(x as u32, y as u32, pass, ctx.seed);
-    let (u, v) = sampler.next_2d();
-    let pos = Vec2::new(x as f32 + u, y as f32 + v);
+    let (mut sampler, pos) = film_sample(ctx, x, y, pass);
     let u_lens = lens_sample(ctx.camera, &mut sampler);
     // differentials only matter to image textures: skip them otherwise
     let (ray, diff) = if ctx.scene.uses_footprints {
@@ -270,9 +276,7 @@ where
     const N: usize = (BLOCK_W * BLOCK_H) as usize;
     let diff_scale = differential_scale(ctx.target_spp);
     // no lens, no differentials, no clipping: the block's rays are made together
-    let plain_pinhole = !ctx.camera.has_lens()
-        && !ctx.scene.uses_footprints
-        && ctx.camera.pinhole_rays(&[0.5], &[0.5], 1, &mut [Ray::new(Vec3::ZERO, Vec3::Z)]);
+    let plain_pinhole = ctx.camera.is_plain_pinhole() && !ctx.scene.uses_footprints;
     tile_pass(ctx, pass, film, |t| {
         let (x0, y0, x1, y1) = t.rect;
         let tw = (x1 - x0) as usize;
@@ -298,10 +302,8 @@ where
                     // `camera_sample` with the rays made together
                     let (mut fx, mut fy) = ([0.0f32; N], [0.0f32; N]);
                     for (i, &(x, y)) in px.iter().enumerate() {
-                        let mut sampler = PixelSampler::new(x as u32, y as u32, pass, ctx.seed);
-                        let (u, v) = sampler.next_2d();
-                        pos[i] = Vec2::new(x as f32 + u, y as f32 + v);
-                        (fx[i], fy[i]) = (pos[i].x, pos[i].y);
+                        let (sampler, p) = film_sample(ctx, x, y, pass);
+                        (pos[i], fx[i], fy[i]) = (p, p.x, p.y);
                         samplers.push(sampler);
                     }
                     ctx.camera.pinhole_rays(&fx, &fy, n, &mut rays);

@@ -19,8 +19,7 @@ use crate::material::bsdf::Bsdf;
 use crate::math::{Vec2, Vec3};
 use crate::sampler::PixelSampler;
 use crate::sampling::power_heuristic;
-use crate::scene::Interaction;
-use crate::scene::{Hit, Scene};
+use crate::scene::{Hit, Interaction, Scene};
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum PathProfile {
@@ -102,20 +101,15 @@ impl PathTracer {
         let mut hits = [None; PACKET];
         scene.intersect_packet(&block.rays[..n], (1 << n) - 1, &mut hits);
         block.counts.rays += n as u64;
-        let mut paths = [PathState::new(Ray::new(Vec3::ZERO, Vec3::Z)); PACKET];
-        let mut shadows = [None; PACKET];
-        let mut rays = [Ray::new(Vec3::ZERO, Vec3::Z); PACKET];
-        let (mut going, mut waiting) = (0u32, 0u32);
-        let mut steps = [(None, false); PACKET];
-        for (path, &ray) in paths.iter_mut().zip(block.rays) {
-            *path = PathState::new(ray);
-        }
+        let mut paths: [PathState; PACKET] =
+            std::array::from_fn(|i| PathState::new(block.rays.get(i).copied().unwrap_or(Ray::new(Vec3::ZERO, Vec3::Z))));
         let diffs = block.diffs;
         let found = |i: usize| Found {
             hit: hits[i],
             segment: 1,
             diff: diffs[i].as_ref(),
         };
+        let mut steps = [(None, false); PACKET];
         if scene.environment_light().is_some() {
             // `advance` a step at a time over the block, so that the sky's table and
             // texel loads overlap across paths (elsewhere the split costs more)
@@ -137,34 +131,31 @@ impl PathTracer {
                 steps[i] = paths[i].advance(self, scene, found(i), &mut block.samplers[i], block.counts);
             }
         }
-        for (i, (shadow, goes_on)) in steps.into_iter().enumerate().take(n) {
+        // the shadow rays, as one packet where the scene traces packets
+        let mut rays = [Ray::new(Vec3::ZERO, Vec3::Z); PACKET];
+        let mut waiting = 0u32;
+        for (i, (shadow, _)) in steps.iter().enumerate().take(n) {
             if let Some(s) = shadow {
                 rays[i] = s.ray;
-                shadows[i] = Some(s);
                 waiting |= 1 << i;
             }
-            going |= (goes_on as u32) << i;
         }
         let lit = if scene.packets() {
             waiting & !scene.occluded_packet(&rays[..n], waiting)
         } else {
             0
         };
-        for i in 0..n {
-            if let Some(s) = &shadows[i] {
+        for (i, (shadow, goes_on)) in steps.iter().enumerate().take(n) {
+            if let Some(s) = shadow {
                 let tr = if scene.packets() {
-                    if lit >> i & 1 != 0 {
-                        1.0
-                    } else {
-                        0.0
-                    }
+                    (lit >> i & 1) as f32
                 } else {
                     scene.transmittance(&s.ray)
                 };
                 paths[i].add_unoccluded(s, tr);
             }
-            out[i] = if going >> i & 1 != 0 {
-                self.finish(scene, paths[i], 2, block.diffs[i].as_ref(), &mut block.samplers[i], block.counts)
+            out[i] = if *goes_on {
+                self.finish(scene, paths[i], 2, None, &mut block.samplers[i], block.counts)
             } else {
                 paths[i].l
             };

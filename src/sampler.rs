@@ -7,6 +7,8 @@
 //! identical for any thread count or tile order, and any power-of-two prefix of
 //! a pixel's samples is a stratified (0,2)-net.
 
+use crate::accel::wide::Isa;
+
 /// 32-bit integer hash (lowbias32, Chris Wellons).
 #[inline]
 pub const fn hash_u32(mut x: u32) -> u32 {
@@ -179,6 +181,74 @@ impl PixelSampler {
     }
 }
 
+/// Lanes of [`first_2d_lanes`]: a 4×4 pixel block.
+pub const LANES: usize = 16;
+
+/// `PixelSampler::new(x[i], y[i], index, seed)` followed by its `next_2d`, for
+/// [`LANES`] pixels at once: the samplers (their first dimension pair drawn) and the
+/// points, bit for bit as one pixel at a time. The integer hashing runs lane by lane in
+/// arrays, which the compiler turns into vector instructions for the instruction set
+/// `isa` names (the render's kernel set: `--isa avx2` holds both to AVX2); a fifth of a
+/// direct-lighting sample went on this one pixel at a time.
+pub fn first_2d_lanes(isa: Isa, x: &[u32; LANES], y: &[u32; LANES], index: u32, seed: u32) -> ([PixelSampler; LANES], [(f32, f32); LANES]) {
+    match isa {
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: `isa` is a kernel set of the render's BVH, which `WideBvh::set_isa`
+        // accepts only when the CPU runs it (`Isa::available`: AVX-512F+VL, AVX2+FMA).
+        Isa::Avx512 => unsafe { first_2d_avx512(x, y, index, seed) },
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: as above.
+        Isa::Avx2 => unsafe { first_2d_avx2(x, y, index, seed) },
+        _ => first_2d_generic(x, y, index, seed),
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512vl,avx2,fma")]
+fn first_2d_avx512(x: &[u32; LANES], y: &[u32; LANES], index: u32, seed: u32) -> ([PixelSampler; LANES], [(f32, f32); LANES]) {
+    first_2d_generic(x, y, index, seed)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+fn first_2d_avx2(x: &[u32; LANES], y: &[u32; LANES], index: u32, seed: u32) -> ([PixelSampler; LANES], [(f32, f32); LANES]) {
+    first_2d_generic(x, y, index, seed)
+}
+
+/// [`first_2d_lanes`]'s body, inlined into each instruction set's copy; every loop runs
+/// over all lanes with one operation of `new` and `next_2d` (the table lookups of
+/// Sobol's second dimension in a loop of their own, so they do not keep the rest from
+/// being vectorized).
+#[inline(always)]
+fn first_2d_generic(x: &[u32; LANES], y: &[u32; LANES], index: u32, seed: u32) -> ([PixelSampler; LANES], [(f32, f32); LANES]) {
+    const L: usize = LANES;
+    let index_reversed = index.reverse_bits();
+    let (mut pixel_seed, mut s, mut i) = ([0u32; L], [0u32; L], [0u32; L]);
+    for k in 0..L {
+        pixel_seed[k] = hash_combine(hash_combine(x[k], y[k]), seed);
+        // `next_pair` of dimension pair 0
+        s[k] = hash_u32(pixel_seed[k] ^ DIM_HASHES[0].wrapping_add(combine_key(pixel_seed[k])));
+        i[k] = laine_karras_permutation(index_reversed, s[k]).reverse_bits();
+    }
+    let mut sobol = [0u32; L];
+    for k in 0..L {
+        sobol[k] = sobol_dim1_reversed(i[k]);
+    }
+    let (mut u, mut v) = ([0u32; L], [0u32; L]);
+    for k in 0..L {
+        u[k] = laine_karras_permutation(i[k], hash_u32(s[k] ^ 0x5851_f42d)).reverse_bits();
+        v[k] = laine_karras_permutation(sobol[k], hash_u32(s[k] ^ 0x1405_7b7e)).reverse_bits();
+    }
+    let samplers = std::array::from_fn(|k| PixelSampler {
+        pixel_seed: pixel_seed[k],
+        seed_key: combine_key(pixel_seed[k]),
+        index,
+        index_reversed,
+        dim: 1,
+    });
+    (samplers, std::array::from_fn(|k| (to_unit(u[k]), to_unit(v[k]))))
+}
+
 /// The RDR171 sampler (spec §7): `std::mt19937` with its default seed and
 /// libstdc++'s `uniform_real_distribution<float>(0, 1 − 2⁻²³)`.
 pub struct Mt19937Sampler {
@@ -271,6 +341,31 @@ mod tests {
                     "pixel ({x}, {y}) index {index} dim {dim}"
                 );
                 assert_eq!(b.next_1d().to_bits(), rx.to_bits());
+            }
+        }
+    }
+
+    /// The block version against one pixel at a time, bit for bit, with every
+    /// instruction set this CPU runs: the points and the samplers' next dimensions.
+    #[test]
+    fn first_2d_lanes_is_new_and_next_2d() {
+        for isa in Isa::all_available() {
+            for k in 0..400u32 {
+                let x: [u32; LANES] = std::array::from_fn(|i| hash_u32(k * 31 + i as u32) % 5000);
+                let y: [u32; LANES] = std::array::from_fn(|i| hash_u32(k * 17 + i as u32 + 99) % 3000);
+                let (index, seed) = (if k % 3 == 0 { k } else { hash_u32(k) }, k % 7);
+                let (mut samplers, points) = first_2d_lanes(isa, &x, &y, index, seed);
+                for i in 0..LANES {
+                    let mut one = PixelSampler::new(x[i], y[i], index, seed);
+                    let (a, b) = one.next_2d();
+                    let (c, d) = points[i];
+                    let what = format!("{isa:?}, pixel ({}, {}), index {index}", x[i], y[i]);
+                    assert_eq!((a.to_bits(), b.to_bits()), (c.to_bits(), d.to_bits()), "{what}");
+                    for _ in 0..3 {
+                        assert_eq!(one.next_2d(), samplers[i].next_2d(), "{what}");
+                    }
+                    assert_eq!(one.keyed_1d(5), samplers[i].keyed_1d(5), "{what}");
+                }
             }
         }
     }

@@ -7,7 +7,7 @@ use crate::camera::Camera;
 use crate::film::{AovTile, Film, FilmSettings, FilmTile, Splats};
 use crate::geometry::{Ray, RayDifferential};
 use crate::math::{Vec2, Vec3};
-use crate::sampler::PixelSampler;
+use crate::sampler::{first_2d_lanes, PixelSampler, LANES};
 use crate::scene::Scene;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -253,6 +253,8 @@ fn merge_tiles(done: Vec<Option<TileResult>>, film: &mut Film) -> PassResult {
 /// Pixel blocks of [`camera_pass_blocks`]: 4×4, one packet of coherent camera rays.
 pub const BLOCK_W: i32 = 4;
 pub const BLOCK_H: i32 = 4;
+// a block's first samples are drawn as one set of sampler lanes
+const _: () = assert!((BLOCK_W * BLOCK_H) as usize == LANES);
 
 /// The camera samples of a pixel block (up to [`BLOCK_W`]×[`BLOCK_H`] pixels, rows
 /// in order): what a packet integrator shades together.
@@ -277,6 +279,7 @@ where
     let diff_scale = differential_scale(ctx.target_spp);
     // no lens, no differentials, no clipping: the block's rays are made together
     let plain_pinhole = ctx.camera.is_plain_pinhole() && !ctx.scene.uses_footprints;
+    let isa = ctx.scene.bvh.isa();
     tile_pass(ctx, pass, film, |t| {
         let (x0, y0, x1, y1) = t.rect;
         let tw = (x1 - x0) as usize;
@@ -300,12 +303,18 @@ where
                 samplers.clear();
                 if plain_pinhole {
                     // `camera_sample` with the rays made together
+                    // `film_sample` of all pixels together (lanes past `n` repeat the last pixel)
+                    let (xs, ys) = (
+                        std::array::from_fn(|i| px[i.min(n - 1)].0 as u32),
+                        std::array::from_fn(|i| px[i.min(n - 1)].1 as u32),
+                    );
+                    let (block_samplers, uv) = first_2d_lanes(isa, &xs, &ys, pass, ctx.seed);
                     let (mut fx, mut fy) = ([0.0f32; N], [0.0f32; N]);
                     for (i, &(x, y)) in px.iter().enumerate() {
-                        let (sampler, p) = film_sample(ctx, x, y, pass);
+                        let p = Vec2::new(x as f32 + uv[i].0, y as f32 + uv[i].1);
                         (pos[i], fx[i], fy[i]) = (p, p.x, p.y);
-                        samplers.push(sampler);
                     }
+                    samplers.extend_from_slice(&block_samplers[..n]);
                     ctx.camera.pinhole_rays(&fx, &fy, n, &mut rays);
                 } else {
                     for (i, &(x, y)) in px.iter().enumerate() {

@@ -8,7 +8,8 @@
 //! `MADV_HUGEPAGE` before it is written, so all of it is faulted in as huge pages (advising
 //! an ordinary vector covers only the whole huge pages that happen to lie inside it: about
 //! half of these tables). A hint only: without huge pages (or off Linux) nothing changes.
-//! (`accel::wide::pages` advises the BVH's vectors the ordinary way.)
+//! [`reserve_huge`] and its kin advise ordinary vectors the same way (the BVH's node and
+//! block arrays, the film's sums), which covers the whole huge pages inside them.
 
 use std::alloc::{alloc, dealloc, handle_alloc_error, Layout};
 use std::ptr::NonNull;
@@ -96,18 +97,49 @@ impl<T: Copy + std::fmt::Debug> std::fmt::Debug for HugeBuf<T> {
     }
 }
 
-/// Advises `[start, start + bytes)` (whole huge pages) for huge pages.
+/// `v.reserve(additional)`, the spare room's whole huge pages advised (an ordinary
+/// vector, so only the huge pages that happen to lie inside it).
+pub(crate) fn reserve_huge<T>(v: &mut Vec<T>, additional: usize) {
+    v.reserve(additional);
+    let spare = v.spare_capacity_mut();
+    advise(spare.as_mut_ptr() as usize, std::mem::size_of_val(spare));
+}
+
+/// A copy of `v` in a fresh allocation advised for huge pages (a plain `clone` would
+/// come back on small pages).
+pub(crate) fn clone_huge<T: Clone>(v: &[T]) -> Vec<T> {
+    let mut out = Vec::new();
+    reserve_huge(&mut out, v.len());
+    out.extend_from_slice(v);
+    out
+}
+
+/// `vec![value; n]` advised for huge pages. Besides the TLB, this saves page faults: a
+/// zeroed `vec!` comes from `calloc`, whose fresh pages fault twice when a sum is first
+/// added to them (read: the shared zero page; write: a copy), 4 KiB at a time.
+pub(crate) fn filled_huge<T: Clone>(n: usize, value: T) -> Vec<T> {
+    let mut out = Vec::new();
+    reserve_huge(&mut out, n);
+    out.resize(n, value);
+    out
+}
+
+/// Advises the whole huge pages inside `[start, start + bytes)`.
 fn advise(start: usize, bytes: usize) {
+    let lo = start.next_multiple_of(HUGE);
+    let hi = (start + bytes) / HUGE * HUGE;
+    if hi <= lo {
+        return;
+    }
     #[cfg(target_os = "linux")]
     {
-        // SAFETY: `[start, start + bytes)` is one live allocation that holds no values
-        // yet. `MADV_HUGEPAGE` changes only how the kernel backs those pages, never their
-        // contents or validity; a failure (no THP support) leaves them as they were, so
-        // the result is ignored.
-        unsafe { libc::madvise(start as *mut libc::c_void, bytes, libc::MADV_HUGEPAGE) };
+        // SAFETY: `[lo, hi)` lies inside one live allocation that holds no values yet
+        // (a `HugeBuf`'s fresh memory or a vector's spare capacity). `MADV_HUGEPAGE`
+        // changes only how the kernel backs those pages, never their contents or
+        // validity; a failure (no THP support) leaves them as they were, so the result is
+        // ignored.
+        unsafe { libc::madvise(lo as *mut libc::c_void, hi - lo, libc::MADV_HUGEPAGE) };
     }
-    #[cfg(not(target_os = "linux"))]
-    let _ = (start, bytes);
 }
 
 #[cfg(test)]
@@ -139,5 +171,30 @@ mod tests {
         let a = HugeBuf::from_slice(&[A(1.0), A(2.0)]);
         assert_eq!(a.as_ptr() as usize % 16, 0);
         assert_eq!(&*a, &[A(1.0), A(2.0)]);
+    }
+
+    /// Advised arrays hold what is written to them, whatever their size, also when more
+    /// room is advised after they hold values (the advice covers only the spare room); a
+    /// clone is equal.
+    #[test]
+    fn advised_arrays_keep_their_contents() {
+        let value = |i: usize| (i as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1;
+        for n in [0usize, 1, 1000, 3 << 20] {
+            let mut v: Vec<u64> = Vec::new();
+            reserve_huge(&mut v, n);
+            assert!(v.capacity() >= n);
+            v.extend((0..n).map(value));
+            // more room advised while the first half holds values
+            reserve_huge(&mut v, 2 * n + (4 << 20));
+            assert!(v.iter().enumerate().all(|(i, &x)| x == value(i)), "{n} values lost");
+            v.extend((n..2 * n).map(value));
+            let c = clone_huge(&v);
+            assert_eq!(c, v);
+            assert!(v.iter().enumerate().all(|(i, &x)| x == value(i)), "{n} values lost");
+            // filled like `vec!`, whatever was in the memory before
+            drop(c);
+            assert_eq!(filled_huge(2 * n + 1, [0.5f64; 3]), vec![[0.5f64; 3]; 2 * n + 1], "{n} values");
+            assert!(filled_huge(n, 0.0f64).iter().all(|&x| x.to_bits() == 0), "{n} zeros");
+        }
     }
 }

@@ -14,10 +14,11 @@
 //! of primitive indices; a binary leaf mixing both becomes a node of two leaves.
 
 use super::node::{TriBlock, WideNode, EMPTY, GENERIC, INDEX_BITS, LANES, LEAF, WIDTH};
-use super::{pages, WideBvh};
+use super::WideBvh;
 use crate::accel::build::{self, TmpKind, TmpNode};
 use crate::geometry::prim::Prim;
 use crate::geometry::Aabb;
+use crate::pages;
 
 /// One candidate child while a wide node is formed.
 enum Cand<'a> {

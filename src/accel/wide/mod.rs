@@ -27,7 +27,6 @@ pub mod node;
 mod packet;
 #[cfg(target_arch = "x86_64")]
 mod packet_x86;
-mod pages;
 mod traverse;
 #[cfg(target_arch = "x86_64")]
 mod x86;
@@ -118,8 +117,8 @@ pub struct WideBvh {
 impl Clone for WideBvh {
     fn clone(&self) -> Self {
         WideBvh {
-            nodes: pages::clone_huge(&self.nodes),
-            blocks: pages::clone_huge(&self.blocks),
+            nodes: crate::pages::clone_huge(&self.nodes),
+            blocks: crate::pages::clone_huge(&self.blocks),
             generic: self.generic.clone(),
             root_bounds: self.root_bounds,
             prim_count: self.prim_count,

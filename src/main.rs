@@ -906,7 +906,9 @@ fn bench_scene(args: &SceneArgs, isa: Option<&str>, packet: Option<usize>) -> Re
             anyhow::ensure!(bvh.set_packet_width(w), "--packet {w}: 8, 16 or 0");
         }
     }
+    let cpu0 = rdr::bench::process_cpu_seconds();
     let out = rdr::render(&scene, &job, &RenderControl::default());
+    let render_cpu = cpu0.zip(rdr::bench::process_cpu_seconds()).map(|(a, b)| b - a);
     use std::fmt::Write as _;
     let mut t = String::new();
     let _ = writeln!(t, "scene            {}", args.scene.display());
@@ -933,6 +935,10 @@ fn bench_scene(args: &SceneArgs, isa: Option<&str>, packet: Option<usize>) -> Re
         "render           {}x{} at {} spp in {:.3} s",
         out.width, out.height, out.spp_done, out.seconds
     );
+    if let Some(cpu) = render_cpu {
+        // what `mi.render`'s process CPU time measures: the render alone, every thread
+        let _ = writeln!(t, "render cpu       {cpu:.3} s (all threads)");
+    }
     let _ = writeln!(t, "samples/s        {:.3e}", out.samples as f64 / out.seconds);
     if out.rays > 0 {
         let _ = writeln!(

@@ -39,6 +39,7 @@ mod timing;
 
 pub use rays::{bounce_rays, incoherent_rays, primary_rays, RaySets};
 pub use report::{run, Report};
+pub use timing::process_cpu_seconds;
 
 use crate::accel::Isa;
 use crate::geometry::mesh::Mesh;

@@ -50,6 +50,18 @@ fn thread_cpu_seconds() -> Option<f64> {
     Some(s.split_whitespace().next()?.parse::<u64>().ok()? as f64 * 1e-9)
 }
 
+/// On-CPU time of all this process's threads so far in seconds (Linux: the sum of
+/// `/proc/self/task/*/schedstat`, nanoseconds; threads that have ended no longer count).
+/// `None` where that is not available.
+pub fn process_cpu_seconds() -> Option<f64> {
+    let mut ns = 0u64;
+    for task in std::fs::read_dir("/proc/self/task").ok()? {
+        let s = std::fs::read_to_string(task.ok()?.path().join("schedstat")).ok()?;
+        ns += s.split_whitespace().next()?.parse::<u64>().ok()?;
+    }
+    Some(ns as f64 * 1e-9)
+}
+
 /// Runs `work` in `pool`; seconds taken: the worker's CPU time for a one-thread
 /// pool where the OS reports it (so other load on the machine does not count),
 /// else wall-clock time.
@@ -64,4 +76,50 @@ pub(super) fn timed<T: Send>(pool: &rayon::ThreadPool, work: impl FnOnce() -> T 
             _ => (wall, out),
         }
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::sync::Barrier;
+
+    /// The process's CPU time counts every thread's: across a stretch of work on two
+    /// threads it grows by at least what each thread's own CPU time grew by (on Linux,
+    /// where the figures exist).
+    #[test]
+    fn process_cpu_time_counts_every_thread() {
+        let Some(before) = process_cpu_seconds() else {
+            eprintln!("skipped: no /proc/self/task on this system");
+            return;
+        };
+        // a thread's own CPU time across a fixed amount of work
+        let spin = || {
+            let c0 = thread_cpu_seconds().expect("schedstat where /proc/self/task is");
+            let mut x = 0u64;
+            for _ in 0..20_000_000 {
+                x = std::hint::black_box(x.wrapping_mul(6364136223846793005).wrapping_add(1));
+            }
+            thread_cpu_seconds().expect("still readable") - c0
+        };
+        // the other thread stays alive until its time has been read
+        let (done, read) = (Barrier::new(2), Barrier::new(2));
+        let (mine, other, after) = std::thread::scope(|s| {
+            let t = s.spawn(|| {
+                let own = spin();
+                done.wait();
+                read.wait();
+                own
+            });
+            let mine = spin();
+            done.wait();
+            let after = process_cpu_seconds().expect("still readable");
+            read.wait();
+            (mine, t.join().expect("no panic"), after)
+        });
+        assert!(mine > 0.0 && other > 0.0, "{mine} {other}");
+        assert!(
+            after - before >= mine + other - 1e-3,
+            "{before} -> {after}, threads {mine} + {other}"
+        );
+    }
 }

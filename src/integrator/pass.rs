@@ -237,16 +237,18 @@ fn merge_tiles(done: Vec<Option<TileResult>>, film: &mut Film) -> PassResult {
     for (_, _, c, _) in done.iter().flatten() {
         result.counts += *c;
     }
-    for (tile, splats, _, aov) in done.into_iter().flatten() {
-        if result.complete {
-            film.merge(&tile);
-            film.add_splats(&splats);
-            if let Some(aov) = &aov {
+    if result.complete {
+        // each buffer takes its tiles' parts in tile order
+        let tiles: Vec<&FilmTile> = done.iter().flatten().map(|r| &r.0).collect();
+        film.merge_all(&tiles);
+        for (_, splats, _, aov) in done.iter().flatten() {
+            film.add_splats(splats);
+            if let Some(aov) = aov {
                 film.merge_aov(aov);
             }
         }
-        film.spare_tiles.push(tile);
     }
+    film.spare_tiles.extend(done.into_iter().flatten().map(|r| r.0));
     result
 }
 

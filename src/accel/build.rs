@@ -170,14 +170,14 @@ pub(crate) fn make_refs_with(n: usize, prim: impl Fn(usize) -> (Aabb, bool) + Sy
         .collect()
 }
 
-/// Builds over `refs` (reordered in place so leaves are contiguous ranges).
-/// `None` for no references.
-pub(crate) fn build_tree(refs: &mut [PrimRef]) -> Option<TmpNode> {
+/// Builds over `refs` (reordered in place so leaves are contiguous ranges) with
+/// leaves of at most `max_leaf` (≤ [`MAX_LEAF`]) primitives. `None` for no references.
+pub(crate) fn build_tree(refs: &mut [PrimRef], max_leaf: usize) -> Option<TmpNode> {
     if refs.is_empty() {
         return None;
     }
     let (geom, cent) = bounds_of(refs);
-    Some(build_rec(refs, 0, geom, cent, 0))
+    Some(build_rec(refs, 0, geom, cent, 0, max_leaf.clamp(1, MAX_LEAF)))
 }
 
 fn bounds_of(refs: &[PrimRef]) -> (B4, B4) {
@@ -371,10 +371,10 @@ fn leaf(refs: &[PrimRef], first: usize, geom: &B4, counted: Count) -> TmpNode {
     }
 }
 
-fn build_rec(refs: &mut [PrimRef], first: usize, geom: B4, cent: B4, depth: usize) -> TmpNode {
+fn build_rec(refs: &mut [PrimRef], first: usize, geom: B4, cent: B4, depth: usize, max_leaf: usize) -> TmpNode {
     let n = refs.len();
     // counted once, where the node may still become a leaf
-    let counted = (n <= MAX_LEAF).then(|| count(refs));
+    let counted = (n <= max_leaf).then(|| count(refs));
     if let Some(c) = counted {
         // up to a block of triangles costs one test whatever the split: a leaf
         if n == 1 || (n <= BLOCK && c >> 32 == 0) {
@@ -418,18 +418,26 @@ fn build_rec(refs: &mut [PrimRef], first: usize, geom: B4, cent: B4, depth: usiz
                 let bit = 1u32 << axis;
                 let (m, lb, rb) = partition(refs, |r| r.c2().cmplt(pos).bitmask() & bit != 0);
                 if m > 0 && m < n {
-                    return split_at(refs, first, m, geom, depth, Some((lb, rb)));
+                    return split_at(refs, first, m, geom, depth, Some((lb, rb)), max_leaf);
                 }
                 n / 2
             }
             None => n / 2,
         }
     };
-    split_at(refs, first, mid, geom, depth, None)
+    split_at(refs, first, mid, geom, depth, None, max_leaf)
 }
 
 /// Builds the two children of `refs` split at `mid` (with their bounds if known).
-fn split_at(refs: &mut [PrimRef], first: usize, mid: usize, geom: B4, depth: usize, bounds: Option<((B4, B4), (B4, B4))>) -> TmpNode {
+fn split_at(
+    refs: &mut [PrimRef],
+    first: usize,
+    mid: usize,
+    geom: B4,
+    depth: usize,
+    bounds: Option<((B4, B4), (B4, B4))>,
+    max_leaf: usize,
+) -> TmpNode {
     let n = refs.len();
     let (left, right) = refs.split_at_mut(mid);
     let (lb, rb) = match bounds {
@@ -439,13 +447,13 @@ fn split_at(refs: &mut [PrimRef], first: usize, mid: usize, geom: B4, depth: usi
     };
     let (l, r) = if n >= PAR_MIN {
         rayon::join(
-            || build_rec(left, first, lb.0, lb.1, depth + 1),
-            || build_rec(right, first + mid, rb.0, rb.1, depth + 1),
+            || build_rec(left, first, lb.0, lb.1, depth + 1, max_leaf),
+            || build_rec(right, first + mid, rb.0, rb.1, depth + 1, max_leaf),
         )
     } else {
         (
-            build_rec(left, first, lb.0, lb.1, depth + 1),
-            build_rec(right, first + mid, rb.0, rb.1, depth + 1),
+            build_rec(left, first, lb.0, lb.1, depth + 1, max_leaf),
+            build_rec(right, first + mid, rb.0, rb.1, depth + 1, max_leaf),
         )
     };
     // as one wide node, or its slots shared among the roots below

@@ -31,7 +31,7 @@ impl Bvh {
     /// Builds over the given boxes; empty boxes (and boxes with NaN) are left out.
     pub fn build(bounds: &[Aabb]) -> Bvh {
         let mut refs = super::build::make_refs(bounds);
-        let tree = super::build::build_tree(&mut refs);
+        let tree = super::build::build_tree(&mut refs, MAX_LEAF);
         let mut bvh = Bvh {
             nodes: Vec::with_capacity(2 * refs.len() / 2 + 1),
             order: refs.iter().map(|r| r.index()).collect(),

@@ -16,7 +16,8 @@ use crate::material::Material;
 use crate::math::{offset_ray_origin, reflect, refract, Frame, Vec2, Vec3, INV_4PI, INV_PI};
 use crate::sampler::PixelSampler;
 use crate::sampling::{cosine_hemisphere, power_heuristic};
-use crate::scene::{Hit, Interaction, Scene};
+use crate::scene::{Hit, Interaction, Prim, Scene, Shape};
+use crate::texture::Texture;
 
 /// Parameters (JSON `integrator` keys, besides `type` and `spp`):
 /// * `max_depth` (int ≥ 1, 16) — path segments, the camera ray being the first;
@@ -50,6 +51,31 @@ impl IntersectionTest {
     /// shadow rays of the diffuse first hits are made and traced as one packet per
     /// light.
     pub fn li_block(&self, scene: &Scene, block: &mut CameraBlock, out: &mut [Vec3]) {
+        match scene.bvh.isa() {
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: the scene's BVH takes only kernel sets the CPU runs (`WideBvh::set_isa`).
+            crate::accel::Isa::Avx512 => unsafe { self.li_block_avx512(scene, block, out) },
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: as above.
+            crate::accel::Isa::Avx2 => unsafe { self.li_block_avx2(scene, block, out) },
+            _ => self.li_block_body(scene, block, out),
+        }
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f,avx512vl,avx2,fma")]
+    fn li_block_avx512(&self, scene: &Scene, block: &mut CameraBlock, out: &mut [Vec3]) {
+        self.li_block_body(scene, block, out)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    fn li_block_avx2(&self, scene: &Scene, block: &mut CameraBlock, out: &mut [Vec3]) {
+        self.li_block_body(scene, block, out)
+    }
+
+    #[inline(always)]
+    fn li_block_body(&self, scene: &Scene, block: &mut CameraBlock, out: &mut [Vec3]) {
         let n = block.rays.len().min(PACKET);
         let mut hits = [None; PACKET];
         scene.intersect_packet(&block.rays[..n], (1 << n) - 1, &mut hits);
@@ -63,6 +89,9 @@ impl IntersectionTest {
         let mut wait = 0u32;
         let mut first = [(Vec3::ZERO, Vec3::ZERO); PACKET];
         let mut at = ShadingPoints::default();
+        // plain diffuse triangles: their points made together below
+        let mut plain = PlainHits::default();
+        let mut plain_lanes = 0u32;
         for i in 0..n {
             let (ray, diff, sampler) = (block.rays[i], block.diffs[i], &mut block.samplers[i]);
             if !deferred {
@@ -73,6 +102,14 @@ impl IntersectionTest {
                 out[i] = scene.environment_radiance(ray.d);
                 continue;
             };
+            if diff.is_none() && !scene.texture_coords {
+                if let Some(t) = plain_diffuse_triangle(scene, &hit) {
+                    plain.set(i, &t, hit.b, ray.d);
+                    plain_lanes |= 1 << i;
+                    first[i] = (Vec3::ZERO, t.albedo);
+                    continue;
+                }
+            }
             let mut total = Vec3::ZERO;
             match surface(scene, &ray, &hit, diff.as_ref(), &mut total) {
                 Surface::Diffuse(it, texture, twosided) => {
@@ -89,6 +126,14 @@ impl IntersectionTest {
                 Surface::Refracted(next) => out[i] = li_path(scene, self, next, 2, total, sampler, block.counts),
                 Surface::Done => out[i] = total,
             }
+        }
+        if plain_lanes != 0 {
+            let facing = plain.shade(plain_lanes, &mut at);
+            let unlit = plain_lanes & !facing;
+            for i in (0..n).filter(|&i| unlit >> i & 1 != 0) {
+                out[i] = Vec3::ZERO + Vec3::ZERO; // what `direct_diffuse` returns there
+            }
+            wait |= facing;
         }
         if wait == 0 {
             return;
@@ -150,6 +195,7 @@ impl ShadingPoints {
     /// rays of the lanes it reaches (returned as a mask), lane by lane with
     /// `Light::sample`'s and `shadow_ray`'s operations in their order; the arrays
     /// let the compiler do the square roots and divisions four lanes at a time.
+    #[inline(always)]
     fn point_terms(&self, position: Vec3, flux: Vec3, mask: u32, c: &mut [Vec3; PACKET], rays: &mut [Ray; PACKET]) -> u32 {
         const L: usize = PACKET;
         let (p, ng, nf) = (&self.p, &self.ng, &self.nf);
@@ -212,6 +258,144 @@ impl ShadingPoints {
             (rays[i].t_min, rays[i].t_max) = (0.0, dist[i] * (1.0 - 1e-5));
         }
         reach
+    }
+}
+
+/// Lane `hit`'s surface when `surface` would find a diffuse triangle with nothing else
+/// to it: a mesh triangle without an area light, its material diffuse with a constant
+/// texture (the caller checks that the scene reads no texture coordinates and the ray
+/// has no differentials, so its point is `Interaction::on_triangle_plain`). Its
+/// vertices, vertex normals (if the mesh has them), albedo and two-sidedness.
+#[inline(always)]
+fn plain_diffuse_triangle(scene: &Scene, hit: &Hit) -> Option<PlainTriangle> {
+    let Prim::Triangle { p, object, index } = &scene.prims[hit.prim as usize] else {
+        return None;
+    };
+    let obj = &scene.objects[*object as usize];
+    let Shape::Mesh(mesh) = &obj.shape else {
+        return None;
+    };
+    if obj.light.is_some() {
+        return None;
+    }
+    let Some(Material::Diffuse { texture, twosided }) = obj.material.map(|m| scene.materials[m as usize].unmasked()) else {
+        return None;
+    };
+    let Texture::Constant(albedo) = scene.textures[*texture as usize] else {
+        return None;
+    };
+    let normals = mesh.triangles[*index as usize]
+        .n
+        .map(|[a, b, c]| [mesh.normals[a as usize], mesh.normals[b as usize], mesh.normals[c as usize]]);
+    Some(PlainTriangle {
+        p: *p,
+        normals,
+        albedo,
+        twosided: *twosided,
+    })
+}
+
+/// What [`plain_diffuse_triangle`] finds.
+struct PlainTriangle {
+    p: [Vec3; 3],
+    normals: Option<[Vec3; 3]>,
+    albedo: Vec3,
+    twosided: bool,
+}
+
+/// A block's plain diffuse triangle hits by lane, in structure-of-arrays form: the
+/// vertices and vertex normals (`[vertex][axis][lane]`), barycentrics and the
+/// direction towards the camera.
+#[derive(Default)]
+struct PlainHits {
+    v: [[[f32; PACKET]; 3]; 3],
+    n: [[[f32; PACKET]; 3]; 3],
+    b: [[f32; PACKET]; 3],
+    wo: [[f32; PACKET]; 3],
+    /// Lanes whose mesh has vertex normals.
+    normals: u32,
+    twosided: u32,
+}
+
+// lanes are indexed in step across several arrays
+#[allow(clippy::needless_range_loop)]
+impl PlainHits {
+    #[inline(always)]
+    fn set(&mut self, i: usize, t: &PlainTriangle, b: [f32; 3], d: Vec3) {
+        for k in 0..3 {
+            for a in 0..3 {
+                self.v[k][a][i] = t.p[k][a];
+                self.n[k][a][i] = t.normals.map_or(0.0, |n| n[k][a]);
+            }
+            self.b[k][i] = b[k];
+            self.wo[k][i] = -d[k];
+        }
+        self.normals |= (t.normals.is_some() as u32) << i;
+        self.twosided |= (t.twosided as u32) << i;
+    }
+
+    /// `Interaction::on_triangle_plain` and `facing_normal` of the lanes in `mask`,
+    /// lane by lane with their operations in their order (`triangle_point`, glam's
+    /// `cross`, `dot` and `length`), so the compiler can do the square roots and
+    /// divisions of several lanes at once: the point, geometric and facing normal go
+    /// into `at`; returns the lanes that have a facing normal.
+    #[inline(always)]
+    fn shade(&self, mask: u32, at: &mut ShadingPoints) -> u32 {
+        const L: usize = PACKET;
+        let (v, n, b, wo) = (&self.v, &self.n, &self.b, &self.wo);
+        let dot = |u: &[[f32; L]; 3], w: &[[f32; L]; 3], i: usize| (u[0][i] * w[0][i]) + (u[1][i] * w[1][i]) + (u[2][i] * w[2][i]);
+        // (b0·p0 + b1·p1) + b2·p2, and the same of the vertex normals
+        let (mut pos, mut sv) = ([[0.0f32; L]; 3], [[0.0f32; L]; 3]);
+        for a in 0..3 {
+            for i in 0..L {
+                pos[a][i] = (v[0][a][i] * b[0][i] + v[1][a][i] * b[1][i]) + v[2][a][i] * b[2][i];
+                sv[a][i] = (n[0][a][i] * b[0][i] + n[1][a][i] * b[1][i]) + n[2][a][i] * b[2][i];
+            }
+        }
+        // ng = normalize_div((p1 − p0) × (p2 − p0))
+        let (mut e1, mut e2) = ([[0.0f32; L]; 3], [[0.0f32; L]; 3]);
+        for a in 0..3 {
+            for i in 0..L {
+                e1[a][i] = v[1][a][i] - v[0][a][i];
+                e2[a][i] = v[2][a][i] - v[0][a][i];
+            }
+        }
+        let mut c = [[0.0f32; L]; 3];
+        for i in 0..L {
+            c[0][i] = e1[1][i] * e2[2][i] - e2[1][i] * e1[2][i];
+            c[1][i] = e1[2][i] * e2[0][i] - e2[2][i] * e1[0][i];
+            c[2][i] = e1[0][i] * e2[1][i] - e2[0][i] * e1[1][i];
+        }
+        let (mut len, mut slen) = ([0.0f32; L], [0.0f32; L]);
+        for i in 0..L {
+            len[i] = dot(&c, &c, i).sqrt();
+            slen[i] = dot(&sv, &sv, i).sqrt();
+        }
+        let (mut ng, mut ns) = ([[0.0f32; L]; 3], [[0.0f32; L]; 3]);
+        for a in 0..3 {
+            for i in 0..L {
+                ng[a][i] = c[a][i] / len[i];
+                // interpolated vertex normals where the mesh has them and they do not vanish
+                let ok = self.normals >> i & 1 != 0 && slen[i] > 0.0 && slen[i].is_finite();
+                ns[a][i] = if ok { sv[a][i] / slen[i] } else { ng[a][i] };
+            }
+        }
+        let mut facing = 0u32;
+        let mut nf = [[0.0f32; L]; 3];
+        for i in 0..L {
+            let flip = self.twosided >> i & 1 != 0 && dot(&ns, wo, i) < 0.0;
+            for a in 0..3 {
+                nf[a][i] = if flip { -ns[a][i] } else { ns[a][i] };
+            }
+            facing |= ((dot(&nf, wo, i) > 0.0) as u32) << i;
+        }
+        let facing = facing & mask;
+        for i in (0..L).filter(|&i| facing >> i & 1 != 0) {
+            for a in 0..3 {
+                (at.p[a][i], at.ng[a][i], at.nf[a][i]) = (pos[a][i], ng[a][i], nf[a][i]);
+            }
+        }
+        facing
     }
 }
 
@@ -413,4 +597,83 @@ fn direct_diffuse(
         total += sum / light_samples as f32;
     }
     albedo * INV_PI * total
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::mesh::Mesh;
+    use crate::geometry::obj::ObjTriangle;
+    use crate::sampler::hash_u32;
+
+    /// `PlainHits::shade` against `Interaction::on_triangle_plain` and `facing_normal`,
+    /// bit for bit, on random triangles seen from both sides: one- and two-sided,
+    /// with and without vertex normals (some of them vanishing), lanes left out.
+    #[test]
+    fn plain_hits_shade_as_one_hit_at_a_time() {
+        let mut k = 0u32;
+        let unit = |k: &mut u32| {
+            *k += 1;
+            hash_u32(*k) as f32 / 4_294_967_296.0
+        };
+        let v = |k: &mut u32| Vec3::new(unit(k) * 4.0 - 2.0, unit(k) * 4.0 - 2.0, unit(k) * 4.0 - 2.0);
+        for round in 0..200 {
+            let mut plain = PlainHits::default();
+            let mut expected = Vec::new();
+            let mut mask = 0u32;
+            for i in 0..PACKET {
+                let p = [v(&mut k), v(&mut k), v(&mut k)];
+                let normals = match i % 3 {
+                    0 => None,
+                    1 => Some([v(&mut k), v(&mut k), v(&mut k)]),
+                    _ => Some([Vec3::ZERO; 3]), // vanishing: the geometric normal
+                };
+                let mesh = Mesh {
+                    positions: p.to_vec(),
+                    normals: normals.map_or(Vec::new(), |n| n.to_vec()),
+                    triangles: vec![ObjTriangle {
+                        p: [0, 1, 2],
+                        n: normals.map(|_| [0, 1, 2]),
+                        uv: None,
+                        line: 1,
+                    }],
+                    ..Mesh::default()
+                };
+                let (u, w) = (unit(&mut k), unit(&mut k));
+                let b = if u + w < 1.0 {
+                    [1.0 - u - w, u, w]
+                } else {
+                    [u + w - 1.0, 1.0 - w, 1.0 - u]
+                };
+                let d = v(&mut k).normalize();
+                let twosided = (round + i) % 2 == 0;
+                let it = Interaction::on_triangle_plain(&p, b, &mesh, 0, 0, -d);
+                let t = PlainTriangle {
+                    p,
+                    normals,
+                    albedo: Vec3::ONE,
+                    twosided,
+                };
+                plain.set(i, &t, b, d);
+                // every fifth lane is set but not asked for
+                if i % 5 != 4 {
+                    mask |= 1 << i;
+                    expected.push((i, it.p, it.ng, facing_normal(&it, twosided)));
+                }
+            }
+            let mut at = ShadingPoints::default();
+            let facing = plain.shade(mask, &mut at);
+            let bits = |v: Vec3| v.to_array().map(f32::to_bits);
+            for (i, p, ng, nf) in expected {
+                assert_eq!(facing >> i & 1 != 0, nf.is_some(), "round {round} lane {i}");
+                if let Some(nf) = nf {
+                    let lane = |a: &[[f32; PACKET]; 3]| Vec3::new(a[0][i], a[1][i], a[2][i]);
+                    assert_eq!(bits(lane(&at.p)), bits(p), "round {round} lane {i}");
+                    assert_eq!(bits(lane(&at.ng)), bits(ng), "round {round} lane {i}");
+                    assert_eq!(bits(lane(&at.nf)), bits(nf), "round {round} lane {i}");
+                }
+            }
+            assert_eq!(facing & !mask, 0, "lanes left out stay out");
+        }
+    }
 }

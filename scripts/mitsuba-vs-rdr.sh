@@ -34,6 +34,7 @@ while read -r scene spp res; do
     t=$( { /usr/bin/time -f 'cpu %U %S' "$rdr" bench "$shared/refs/scenes/$scene.json" --spp "$spp" --threads 2 "${isa_rdr[@]}" >/tmp/mvr.out; } 2>&1 | awk '/^cpu/ {print $2 + $3}')
     rw=$(grep -oE 'in [0-9.]+ s' /tmp/mvr.out | head -1 | awk '{print $2}')
     rr=$(awk '/^render cpu/ {print $3}' /tmp/mvr.out)
+    [ -n "$rr" ] || rr=$t # an rdr from before the `render cpu` line: the process's
     best_mw=$(echo "$mw $best_mw" | awk '{print ($1 < $2 || $2 == "inf") ? $1 : $2}')
     best_mc=$(echo "$mc $best_mc" | awk '{print ($1 < $2 || $2 == "inf") ? $1 : $2}')
     best_rw=$(echo "$rw $best_rw" | awk '{print ($1 < $2 || $2 == "inf") ? $1 : $2}')

@@ -426,15 +426,10 @@ impl Film {
     }
 
     pub fn merge(&mut self, t: &FilmTile) {
-        for ly in 0..t.h {
-            for lx in 0..t.w {
-                let i = (ly * t.w + lx) as usize;
-                let j = ((t.y0 + ly) * self.width as i32 + t.x0 + lx) as usize;
-                for c in 0..3 {
-                    self.sums.sum[j][c] += t.sum[i][c] as f64;
-                }
-                self.sums.weight[j] += t.weight[i];
-            }
+        let w = self.width as usize;
+        let Sums { sum, weight, .. } = &mut self.sums;
+        for y in t.y0 as usize..(t.y0 + t.h) as usize {
+            add_tile_row(sum, weight, y * w, t, y);
         }
     }
 
@@ -456,17 +451,9 @@ impl Film {
             .for_each(|(band, (sum, weight))| {
                 let (r0, r1) = (band * BAND, band * BAND + sum.len() / w);
                 for t in tiles {
-                    let (ty0, tw) = (t.y0 as usize, t.w as usize);
+                    let ty0 = t.y0 as usize;
                     for y in (ty0.max(r0))..((ty0 + t.h as usize).min(r1)) {
-                        let (src, dst) = ((y - ty0) * tw, (y - r0) * w + t.x0 as usize);
-                        for (d, s) in sum[dst..dst + tw].iter_mut().zip(&t.sum[src..src + tw]) {
-                            for c in 0..3 {
-                                d[c] += s[c] as f64;
-                            }
-                        }
-                        for (d, s) in weight[dst..dst + tw].iter_mut().zip(&t.weight[src..src + tw]) {
-                            *d += *s;
-                        }
+                        add_tile_row(sum, weight, (y - r0) * w, t, y);
                     }
                 }
             });
@@ -506,6 +493,22 @@ impl Film {
     /// estimate, if set, still replaces the weighted average).
     pub fn rgb_rows_of(&self, sums: &Sums, splat_scale: f64) -> Vec<Vec3> {
         rgb_rows(self.width, self.height, sums, self.estimate.as_deref(), splat_scale)
+    }
+}
+
+/// Adds film row `y` of tile `t` to the film row that starts at index `row` of `sum` and
+/// `weight` (the film's, or a band of its rows).
+#[inline]
+fn add_tile_row(sum: &mut [[f64; 3]], weight: &mut [f64], row: usize, t: &FilmTile, y: usize) {
+    let (tw, dst) = (t.w as usize, row + t.x0 as usize);
+    let src = (y - t.y0 as usize) * tw;
+    for (d, s) in sum[dst..dst + tw].iter_mut().zip(&t.sum[src..src + tw]) {
+        for c in 0..3 {
+            d[c] += s[c] as f64;
+        }
+    }
+    for (d, s) in weight[dst..dst + tw].iter_mut().zip(&t.weight[src..src + tw]) {
+        *d += *s;
     }
 }
 

@@ -191,31 +191,13 @@ pub const LANES: usize = 16;
 /// `isa` names (the render's kernel set: `--isa avx2` holds both to AVX2); a fifth of a
 /// direct-lighting sample went on this one pixel at a time.
 pub fn first_2d_lanes(isa: Isa, x: &[u32; LANES], y: &[u32; LANES], index: u32, seed: u32) -> ([PixelSampler; LANES], [(f32, f32); LANES]) {
-    match isa {
-        #[cfg(target_arch = "x86_64")]
-        // SAFETY: `isa` is a kernel set of the render's BVH, which `WideBvh::set_isa`
-        // accepts only when the CPU runs it (`Isa::available`: AVX-512F+VL, AVX2+FMA).
-        Isa::Avx512 => unsafe { first_2d_avx512(x, y, index, seed) },
-        #[cfg(target_arch = "x86_64")]
-        // SAFETY: as above.
-        Isa::Avx2 => unsafe { first_2d_avx2(x, y, index, seed) },
-        _ => first_2d_generic(x, y, index, seed),
-    }
+    isa.run(
+        #[inline(always)]
+        || first_2d_generic(x, y, index, seed),
+    )
 }
 
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f,avx512vl,avx2,fma")]
-fn first_2d_avx512(x: &[u32; LANES], y: &[u32; LANES], index: u32, seed: u32) -> ([PixelSampler; LANES], [(f32, f32); LANES]) {
-    first_2d_generic(x, y, index, seed)
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-fn first_2d_avx2(x: &[u32; LANES], y: &[u32; LANES], index: u32, seed: u32) -> ([PixelSampler; LANES], [(f32, f32); LANES]) {
-    first_2d_generic(x, y, index, seed)
-}
-
-/// [`first_2d_lanes`]'s body, inlined into each instruction set's copy; every loop runs
+/// [`first_2d_lanes`]'s body, inlined into the instruction set's copy; every loop runs
 /// over all lanes with one operation of `new` and `next_2d` (the table lookups of
 /// Sobol's second dimension in a loop of their own, so they do not keep the rest from
 /// being vectorized).

@@ -46,8 +46,12 @@ pub(super) fn time_rays(pool: &rayon::ThreadPool, rays: &[Ray], repeat: usize, f
 
 /// On-CPU time of the calling thread in seconds (Linux), from its schedstat.
 fn thread_cpu_seconds() -> Option<f64> {
-    let s = std::fs::read_to_string("/proc/thread-self/schedstat").ok()?;
-    Some(s.split_whitespace().next()?.parse::<u64>().ok()? as f64 * 1e-9)
+    Some(schedstat_ns("/proc/thread-self/schedstat".as_ref())? as f64 * 1e-9)
+}
+
+/// A `schedstat` file's first field: nanoseconds on the CPU.
+fn schedstat_ns(path: &std::path::Path) -> Option<u64> {
+    std::fs::read_to_string(path).ok()?.split_whitespace().next()?.parse().ok()
 }
 
 /// On-CPU time of all this process's threads so far in seconds (Linux: the sum of
@@ -56,8 +60,7 @@ fn thread_cpu_seconds() -> Option<f64> {
 pub fn process_cpu_seconds() -> Option<f64> {
     let mut ns = 0u64;
     for task in std::fs::read_dir("/proc/self/task").ok()? {
-        let s = std::fs::read_to_string(task.ok()?.path().join("schedstat")).ok()?;
-        ns += s.split_whitespace().next()?.parse::<u64>().ok()?;
+        ns += schedstat_ns(&task.ok()?.path().join("schedstat"))?;
     }
     Some(ns as f64 * 1e-9)
 }

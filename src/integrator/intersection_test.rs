@@ -51,27 +51,11 @@ impl IntersectionTest {
     /// shadow rays of the diffuse first hits are made and traced as one packet per
     /// light.
     pub fn li_block(&self, scene: &Scene, block: &mut CameraBlock, out: &mut [Vec3]) {
-        match scene.bvh.isa() {
-            #[cfg(target_arch = "x86_64")]
-            // SAFETY: the scene's BVH takes only kernel sets the CPU runs (`WideBvh::set_isa`).
-            crate::accel::Isa::Avx512 => unsafe { self.li_block_avx512(scene, block, out) },
-            #[cfg(target_arch = "x86_64")]
-            // SAFETY: as above.
-            crate::accel::Isa::Avx2 => unsafe { self.li_block_avx2(scene, block, out) },
-            _ => self.li_block_body(scene, block, out),
-        }
-    }
-
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx512f,avx512vl,avx2,fma")]
-    fn li_block_avx512(&self, scene: &Scene, block: &mut CameraBlock, out: &mut [Vec3]) {
-        self.li_block_body(scene, block, out)
-    }
-
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,fma")]
-    fn li_block_avx2(&self, scene: &Scene, block: &mut CameraBlock, out: &mut [Vec3]) {
-        self.li_block_body(scene, block, out)
+        // the lane loops below compiled for the render's kernel set
+        scene.bvh.isa().run(
+            #[inline(always)]
+            || self.li_block_body(scene, block, out),
+        )
     }
 
     #[inline(always)]
@@ -131,7 +115,7 @@ impl IntersectionTest {
             let facing = plain.shade(plain_lanes, &mut at);
             let unlit = plain_lanes & !facing;
             for i in (0..n).filter(|&i| unlit >> i & 1 != 0) {
-                out[i] = Vec3::ZERO + Vec3::ZERO; // what `direct_diffuse` returns there
+                out[i] = Vec3::ZERO; // what `direct_diffuse` returns there (no emission)
             }
             wait |= facing;
         }
@@ -173,6 +157,12 @@ impl IntersectionTest {
 /// Lights a block's shadow rays are deferred for (more: ray by ray).
 const MAX_DEFERRED: usize = 4;
 
+/// Lane `i`'s dot product of two vectors stored by axis, as glam's `Vec3::dot` orders it.
+#[inline(always)]
+fn lane_dot(u: &[[f32; PACKET]; 3], w: &[[f32; PACKET]; 3], i: usize) -> f32 {
+    (u[0][i] * w[0][i]) + (u[1][i] * w[1][i]) + (u[2][i] * w[2][i])
+}
+
 /// A block's diffuse shading points by lane, in structure-of-arrays form: position,
 /// geometric normal and the shading normal facing the ray.
 #[derive(Default)]
@@ -205,11 +195,10 @@ impl ShadingPoints {
                 v[a][i] = position[a] - p[a][i];
             }
         }
-        let dot = |u: &[[f32; L]; 3], w: &[[f32; L]; 3], i: usize| (u[0][i] * w[0][i]) + (u[1][i] * w[1][i]) + (u[2][i] * w[2][i]);
         let mut d2 = [0.0f32; L];
         let mut root = [0.0f32; L];
         for i in 0..L {
-            d2[i] = dot(&v, &v, i);
+            d2[i] = lane_dot(&v, &v, i);
             root[i] = d2[i].sqrt();
         }
         // wi = v / √d2; cos θ = n·wi
@@ -222,7 +211,7 @@ impl ShadingPoints {
         let scaled = flux * INV_4PI;
         let mut reach = 0u32;
         for i in 0..L {
-            let cos = dot(nf, &wi, i);
+            let cos = lane_dot(nf, &wi, i);
             reach |= ((d2[i] != 0.0 && cos > 0.0) as u32) << i;
             let radiance = Vec3::new(scaled.x / d2[i], scaled.y / d2[i], scaled.z / d2[i]);
             c[i] = radiance * cos;
@@ -232,7 +221,7 @@ impl ShadingPoints {
         let mut to = [[0.0f32; L]; 3];
         for i in 0..L {
             let n = Vec3::new(ng[0][i], ng[1][i], ng[2][i]);
-            let side = if dot(&v, ng, i) >= 0.0 { n } else { -n };
+            let side = if lane_dot(&v, ng, i) >= 0.0 { n } else { -n };
             let o = if reach >> i & 1 != 0 {
                 offset_ray_origin(Vec3::new(p[0][i], p[1][i], p[2][i]), side)
             } else {
@@ -245,7 +234,7 @@ impl ShadingPoints {
         }
         let mut dist = [0.0f32; L];
         for i in 0..L {
-            dist[i] = dot(&to, &to, i).sqrt();
+            dist[i] = lane_dot(&to, &to, i).sqrt();
         }
         let mut d = [[0.0f32; L]; 3];
         for a in 0..3 {
@@ -278,7 +267,7 @@ fn plain_diffuse_triangle(scene: &Scene, hit: &Hit) -> Option<PlainTriangle> {
     if obj.light.is_some() {
         return None;
     }
-    let Some(Material::Diffuse { texture, twosided }) = obj.material.map(|m| scene.materials[m as usize].unmasked()) else {
+    let Some(Material::Diffuse { texture, twosided }) = scene.material_of_object(*object) else {
         return None;
     };
     let Texture::Constant(albedo) = scene.textures[*texture as usize] else {
@@ -343,7 +332,6 @@ impl PlainHits {
     fn shade(&self, mask: u32, at: &mut ShadingPoints) -> u32 {
         const L: usize = PACKET;
         let (v, n, b, wo) = (&self.v, &self.n, &self.b, &self.wo);
-        let dot = |u: &[[f32; L]; 3], w: &[[f32; L]; 3], i: usize| (u[0][i] * w[0][i]) + (u[1][i] * w[1][i]) + (u[2][i] * w[2][i]);
         // (b0·p0 + b1·p1) + b2·p2, and the same of the vertex normals
         let (mut pos, mut sv) = ([[0.0f32; L]; 3], [[0.0f32; L]; 3]);
         for a in 0..3 {
@@ -368,8 +356,8 @@ impl PlainHits {
         }
         let (mut len, mut slen) = ([0.0f32; L], [0.0f32; L]);
         for i in 0..L {
-            len[i] = dot(&c, &c, i).sqrt();
-            slen[i] = dot(&sv, &sv, i).sqrt();
+            len[i] = lane_dot(&c, &c, i).sqrt();
+            slen[i] = lane_dot(&sv, &sv, i).sqrt();
         }
         let (mut ng, mut ns) = ([[0.0f32; L]; 3], [[0.0f32; L]; 3]);
         for a in 0..3 {
@@ -383,11 +371,11 @@ impl PlainHits {
         let mut facing = 0u32;
         let mut nf = [[0.0f32; L]; 3];
         for i in 0..L {
-            let flip = self.twosided >> i & 1 != 0 && dot(&ns, wo, i) < 0.0;
+            let flip = self.twosided >> i & 1 != 0 && lane_dot(&ns, wo, i) < 0.0;
             for a in 0..3 {
                 nf[a][i] = if flip { -ns[a][i] } else { ns[a][i] };
             }
-            facing |= ((dot(&nf, wo, i) > 0.0) as u32) << i;
+            facing |= ((lane_dot(&nf, wo, i) > 0.0) as u32) << i;
         }
         let facing = facing & mask;
         for i in (0..L).filter(|&i| facing >> i & 1 != 0) {

@@ -304,8 +304,8 @@ where
                 let mut diffs = [None; N];
                 samplers.clear();
                 if plain_pinhole {
-                    // `camera_sample` with the rays made together
-                    // `film_sample` of all pixels together (lanes past `n` repeat the last pixel)
+                    // `camera_sample` with the samples and rays made together (lanes past
+                    // `n` repeat the last pixel)
                     let (xs, ys) = (
                         std::array::from_fn(|i| px[i.min(n - 1)].0 as u32),
                         std::array::from_fn(|i| px[i.min(n - 1)].1 as u32),

@@ -364,7 +364,12 @@ impl Scene {
     /// The material at `it`, any `mask` around it taken off (masks act in
     /// [`Scene::intersect`]: a point that was hit is opaque).
     pub fn material_of(&self, it: &Interaction) -> Option<&Material> {
-        self.objects[it.object as usize]
+        self.material_of_object(it.object)
+    }
+
+    /// [`Scene::material_of`] a point of object `object`.
+    pub fn material_of_object(&self, object: u32) -> Option<&Material> {
+        self.objects[object as usize]
             .material
             .map(|m| self.materials[m as usize].unmasked())
     }

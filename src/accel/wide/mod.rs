@@ -84,6 +84,23 @@ impl Isa {
         }
     }
 
+    /// Runs `f` compiled for this instruction set where the CPU has it (else as it is):
+    /// once `f` is inlined into the set's copy, the compiler may turn its lane-by-lane
+    /// loops into the set's vector instructions. The results stay bit for bit the same:
+    /// every operation is still exact IEEE arithmetic (no contraction into FMA).
+    #[inline(always)]
+    pub fn run<R>(self, f: impl FnOnce() -> R) -> R {
+        #[cfg(target_arch = "x86_64")]
+        match self {
+            // SAFETY: the CPU has AVX-512F+VL, AVX2 and FMA (`available`, checked here).
+            Isa::Avx512 if self.available() => return unsafe { run_avx512(f) },
+            // SAFETY: the CPU has AVX2 and FMA (as above).
+            Isa::Avx2 if self.available() => return unsafe { run_avx2(f) },
+            _ => {}
+        }
+        f()
+    }
+
     /// Every variant this CPU can run.
     pub fn all_available() -> Vec<Isa> {
         [Isa::Portable, Isa::Avx2, Isa::Avx512]
@@ -99,6 +116,20 @@ impl Isa {
             Isa::Avx512 => "avx512",
         }
     }
+}
+
+/// [`Isa::run`]'s AVX-512 copy.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512vl,avx2,fma")]
+fn run_avx512<R>(f: impl FnOnce() -> R) -> R {
+    f()
+}
+
+/// [`Isa::run`]'s AVX2 copy.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+fn run_avx2<R>(f: impl FnOnce() -> R) -> R {
+    f()
 }
 
 #[derive(Debug)]
@@ -486,6 +517,18 @@ impl WideBvh {
 mod tests {
     use super::*;
     use crate::math::Vec3;
+
+    /// `Isa::run` gives `f`'s result bit for bit with every set, those the CPU lacks too
+    /// (they run `f` as it is): square roots and divisions over lanes.
+    #[test]
+    fn run_gives_the_same_bits_with_every_set() {
+        let lanes: [f32; 64] = std::array::from_fn(|i| (i as f32 * 0.37 + 0.1).powi(3) - 5.0);
+        let f = || lanes.map(|x| (x.abs().sqrt() / (x + 0.3)).to_bits());
+        let plain = f();
+        for isa in [Isa::Portable, Isa::Avx2, Isa::Avx512] {
+            assert_eq!(isa.run(f), plain, "{isa:?}");
+        }
+    }
 
     /// Trees of up to `SMALL_TREE` primitives have leaves of at most `SMALL_TREE_LEAF`,
     /// larger ones leaves of up to eight, and both hold every primitive once.

@@ -6,10 +6,15 @@
 #
 # RAYDIR holds <mesh>_{primary,incoherent,bounce}.rays.f32 from
 # ../shared/tools/embree_rays.py (run it once per mesh). For each mesh (bunny, dragon) and each
-# burst (default 3): Embree (scripts/embree_time.py, process CPU time), then every rdr binary
-# given (default target/release/rdr; LABEL names it in the output, default `rdr`) with --isa avx512 and --isa avx2, all on CPU 0
-# (`taskset -c 0`). Prints each burst's lines, then the best per column and rdr/Embree ratios
-# (Mrays/s ratios, build as Embree's time / rdr's time, so above 1 means rdr is faster).
+# burst (default 3): Embree (scripts/embree_time.py, process CPU time) and every rdr binary
+# given (default target/release/rdr; LABEL names it in the output, default `rdr`), each with
+# --isa avx512 and --isa avx2, all on CPU 0 (`taskset -c 0`). Embree is held to the same
+# instruction set through its device configuration (`isa=avx2`; embreex creates its device
+# without one, so scripts/embree_config_shim.c, compiled here with cc, passes it in by
+# LD_PRELOAD), so each rdr kernel set is compared with Embree on the same set: the AVX2 rows
+# are what an AVX2-only machine would see. Prints each burst's lines, then the best per
+# column and rdr/Embree ratios (Mrays/s ratios, build as Embree's time / rdr's time, so above
+# 1 means rdr is faster).
 # EMBREE_PY (default /work/venv-embree/bin/python) runs Embree; ISAS (default "avx512 avx2").
 set -euo pipefail
 here=$(cd "$(dirname "$0")/.." && pwd)
@@ -22,12 +27,18 @@ rdrs=("$@")
 py=${EMBREE_PY:-/work/venv-embree/bin/python}
 isas=${ISAS:-avx512 avx2}
 log=$(mktemp)
+shim=$(mktemp --suffix=.so)
+cc -shared -fPIC -O2 -o "$shim" "$here/scripts/embree_config_shim.c" -ldl
+embree_lib=$("$py" -c 'import embreex, glob, os; print(glob.glob(os.path.join(os.path.dirname(embreex.__file__), "..", "embreex.libs", "libembree4*"))[0])')
 for mesh in bunny dragon; do
   files=()
   for s in primary incoherent bounce; do files+=("$dir/${mesh}_$s.rays.f32"); done
   for b in $(seq "$bursts"); do
-    taskset -c 0 "$py" "$here/scripts/embree_time.py" "$shared/meshes/$mesh.obj" "${files[@]}" --reps 1 |
-      sed "s/^/$mesh embree /" | tee -a "$log"
+    for isa in $isas; do
+      EMBREE_LIB=$embree_lib EMBREE_CONFIG="isa=$isa" LD_PRELOAD=$shim \
+        taskset -c 0 "$py" "$here/scripts/embree_time.py" "$shared/meshes/$mesh.obj" "${files[@]}" --reps 1 |
+        sed "s|^|$mesh embree/$isa |" | tee -a "$log"
+    done
     for spec in "${rdrs[@]}"; do
       if [[ $spec == *=* ]]; then label=${spec%%=*} r=${spec#*=}; else label=rdr r=$spec; fi
       for isa in $isas; do
@@ -47,11 +58,11 @@ awk '
   { k = $1 " " $2 " " $3; if ($5 > c[k]) c[k] = $5; if ($7 > a[k]) a[k] = $7; who[$1 " " $2] = 1; set[$1 " " $3] = 1 }
   END {
     for (w in who) {
-      split(w, p, " "); m = p[1]; e = m " embree"
-      if (p[2] == "embree") continue
+      split(w, p, " "); m = p[1]; split(p[2], li, "/"); e = m " embree/" li[2]
+      if (li[1] == "embree") continue
       printf "%s build %s ms vs Embree %s ms: %.2fx its speed\n", w, b[w " build"], b[e " build"], b[e " build"] / b[w " build"]
       for (s in set) { split(s, q, " "); if (q[1] != m) continue
         printf "%s %-28s %6.2f / %6.2f vs %6.2f / %6.2f  ratio %.2f / %.2f\n", w, q[2], c[w " " q[2]], a[w " " q[2]], c[e " " q[2]], a[e " " q[2]], c[w " " q[2]] / c[e " " q[2]], a[w " " q[2]] / a[e " " q[2]] }
     }
   }' "$log" | sort
-rm -f "$log"
+rm -f "$log" "$shim"

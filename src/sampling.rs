@@ -483,13 +483,26 @@ impl From<u64> for SplitMix64 {
     }
 }
 
+/// SplitMix64's output function: a bijection of `u64` that scatters nearby inputs.
+#[inline]
+pub fn mix64(mut z: u64) -> u64 {
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^ (z >> 31)
+}
+
 impl SplitMix64 {
     pub fn next_u64(&mut self) -> u64 {
         self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
+        mix64(self.0)
+    }
+
+    /// A stream for one of many keys (a photon's seed, iteration and index): its start is
+    /// [`mix64`] of the key, so different keys start far apart in SplitMix64's one sequence.
+    /// (Starting at `key·γ` would put key + 1's stream one draw behind key's: the two
+    /// would share all but one number.)
+    pub fn for_key(key: u64) -> SplitMix64 {
+        SplitMix64(mix64(key))
     }
 
     /// Uniform in [0, 1) with 24 bits.

@@ -36,7 +36,7 @@ use crate::light::SceneBounds;
 use crate::material::{Bsdf, BsdfKind};
 use crate::math::{offset_ray_origin, Vec2, Vec3, PI};
 use crate::sampler::PixelSampler;
-use crate::sampling::SplitMix64;
+use crate::sampling::{mix64, SplitMix64};
 use crate::scene::{Interaction, Scene};
 use rayon::prelude::*;
 use std::cell::RefCell;
@@ -117,8 +117,7 @@ pub fn shoot_deposits(scene: &Scene, s: Shooting, iteration: u32, seed: u32, sto
             }
             let (mut pts, mut ph, mut rays) = (Vec::new(), Vec::new(), 0u64);
             for i in c * CHUNK..((c + 1) * CHUNK).min(n) {
-                let key = (seed as u64) << 40 ^ (iteration as u64) << 32 ^ i as u64;
-                let mut rng = SplitMix64(key.wrapping_mul(0x9e37_79b9_7f4a_7c15));
+                let mut rng = photon_rng(seed, iteration, i as u64);
                 rays += trace_photon(scene, s, &mut rng, &mut |p, photon| {
                     pts.push(p.to_array());
                     ph.push(photon);
@@ -140,6 +139,16 @@ pub fn shoot_deposits(scene: &Scene, s: Shooting, iteration: u32, seed: u32, sto
 }
 
 /// Traces one photon, calling `store` at each deposit; returns the rays cast.
+/// The random numbers of photon `i` of `iteration` for `seed`: every (seed, iteration)
+/// pair its own 64-bit key, each photon's stream started at a hash of that key's hash and
+/// `i` ([`SplitMix64::for_key`]), so no two photons share numbers. Until session 13 the
+/// three were packed into one key (`seed << 40 ^ iteration << 32 ^ i`, dropping the seed's
+/// top eight bits and overlapping it with iterations from 256 on) and the stream started
+/// at key·γ, which made photon i + 1's numbers photon i's, one draw later.
+fn photon_rng(seed: u32, iteration: u32, i: u64) -> SplitMix64 {
+    SplitMix64::for_key(mix64((seed as u64) << 32 | iteration as u64) ^ i)
+}
+
 fn trace_photon(scene: &Scene, s: Shooting, rng: &mut SplitMix64, store: &mut impl FnMut(Vec3, Photon)) -> u64 {
     let mut u2 = || Vec2::new(rng.unit_f32(), rng.unit_f32());
     let ul = u2();
@@ -460,5 +469,34 @@ impl PhotonMapper {
             BYTES_PER_PHOTON,
             self.n_near_photons
         ))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::collections::HashMap;
+
+    /// No two photons share a random number: the first draws of the streams of many
+    /// photons, iterations and seeds (seeds 2²⁴ apart and iterations past 256 too, which
+    /// the old packed key confused) are all different. Fails with the stream started at
+    /// key·γ (each photon's numbers are its predecessor's, one draw later) and with keys
+    /// that drop or overlap the seed's bits.
+    #[test]
+    fn photon_streams_share_no_numbers() {
+        let mut seen: HashMap<u64, (u32, u32, u64)> = HashMap::new();
+        for seed in [0u32, 1, 1 << 24, u32::MAX] {
+            for iteration in [0u32, 1, 256, 257] {
+                for i in 0..2000u64 {
+                    let mut rng = photon_rng(seed, iteration, i);
+                    for _ in 0..8 {
+                        let x = rng.next_u64();
+                        if let Some(other) = seen.insert(x, (seed, iteration, i)) {
+                            panic!("photon {:?} and {other:?} share a number", (seed, iteration, i));
+                        }
+                    }
+                }
+            }
+        }
     }
 }

@@ -96,22 +96,60 @@ pub struct Options {
     pub ray_files: Vec<std::path::PathBuf>,
 }
 
-/// The CPU's model name (Linux `/proc/cpuinfo`), or "unknown CPU".
+/// The CPU's model name with its family, model and stepping (Linux `/proc/cpuinfo`), or
+/// "unknown CPU".
 pub fn cpu_model() -> String {
     std::fs::read_to_string("/proc/cpuinfo")
         .ok()
-        .and_then(|s| {
-            s.lines()
-                .find(|l| l.starts_with("model name"))
-                .and_then(|l| l.split_once(':'))
-                .map(|(_, v)| v.trim().to_string())
-        })
-        .filter(|s| !s.is_empty())
+        .and_then(|s| cpu_model_of(&s))
         .unwrap_or_else(|| "unknown CPU".to_string())
+}
+
+/// [`cpu_model`] of `/proc/cpuinfo`'s text: the first processor's `model name`, and its
+/// `cpu family`, `model` and `stepping` where given, which tell CPU generations apart
+/// where a virtual machine names only the brand ("AMD EPYC, family 26 model 2
+/// stepping 1" is a Zen 5).
+fn cpu_model_of(cpuinfo: &str) -> Option<String> {
+    // the first processor's block
+    let block = cpuinfo.split("\n\n").next().unwrap_or("");
+    let field = |key: &str| {
+        block
+            .lines()
+            .filter_map(|l| l.split_once(':'))
+            .find(|(k, _)| k.trim() == key)
+            .map(|(_, v)| v.trim())
+            .filter(|v| !v.is_empty())
+    };
+    let name = field("model name")?;
+    let ids: Vec<String> = [("cpu family", "family"), ("model", "model"), ("stepping", "stepping")]
+        .into_iter()
+        .filter_map(|(key, label)| field(key).map(|v| format!("{label} {v}")))
+        .collect();
+    Some(if ids.is_empty() {
+        name.to_string()
+    } else {
+        format!("{name}, {}", ids.join(" "))
+    })
 }
 
 /// The CPU line of both benchmarks: model and the instruction sets the kernels use.
 pub fn cpu_line(isa: Isa) -> String {
     let have: Vec<&str> = Isa::all_available().into_iter().map(Isa::name).collect();
     format!("{} (kernels {}; this CPU runs {})", cpu_model(), isa.name(), have.join(", "))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::cpu_model_of;
+
+    #[test]
+    fn cpu_model_names_family_model_and_stepping() {
+        let two = "processor\t: 0\nvendor_id\t: AuthenticAMD\ncpu family\t: 26\nmodel\t\t: 2\nmodel name\t: AMD EPYC\nstepping\t: 1\n\n\
+                   processor\t: 1\ncpu family\t: 6\nmodel\t\t: 85\nmodel name\t: Other\nstepping\t: 7\n";
+        assert_eq!(cpu_model_of(two).as_deref(), Some("AMD EPYC, family 26 model 2 stepping 1"));
+        // without the numbers (other platforms' files): the name alone
+        assert_eq!(cpu_model_of("model name : Some CPU\n").as_deref(), Some("Some CPU"));
+        assert_eq!(cpu_model_of("processor : 0\n"), None);
+        assert_eq!(cpu_model_of("model name :   \n"), None);
+    }
 }

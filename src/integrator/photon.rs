@@ -138,17 +138,17 @@ pub fn shoot_deposits(scene: &Scene, s: Shooting, iteration: u32, seed: u32, sto
     Some((pts, photons, rays))
 }
 
-/// Traces one photon, calling `store` at each deposit; returns the rays cast.
-/// The random numbers of photon `i` of `iteration` for `seed`: every (seed, iteration)
-/// pair its own 64-bit key, each photon's stream started at a hash of that key's hash and
-/// `i` ([`SplitMix64::for_key`]), so no two photons share numbers. Until session 13 the
-/// three were packed into one key (`seed << 40 ^ iteration << 32 ^ i`, dropping the seed's
-/// top eight bits and overlapping it with iterations from 256 on) and the stream started
-/// at key·γ, which made photon i + 1's numbers photon i's, one draw later.
+/// The random numbers of photon `i` of `iteration` for `seed`: the (seed, iteration) pair
+/// hashed to a 64-bit key, and the photon's stream started at a hash of that key XOR `i`
+/// ([`SplitMix64::for_key`]), so no two photons share numbers. Until session 13 the three
+/// were packed into one key (`seed << 40 ^ iteration << 32 ^ i`, dropping the seed's top
+/// eight bits and overlapping it with iterations from 256 on) and the stream started at
+/// key·γ, which made photon i + 1's numbers photon i's, one draw later.
 fn photon_rng(seed: u32, iteration: u32, i: u64) -> SplitMix64 {
     SplitMix64::for_key(mix64((seed as u64) << 32 | iteration as u64) ^ i)
 }
 
+/// Traces one photon, calling `store` at each deposit; returns the rays cast.
 fn trace_photon(scene: &Scene, s: Shooting, rng: &mut SplitMix64, store: &mut impl FnMut(Vec3, Photon)) -> u64 {
     let mut u2 = || Vec2::new(rng.unit_f32(), rng.unit_f32());
     let ul = u2();

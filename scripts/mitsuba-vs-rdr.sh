@@ -25,6 +25,8 @@ if [ "${ISA:-}" = avx2 ]; then
 fi
 export DRJIT_LIBLLVM_PATH=${DRJIT_LIBLLVM_PATH:-/usr/lib/x86_64-linux-gnu/libLLVM.so.19.1}
 "$rdr" bench "$shared/refs/scenes/cbox_point.json" --spp 1 --threads 1 "${isa_rdr[@]}" | grep '^cpu'
+# the smaller of two figures ("inf": none yet)
+min() { echo "$1 $2" | awk '{print ($1 < $2 || $2 == "inf") ? $1 : $2}'; }
 # scene spp res(for Mitsuba's file; empty: the file's own)
 while read -r scene spp res; do
   best_mw=inf best_mc=inf best_rw=inf best_rc=inf best_rr=inf
@@ -35,11 +37,8 @@ while read -r scene spp res; do
     rw=$(grep -oE 'in [0-9.]+ s' /tmp/mvr.out | head -1 | awk '{print $2}')
     rr=$(awk '/^render cpu/ {print $3}' /tmp/mvr.out)
     [ -n "$rr" ] || rr=$t # an rdr from before the `render cpu` line: the process's
-    best_mw=$(echo "$mw $best_mw" | awk '{print ($1 < $2 || $2 == "inf") ? $1 : $2}')
-    best_mc=$(echo "$mc $best_mc" | awk '{print ($1 < $2 || $2 == "inf") ? $1 : $2}')
-    best_rw=$(echo "$rw $best_rw" | awk '{print ($1 < $2 || $2 == "inf") ? $1 : $2}')
-    best_rc=$(echo "$t $best_rc" | awk '{print ($1 < $2 || $2 == "inf") ? $1 : $2}')
-    best_rr=$(echo "$rr $best_rr" | awk '{print ($1 < $2 || $2 == "inf") ? $1 : $2}')
+    best_mw=$(min "$mw" "$best_mw") best_mc=$(min "$mc" "$best_mc")
+    best_rw=$(min "$rw" "$best_rw") best_rc=$(min "$t" "$best_rc") best_rr=$(min "$rr" "$best_rr")
   done
   ratio=$(echo "$best_mc $best_rc" | awk '{printf "%.2f", $1 / $2}')
   ratio_r=$(echo "$best_mc $best_rr" | awk '{printf "%.2f", $1 / $2}')

@@ -23,7 +23,7 @@ With --isa avx2, Mitsuba's JIT targets a Haswell CPU, 8 lanes (mitsuba_time.py -
 Prints one line per scene, for scripts:
     SCENE: rdr N spp cpu C s relMSE E | mitsuba N spp cpu C s, M spp cpu C s relMSE E | samples/s ratio R, equal-time error ratio Q
 """
-import argparse, os, re, subprocess, sys, tempfile, time
+import argparse, os, re, subprocess, sys, tempfile
 
 import numpy as np
 
@@ -56,10 +56,10 @@ def main():
     import mitsuba as mi
     import drjit as dr
 
+    from mitsuba_time import set_llvm_target, timed_render
+
     mi.set_variant("llvm_ad_rgb")
     if a.isa == "avx2":
-        from mitsuba_time import set_llvm_target
-
         set_llvm_target(dr, "haswell:8")
     refs = os.path.join(a.shared, "refs")
     isa = ["--isa", a.isa] if a.isa else []
@@ -87,11 +87,8 @@ def main():
 
         def mitsuba(n, seed):
             """Process CPU seconds of an n-spp render and its image."""
-            c0 = time.process_time()
-            img = mi.render(scene, spp=n, seed=seed)
-            dr.eval(img)
-            dr.sync_thread()
-            return time.process_time() - c0, np.array(img, dtype=np.float64)[..., :3] * MI_SCALE.get(name, 1.0)
+            _, cpu, img = timed_render(mi, dr, scene, n, seed)
+            return cpu, np.array(img, dtype=np.float64)[..., :3] * MI_SCALE.get(name, 1.0)
 
         mitsuba(spp, 0)  # JIT warm-up
         mi_cpu = min(mitsuba(spp, 0)[0] for _ in range(2))

@@ -129,13 +129,19 @@ pub struct PixelSampler {
 
 impl PixelSampler {
     pub fn new(x: u32, y: u32, sample_index: u32, seed: u32) -> Self {
-        let pixel_seed = hash_combine(hash_combine(x, y), seed);
+        PixelSampler::at(hash_combine(hash_combine(x, y), seed), sample_index, 0)
+    }
+
+    /// The sampler of the pixel with seed `pixel_seed`, at sample `index`, its next
+    /// dimension pair `dim`.
+    #[inline(always)]
+    fn at(pixel_seed: u32, index: u32, dim: u32) -> Self {
         PixelSampler {
             pixel_seed,
             seed_key: combine_key(pixel_seed),
-            index: sample_index,
-            index_reversed: sample_index.reverse_bits(),
-            dim: 0,
+            index,
+            index_reversed: index.reverse_bits(),
+            dim,
         }
     }
 
@@ -221,13 +227,7 @@ fn first_2d_generic(x: &[u32; LANES], y: &[u32; LANES], index: u32, seed: u32) -
         u[k] = laine_karras_permutation(i[k], hash_u32(s[k] ^ 0x5851_f42d)).reverse_bits();
         v[k] = laine_karras_permutation(sobol[k], hash_u32(s[k] ^ 0x1405_7b7e)).reverse_bits();
     }
-    let samplers = std::array::from_fn(|k| PixelSampler {
-        pixel_seed: pixel_seed[k],
-        seed_key: combine_key(pixel_seed[k]),
-        index,
-        index_reversed,
-        dim: 1,
-    });
+    let samplers = std::array::from_fn(|k| PixelSampler::at(pixel_seed[k], index, 1));
     (samplers, std::array::from_fn(|k| (to_unit(u[k]), to_unit(v[k]))))
 }
 

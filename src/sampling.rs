@@ -1,7 +1,7 @@
 //! Sampling routines: piecewise-constant distributions and warps from the unit
 //! square. Each has a matching pdf; `tests/sampling_chi2.rs` checks them.
 
-use crate::math::{Vec2, Vec3, PI};
+use crate::math::{sin_cos_poly, Vec2, Vec3, PI};
 use crate::pages::HugeBuf;
 
 /// One bucket of a guide table: `i`, the last interval whose cdf is ≤ k/n, and that
@@ -322,15 +322,16 @@ pub fn concentric_disk(u: Vec2) -> Vec2 {
     } else {
         (o.y, PI / 2.0 - PI / 4.0 * (o.x / o.y))
     };
-    r * Vec2::new(theta.cos(), theta.sin())
+    let (sin, cos) = sin_cos_poly(theta);
+    r * Vec2::new(cos, sin)
 }
 
 /// Uniform direction on the unit sphere; pdf 1/4π.
 pub fn uniform_sphere(u: Vec2) -> Vec3 {
     let z = 1.0 - 2.0 * u.x;
     let r = (1.0 - z * z).max(0.0).sqrt();
-    let phi = 2.0 * PI * u.y;
-    Vec3::new(r * phi.cos(), r * phi.sin(), z)
+    let (sin, cos) = sin_cos_poly(2.0 * PI * u.y);
+    Vec3::new(r * cos, r * sin, z)
 }
 
 /// Uniform direction in the cone of half-angle arccos(`cos_max`) about +z; pdf
@@ -338,8 +339,8 @@ pub fn uniform_sphere(u: Vec2) -> Vec3 {
 pub fn uniform_cone(u: Vec2, cos_max: f32) -> Vec3 {
     let z = 1.0 - u.x * (1.0 - cos_max);
     let r = (1.0 - z * z).max(0.0).sqrt();
-    let phi = 2.0 * PI * u.y;
-    Vec3::new(r * phi.cos(), r * phi.sin(), z)
+    let (sin, cos) = sin_cos_poly(2.0 * PI * u.y);
+    Vec3::new(r * cos, r * sin, z)
 }
 
 /// Solid-angle density of [`uniform_cone`]: 1/(2π(1 − cos_max)).

@@ -304,7 +304,11 @@ fn learned_distribution_in_caustic_cbox_points_at_the_light_and_the_glass_sphere
     // photons; a small image trains few vertices: a lower split threshold gives the tree its
     // cells. Photons deposit flux, ∝ L_i·cos: the sphere above the caustic gets less
     // than the radiance-proportional paths give it, still more than its solid angle.
-    for (from, sphere_factor) in [("paths", 2.0), ("photons", 1.5)] {
+    // Over training seeds 1-8 the paths' tree gave the sphere 0.57-0.70 of its samples
+    // at the caustic point (1.7-2.1x its solid-angle share 0.33; seed 7 once gave 0.82,
+    // with libm's atan2 in the azimuth): 1.5x holds with margin for both, and an
+    // untrained (uniform) tree, at 1.0x, fails it.
+    for (from, sphere_factor) in [("paths", 1.5), ("photons", 1.5)] {
         learned_distribution_in_caustic_cbox(&shared, from, sphere_factor);
     }
 }

@@ -41,7 +41,9 @@ impl Sphere {
     /// Distance to the nearest hit in `[t_min, t_max]`; tangent rays miss.
     pub fn intersect(&self, o: Vec3, d: Vec3, t_min: f32, t_max: f32) -> Option<f32> {
         let dd = d.as_dvec3();
-        let dd = dd / dd.length();
+        // the length once for both uses (the same value `dd.length()` gives twice)
+        let len = dd.length();
+        let dd = dd / len;
         let oc = (o - self.center).as_dvec3();
         let r = self.radius as f64;
         let b = 2.0 * dd.dot(oc);
@@ -57,7 +59,7 @@ impl Sphere {
             std::mem::swap(&mut t1, &mut t2);
         }
         // distances are along the normalised direction; rescale to the ray's own
-        let scale = 1.0 / d.as_dvec3().length();
+        let scale = 1.0 / len;
         let (t1, t2) = (t1 * scale, t2 * scale);
         let (lo, hi) = (t_min as f64, t_max as f64);
         if t1 >= lo && t1 <= hi {

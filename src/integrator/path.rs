@@ -266,7 +266,7 @@ impl PathState {
         let Some(hit) = hit else {
             if let Some((env, sky)) = scene.environment_light() {
                 // the direction's texture coordinates once, for radiance and pdf
-                let uv = sky.direction_to_uv(ray.d);
+                let (uv, sin_theta) = sky.direction_coords(ray.d);
                 if profile == PathProfile::Mis && !self.after_delta {
                     // the pdf's weight loads while the texels do
                     sky.prefetch_pdf(uv);
@@ -274,7 +274,7 @@ impl PathState {
                 let le = sky.radiance_at(uv);
                 if le != Vec3::ZERO {
                     let w = emitter_weight(profile, self.after_delta, self.bsdf_pdf, || {
-                        scene.light_sampler.pmf(env as usize) * sky.pdf_at(uv, mode)
+                        scene.light_sampler.pmf(env as usize) * sky.pdf_at(uv, sin_theta, mode)
                     });
                     self.l += self.beta * le * w;
                 }

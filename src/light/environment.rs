@@ -7,7 +7,7 @@
 //! convention 10): `x = u·W − ½` wrapping, `y = v·(H − 1)`, bilinear.
 
 use super::{LightSample, LightSampling, ShadowTarget};
-use crate::math::{floor_f32, luminance, prefetch, Mat4, Vec2, Vec3, PI};
+use crate::math::{atan2_poly, floor_f32, luminance, prefetch, sin_cos_poly, Mat4, Vec2, Vec3, INV_PI, PI};
 use crate::pages::HugeBuf;
 use crate::sampling::{uniform_sphere, Distribution2D};
 use crate::texture::UvMapping;
@@ -125,19 +125,30 @@ impl EnvironmentLight {
 
     /// Texture coordinates of world direction `w` (towards the sky).
     pub fn direction_to_uv(&self, w: Vec3) -> Vec2 {
-        let l = (self.to_local * w).normalize();
-        let mut phi = l.y.atan2(l.x);
+        self.direction_coords(w).0
+    }
+
+    /// Texture coordinates of world direction `w`, and sinθ there (for [`Self::pdf_at`]):
+    /// `φ = atan2(ℓy, ℓx)`, `θ = atan2(√(ℓx² + ℓy²), ℓz)` (accurate at the poles too,
+    /// where `acos` is not), by the inlined polynomials of `math`.
+    #[inline]
+    pub fn direction_coords(&self, w: Vec3) -> (Vec2, f32) {
+        let l = self.to_local * w;
+        let rho = (l.x * l.x + l.y * l.y).sqrt();
+        let mut phi = atan2_poly(l.y, l.x);
         if phi < 0.0 {
             phi += 2.0 * PI;
         }
-        Vec2::new(phi / (2.0 * PI), l.z.clamp(-1.0, 1.0).acos() / PI)
+        let theta = atan2_poly(rho, l.z);
+        (Vec2::new(phi * (0.5 * INV_PI), theta * INV_PI), rho / l.length())
     }
 
     /// World direction of `uv`, and sinθ there.
     pub fn uv_to_direction(&self, uv: Vec2) -> (Vec3, f32) {
         let (theta, phi) = (uv.y * PI, uv.x * 2.0 * PI);
-        let (st, ct) = theta.sin_cos();
-        let l = Vec3::new(st * phi.cos(), st * phi.sin(), ct);
+        let (st, ct) = sin_cos_poly(theta);
+        let (sp, cp) = sin_cos_poly(phi);
+        let l = Vec3::new(st * cp, st * sp, ct);
         ((self.to_world * l).normalize(), st)
     }
 
@@ -273,17 +284,20 @@ impl EnvironmentLight {
     pub fn pdf(&self, wi: Vec3, mode: LightSampling) -> f32 {
         match mode {
             LightSampling::Uniform => 1.0 / (4.0 * PI),
-            LightSampling::Importance => self.pdf_at(self.direction_to_uv(wi), mode),
+            LightSampling::Importance => {
+                let (uv, sin_theta) = self.direction_coords(wi);
+                self.pdf_at(uv, sin_theta, mode)
+            }
         }
     }
 
-    /// [`Self::pdf`] of the direction with texture coordinates `uv`.
-    pub fn pdf_at(&self, uv: Vec2, mode: LightSampling) -> f32 {
+    /// [`Self::pdf`] of the direction with texture coordinates `uv` and sinθ
+    /// `sin_theta` ([`Self::direction_coords`]).
+    pub fn pdf_at(&self, uv: Vec2, sin_theta: f32, mode: LightSampling) -> f32 {
         match mode {
             LightSampling::Uniform => 1.0 / (4.0 * PI),
             LightSampling::Importance => {
-                let sin_theta = (uv.y * PI).sin();
-                if sin_theta <= 0.0 {
+                if sin_theta.is_nan() || sin_theta <= 0.0 {
                     return 0.0;
                 }
                 self.distribution.pdf(uv) / (2.0 * PI * PI * sin_theta)

@@ -2,7 +2,7 @@
 //! masking, and sampling of visible normals (Heitz & d'Eon 2014 for Beckmann as
 //! Mitsuba 3 does it; Heitz 2018 for GGX). Vectors are in the local frame (z up).
 
-use crate::math::{Vec2, Vec3, PI};
+use crate::math::{sin_cos_poly, Vec2, Vec3, PI};
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Distribution {
@@ -97,10 +97,10 @@ impl Microfacet {
                 };
                 let t2 = vh.cross(t1);
                 let r = u.x.sqrt();
-                let phi = 2.0 * PI * u.y;
-                let p1 = r * phi.cos();
+                let (sin_phi, cos_phi) = sin_cos_poly(2.0 * PI * u.y);
+                let p1 = r * cos_phi;
                 let s = 0.5 * (1.0 + vh.z);
-                let p2 = (1.0 - s) * (1.0 - p1 * p1).max(0.0).sqrt() + s * r * phi.sin();
+                let p2 = (1.0 - s) * (1.0 - p1 * p1).max(0.0).sqrt() + s * r * sin_phi;
                 let nh = t1 * p1 + t2 * p2 + vh * (1.0 - p1 * p1 - p2 * p2).max(0.0).sqrt();
                 Vec3::new(self.alpha_x * nh.x, self.alpha_y * nh.y, nh.z.max(1e-6)).normalize()
             }

@@ -230,13 +230,13 @@ impl Guiding<'_> {
             let Some(hit) = scene.intersect(&ray) else {
                 if let Some((env, sky)) = scene.environment_light() {
                     // the direction's texture coordinates once, for radiance and pdf
-                    let uv = sky.direction_to_uv(ray.d);
+                    let (uv, sin_theta) = sky.direction_coords(ray.d);
                     let le = sky.radiance_at(uv);
                     if le != Vec3::ZERO {
                         let w = if after_delta {
                             1.0
                         } else {
-                            let pl = scene.light_sampler.pmf(env as usize) * sky.pdf_at(uv, mode);
+                            let pl = scene.light_sampler.pmf(env as usize) * sky.pdf_at(uv, sin_theta, mode);
                             power_heuristic(mix_pdf, pl)
                         };
                         add_emission(&mut l, verts, beta * le * w, !after_delta && !self.record_direct);

@@ -10,7 +10,7 @@
 //! square is the product of the factors along its path (no division, no sum per
 //! level), and sampling descends by them.
 
-use crate::math::{Vec2, Vec3, PI};
+use crate::math::{atan2_poly, Vec2, Vec3, PI};
 
 /// Deepest level a cell may reach (2⁻²⁰ of the square's side).
 pub const MAX_DEPTH: u32 = 20;
@@ -18,7 +18,7 @@ pub const MAX_DEPTH: u32 = 20;
 /// Direction ↔ square: `x = (cos θ + 1)/2`, `y = φ/2π` about world `z`. Area
 /// preserving: a region of area A on the square covers 4π·A steradians. The
 /// azimuth comes from [`azimuth`], a polynomial within 2e-7 rad of `atan2`
-/// (about f32 rounding of φ): libm's `atan2f` was 4–8 % of a guided render.
+/// (about f32 rounding of φ, `math::atan2_poly`): libm's `atan2f` was 4–8 % of a guided render.
 #[inline]
 pub fn sphere_to_square(d: Vec3) -> Vec2 {
     let x = ((d.z.clamp(-1.0, 1.0) + 1.0) * 0.5).min(ONE_BELOW);
@@ -26,42 +26,15 @@ pub fn sphere_to_square(d: Vec3) -> Vec2 {
     Vec2::new(x, y)
 }
 
-/// The angle of `(x, y)` in [0, 2π) (0 for the origin): atan on [0, 1] by an odd
-/// polynomial of degree 15 (least-squares fit with minimax reweighting, maximum
-/// error 1.2e-7 in f32), extended by the octant's symmetries.
+/// The angle of `(x, y)` in [0, 2π) (0 for the origin and for non-finite
+/// coordinates): [`atan2_poly`] taken into one turn.
 #[inline]
 pub fn azimuth(x: f32, y: f32) -> f32 {
-    const C: [f32; 8] = [
-        0.999_999_34,
-        -0.333_298_62,
-        0.199_465_66,
-        -0.139_086_3,
-        0.096_421_95,
-        -0.055_912_26,
-        0.021_862_896,
-        -0.004_054_546,
-    ];
-    let (ax, ay) = (x.abs(), y.abs());
-    let (lo, hi) = if ax < ay { (ax, ay) } else { (ay, ax) };
-    if hi == 0.0 || !hi.is_finite() {
+    if (x == 0.0 && y == 0.0) || !(x.is_finite() && y.is_finite()) {
         return 0.0;
     }
-    let t = lo / hi;
-    let t2 = t * t;
-    let mut r = C[7];
-    for c in C[..7].iter().rev() {
-        r = r * t2 + *c;
-    }
-    let mut a = r * t;
-    if ay > ax {
-        a = 0.5 * PI - a;
-    }
-    if x < 0.0 {
-        a = PI - a;
-    }
-    if y < 0.0 {
-        a = 2.0 * PI - a;
-    }
+    let a = atan2_poly(y, x);
+    let a = if a < 0.0 { a + 2.0 * PI } else { a };
     if a >= 2.0 * PI {
         0.0
     } else {

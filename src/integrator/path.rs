@@ -209,6 +209,9 @@ struct PathState {
     after_delta: bool,
     bsdf_pdf: f32,
     prev_p: Vec3,
+    /// The sky's texture coordinates and sinθ of `ray`'s direction, where they were
+    /// computed when the ray was spawned (to prefetch its texels should it escape).
+    sky_coords: Option<(Vec2, f32)>,
 }
 
 impl PathState {
@@ -221,6 +224,7 @@ impl PathState {
             after_delta: true,
             bsdf_pdf: 0.0,
             prev_p: ray.o,
+            sky_coords: None,
         }
     }
 
@@ -266,7 +270,7 @@ impl PathState {
         let Some(hit) = hit else {
             if let Some((env, sky)) = scene.environment_light() {
                 // the direction's texture coordinates once, for radiance and pdf
-                let (uv, sin_theta) = sky.direction_coords(ray.d);
+                let (uv, sin_theta) = self.sky_coords.unwrap_or_else(|| sky.direction_coords(ray.d));
                 if profile == PathProfile::Mis && !self.after_delta {
                     // the pdf's weight loads while the texels do
                     sky.prefetch_pdf(uv);
@@ -383,8 +387,10 @@ impl PathState {
         }
         self.ray = spawn_ray(it, bs.wi);
         if let Some((_, sky)) = scene.environment_light() {
-            // should the ray escape, its texels load during the traversal
-            sky.prefetch_direction(self.ray.d);
+            // should the ray escape, its texels and pdf weight load during the traversal
+            let coords = sky.direction_coords(self.ray.d);
+            sky.prefetch_coords(coords.0);
+            self.sky_coords = Some(coords);
         }
         (shadow, true)
     }

@@ -217,19 +217,10 @@ impl EnvironmentLight {
         }
     }
 
-    /// Prefetches the texels and the pdf's weight for direction `w` (a hint for a ray
-    /// that may miss everything): its texture coordinates by cheap approximations of
-    /// `atan2` and `acos` (errors below 10⁻⁴ turns and radians: a tenth of a texel of a
-    /// 1k map).
+    /// Prefetches the texels and the pdf's weight at `uv` (a hint for a ray that may miss
+    /// everything, its coordinates from [`Self::direction_coords`]).
     #[inline]
-    pub fn prefetch_direction(&self, w: Vec3) {
-        let l = self.to_local * w;
-        let len = l.length();
-        // a zero or non-finite direction: nothing to fetch
-        if len.is_nan() || len <= 0.0 {
-            return;
-        }
-        let uv = Vec2::new(approx_atan2_turns(l.y, l.x), approx_acos(l.z / len) * (1.0 / PI));
+    pub fn prefetch_coords(&self, uv: Vec2) {
         self.prefetch_texels(uv);
         self.distribution.prefetch(uv);
     }
@@ -306,38 +297,6 @@ impl EnvironmentLight {
     }
 }
 
-/// `acos(x)` within 7·10⁻⁵ (Abramowitz & Stegun 4.4.45), for prefetching only.
-#[inline]
-fn approx_acos(x: f32) -> f32 {
-    let a = x.abs().min(1.0);
-    let r = (1.0 - a).sqrt() * (1.570_728_8 + a * (-0.212_114_4 + a * (0.074_261 - 0.018_729_3 * a)));
-    if x < 0.0 {
-        PI - r
-    } else {
-        r
-    }
-}
-
-/// `atan2(y, x)` in turns, in [0, 1) (within 10⁻⁴ turns), for prefetching only.
-#[inline]
-fn approx_atan2_turns(y: f32, x: f32) -> f32 {
-    let (ax, ay) = (x.abs(), y.abs());
-    let (lo, hi) = (ax.min(ay), ax.max(ay));
-    let a = if hi > 0.0 { lo / hi } else { 0.0 };
-    let s = a * a;
-    let mut r = ((-0.046_496_475 * s + 0.159_314_22) * s - 0.327_622_76) * s * a + a;
-    if ay > ax {
-        r = PI / 2.0 - r;
-    }
-    if x < 0.0 {
-        r = PI - r;
-    }
-    if y < 0.0 {
-        r = 2.0 * PI - r;
-    }
-    (r * (1.0 / (2.0 * PI))).min(1.0 - f32::EPSILON)
-}
-
 /// Sampling weights for an image under the identity mapping: cell (i, j) covers
 /// `x ∈ [i − ½, i + ½]`, `y ∈ [j(H−1)/H, (j+1)(H−1)/H]` in texel units, so only
 /// texels i−1…i+1, j−1…j+1 shape its bilinear radiance; luminance being linear,
@@ -399,27 +358,6 @@ mod tests {
             let w = uniform_sphere(Vec2::new((k as f32 + 0.3) / 50.0, (k as f32 * 0.618).fract()));
             let (back, _) = e.uv_to_direction(e.direction_to_uv(w));
             assert!((back - w).length() < 1e-4, "{w} -> {back}");
-        }
-    }
-
-    #[test]
-    fn prefetch_approximations_are_close() {
-        for k in 0..20_000 {
-            let w = uniform_sphere(Vec2::new((k as f32 + 0.5) / 20_000.0, (k as f32 * 0.618_034).fract()));
-            let (a, b) = (approx_acos(w.z), w.z.clamp(-1.0, 1.0).acos());
-            assert!((a - b).abs() < 1e-4, "acos({}) = {b}, approximated {a}", w.z);
-            let mut t = w.y.atan2(w.x) / (2.0 * PI);
-            if t < 0.0 {
-                t += 1.0;
-            }
-            let d = (approx_atan2_turns(w.y, w.x) - t).abs();
-            assert!(
-                d.min(1.0 - d) < 1e-4,
-                "atan2({}, {}) = {t} turns, approximated {}",
-                w.y,
-                w.x,
-                approx_atan2_turns(w.y, w.x)
-            );
         }
     }
 

@@ -1,7 +1,7 @@
 //! Sampling routines: piecewise-constant distributions and warps from the unit
 //! square. Each has a matching pdf; `tests/sampling_chi2.rs` checks them.
 
-use crate::math::{sin_cos_poly, Vec2, Vec3, PI};
+use crate::math::{sin_cos_poly, sin_cos_quarter, Vec2, Vec3, PI};
 use crate::pages::HugeBuf;
 
 /// One bucket of a guide table: `i`, the last interval whose cdf is ≤ k/n, and that
@@ -317,13 +317,15 @@ pub fn concentric_disk(u: Vec2) -> Vec2 {
     if o.x == 0.0 && o.y == 0.0 {
         return Vec2::ZERO;
     }
-    let (r, theta) = if o.x.abs() > o.y.abs() {
-        (o.x, PI / 4.0 * (o.y / o.x))
+    // the angle from the nearer axis lies within ±π/4: no range reduction
+    if o.x.abs() > o.y.abs() {
+        let (sin, cos) = sin_cos_quarter(PI / 4.0 * (o.y / o.x));
+        o.x * Vec2::new(cos, sin)
     } else {
-        (o.y, PI / 2.0 - PI / 4.0 * (o.x / o.y))
-    };
-    let (sin, cos) = sin_cos_poly(theta);
-    r * Vec2::new(cos, sin)
+        // θ = π/2 − a, so (cos θ, sin θ) = (sin a, cos a)
+        let (sin, cos) = sin_cos_quarter(PI / 4.0 * (o.x / o.y));
+        o.y * Vec2::new(sin, cos)
+    }
 }
 
 /// Uniform direction on the unit sphere; pdf 1/4π.
@@ -460,6 +462,29 @@ mod tests {
                 let q = Vec2::new(rng.unit_f32(), rng.unit_f32());
                 let r = ((q.y * nv as f32) as usize).min(nv - 1);
                 assert_eq!(d.pdf(q).to_bits(), (marginal.pdf(q.y) * rows[r].pdf(q.x)).to_bits());
+            }
+        }
+    }
+
+    #[test]
+    fn concentric_disk_matches_shirley_chiu_in_f64() {
+        let n = 400;
+        for i in 0..=n {
+            for j in 0..=n {
+                let u = Vec2::new(i as f32 / n as f32, j as f32 / n as f32);
+                let (x, y) = (2.0 * u.x as f64 - 1.0, 2.0 * u.y as f64 - 1.0);
+                let want = if x == 0.0 && y == 0.0 {
+                    (0.0, 0.0)
+                } else if x.abs() > y.abs() {
+                    let t = std::f64::consts::FRAC_PI_4 * (y / x);
+                    (x * t.cos(), x * t.sin())
+                } else {
+                    let t = std::f64::consts::FRAC_PI_2 - std::f64::consts::FRAC_PI_4 * (x / y);
+                    (y * t.cos(), y * t.sin())
+                };
+                let got = concentric_disk(u);
+                let err = (got.x as f64 - want.0).abs().max((got.y as f64 - want.1).abs());
+                assert!(err < 4e-7, "{u}: {got} vs {want:?}");
             }
         }
     }

@@ -58,6 +58,11 @@ impl Filter {
         }
     }
 
+    /// A box of radius ≤ ½: each sample counts once, with weight 1, in its own pixel only.
+    pub fn is_own_pixel_box(&self) -> bool {
+        matches!(*self, Filter::Box { radius } if radius <= 0.5)
+    }
+
     /// How many pixels a sample reaches on each side of its own: ceil(r − ½).
     pub fn reach(&self) -> i32 {
         (self.radius() - 0.5).ceil().max(0.0) as i32
@@ -153,11 +158,9 @@ impl FilmTile {
         if px < 0 || py < 0 || px >= film_w || py >= film_h {
             return;
         }
-        if let Filter::Box { radius } = filter {
-            if *radius <= 0.5 {
-                self.splat(px, py, l, 1.0);
-                return;
-            }
+        if filter.is_own_pixel_box() {
+            self.splat(px, py, l, 1.0);
+            return;
         }
         // the footprint clipped to this tile (which lies inside the film): the work per
         // sample is bounded by the tile, whatever the filter's radius

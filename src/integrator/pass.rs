@@ -4,7 +4,7 @@
 //! tiles on all cores and merges the tiles (and any splats) in a fixed order.
 
 use crate::camera::Camera;
-use crate::film::{AovTile, Film, FilmSettings, FilmTile, Filter, Splats};
+use crate::film::{AovTile, Film, FilmSettings, FilmTile, Splats};
 use crate::geometry::{Ray, RayDifferential};
 use crate::math::{Vec2, Vec3};
 use crate::sampler::{first_2d_lanes, PixelSampler, LANES};
@@ -288,7 +288,7 @@ where
         // each pixel's film position and radiance, added in row order at the end; a box
         // of radius ≤ ½ puts each sample in its own pixel only, where the order of the
         // additions cannot matter, so those are added as each block is done
-        let in_order = t.aov.is_some() || !matches!(ctx.film.filter, Filter::Box { radius } if radius <= 0.5);
+        let in_order = t.aov.is_some() || !ctx.film.filter.is_own_pixel_box();
         let mut done_px = vec![(Vec2::ZERO, Vec3::ZERO); if in_order { tw * (y1 - y0) as usize } else { 0 }];
         let mut samplers = Vec::with_capacity(N);
         for by in (y0..y1).step_by(BLOCK_H as usize) {

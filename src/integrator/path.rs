@@ -270,11 +270,8 @@ impl PathState {
         let Some(hit) = hit else {
             if let Some((env, sky)) = scene.environment_light() {
                 // the direction's texture coordinates once, for radiance and pdf
+                // (a bounce ray's coordinates, and their prefetches, come from its spawn)
                 let (uv, sin_theta) = self.sky_coords.unwrap_or_else(|| sky.direction_coords(ray.d));
-                if profile == PathProfile::Mis && !self.after_delta {
-                    // the pdf's weight loads while the texels do
-                    sky.prefetch_pdf(uv);
-                }
                 let le = sky.radiance_at(uv);
                 if le != Vec3::ZERO {
                     let w = emitter_weight(profile, self.after_delta, self.bsdf_pdf, || {

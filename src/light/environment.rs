@@ -225,12 +225,6 @@ impl EnvironmentLight {
         self.distribution.prefetch(uv);
     }
 
-    /// Prefetches the weight [`Self::pdf_at`] reads at `uv`.
-    #[inline]
-    pub fn prefetch_pdf(&self, uv: Vec2) {
-        self.distribution.prefetch(uv);
-    }
-
     /// Radiance arriving from direction `w` (towards the sky).
     pub fn radiance(&self, w: Vec3) -> Vec3 {
         self.radiance_at(self.direction_to_uv(w))

@@ -273,6 +273,7 @@ impl Distribution2D {
     }
 
     /// A point `(u, v)` and its density with respect to area in `[0, 1)²`.
+    #[inline]
     pub fn sample(&self, u: Vec2) -> (Vec2, f32) {
         let (v, pdf_v, row) = self.marginal.sample_continuous(u.y);
         let (x, pdf_u, _) = self.row(row).sample_continuous(u.x);

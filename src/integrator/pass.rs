@@ -282,86 +282,93 @@ where
     // no lens, no differentials, no clipping: the block's rays are made together
     let plain_pinhole = ctx.camera.is_plain_pinhole() && !ctx.scene.uses_footprints;
     let isa = ctx.scene.bvh.isa();
+    // the block loop (samplers, camera rays, film adds, the integrator's inlined code)
+    // compiled for the render's kernel set
     tile_pass(ctx, pass, film, |t| {
-        let (x0, y0, x1, y1) = t.rect;
-        let tw = (x1 - x0) as usize;
-        // each pixel's film position and radiance, added in row order at the end; a box
-        // of radius ≤ ½ puts each sample in its own pixel only, where the order of the
-        // additions cannot matter, so those are added as each block is done
-        let in_order = t.aov.is_some() || !ctx.film.filter.is_own_pixel_box();
-        let mut done_px = vec![(Vec2::ZERO, Vec3::ZERO); if in_order { tw * (y1 - y0) as usize } else { 0 }];
-        let mut samplers = Vec::with_capacity(N);
-        for by in (y0..y1).step_by(BLOCK_H as usize) {
-            for bx in (x0..x1).step_by(BLOCK_W as usize) {
-                // the block's pixels, rows in order (no allocation per block)
-                let (mut px, mut n) = ([(0, 0); N], 0);
-                for y in by..(by + BLOCK_H).min(y1) {
-                    for x in bx..(bx + BLOCK_W).min(x1) {
-                        px[n] = (x, y);
-                        n += 1;
+        isa.run(
+            #[inline(always)]
+            || {
+                let (x0, y0, x1, y1) = t.rect;
+                let tw = (x1 - x0) as usize;
+                // each pixel's film position and radiance, added in row order at the end; a box
+                // of radius ≤ ½ puts each sample in its own pixel only, where the order of the
+                // additions cannot matter, so those are added as each block is done
+                let in_order = t.aov.is_some() || !ctx.film.filter.is_own_pixel_box();
+                let mut done_px = vec![(Vec2::ZERO, Vec3::ZERO); if in_order { tw * (y1 - y0) as usize } else { 0 }];
+                let mut samplers = Vec::with_capacity(N);
+                for by in (y0..y1).step_by(BLOCK_H as usize) {
+                    for bx in (x0..x1).step_by(BLOCK_W as usize) {
+                        // the block's pixels, rows in order (no allocation per block)
+                        let (mut px, mut n) = ([(0, 0); N], 0);
+                        for y in by..(by + BLOCK_H).min(y1) {
+                            for x in bx..(bx + BLOCK_W).min(x1) {
+                                px[n] = (x, y);
+                                n += 1;
+                            }
+                        }
+                        let px = &px[..n];
+                        let mut pos = [Vec2::ZERO; N];
+                        let mut rays = [Ray::new(Vec3::ZERO, Vec3::Z); N];
+                        let mut diffs = [None; N];
+                        samplers.clear();
+                        if plain_pinhole {
+                            // `camera_sample` with the samples and rays made together (lanes past
+                            // `n` repeat the last pixel)
+                            let (xs, ys) = (
+                                std::array::from_fn(|i| px[i.min(n - 1)].0 as u32),
+                                std::array::from_fn(|i| px[i.min(n - 1)].1 as u32),
+                            );
+                            let (block_samplers, uv) = first_2d_lanes(isa, &xs, &ys, pass, ctx.seed);
+                            let (mut fx, mut fy) = ([0.0f32; N], [0.0f32; N]);
+                            for (i, &(x, y)) in px.iter().enumerate() {
+                                let p = Vec2::new(x as f32 + uv[i].0, y as f32 + uv[i].1);
+                                (pos[i], fx[i], fy[i]) = (p, p.x, p.y);
+                            }
+                            samplers.extend_from_slice(&block_samplers[..n]);
+                            ctx.camera.pinhole_rays(&fx, &fy, n, &mut rays);
+                        } else {
+                            for (i, &(x, y)) in px.iter().enumerate() {
+                                let (s, p, r, d) = camera_sample(ctx, x, y, pass, diff_scale);
+                                (pos[i], rays[i], diffs[i]) = (p, r, d);
+                                samplers.push(s);
+                            }
+                        }
+                        let mut l = [Vec3::ZERO; N];
+                        li(
+                            &mut CameraBlock {
+                                pos: &pos[..n],
+                                rays: &rays[..n],
+                                diffs: &diffs[..n],
+                                samplers: &mut samplers,
+                                counts: &mut t.counts,
+                                splats: &mut t.splats,
+                            },
+                            &mut l[..n],
+                        );
+                        for (i, &(x, y)) in px.iter().enumerate() {
+                            if in_order {
+                                done_px[(y - y0) as usize * tw + (x - x0) as usize] = (pos[i], l[i]);
+                            } else {
+                                t.add(pos[i], l[i]);
+                            }
+                        }
                     }
                 }
-                let px = &px[..n];
-                let mut pos = [Vec2::ZERO; N];
-                let mut rays = [Ray::new(Vec3::ZERO, Vec3::Z); N];
-                let mut diffs = [None; N];
-                samplers.clear();
-                if plain_pinhole {
-                    // `camera_sample` with the samples and rays made together (lanes past
-                    // `n` repeat the last pixel)
-                    let (xs, ys) = (
-                        std::array::from_fn(|i| px[i.min(n - 1)].0 as u32),
-                        std::array::from_fn(|i| px[i.min(n - 1)].1 as u32),
-                    );
-                    let (block_samplers, uv) = first_2d_lanes(isa, &xs, &ys, pass, ctx.seed);
-                    let (mut fx, mut fy) = ([0.0f32; N], [0.0f32; N]);
-                    for (i, &(x, y)) in px.iter().enumerate() {
-                        let p = Vec2::new(x as f32 + uv[i].0, y as f32 + uv[i].1);
-                        (pos[i], fx[i], fy[i]) = (p, p.x, p.y);
-                    }
-                    samplers.extend_from_slice(&block_samplers[..n]);
-                    ctx.camera.pinhole_rays(&fx, &fy, n, &mut rays);
-                } else {
-                    for (i, &(x, y)) in px.iter().enumerate() {
-                        let (s, p, r, d) = camera_sample(ctx, x, y, pass, diff_scale);
-                        (pos[i], rays[i], diffs[i]) = (p, r, d);
-                        samplers.push(s);
+                if !in_order {
+                    return;
+                }
+                for y in y0..y1 {
+                    for x in x0..x1 {
+                        if t.aov.is_some() {
+                            let ray = camera_sample(ctx, x, y, pass, diff_scale).2;
+                            t.add_features(x, y, &ray);
+                        }
+                        let (pos, l) = done_px[(y - y0) as usize * tw + (x - x0) as usize];
+                        t.add(pos, l);
                     }
                 }
-                let mut l = [Vec3::ZERO; N];
-                li(
-                    &mut CameraBlock {
-                        pos: &pos[..n],
-                        rays: &rays[..n],
-                        diffs: &diffs[..n],
-                        samplers: &mut samplers,
-                        counts: &mut t.counts,
-                        splats: &mut t.splats,
-                    },
-                    &mut l[..n],
-                );
-                for (i, &(x, y)) in px.iter().enumerate() {
-                    if in_order {
-                        done_px[(y - y0) as usize * tw + (x - x0) as usize] = (pos[i], l[i]);
-                    } else {
-                        t.add(pos[i], l[i]);
-                    }
-                }
-            }
-        }
-        if !in_order {
-            return;
-        }
-        for y in y0..y1 {
-            for x in x0..x1 {
-                if t.aov.is_some() {
-                    let ray = camera_sample(ctx, x, y, pass, diff_scale).2;
-                    t.add_features(x, y, &ray);
-                }
-                let (pos, l) = done_px[(y - y0) as usize * tw + (x - x0) as usize];
-                t.add(pos, l);
-            }
-        }
+            },
+        )
     })
 }
 

@@ -66,6 +66,7 @@ impl PathTracer {
     }
 
     /// Traces `path` from segment `segment` (its ray) to its end; its radiance.
+    #[inline(always)]
     fn finish(
         &self,
         scene: &Scene,
@@ -97,6 +98,14 @@ impl PathTracer {
     /// a time (README, "Speed"). Each path draws its numbers in `li`'s order and
     /// sums its terms in the same order.
     pub fn li_block(&self, scene: &Scene, block: &mut CameraBlock, out: &mut [Vec3]) {
+        scene.bvh.isa().run(
+            #[inline(always)]
+            || self.li_block_body(scene, block, out),
+        )
+    }
+
+    #[inline(always)]
+    fn li_block_body(&self, scene: &Scene, block: &mut CameraBlock, out: &mut [Vec3]) {
         let n = block.rays.len().min(PACKET);
         let mut hits = [None; PACKET];
         scene.intersect_packet(&block.rays[..n], (1 << n) - 1, &mut hits);

@@ -131,7 +131,7 @@ impl EnvironmentLight {
     /// Texture coordinates of world direction `w`, and sinθ there (for [`Self::pdf_at`]):
     /// `φ = atan2(ℓy, ℓx)`, `θ = atan2(√(ℓx² + ℓy²), ℓz)` (accurate at the poles too,
     /// where `acos` is not), by the inlined polynomials of `math`.
-    #[inline]
+    #[inline(always)]
     pub fn direction_coords(&self, w: Vec3) -> (Vec2, f32) {
         let l = self.to_local * w;
         let rho = (l.x * l.x + l.y * l.y).sqrt();
@@ -144,6 +144,7 @@ impl EnvironmentLight {
     }
 
     /// World direction of `uv`, and sinθ there.
+    #[inline]
     pub fn uv_to_direction(&self, uv: Vec2) -> (Vec3, f32) {
         let (theta, phi) = (uv.y * PI, uv.x * 2.0 * PI);
         let (st, ct) = sin_cos_poly(theta);
@@ -153,6 +154,7 @@ impl EnvironmentLight {
     }
 
     /// Unscaled radiance at texture coordinates `uv`.
+    #[inline]
     fn lookup(&self, uv: Vec2) -> Vec3 {
         match &self.image {
             EnvImage::Constant(c) => *c,
@@ -232,6 +234,7 @@ impl EnvironmentLight {
 
     /// Radiance at texture coordinates `uv` ([`Self::direction_to_uv`]): with
     /// [`Self::pdf_at`], one direction's mapping serves both.
+    #[inline]
     pub fn radiance_at(&self, uv: Vec2) -> Vec3 {
         self.lookup(uv) * self.scale
     }
@@ -249,7 +252,7 @@ impl EnvironmentLight {
 
     /// The direction and solid-angle pdf of [`Self::sample`], without its radiance
     /// ([`Self::radiance`] of the direction).
-    #[inline]
+    #[inline(always)]
     pub fn sample_direction(&self, u: Vec2, mode: LightSampling) -> Option<(Vec3, f32)> {
         match mode {
             LightSampling::Uniform => Some((uniform_sphere(u), 1.0 / (4.0 * PI))),
@@ -278,6 +281,7 @@ impl EnvironmentLight {
 
     /// [`Self::pdf`] of the direction with texture coordinates `uv` and sinθ
     /// `sin_theta` ([`Self::direction_coords`]).
+    #[inline]
     pub fn pdf_at(&self, uv: Vec2, sin_theta: f32, mode: LightSampling) -> f32 {
         match mode {
             LightSampling::Uniform => 1.0 / (4.0 * PI),

@@ -32,20 +32,6 @@ const fn combine_key(a: u32) -> u32 {
     0x9e37_79b9u32.wrapping_add(a << 6).wrapping_add(a >> 2)
 }
 
-/// Dimensions whose hash [`DIM_HASHES`] holds (a path of depth 12 draws about 60).
-const HASHED_DIMS: usize = 128;
-
-/// `hash_u32(d)` for the first [`HASHED_DIMS`] dimensions.
-static DIM_HASHES: [u32; HASHED_DIMS] = {
-    let mut t = [0u32; HASHED_DIMS];
-    let mut d = 0;
-    while d < HASHED_DIMS {
-        t[d] = hash_u32(d as u32);
-        d += 1;
-    }
-    t
-};
-
 #[inline]
 fn laine_karras_permutation(mut x: u32, seed: u32) -> u32 {
     x = x.wrapping_add(seed);
@@ -106,6 +92,11 @@ fn to_unit(x: u32) -> f32 {
     (x >> 8) as f32 * (1.0 / 16_777_216.0)
 }
 
+/// Dimension pairs a [`PixelSampler`] computes together when it has none left: one
+/// pass over arrays that the compiler vectorizes (eight lanes of AVX2) costs about
+/// what two pairs cost one at a time, and a path draws a few dozen.
+const BATCH: usize = 8;
+
 /// Samples for one pixel and one sample index.
 ///
 /// Dimension pair `d` is `(x, y)` with `s = hash_combine(pixel_seed, d)`,
@@ -115,7 +106,9 @@ fn to_unit(x: u32) -> f32 {
 /// `y = nested_uniform_scramble(sobol_dim1(i), hash_u32(s ^ 0x1405_7b7e))`. The code
 /// computes exactly that with fewer bit reversals (the scramble is
 /// `reverse(laine_karras(reverse(·)))`, so the reversals of adjacent steps cancel, and
-/// the index's is taken once) and the pixel's half of `hash_combine` kept.
+/// the index's is taken once) and the pixel's half of `hash_combine` kept. Pairs are
+/// computed [`BATCH`] at a time, ahead of their use; a pair's value does not depend on
+/// when it is computed.
 #[derive(Clone, Copy, Debug)]
 pub struct PixelSampler {
     pixel_seed: u32,
@@ -124,7 +117,12 @@ pub struct PixelSampler {
     index: u32,
     /// `index.reverse_bits()`.
     index_reversed: u32,
+    /// The next dimension pair to hand out.
     dim: u32,
+    /// `batch[k]` is dimension pair `batch_dim + k`, for `k < batch_len` (0 or [`BATCH`]).
+    batch_dim: u32,
+    batch_len: u32,
+    batch: [(f32, f32); BATCH],
 }
 
 impl PixelSampler {
@@ -142,32 +140,44 @@ impl PixelSampler {
             index,
             index_reversed: index.reverse_bits(),
             dim,
+            batch_dim: 0,
+            batch_len: 0,
+            batch: [(0.0, 0.0); BATCH],
         }
     }
 
-    /// `hash_combine(pixel_seed, dim)` for the next dimension pair, and the
-    /// scrambled index's bits reversed (`nested_uniform_scramble(index, s).reverse_bits()`).
-    #[inline]
-    fn next_pair(&mut self) -> (u32, u32) {
+    /// The next dimension pair's point, from the batch (computing the next
+    /// [`BATCH`] pairs first when it has run out).
+    #[inline(always)]
+    fn next_pair(&mut self) -> (f32, f32) {
         let d = self.dim;
         self.dim += 1;
-        let hd = if (d as usize) < HASHED_DIMS {
-            DIM_HASHES[d as usize]
-        } else {
-            hash_u32(d)
-        };
-        let s = hash_u32(self.pixel_seed ^ hd.wrapping_add(self.seed_key));
-        (s, laine_karras_permutation(self.index_reversed, s))
+        let k = d.wrapping_sub(self.batch_dim);
+        if k >= self.batch_len {
+            self.refill(d);
+            return self.batch[0];
+        }
+        self.batch[k as usize]
+    }
+
+    /// Computes pairs `d..d + BATCH` into the batch.
+    #[inline(never)]
+    fn refill(&mut self, d: u32) {
+        let (seed, key, index_reversed) = (self.pixel_seed, self.seed_key, self.index_reversed);
+        // the integer lanes vectorize best with AVX2's 32-bit multiplies; the values
+        // are the same on every instruction set
+        let isa = if Isa::Avx2.available() { Isa::Avx2 } else { Isa::Portable };
+        self.batch = isa.run(
+            #[inline(always)]
+            || pairs_lanes(seed, key, index_reversed, d),
+        );
+        (self.batch_dim, self.batch_len) = (d, BATCH as u32);
     }
 
     /// The next 2D point; each call uses a new, independently scrambled dimension pair.
     #[inline]
     pub fn next_2d(&mut self) -> (f32, f32) {
-        let (s, i_reversed) = self.next_pair();
-        let i = i_reversed.reverse_bits();
-        let x = laine_karras_permutation(i, hash_u32(s ^ 0x5851_f42d)).reverse_bits();
-        let y = laine_karras_permutation(sobol_dim1_reversed(i), hash_u32(s ^ 0x1405_7b7e)).reverse_bits();
-        (to_unit(x), to_unit(y))
+        self.next_pair()
     }
 
     /// A uniform number keyed by `tag` alone (not a dimension of the sequence): the
@@ -178,13 +188,38 @@ impl PixelSampler {
         to_unit(hash_u32(h))
     }
 
-    /// The first coordinate of [`next_2d`](Self::next_2d), without computing the second.
+    /// The first coordinate of [`next_2d`](Self::next_2d) (the pair's second is not used).
     #[inline]
     pub fn next_1d(&mut self) -> f32 {
-        let (s, i_reversed) = self.next_pair();
-        let i = i_reversed.reverse_bits();
-        to_unit(laine_karras_permutation(i, hash_u32(s ^ 0x5851_f42d)).reverse_bits())
+        self.next_pair().0
     }
+}
+
+/// Dimension pairs `first..first + BATCH` of the pixel sample with seed `pixel_seed`
+/// (`seed_key` = `combine_key(pixel_seed)`) and reversed index `index_reversed`, by
+/// the definition of [`PixelSampler`]: each loop one step over all lanes (the table
+/// lookups of Sobol's second dimension in a loop of their own), as in
+/// [`first_2d_generic`].
+#[inline(always)]
+fn pairs_lanes(pixel_seed: u32, seed_key: u32, index_reversed: u32, first: u32) -> [(f32, f32); BATCH] {
+    const B: usize = BATCH;
+    let (mut s, mut i) = ([0u32; B], [0u32; B]);
+    for k in 0..B {
+        // `hash_combine(pixel_seed, d)` with its pixel half kept
+        let d = first.wrapping_add(k as u32);
+        s[k] = hash_u32(pixel_seed ^ hash_u32(d).wrapping_add(seed_key));
+        i[k] = laine_karras_permutation(index_reversed, s[k]).reverse_bits();
+    }
+    let mut sobol = [0u32; B];
+    for k in 0..B {
+        sobol[k] = sobol_dim1_reversed(i[k]);
+    }
+    let (mut u, mut v) = ([0u32; B], [0u32; B]);
+    for k in 0..B {
+        u[k] = laine_karras_permutation(i[k], hash_u32(s[k] ^ 0x5851_f42d)).reverse_bits();
+        v[k] = laine_karras_permutation(sobol[k], hash_u32(s[k] ^ 0x1405_7b7e)).reverse_bits();
+    }
+    std::array::from_fn(|k| (to_unit(u[k]), to_unit(v[k])))
 }
 
 /// Lanes of [`first_2d_lanes`]: a 4×4 pixel block.
@@ -215,7 +250,7 @@ fn first_2d_generic(x: &[u32; LANES], y: &[u32; LANES], index: u32, seed: u32) -
     for k in 0..L {
         pixel_seed[k] = hash_combine(hash_combine(x[k], y[k]), seed);
         // `next_pair` of dimension pair 0
-        s[k] = hash_u32(pixel_seed[k] ^ DIM_HASHES[0].wrapping_add(combine_key(pixel_seed[k])));
+        s[k] = hash_u32(pixel_seed[k] ^ hash_u32(0).wrapping_add(combine_key(pixel_seed[k])));
         i[k] = laine_karras_permutation(index_reversed, s[k]).reverse_bits();
     }
     let mut sobol = [0u32; L];
@@ -308,13 +343,13 @@ mod tests {
 
     #[test]
     fn samples_follow_the_definition_bit_for_bit() {
-        // past the hashed dimensions too
+        // across several batches, the last one partly used
         for k in 0..3000u32 {
             let (x, y, index, seed) = (k % 37, k / 37, hash_u32(k) % 1024, k % 5);
             let mut a = PixelSampler::new(x, y, index, seed);
             let mut b = a;
             let pixel_seed = hash_combine(hash_combine(x, y), seed);
-            for dim in 0..(HASHED_DIMS as u32 + 8) {
+            for dim in 0..(5 * BATCH as u32 + 3) {
                 let (rx, ry) = reference_2d(pixel_seed, index, dim);
                 let (px, py) = a.next_2d();
                 assert_eq!(

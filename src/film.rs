@@ -177,6 +177,17 @@ impl FilmTile {
         }
     }
 
+    /// [`FilmTile::add`] for a filter whose [`Filter::is_own_pixel_box`] holds, inlined
+    /// into the caller's loop (the block passes' adds, compiled for the render's kernels).
+    #[inline(always)]
+    pub fn add_own_pixel(&mut self, pos: Vec2, l: Vec3, film_w: i32, film_h: i32) {
+        let (px, py) = (floor_to_i32(pos.x), floor_to_i32(pos.y));
+        if px < 0 || py < 0 || px >= film_w || py >= film_h {
+            return;
+        }
+        self.splat(px, py, l, 1.0);
+    }
+
     #[inline]
     fn splat(&mut self, x: i32, y: i32, l: Vec3, w: f32) {
         let (lx, ly) = (x - self.x0, y - self.y0);

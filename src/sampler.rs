@@ -146,6 +146,14 @@ impl PixelSampler {
         }
     }
 
+    /// Makes this the sampler [`Self::at`] gives, writing only what that reads (the
+    /// batch's contents are left, unread until refilled).
+    #[inline(always)]
+    fn restart(&mut self, pixel_seed: u32, index: u32, dim: u32) {
+        (self.pixel_seed, self.seed_key, self.index) = (pixel_seed, combine_key(pixel_seed), index);
+        (self.index_reversed, self.dim, self.batch_len) = (index.reverse_bits(), dim, 0);
+    }
+
     /// The next dimension pair's point, from the batch (computing the next
     /// [`BATCH`] pairs first when it has run out).
     #[inline(always)]
@@ -226,15 +234,22 @@ fn pairs_lanes(pixel_seed: u32, seed_key: u32, index_reversed: u32, first: u32) 
 pub const LANES: usize = 16;
 
 /// `PixelSampler::new(x[i], y[i], index, seed)` followed by its `next_2d`, for
-/// [`LANES`] pixels at once: the samplers (their first dimension pair drawn) and the
-/// points, bit for bit as one pixel at a time. The integer hashing runs lane by lane in
+/// [`LANES`] pixels at once: the samplers (their first dimension pair drawn, written
+/// into `samplers`) and the points returned, bit for bit as one pixel at a time. The integer hashing runs lane by lane in
 /// arrays, which the compiler turns into vector instructions for the instruction set
 /// `isa` names (the render's kernel set: `--isa avx2` holds both to AVX2); a fifth of a
 /// direct-lighting sample went on this one pixel at a time.
-pub fn first_2d_lanes(isa: Isa, x: &[u32; LANES], y: &[u32; LANES], index: u32, seed: u32) -> ([PixelSampler; LANES], [(f32, f32); LANES]) {
+pub fn first_2d_lanes(
+    isa: Isa,
+    x: &[u32; LANES],
+    y: &[u32; LANES],
+    index: u32,
+    seed: u32,
+    samplers: &mut [PixelSampler; LANES],
+) -> [(f32, f32); LANES] {
     isa.run(
         #[inline(always)]
-        || first_2d_generic(x, y, index, seed),
+        || first_2d_generic(x, y, index, seed, samplers),
     )
 }
 
@@ -243,7 +258,13 @@ pub fn first_2d_lanes(isa: Isa, x: &[u32; LANES], y: &[u32; LANES], index: u32, 
 /// Sobol's second dimension in a loop of their own, so they do not keep the rest from
 /// being vectorized).
 #[inline(always)]
-fn first_2d_generic(x: &[u32; LANES], y: &[u32; LANES], index: u32, seed: u32) -> ([PixelSampler; LANES], [(f32, f32); LANES]) {
+fn first_2d_generic(
+    x: &[u32; LANES],
+    y: &[u32; LANES],
+    index: u32,
+    seed: u32,
+    samplers: &mut [PixelSampler; LANES],
+) -> [(f32, f32); LANES] {
     const L: usize = LANES;
     let index_reversed = index.reverse_bits();
     let (mut pixel_seed, mut s, mut i) = ([0u32; L], [0u32; L], [0u32; L]);
@@ -262,8 +283,10 @@ fn first_2d_generic(x: &[u32; LANES], y: &[u32; LANES], index: u32, seed: u32) -
         u[k] = laine_karras_permutation(i[k], hash_u32(s[k] ^ 0x5851_f42d)).reverse_bits();
         v[k] = laine_karras_permutation(sobol[k], hash_u32(s[k] ^ 0x1405_7b7e)).reverse_bits();
     }
-    let samplers = std::array::from_fn(|k| PixelSampler::at(pixel_seed[k], index, 1));
-    (samplers, std::array::from_fn(|k| (to_unit(u[k]), to_unit(v[k]))))
+    for (sampler, &pixel_seed) in samplers.iter_mut().zip(&pixel_seed) {
+        sampler.restart(pixel_seed, index, 1);
+    }
+    std::array::from_fn(|k| (to_unit(u[k]), to_unit(v[k])))
 }
 
 /// The RDR171 sampler (spec §7): `std::mt19937` with its default seed and
@@ -371,14 +394,20 @@ mod tests {
                 let x: [u32; LANES] = std::array::from_fn(|i| hash_u32(k * 31 + i as u32) % 5000);
                 let y: [u32; LANES] = std::array::from_fn(|i| hash_u32(k * 17 + i as u32 + 99) % 3000);
                 let (index, seed) = (if k % 3 == 0 { k } else { hash_u32(k) }, k % 7);
-                let (mut samplers, points) = first_2d_lanes(isa, &x, &y, index, seed);
+                // samplers that have drawn before: restarting must forget their batches
+                let mut samplers: [PixelSampler; LANES] = std::array::from_fn(|i| {
+                    let mut s = PixelSampler::new(i as u32, 1, 2, 3);
+                    (0..i).for_each(|_| _ = s.next_1d());
+                    s
+                });
+                let points = first_2d_lanes(isa, &x, &y, index, seed, &mut samplers);
                 for i in 0..LANES {
                     let mut one = PixelSampler::new(x[i], y[i], index, seed);
                     let (a, b) = one.next_2d();
                     let (c, d) = points[i];
                     let what = format!("{isa:?}, pixel ({}, {}), index {index}", x[i], y[i]);
                     assert_eq!((a.to_bits(), b.to_bits()), (c.to_bits(), d.to_bits()), "{what}");
-                    for _ in 0..3 {
+                    for _ in 0..2 * BATCH {
                         assert_eq!(one.next_2d(), samplers[i].next_2d(), "{what}");
                     }
                     assert_eq!(one.keyed_1d(5), samplers[i].keyed_1d(5), "{what}");

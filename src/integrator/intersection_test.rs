@@ -77,17 +77,19 @@ impl IntersectionTest {
         let mut plain = PlainHits::default();
         let mut plain_lanes = 0u32;
         for i in 0..n {
-            let (ray, diff, sampler) = (block.rays[i], block.diffs[i], &mut block.samplers[i]);
             if !deferred {
-                out[i] = li_from(scene, self, ray, hits[i], diff, sampler, block.counts);
+                let (ray, diff) = (block.rays[i], block.diffs[i]);
+                out[i] = li_from(scene, self, ray, hits[i], diff, &mut block.samplers[i], block.counts);
                 continue;
             }
-            let Some(hit) = hits[i] else {
+            // by reference: a lane's ray and differentials are read, not copied
+            let (ray, diff) = (&block.rays[i], &block.diffs[i]);
+            let Some(hit) = &hits[i] else {
                 out[i] = scene.environment_radiance(ray.d);
                 continue;
             };
             if diff.is_none() && !scene.texture_coords {
-                if let Some(t) = plain_diffuse_triangle(scene, &hit) {
+                if let Some(t) = plain_diffuse_triangle(scene, hit) {
                     plain.set(i, &t, hit.b, ray.d);
                     plain_lanes |= 1 << i;
                     first[i] = (Vec3::ZERO, t.albedo);
@@ -95,7 +97,7 @@ impl IntersectionTest {
                 }
             }
             let mut total = Vec3::ZERO;
-            match surface(scene, &ray, &hit, diff.as_ref(), &mut total) {
+            match surface(scene, ray, hit, diff.as_ref(), &mut total) {
                 Surface::Diffuse(it, texture, twosided) => {
                     // max_depth > 1: the light segment fits
                     let albedo = scene.textures[texture as usize].eval(it.tex_coord());
@@ -107,7 +109,7 @@ impl IntersectionTest {
                     at.set(i, &it, nrm);
                     wait |= 1 << i;
                 }
-                Surface::Refracted(next) => out[i] = li_path(scene, self, next, 2, total, sampler, block.counts),
+                Surface::Refracted(next) => out[i] = li_path(scene, self, next, 2, total, &mut block.samplers[i], block.counts),
                 Surface::Done => out[i] = total,
             }
         }

@@ -149,6 +149,19 @@ impl TileWork<'_, '_> {
         }
     }
 
+    /// [`TileWork::add`] where the film's filter keeps each sample in its own pixel
+    /// ([`crate::film::Filter::is_own_pixel_box`]).
+    #[inline(always)]
+    fn add_own_pixel(&mut self, pos: Vec2, l: Vec3) {
+        let film = self.ctx.film;
+        debug_assert!(film.filter.is_own_pixel_box());
+        if l.is_finite() {
+            self.tile.add_own_pixel(pos, l, film.width as i32, film.height as i32);
+        } else {
+            self.counts.invalid += 1;
+        }
+    }
+
     /// With `--aov`, adds the features of pixel `(x, y)`'s camera ray.
     fn add_features(&mut self, x: i32, y: i32, ray: &Ray) {
         if let Some(aov) = &mut self.aov {
@@ -295,7 +308,8 @@ where
                 // additions cannot matter, so those are added as each block is done
                 let in_order = t.aov.is_some() || !ctx.film.filter.is_own_pixel_box();
                 let mut done_px = vec![(Vec2::ZERO, Vec3::ZERO); if in_order { tw * (y1 - y0) as usize } else { 0 }];
-                let mut samplers = Vec::with_capacity(N);
+                // each block's samplers written over the last block's (no copies of them)
+                let mut samplers = [PixelSampler::new(0, 0, 0, 0); N];
                 for by in (y0..y1).step_by(BLOCK_H as usize) {
                     for bx in (x0..x1).step_by(BLOCK_W as usize) {
                         // the block's pixels, rows in order (no allocation per block)
@@ -310,7 +324,6 @@ where
                         let mut pos = [Vec2::ZERO; N];
                         let mut rays = [Ray::new(Vec3::ZERO, Vec3::Z); N];
                         let mut diffs = [None; N];
-                        samplers.clear();
                         if plain_pinhole {
                             // `camera_sample` with the samples and rays made together (lanes past
                             // `n` repeat the last pixel)
@@ -318,19 +331,17 @@ where
                                 std::array::from_fn(|i| px[i.min(n - 1)].0 as u32),
                                 std::array::from_fn(|i| px[i.min(n - 1)].1 as u32),
                             );
-                            let (block_samplers, uv) = first_2d_lanes(isa, &xs, &ys, pass, ctx.seed);
+                            let uv = first_2d_lanes(isa, &xs, &ys, pass, ctx.seed, &mut samplers);
                             let (mut fx, mut fy) = ([0.0f32; N], [0.0f32; N]);
                             for (i, &(x, y)) in px.iter().enumerate() {
                                 let p = Vec2::new(x as f32 + uv[i].0, y as f32 + uv[i].1);
                                 (pos[i], fx[i], fy[i]) = (p, p.x, p.y);
                             }
-                            samplers.extend_from_slice(&block_samplers[..n]);
                             ctx.camera.pinhole_rays(&fx, &fy, n, &mut rays);
                         } else {
                             for (i, &(x, y)) in px.iter().enumerate() {
                                 let (s, p, r, d) = camera_sample(ctx, x, y, pass, diff_scale);
-                                (pos[i], rays[i], diffs[i]) = (p, r, d);
-                                samplers.push(s);
+                                (pos[i], rays[i], diffs[i], samplers[i]) = (p, r, d, s);
                             }
                         }
                         let mut l = [Vec3::ZERO; N];
@@ -339,7 +350,7 @@ where
                                 pos: &pos[..n],
                                 rays: &rays[..n],
                                 diffs: &diffs[..n],
-                                samplers: &mut samplers,
+                                samplers: &mut samplers[..n],
                                 counts: &mut t.counts,
                                 splats: &mut t.splats,
                             },
@@ -349,7 +360,7 @@ where
                             if in_order {
                                 done_px[(y - y0) as usize * tw + (x - x0) as usize] = (pos[i], l[i]);
                             } else {
-                                t.add(pos[i], l[i]);
+                                t.add_own_pixel(pos[i], l[i]);
                             }
                         }
                     }

@@ -5,8 +5,10 @@ pub const RAY_T_MIN: f32 = 1e-4;
 pub const RAY_T_MAX: f32 = 1e7;
 
 /// A ray `o + t·d`, `t ∈ [t_min, t_max]`. `d` is unit length for rays made by the
-/// camera and the integrators; the kernels do not rely on it.
+/// camera and the integrators; the kernels do not rely on it. Laid out as eight
+/// `f32` in field order (the packet kernels load a ray as one vector).
 #[derive(Clone, Copy, Debug)]
+#[repr(C)]
 pub struct Ray {
     pub o: Vec3,
     pub d: Vec3,

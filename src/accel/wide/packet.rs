@@ -77,6 +77,30 @@ pub(super) trait Simd<const N: usize>: Copy {
     /// Lane `i` in bit `i`.
     fn bits(m: Self::M) -> u32;
     fn from_bits(b: u32) -> Self::M;
+    /// The rays' rows: origin x, y, z, direction x, y, z, `t_min`, `t_max`, lane `i`
+    /// from `rays[i]` (lanes past the rays zero).
+    #[inline(always)]
+    fn ray_rows(rays: &[Ray]) -> [Self; 8] {
+        ray_rows_by_lane(rays)
+    }
+}
+
+/// [`Simd::ray_rows`] lane by lane.
+#[inline(always)]
+pub(super) fn ray_rows_by_lane<V: Simd<N>, const N: usize>(rays: &[Ray]) -> [V; 8] {
+    let mut a = [[0.0f32; N]; 8];
+    for (i, r) in rays.iter().enumerate().take(N) {
+        for (k, v) in ray_row(r).into_iter().enumerate() {
+            a[k][i] = v;
+        }
+    }
+    std::array::from_fn(|k| V::load(&a[k]))
+}
+
+/// A ray's eight numbers in the order of [`Simd::ray_rows`].
+#[inline(always)]
+pub(super) fn ray_row(r: &Ray) -> [f32; 8] {
+    [r.o.x, r.o.y, r.o.z, r.d.x, r.d.y, r.d.z, r.t_min, r.t_max]
 }
 
 /// Portable lanes: plain arrays, the scalar kernel's operations lane by lane.
@@ -247,17 +271,8 @@ impl<'r, V: Simd<N>, const N: usize> Packet<'r, V, N> {
     /// lane with the same operations.
     #[inline(always)]
     fn new(rays: &'r [Ray], active: u32) -> Self {
-        // rows: origin, direction, t_min, t_max (lanes past the rays stay zero)
-        let mut a = [[0.0f32; N]; 8];
-        for (i, r) in rays.iter().enumerate().take(N) {
-            let row = [r.o.x, r.o.y, r.o.z, r.d.x, r.d.y, r.d.z, r.t_min, r.t_max];
-            for (k, v) in row.into_iter().enumerate() {
-                a[k][i] = v;
-            }
-        }
-        let o = [V::load(&a[0]), V::load(&a[1]), V::load(&a[2])];
-        let d = [V::load(&a[3]), V::load(&a[4]), V::load(&a[5])];
-        let (t_min, t_max) = (V::load(&a[6]), V::load(&a[7]));
+        let [ox, oy, oz, dx, dy, dz, t_min, t_max] = V::ray_rows(rays);
+        let (o, d) = ([ox, oy, oz], [dx, dy, dz]);
         let zero = V::splat(0.0);
         let inf = V::splat(f32::INFINITY);
         let active = active & full::<N>() & ((1u64 << rays.len().min(N)) - 1) as u32;

@@ -7,7 +7,7 @@
 //! from code that has not checked the CPU (the same rule as `x86`'s kernels).
 //! `min`/`max` are the instructions' `a < b ? a : b`, as in the single-ray kernels.
 
-use super::packet::{any_packet, closest_packet, Simd};
+use super::packet::{any_packet, closest_packet, ray_rows_by_lane, Simd};
 use super::traverse::Leaves;
 use super::WideBvh;
 use crate::geometry::prim::Hit;
@@ -83,6 +83,13 @@ macro_rules! lane_op {
 
 impl Simd<8> for Y8 {
     type M = __m256;
+    #[inline(always)]
+    fn ray_rows(rays: &[Ray]) -> [Self; 8] {
+        match rays.first_chunk::<8>() {
+            Some(r) => Y8::ray_rows8(r).map(Y8),
+            None => ray_rows_by_lane(rays),
+        }
+    }
     lane_op!(Y8; add => _mm256_add_ps, sub => _mm256_sub_ps, mul => _mm256_mul_ps, div => _mm256_div_ps,
            min => _mm256_min_ps, max => _mm256_max_ps);
     lane_cmp!(__m256, _mm256_cmp_ps; lt => _CMP_LT_OQ, le => _CMP_LE_OQ, gt => _CMP_GT_OQ, ge => _CMP_GE_OQ, eq => _CMP_EQ_OQ,
@@ -156,6 +163,40 @@ impl Simd<8> for Y8 {
     }
 }
 
+impl Y8 {
+    /// The rows of eight rays (a transpose of their eight numbers each, in registers).
+    #[inline(always)]
+    fn ray_rows8(rays: &[Ray; 8]) -> [__m256; 8] {
+        // SAFETY: `Ray` is `repr(C)`: glam's `Vec3` (`repr(C)`, three `f32`) twice,
+        // then two `f32`, 32 bytes without padding (checked below), which is
+        // `ray_row`'s order; the unaligned load reads exactly one live `Ray`.
+        const _: () = assert!(std::mem::size_of::<Ray>() == 32);
+        let r: [__m256; 8] = std::array::from_fn(|i| unsafe { _mm256_loadu_ps((&rays[i] as *const Ray).cast::<f32>()) });
+        // SAFETY: see above.
+        unsafe {
+            let (t0, t1) = (_mm256_unpacklo_ps(r[0], r[1]), _mm256_unpackhi_ps(r[0], r[1]));
+            let (t2, t3) = (_mm256_unpacklo_ps(r[2], r[3]), _mm256_unpackhi_ps(r[2], r[3]));
+            let (t4, t5) = (_mm256_unpacklo_ps(r[4], r[5]), _mm256_unpackhi_ps(r[4], r[5]));
+            let (t6, t7) = (_mm256_unpacklo_ps(r[6], r[7]), _mm256_unpackhi_ps(r[6], r[7]));
+            // numbers k and k + 4 of rays 0–3 (s0–s3) and of rays 4–7 (s4–s7)
+            let (s0, s1) = (_mm256_shuffle_ps::<0x44>(t0, t2), _mm256_shuffle_ps::<0xee>(t0, t2));
+            let (s2, s3) = (_mm256_shuffle_ps::<0x44>(t1, t3), _mm256_shuffle_ps::<0xee>(t1, t3));
+            let (s4, s5) = (_mm256_shuffle_ps::<0x44>(t4, t6), _mm256_shuffle_ps::<0xee>(t4, t6));
+            let (s6, s7) = (_mm256_shuffle_ps::<0x44>(t5, t7), _mm256_shuffle_ps::<0xee>(t5, t7));
+            [
+                _mm256_permute2f128_ps::<0x20>(s0, s4),
+                _mm256_permute2f128_ps::<0x20>(s1, s5),
+                _mm256_permute2f128_ps::<0x20>(s2, s6),
+                _mm256_permute2f128_ps::<0x20>(s3, s7),
+                _mm256_permute2f128_ps::<0x31>(s0, s4),
+                _mm256_permute2f128_ps::<0x31>(s1, s5),
+                _mm256_permute2f128_ps::<0x31>(s2, s6),
+                _mm256_permute2f128_ps::<0x31>(s3, s7),
+            ]
+        }
+    }
+}
+
 /// Both halves of a [`Y16`] through [`Y8`].
 macro_rules! y16_op {
     ($($name:ident),*) => {$(
@@ -184,6 +225,16 @@ macro_rules! y16_mask {
 
 impl Simd<16> for Y16 {
     type M = [__m256; 2];
+    #[inline(always)]
+    fn ray_rows(rays: &[Ray]) -> [Self; 8] {
+        match rays.first_chunk::<16>() {
+            Some(r) => {
+                let (lo, hi) = (Y8::ray_rows8(r[..8].try_into().unwrap()), Y8::ray_rows8(r[8..].try_into().unwrap()));
+                std::array::from_fn(|k| Y16([lo[k], hi[k]]))
+            }
+            None => ray_rows_by_lane(rays),
+        }
+    }
     y16_op!(add, sub, mul, div, min, max);
     y16_cmp!(lt, le, gt, ge, eq, not_lt);
     y16_mask!(and, or, andnot);

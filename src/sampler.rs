@@ -48,42 +48,22 @@ pub fn nested_uniform_scramble(x: u32, seed: u32) -> u32 {
     laine_karras_permutation(x.reverse_bits(), seed).reverse_bits()
 }
 
-/// Second Sobol dimension, bit by bit: generator matrix columns
-/// v_k = v_{k−1} ⊕ (v_{k−1} ≫ 1), v_0 = 2³¹.
-const fn sobol_dim1_slow(mut i: u32) -> u32 {
-    let mut v = 1u32 << 31;
-    let mut x = 0;
-    while i != 0 {
-        if i & 1 != 0 {
-            x ^= v;
-        }
-        i >>= 1;
-        v ^= v >> 1;
-    }
-    x
-}
-
-/// The same with its bits reversed (what the Owen scramble works on), one table
-/// lookup per index byte: the map and the reversal are linear over XOR.
-static SOBOL_DIM1_REVERSED_BYTES: [[u32; 256]; 4] = {
-    let mut t = [[0u32; 256]; 4];
-    let mut b = 0;
-    while b < 4 {
-        let mut v = 0;
-        while v < 256 {
-            t[b][v] = sobol_dim1_slow((v as u32) << (8 * b)).reverse_bits();
-            v += 1;
-        }
-        b += 1;
-    }
-    t
-};
-
-/// `sobol_dim1_slow(i).reverse_bits()`.
+/// Sobol's second dimension (generator matrix columns v_k = v_{k−1} ⊕ (v_{k−1} ≫ 1),
+/// v_0 = 2³¹) with its bits reversed (what the Owen scramble works on), without a table:
+/// column `k` of the generator matrix has bit `31 − j` set where the binomial
+/// coefficient C(k, j) is odd, which by Lucas's theorem is where `j`'s bits are a
+/// subset of `k`'s. So bit `j` of the reversed point is the parity of the index bits
+/// at the positions that contain `j`'s bits: a sum over supersets, one step per bit
+/// of the position (five shifts, masks and XORs, which vectorize).
 #[inline]
 fn sobol_dim1_reversed(i: u32) -> u32 {
-    let t = &SOBOL_DIM1_REVERSED_BYTES;
-    t[0][(i & 0xff) as usize] ^ t[1][((i >> 8) & 0xff) as usize] ^ t[2][((i >> 16) & 0xff) as usize] ^ t[3][(i >> 24) as usize]
+    let mut x = i;
+    x ^= (x >> 1) & 0x5555_5555;
+    x ^= (x >> 2) & 0x3333_3333;
+    x ^= (x >> 4) & 0x0f0f_0f0f;
+    x ^= (x >> 8) & 0x00ff_00ff;
+    x ^= (x >> 16) & 0x0000_ffff;
+    x
 }
 
 #[inline]
@@ -205,8 +185,7 @@ impl PixelSampler {
 
 /// Dimension pairs `first..first + BATCH` of the pixel sample with seed `pixel_seed`
 /// (`seed_key` = `combine_key(pixel_seed)`) and reversed index `index_reversed`, by
-/// the definition of [`PixelSampler`]: each loop one step over all lanes (the table
-/// lookups of Sobol's second dimension in a loop of their own), as in
+/// the definition of [`PixelSampler`]: each loop one step over all lanes, as in
 /// [`first_2d_generic`].
 #[inline(always)]
 fn pairs_lanes(pixel_seed: u32, seed_key: u32, index_reversed: u32, first: u32) -> [(f32, f32); BATCH] {
@@ -218,14 +197,10 @@ fn pairs_lanes(pixel_seed: u32, seed_key: u32, index_reversed: u32, first: u32) 
         s[k] = hash_u32(pixel_seed ^ hash_u32(d).wrapping_add(seed_key));
         i[k] = laine_karras_permutation(index_reversed, s[k]).reverse_bits();
     }
-    let mut sobol = [0u32; B];
-    for k in 0..B {
-        sobol[k] = sobol_dim1_reversed(i[k]);
-    }
     let (mut u, mut v) = ([0u32; B], [0u32; B]);
     for k in 0..B {
         u[k] = laine_karras_permutation(i[k], hash_u32(s[k] ^ 0x5851_f42d)).reverse_bits();
-        v[k] = laine_karras_permutation(sobol[k], hash_u32(s[k] ^ 0x1405_7b7e)).reverse_bits();
+        v[k] = laine_karras_permutation(sobol_dim1_reversed(i[k]), hash_u32(s[k] ^ 0x1405_7b7e)).reverse_bits();
     }
     std::array::from_fn(|k| (to_unit(u[k]), to_unit(v[k])))
 }
@@ -254,9 +229,7 @@ pub fn first_2d_lanes(
 }
 
 /// [`first_2d_lanes`]'s body, inlined into the instruction set's copy; every loop runs
-/// over all lanes with one operation of `new` and `next_2d` (the table lookups of
-/// Sobol's second dimension in a loop of their own, so they do not keep the rest from
-/// being vectorized).
+/// over all lanes with one operation of `new` and `next_2d`.
 #[inline(always)]
 fn first_2d_generic(
     x: &[u32; LANES],
@@ -274,14 +247,10 @@ fn first_2d_generic(
         s[k] = hash_u32(pixel_seed[k] ^ hash_u32(0).wrapping_add(combine_key(pixel_seed[k])));
         i[k] = laine_karras_permutation(index_reversed, s[k]).reverse_bits();
     }
-    let mut sobol = [0u32; L];
-    for k in 0..L {
-        sobol[k] = sobol_dim1_reversed(i[k]);
-    }
     let (mut u, mut v) = ([0u32; L], [0u32; L]);
     for k in 0..L {
         u[k] = laine_karras_permutation(i[k], hash_u32(s[k] ^ 0x5851_f42d)).reverse_bits();
-        v[k] = laine_karras_permutation(sobol[k], hash_u32(s[k] ^ 0x1405_7b7e)).reverse_bits();
+        v[k] = laine_karras_permutation(sobol_dim1_reversed(i[k]), hash_u32(s[k] ^ 0x1405_7b7e)).reverse_bits();
     }
     for (sampler, &pixel_seed) in samplers.iter_mut().zip(&pixel_seed) {
         sampler.restart(pixel_seed, index, 1);
@@ -323,6 +292,21 @@ impl Mt19937Sampler {
 mod tests {
     use super::*;
 
+    /// Second Sobol dimension, bit by bit: generator matrix columns
+    /// v_k = v_{k−1} ⊕ (v_{k−1} ≫ 1), v_0 = 2³¹.
+    const fn sobol_dim1_slow(mut i: u32) -> u32 {
+        let mut v = 1u32 << 31;
+        let mut x = 0;
+        while i != 0 {
+            if i & 1 != 0 {
+                x ^= v;
+            }
+            i >>= 1;
+            v ^= v >> 1;
+        }
+        x
+    }
+
     #[test]
     fn mt19937_default_seed_matches_the_standard() {
         // The C++ standard requires the 10000th output of default-seeded mt19937.
@@ -348,7 +332,7 @@ mod tests {
     }
 
     #[test]
-    fn sobol_tables_match_the_bitwise_definition() {
+    fn sobol_dim1_matches_the_bitwise_definition() {
         for k in 0..100_000u32 {
             let i = hash_u32(k);
             assert_eq!(sobol_dim1_reversed(i), sobol_dim1_slow(i).reverse_bits());

@@ -658,17 +658,28 @@ pub(super) fn closest_packet<V: Simd<N>, L: Leaves + ?Sized, const N: usize, con
             let (first, count) = leaf_range(cur);
             if cur & GENERIC != 0 {
                 for &pi in &bvh.generic[first..first + count] {
+                    // each ray tests the primitive alone; their hits are offered together
+                    // (`offer` is lane by lane, and a ray's own limit is read before it
+                    // changes)
+                    let mut lim = [0.0f32; N];
+                    best.lim.store(&mut lim);
+                    let (mut has, mut tv, mut bv) = (0u32, [0.0f32; N], [[0.0f32; N]; 3]);
+                    let (mut prim, mut sub) = ([0u32; N], [0u32; N]);
                     for r in each_bit(cur_mask & !best.flagged) {
-                        let mut lim = [0.0f32; N];
-                        best.lim.store(&mut lim);
                         if let Some(h) = prims.closest(pi, &rays[r], lim[r]) {
-                            let mut tv = [0.0f32; N];
+                            has |= 1 << r;
                             tv[r] = h.t;
-                            let bv = h.b.map(V::splat);
-                            if best.offer(1 << r, V::load(&tv), &bv) != 0 {
-                                best.prim[r] = h.prim;
-                                best.sub[r] = h.sub;
+                            for a in 0..3 {
+                                bv[a][r] = h.b[a];
                             }
+                            (prim[r], sub[r]) = (h.prim, h.sub);
+                        }
+                    }
+                    if has != 0 {
+                        let b = [V::load(&bv[0]), V::load(&bv[1]), V::load(&bv[2])];
+                        let acc = best.offer(has, V::load(&tv), &b);
+                        for r in each_bit(acc) {
+                            (best.prim[r], best.sub[r]) = (prim[r], sub[r]);
                         }
                     }
                 }

@@ -87,7 +87,7 @@ struct Tables<'a> {
 impl Tables<'_> {
     /// The largest `i < n` with `cdf[i] <= u` (0 when there is none), with `cdf[i]`,
     /// `cdf[i + 1]` and `func[i]`.
-    #[inline]
+    #[inline(always)]
     fn find(&self, u: f32) -> (usize, f32, f32, f32) {
         let n = self.func.len();
         // a single entry (a scene's only light) needs no search
@@ -216,11 +216,13 @@ impl Distribution1D {
     }
 
     /// A continuous sample in [0, 1), its density, and the bucket.
+    #[inline]
     pub fn sample_continuous(&self, u: f32) -> (f32, f32, usize) {
         self.tables().sample_continuous(u)
     }
 
     /// Density at `x` in [0, 1).
+    #[inline]
     pub fn pdf(&self, x: f32) -> f32 {
         self.tables().pdf(x)
     }
@@ -298,6 +300,7 @@ impl Distribution2D {
         crate::math::prefetch(&self.func, row * self.nu + col);
     }
 
+    #[inline]
     pub fn pdf(&self, p: Vec2) -> f32 {
         let nv = self.integrals.len();
         let row = ((p.y * nv as f32) as usize).min(nv - 1);

@@ -154,7 +154,7 @@ impl EnvironmentLight {
     }
 
     /// Unscaled radiance at texture coordinates `uv`.
-    #[inline]
+    #[inline(always)]
     fn lookup(&self, uv: Vec2) -> Vec3 {
         match &self.image {
             EnvImage::Constant(c) => *c,

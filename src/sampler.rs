@@ -186,7 +186,7 @@ impl PixelSampler {
 /// Dimension pairs `first..first + BATCH` of the pixel sample with seed `pixel_seed`
 /// (`seed_key` = `combine_key(pixel_seed)`) and reversed index `index_reversed`, by
 /// the definition of [`PixelSampler`]: each loop one step over all lanes, as in
-/// [`first_2d_generic`].
+/// [`first_2d_lanes`].
 #[inline(always)]
 fn pairs_lanes(pixel_seed: u32, seed_key: u32, index_reversed: u32, first: u32) -> [(f32, f32); BATCH] {
     const B: usize = BATCH;
@@ -197,12 +197,17 @@ fn pairs_lanes(pixel_seed: u32, seed_key: u32, index_reversed: u32, first: u32) 
         s[k] = hash_u32(pixel_seed ^ hash_u32(d).wrapping_add(seed_key));
         i[k] = laine_karras_permutation(index_reversed, s[k]).reverse_bits();
     }
-    let (mut u, mut v) = ([0u32; B], [0u32; B]);
-    for k in 0..B {
-        u[k] = laine_karras_permutation(i[k], hash_u32(s[k] ^ 0x5851_f42d)).reverse_bits();
-        v[k] = laine_karras_permutation(sobol_dim1_reversed(i[k]), hash_u32(s[k] ^ 0x1405_7b7e)).reverse_bits();
-    }
-    std::array::from_fn(|k| (to_unit(u[k]), to_unit(v[k])))
+    std::array::from_fn(|k| pair_point(s[k], i[k]))
+}
+
+/// The point of the dimension pair whose hash is `s`, at shuffled index `i`: Sobol's
+/// first dimension (the bit reversal) and second, each Owen-scrambled by its own
+/// hash of `s`.
+#[inline(always)]
+fn pair_point(s: u32, i: u32) -> (f32, f32) {
+    let x = laine_karras_permutation(i, hash_u32(s ^ 0x5851_f42d)).reverse_bits();
+    let y = laine_karras_permutation(sobol_dim1_reversed(i), hash_u32(s ^ 0x1405_7b7e)).reverse_bits();
+    (to_unit(x), to_unit(y))
 }
 
 /// Lanes of [`first_2d_lanes`]: a 4×4 pixel block.
@@ -222,40 +227,26 @@ pub fn first_2d_lanes(
     seed: u32,
     samplers: &mut [PixelSampler; LANES],
 ) -> [(f32, f32); LANES] {
+    // every loop runs over all lanes with one operation of `new` and `next_2d`, inlined
+    // into the instruction set's copy
     isa.run(
         #[inline(always)]
-        || first_2d_generic(x, y, index, seed, samplers),
+        || {
+            const L: usize = LANES;
+            let index_reversed = index.reverse_bits();
+            let (mut pixel_seed, mut s, mut i) = ([0u32; L], [0u32; L], [0u32; L]);
+            for k in 0..L {
+                pixel_seed[k] = hash_combine(hash_combine(x[k], y[k]), seed);
+                // `next_pair` of dimension pair 0
+                s[k] = hash_u32(pixel_seed[k] ^ hash_u32(0).wrapping_add(combine_key(pixel_seed[k])));
+                i[k] = laine_karras_permutation(index_reversed, s[k]).reverse_bits();
+            }
+            for (sampler, &pixel_seed) in samplers.iter_mut().zip(&pixel_seed) {
+                sampler.restart(pixel_seed, index, 1);
+            }
+            std::array::from_fn(|k| pair_point(s[k], i[k]))
+        },
     )
-}
-
-/// [`first_2d_lanes`]'s body, inlined into the instruction set's copy; every loop runs
-/// over all lanes with one operation of `new` and `next_2d`.
-#[inline(always)]
-fn first_2d_generic(
-    x: &[u32; LANES],
-    y: &[u32; LANES],
-    index: u32,
-    seed: u32,
-    samplers: &mut [PixelSampler; LANES],
-) -> [(f32, f32); LANES] {
-    const L: usize = LANES;
-    let index_reversed = index.reverse_bits();
-    let (mut pixel_seed, mut s, mut i) = ([0u32; L], [0u32; L], [0u32; L]);
-    for k in 0..L {
-        pixel_seed[k] = hash_combine(hash_combine(x[k], y[k]), seed);
-        // `next_pair` of dimension pair 0
-        s[k] = hash_u32(pixel_seed[k] ^ hash_u32(0).wrapping_add(combine_key(pixel_seed[k])));
-        i[k] = laine_karras_permutation(index_reversed, s[k]).reverse_bits();
-    }
-    let (mut u, mut v) = ([0u32; L], [0u32; L]);
-    for k in 0..L {
-        u[k] = laine_karras_permutation(i[k], hash_u32(s[k] ^ 0x5851_f42d)).reverse_bits();
-        v[k] = laine_karras_permutation(sobol_dim1_reversed(i[k]), hash_u32(s[k] ^ 0x1405_7b7e)).reverse_bits();
-    }
-    for (sampler, &pixel_seed) in samplers.iter_mut().zip(&pixel_seed) {
-        sampler.restart(pixel_seed, index, 1);
-    }
-    std::array::from_fn(|k| (to_unit(u[k]), to_unit(v[k])))
 }
 
 /// The RDR171 sampler (spec §7): `std::mt19937` with its default seed and

@@ -139,7 +139,7 @@ impl Tables<'_> {
         (i, width, rest)
     }
 
-    #[inline]
+    #[inline(always)]
     fn sample_continuous(&self, u: f32) -> (f32, f32, usize) {
         let (i, lo, hi, func) = self.find(u);
         let width = hi - lo;
@@ -216,7 +216,7 @@ impl Distribution1D {
     }
 
     /// A continuous sample in [0, 1), its density, and the bucket.
-    #[inline]
+    #[inline(always)]
     pub fn sample_continuous(&self, u: f32) -> (f32, f32, usize) {
         self.tables().sample_continuous(u)
     }
@@ -275,7 +275,7 @@ impl Distribution2D {
     }
 
     /// A point `(u, v)` and its density with respect to area in `[0, 1)²`.
-    #[inline]
+    #[inline(always)]
     pub fn sample(&self, u: Vec2) -> (Vec2, f32) {
         let (v, pdf_v, row) = self.marginal.sample_continuous(u.y);
         let (x, pdf_u, _) = self.row(row).sample_continuous(u.x);

@@ -58,5 +58,10 @@ fn path_packet_pass_matches_ray_by_ray() {
         // an area light and a glass sphere; the sky
         check(&s.join("refs/scenes/caustic_cbox.json"), &[over]);
         check(&s.join("refs/scenes/env_sphere.json"), &[over]);
+        // a blend of two BSDFs (one boxed), whose vertices the sky's block drops
+        let blend = r#"{"materials": {"diffuse": {"type": "blendbsdf", "weight": 0.3, "material_names": ["matte", "glossy"]},
+                        "matte": {"type": "diffuse", "texture_name": "white"},
+                        "glossy": {"type": "roughplastic", "texture_name": "white", "alpha": 0.2}}}"#;
+        check(&s.join("refs/scenes/env_sphere.json"), &[over, blend]);
     }
 }

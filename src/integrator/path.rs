@@ -20,6 +20,7 @@ use crate::math::{Vec2, Vec3};
 use crate::sampler::PixelSampler;
 use crate::sampling::power_heuristic;
 use crate::scene::{Hit, Interaction, Scene};
+use std::mem::MaybeUninit;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum PathProfile {
@@ -122,19 +123,30 @@ impl PathTracer {
         if scene.environment_light().is_some() {
             // `advance` a step at a time over the block, so that the sky's table and
             // texel loads overlap across paths (elsewhere the split costs more)
-            let mut vertices: [Option<Vertex>; PACKET] = [const { None }; PACKET];
+            // uninitialised lanes rather than an array of `None`s, whose 300-byte template
+            // would be copied into every lane first (a memcpy per sample)
+            let mut lanes = [const { MaybeUninit::<Option<Vertex>>::uninit() }; PACKET];
             for i in 0..n {
-                vertices[i] = paths[i].begin(self, scene, found(i), &mut block.samplers[i]);
+                lanes[i].write(paths[i].begin(self, scene, found(i), &mut block.samplers[i]));
             }
+            // SAFETY: the loop above wrote lanes 0..n, and `MaybeUninit<T>` has `T`'s
+            // layout, so they are a valid slice of `Option<Vertex>`; the lanes are
+            // dropped once, below, through that slice (a panic in between leaks them)
+            let vertices = unsafe { &mut *(&mut lanes[..n] as *mut [MaybeUninit<Option<Vertex>>] as *mut [Option<Vertex>]) };
             let mut samples = [None; PACKET];
             for i in 0..n {
-                samples[i] = vertices[i].as_ref().and_then(|v| v.light_sample(scene));
+                // no closure here: it would be compiled apart from the kernel set's code
+                if let Some(v) = &vertices[i] {
+                    samples[i] = v.light_sample(scene);
+                }
             }
             for i in 0..n {
                 if let Some(v) = &vertices[i] {
                     steps[i] = paths[i].end(self, scene, v, samples[i], 1, &mut block.samplers[i], block.counts);
                 }
             }
+            // SAFETY: the initialised lanes (above), dropped this once and not used again
+            unsafe { std::ptr::drop_in_place(vertices) };
         } else {
             for i in 0..n {
                 steps[i] = paths[i].advance(self, scene, found(i), &mut block.samplers[i], block.counts);

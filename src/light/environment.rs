@@ -144,7 +144,7 @@ impl EnvironmentLight {
     }
 
     /// World direction of `uv`, and sinθ there.
-    #[inline]
+    #[inline(always)]
     pub fn uv_to_direction(&self, uv: Vec2) -> (Vec3, f32) {
         let (theta, phi) = (uv.y * PI, uv.x * 2.0 * PI);
         let (st, ct) = sin_cos_poly(theta);

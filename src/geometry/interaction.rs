@@ -230,7 +230,7 @@ impl Interaction {
 
 /// A triangle's point with barycentrics `b`, its geometric normal and shading normal
 /// (interpolated vertex normals where the mesh has them).
-#[inline]
+#[inline(always)]
 fn triangle_point(p: &[Vec3; 3], b: [f32; 3], mesh: &Mesh, index: u32) -> (Vec3, Vec3, Vec3) {
     let pos = (p[0] * b[0] + p[1] * b[1]) + p[2] * b[2];
     let ng = normalize_div((p[1] - p[0]).cross(p[2] - p[0]));

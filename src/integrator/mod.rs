@@ -183,7 +183,7 @@ pub fn spawn_ray(it: &Interaction, d: Vec3) -> Ray {
 
 /// A shadow ray from a surface towards a light sample, stopping just short of
 /// the light: both ends are pushed off their surfaces.
-#[inline]
+#[inline(always)]
 pub fn shadow_ray(it: &Interaction, ls: &LightSample) -> Ray {
     match ls.target {
         ShadowTarget::Infinity => spawn_ray(it, ls.wi),

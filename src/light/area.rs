@@ -185,6 +185,7 @@ impl AreaLight {
         })
     }
 
+    #[inline(always)]
     pub fn sample(&self, p: Vec3, u: Vec2, mode: LightSampling) -> Option<LightSample> {
         match &self.emitter {
             Emitter::Mesh {

@@ -275,9 +275,12 @@ fn plain_diffuse_triangle(scene: &Scene, hit: &Hit) -> Option<PlainTriangle> {
     let Texture::Constant(albedo) = scene.textures[*texture as usize] else {
         return None;
     };
-    let normals = mesh.triangles[*index as usize]
-        .n
-        .map(|[a, b, c]| [mesh.normals[a as usize], mesh.normals[b as usize], mesh.normals[c as usize]]);
+    // a match, not `Option::map`: its closure was compiled apart from the kernel set's code
+    #[allow(clippy::manual_map)]
+    let normals = match mesh.triangles[*index as usize].n {
+        Some([a, b, c]) => Some([mesh.normals[a as usize], mesh.normals[b as usize], mesh.normals[c as usize]]),
+        None => None,
+    };
     Some(PlainTriangle {
         p: *p,
         normals,

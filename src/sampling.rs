@@ -127,7 +127,7 @@ impl Tables<'_> {
         (i, self.cdf[i], self.cdf[i + 1], self.func[i])
     }
 
-    #[inline]
+    #[inline(always)]
     fn sample_discrete(&self, u: f32) -> (usize, f32, f32) {
         let (i, lo, hi, _) = self.find(u);
         let width = hi - lo;
@@ -205,7 +205,7 @@ impl Distribution1D {
 
     /// Index `i` with probability `w_i / Σw`, that probability, and `u` re-used:
     /// its position inside the chosen bucket, in [0, 1).
-    #[inline]
+    #[inline(always)]
     pub fn sample_discrete(&self, u: f32) -> (usize, f32, f32) {
         self.tables().sample_discrete(u)
     }

@@ -154,12 +154,12 @@ impl FilmTile {
     /// outside the film are dropped (spec §5.1).
     #[inline]
     pub fn add(&mut self, pos: Vec2, l: Vec3, filter: &Filter, film_w: i32, film_h: i32) {
-        let (px, py) = (floor_to_i32(pos.x), floor_to_i32(pos.y));
-        if px < 0 || py < 0 || px >= film_w || py >= film_h {
+        if filter.is_own_pixel_box() {
+            self.add_own_pixel(pos, l, film_w, film_h);
             return;
         }
-        if filter.is_own_pixel_box() {
-            self.splat(px, py, l, 1.0);
+        let (px, py) = (floor_to_i32(pos.x), floor_to_i32(pos.y));
+        if px < 0 || py < 0 || px >= film_w || py >= film_h {
             return;
         }
         // the footprint clipped to this tile (which lies inside the film): the work per
@@ -178,7 +178,8 @@ impl FilmTile {
     }
 
     /// [`FilmTile::add`] for a filter whose [`Filter::is_own_pixel_box`] holds, inlined
-    /// into the caller's loop (the block passes' adds, compiled for the render's kernels).
+    /// into the caller's loop (the block passes' adds, compiled for the render's kernels;
+    /// `add` itself goes through it).
     #[inline(always)]
     pub fn add_own_pixel(&mut self, pos: Vec2, l: Vec3, film_w: i32, film_h: i32) {
         let (px, py) = (floor_to_i32(pos.x), floor_to_i32(pos.y));

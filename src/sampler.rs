@@ -114,16 +114,18 @@ impl PixelSampler {
     /// dimension pair `dim`.
     #[inline(always)]
     fn at(pixel_seed: u32, index: u32, dim: u32) -> Self {
-        PixelSampler {
-            pixel_seed,
-            seed_key: combine_key(pixel_seed),
-            index,
-            index_reversed: index.reverse_bits(),
-            dim,
+        let mut s = PixelSampler {
+            pixel_seed: 0,
+            seed_key: 0,
+            index: 0,
+            index_reversed: 0,
+            dim: 0,
             batch_dim: 0,
             batch_len: 0,
             batch: [(0.0, 0.0); BATCH],
-        }
+        };
+        s.restart(pixel_seed, index, dim);
+        s
     }
 
     /// Makes this the sampler [`Self::at`] gives, writing only what that reads (the
@@ -192,12 +194,18 @@ fn pairs_lanes(pixel_seed: u32, seed_key: u32, index_reversed: u32, first: u32) 
     const B: usize = BATCH;
     let (mut s, mut i) = ([0u32; B], [0u32; B]);
     for k in 0..B {
-        // `hash_combine(pixel_seed, d)` with its pixel half kept
-        let d = first.wrapping_add(k as u32);
-        s[k] = hash_u32(pixel_seed ^ hash_u32(d).wrapping_add(seed_key));
-        i[k] = laine_karras_permutation(index_reversed, s[k]).reverse_bits();
+        (s[k], i[k]) = pair_hash_index(pixel_seed, seed_key, index_reversed, first.wrapping_add(k as u32));
     }
     std::array::from_fn(|k| pair_point(s[k], i[k]))
+}
+
+/// Dimension pair `d`'s hash `s = hash_combine(pixel_seed, d)` (its pixel half
+/// `seed_key` = `combine_key(pixel_seed)` given) and the shuffled index
+/// `nested_uniform_scramble(index, s)` (from `index_reversed`).
+#[inline(always)]
+fn pair_hash_index(pixel_seed: u32, seed_key: u32, index_reversed: u32, d: u32) -> (u32, u32) {
+    let s = hash_u32(pixel_seed ^ hash_u32(d).wrapping_add(seed_key));
+    (s, laine_karras_permutation(index_reversed, s).reverse_bits())
 }
 
 /// The point of the dimension pair whose hash is `s`, at shuffled index `i`: Sobol's
@@ -237,9 +245,7 @@ pub fn first_2d_lanes(
             let (mut pixel_seed, mut s, mut i) = ([0u32; L], [0u32; L], [0u32; L]);
             for k in 0..L {
                 pixel_seed[k] = hash_combine(hash_combine(x[k], y[k]), seed);
-                // `next_pair` of dimension pair 0
-                s[k] = hash_u32(pixel_seed[k] ^ hash_u32(0).wrapping_add(combine_key(pixel_seed[k])));
-                i[k] = laine_karras_permutation(index_reversed, s[k]).reverse_bits();
+                (s[k], i[k]) = pair_hash_index(pixel_seed[k], combine_key(pixel_seed[k]), index_reversed, 0);
             }
             for (sampler, &pixel_seed) in samplers.iter_mut().zip(&pixel_seed) {
                 sampler.restart(pixel_seed, index, 1);

@@ -142,24 +142,30 @@ impl TileWork<'_, '_> {
     /// dropped and counted, reported at the end.
     fn add(&mut self, pos: Vec2, l: Vec3) {
         let film = self.ctx.film;
-        if l.is_finite() {
+        if self.finite_or_counted(l) {
             self.tile.add(pos, l, &film.filter, film.width as i32, film.height as i32);
-        } else {
-            self.counts.invalid += 1;
         }
     }
 
     /// [`TileWork::add`] where the film's filter keeps each sample in its own pixel
-    /// ([`crate::film::Filter::is_own_pixel_box`]).
+    /// ([`crate::film::Filter::is_own_pixel_box`]), inlined into the caller's loop.
     #[inline(always)]
     fn add_own_pixel(&mut self, pos: Vec2, l: Vec3) {
         let film = self.ctx.film;
         debug_assert!(film.filter.is_own_pixel_box());
-        if l.is_finite() {
+        if self.finite_or_counted(l) {
             self.tile.add_own_pixel(pos, l, film.width as i32, film.height as i32);
-        } else {
+        }
+    }
+
+    /// Whether `l` is finite; a sample that is not is counted as invalid.
+    #[inline(always)]
+    fn finite_or_counted(&mut self, l: Vec3) -> bool {
+        let ok = l.is_finite();
+        if !ok {
             self.counts.invalid += 1;
         }
+        ok
     }
 
     /// With `--aov`, adds the features of pixel `(x, y)`'s camera ray.

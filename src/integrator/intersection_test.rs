@@ -10,10 +10,11 @@
 use super::pass::CameraBlock;
 use super::{shadow_ray, spawn_ray, RayCounts};
 use crate::accel::wide::PACKET;
+use crate::geometry::mesh::Mesh;
 use crate::geometry::{Ray, RayDifferential};
 use crate::light::Light;
 use crate::material::Material;
-use crate::math::{offset_ray_origin, reflect, refract, Frame, Vec2, Vec3, INV_4PI, INV_PI};
+use crate::math::{offset_coordinates, reflect, refract, Frame, Vec2, Vec3, INV_4PI, INV_PI};
 use crate::sampler::PixelSampler;
 use crate::sampling::{cosine_hemisphere, power_heuristic};
 use crate::scene::{Hit, Interaction, Prim, Scene, Shape};
@@ -68,10 +69,10 @@ impl IntersectionTest {
         // shadow rays are 0 or 1 without masks (`Scene::transmittance`)
         let point = |l: &Light| matches!(l, Light::Point { .. });
         let deferred = self.max_depth > 1 && !scene.has_masks && lights.len() <= MAX_DEFERRED && lights.iter().all(point);
-        // diffuse first hits waiting for their shadow rays: the path's total, the
-        // albedo, the point and its normals
+        // diffuse first hits waiting for their shadow rays: the path's total and the
+        // albedo by lane (plain triangles have no emission: total 0), the point and its normals
         let mut wait = 0u32;
-        let mut first = [(Vec3::ZERO, Vec3::ZERO); PACKET];
+        let mut ends = PathEnds::default();
         let mut at = ShadingPoints::default();
         // plain diffuse triangles: their points made together below
         let mut plain = PlainHits::default();
@@ -92,7 +93,7 @@ impl IntersectionTest {
                 if let Some(t) = plain_diffuse_triangle(scene, hit) {
                     plain.set(i, &t, hit.b, ray.d);
                     plain_lanes |= 1 << i;
-                    first[i] = (Vec3::ZERO, t.albedo);
+                    ends.set_albedo(i, t.albedo);
                     continue;
                 }
             }
@@ -105,7 +106,8 @@ impl IntersectionTest {
                         out[i] = total + Vec3::ZERO; // what `direct_diffuse` returns there
                         continue;
                     };
-                    first[i] = (total, albedo);
+                    ends.set_albedo(i, albedo);
+                    ends.set_total(i, total);
                     at.set(i, &it, nrm);
                     wait |= 1 << i;
                 }
@@ -125,7 +127,7 @@ impl IntersectionTest {
             return;
         }
         // per light: the unoccluded terms (`L·cosθ`) of the points it reaches
-        let mut terms = [[Vec3::ZERO; PACKET]; MAX_DEFERRED];
+        let mut terms = [[[0.0f32; PACKET]; 3]; MAX_DEFERRED];
         let mut lit = [0u32; MAX_DEFERRED];
         for (l, light) in lights.iter().enumerate() {
             let mut rays = [Ray::new(Vec3::ZERO, Vec3::Z); PACKET];
@@ -136,17 +138,7 @@ impl IntersectionTest {
             block.counts.rays += active.count_ones() as u64;
             lit[l] = active & !scene.occluded_packet(&rays[..n], active);
         }
-        for i in (0..n).filter(|&i| wait >> i & 1 != 0) {
-            let (total, albedo) = first[i];
-            // `direct_diffuse`'s sum, in light order; transmittance 1 on an unoccluded shadow ray
-            let mut direct = Vec3::ZERO;
-            for l in 0..lights.len() {
-                if lit[l] >> i & 1 != 0 {
-                    direct += terms[l][i] * 1.0;
-                }
-            }
-            out[i] = total + albedo * INV_PI * direct;
-        }
+        ends.finish(&terms[..lights.len()], &lit[..lights.len()], wait, out);
     }
 
     /// Whether [`IntersectionTest::li_block`] traces packets in `scene` (else the
@@ -163,6 +155,58 @@ const MAX_DEFERRED: usize = 4;
 #[inline(always)]
 fn lane_dot(u: &[[f32; PACKET]; 3], w: &[[f32; PACKET]; 3], i: usize) -> f32 {
     (u[0][i] * w[0][i]) + (u[1][i] * w[1][i]) + (u[2][i] * w[2][i])
+}
+
+/// The path totals and albedos of a block's diffuse first hits by lane, in
+/// structure-of-arrays form, and the last step of their radiance.
+#[derive(Default)]
+struct PathEnds {
+    total: [[f32; PACKET]; 3],
+    albedo: [[f32; PACKET]; 3],
+}
+
+// lanes are indexed in step across several arrays
+#[allow(clippy::needless_range_loop)]
+impl PathEnds {
+    #[inline(always)]
+    fn set_albedo(&mut self, i: usize, albedo: Vec3) {
+        for a in 0..3 {
+            self.albedo[a][i] = albedo[a];
+        }
+    }
+
+    #[inline(always)]
+    fn set_total(&mut self, i: usize, total: Vec3) {
+        for a in 0..3 {
+            self.total[a][i] = total[a];
+        }
+    }
+
+    /// The radiance of the lanes in `wait`: `direct_diffuse`'s sum of the lights'
+    /// terms, in light order, over the lights that reach a lane unoccluded
+    /// (transmittance 1), then `total + ρ/π · direct`, as glam orders it.
+    #[inline(always)]
+    fn finish(&self, terms: &[[[f32; PACKET]; 3]], lit: &[u32], wait: u32, out: &mut [Vec3]) {
+        const L: usize = PACKET;
+        let mut direct = [[0.0f32; L]; 3];
+        for (term, &lit) in terms.iter().zip(lit) {
+            for a in 0..3 {
+                for i in 0..L {
+                    let add = direct[a][i] + term[a][i] * 1.0;
+                    direct[a][i] = if lit >> i & 1 != 0 { add } else { direct[a][i] };
+                }
+            }
+        }
+        let mut radiance = [[0.0f32; L]; 3];
+        for a in 0..3 {
+            for i in 0..L {
+                radiance[a][i] = self.total[a][i] + self.albedo[a][i] * INV_PI * direct[a][i];
+            }
+        }
+        for i in (0..L.min(out.len())).filter(|&i| wait >> i & 1 != 0) {
+            out[i] = Vec3::new(radiance[0][i], radiance[1][i], radiance[2][i]);
+        }
+    }
 }
 
 /// A block's diffuse shading points by lane, in structure-of-arrays form: position,
@@ -188,7 +232,7 @@ impl ShadingPoints {
     /// `Light::sample`'s and `shadow_ray`'s operations in their order; the arrays
     /// let the compiler do the square roots and divisions four lanes at a time.
     #[inline(always)]
-    fn point_terms(&self, position: Vec3, flux: Vec3, mask: u32, c: &mut [Vec3; PACKET], rays: &mut [Ray; PACKET]) -> u32 {
+    fn point_terms(&self, position: Vec3, flux: Vec3, mask: u32, c: &mut [[f32; PACKET]; 3], rays: &mut [Ray; PACKET]) -> u32 {
         const L: usize = PACKET;
         let (p, ng, nf) = (&self.p, &self.ng, &self.nf);
         let mut v = [[0.0f32; L]; 3];
@@ -211,28 +255,35 @@ impl ShadingPoints {
             }
         }
         let scaled = flux * INV_4PI;
-        let mut reach = 0u32;
+        let mut reach = [false; L];
         for i in 0..L {
             let cos = lane_dot(nf, &wi, i);
-            reach |= ((d2[i] != 0.0 && cos > 0.0) as u32) << i;
-            let radiance = Vec3::new(scaled.x / d2[i], scaled.y / d2[i], scaled.z / d2[i]);
-            c[i] = radiance * cos;
-        }
-        let reach = reach & mask;
-        // the shadow ray: from the point pushed off its surface towards the light
-        let mut to = [[0.0f32; L]; 3];
-        for i in 0..L {
-            let n = Vec3::new(ng[0][i], ng[1][i], ng[2][i]);
-            let side = if lane_dot(&v, ng, i) >= 0.0 { n } else { -n };
-            let o = if reach >> i & 1 != 0 {
-                offset_ray_origin(Vec3::new(p[0][i], p[1][i], p[2][i]), side)
-            } else {
-                position // unused lane: anything harmless
-            };
+            reach[i] = (mask >> i & 1 != 0) & (d2[i] != 0.0) & (cos > 0.0);
+            // `Vec3::new(scaled / d2) * cos`, by component
             for a in 0..3 {
-                to[a][i] = position[a] - o[a];
+                c[a][i] = (scaled[a] / d2[i]) * cos;
             }
-            rays[i].o = o;
+        }
+        // the shadow ray: from the point pushed off its surface (on the light's side)
+        // towards the light; `offset_ray_origin` by coordinate, so the lanes vectorize
+        let mut front = [false; L];
+        for i in 0..L {
+            front[i] = lane_dot(&v, ng, i) >= 0.0;
+        }
+        let (mut side, mut pushed) = ([[0.0f32; L]; 3], [[0.0f32; L]; 3]);
+        for a in 0..3 {
+            for i in 0..L {
+                side[a][i] = if front[i] { ng[a][i] } else { -ng[a][i] };
+            }
+            offset_coordinates(&p[a], &side[a], &mut pushed[a]);
+        }
+        let (mut o, mut to) = ([[0.0f32; L]; 3], [[0.0f32; L]; 3]);
+        for a in 0..3 {
+            for i in 0..L {
+                // unused lanes start at the light: anything harmless
+                o[a][i] = if reach[i] { pushed[a][i] } else { position[a] };
+                to[a][i] = position[a] - o[a][i];
+            }
         }
         let mut dist = [0.0f32; L];
         for i in 0..L {
@@ -244,11 +295,14 @@ impl ShadingPoints {
                 d[a][i] = to[a][i] / dist[i];
             }
         }
+        let mut reached = 0u32;
         for i in 0..L {
+            rays[i].o = Vec3::new(o[0][i], o[1][i], o[2][i]);
             rays[i].d = Vec3::new(d[0][i], d[1][i], d[2][i]);
             (rays[i].t_min, rays[i].t_max) = (0.0, dist[i] * (1.0 - 1e-5));
+            reached |= (reach[i] as u32) << i;
         }
-        reach
+        reached
     }
 }
 
@@ -258,7 +312,7 @@ impl ShadingPoints {
 /// has no differentials, so its point is `Interaction::on_triangle_plain`). Its
 /// vertices, vertex normals (if the mesh has them), albedo and two-sidedness.
 #[inline(always)]
-fn plain_diffuse_triangle(scene: &Scene, hit: &Hit) -> Option<PlainTriangle> {
+fn plain_diffuse_triangle<'a>(scene: &'a Scene, hit: &Hit) -> Option<PlainTriangle<'a>> {
     let Prim::Triangle { p, object, index } = &scene.prims[hit.prim as usize] else {
         return None;
     };
@@ -275,24 +329,21 @@ fn plain_diffuse_triangle(scene: &Scene, hit: &Hit) -> Option<PlainTriangle> {
     let Texture::Constant(albedo) = scene.textures[*texture as usize] else {
         return None;
     };
-    // a match, not `Option::map`: its closure was compiled apart from the kernel set's code
-    #[allow(clippy::manual_map)]
-    let normals = match mesh.triangles[*index as usize].n {
-        Some([a, b, c]) => Some([mesh.normals[a as usize], mesh.normals[b as usize], mesh.normals[c as usize]]),
-        None => None,
-    };
     Some(PlainTriangle {
-        p: *p,
-        normals,
+        p,
+        normals: mesh.triangles[*index as usize].n,
+        mesh,
         albedo,
         twosided: *twosided,
     })
 }
 
-/// What [`plain_diffuse_triangle`] finds.
-struct PlainTriangle {
-    p: [Vec3; 3],
-    normals: Option<[Vec3; 3]>,
+/// What [`plain_diffuse_triangle`] finds, by reference: the vertices, the indices
+/// of the vertex normals in the mesh (if it has them), albedo and two-sidedness.
+struct PlainTriangle<'a> {
+    p: &'a [Vec3; 3],
+    normals: Option<[u32; 3]>,
+    mesh: &'a Mesh,
     albedo: Vec3,
     twosided: bool,
 }
@@ -319,12 +370,29 @@ impl PlainHits {
         for k in 0..3 {
             for a in 0..3 {
                 self.v[k][a][i] = t.p[k][a];
-                self.n[k][a][i] = t.normals.map_or(0.0, |n| n[k][a]);
             }
             self.b[k][i] = b[k];
             self.wo[k][i] = -d[k];
         }
-        self.normals |= (t.normals.is_some() as u32) << i;
+        // a match, not `Option::map`: its closure was compiled apart from the kernel set's code
+        match t.normals {
+            Some(n) => {
+                for k in 0..3 {
+                    let n = t.mesh.normals[n[k] as usize];
+                    for a in 0..3 {
+                        self.n[k][a][i] = n[a];
+                    }
+                }
+                self.normals |= 1 << i;
+            }
+            None => {
+                for k in 0..3 {
+                    for a in 0..3 {
+                        self.n[k][a][i] = 0.0;
+                    }
+                }
+            }
+        }
         self.twosided |= (t.twosided as u32) << i;
     }
 
@@ -369,24 +437,31 @@ impl PlainHits {
             for i in 0..L {
                 ng[a][i] = c[a][i] / len[i];
                 // interpolated vertex normals where the mesh has them and they do not vanish
-                let ok = self.normals >> i & 1 != 0 && slen[i] > 0.0 && slen[i].is_finite();
+                // `&`, not `&&`: no branches, so the lanes vectorize
+                let ok = (self.normals >> i & 1 != 0) & (slen[i] > 0.0) & slen[i].is_finite();
                 ns[a][i] = if ok { sv[a][i] / slen[i] } else { ng[a][i] };
             }
         }
-        let mut facing = 0u32;
         let mut nf = [[0.0f32; L]; 3];
+        let mut take = [false; L];
         for i in 0..L {
-            let flip = self.twosided >> i & 1 != 0 && lane_dot(&ns, wo, i) < 0.0;
+            let flip = (self.twosided >> i & 1 != 0) & (lane_dot(&ns, wo, i) < 0.0);
             for a in 0..3 {
                 nf[a][i] = if flip { -ns[a][i] } else { ns[a][i] };
             }
-            facing |= ((lane_dot(&nf, wo, i) > 0.0) as u32) << i;
+            take[i] = (mask >> i & 1 != 0) & (lane_dot(&nf, wo, i) > 0.0);
         }
-        let facing = facing & mask;
-        for i in (0..L).filter(|&i| facing >> i & 1 != 0) {
-            for a in 0..3 {
-                (at.p[a][i], at.ng[a][i], at.nf[a][i]) = (pos[a][i], ng[a][i], nf[a][i]);
+        // merged by selects, which vectorize (a loop over the set bits does not)
+        for a in 0..3 {
+            for i in 0..L {
+                at.p[a][i] = if take[i] { pos[a][i] } else { at.p[a][i] };
+                at.ng[a][i] = if take[i] { ng[a][i] } else { at.ng[a][i] };
+                at.nf[a][i] = if take[i] { nf[a][i] } else { at.nf[a][i] };
             }
+        }
+        let mut facing = 0u32;
+        for (i, &t) in take.iter().enumerate() {
+            facing |= (t as u32) << i;
         }
         facing
     }
@@ -595,7 +670,6 @@ fn direct_diffuse(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::geometry::mesh::Mesh;
     use crate::geometry::obj::ObjTriangle;
     use crate::sampler::hash_u32;
 
@@ -642,8 +716,9 @@ mod tests {
                 let twosided = (round + i) % 2 == 0;
                 let it = Interaction::on_triangle_plain(&p, b, &mesh, 0, 0, -d);
                 let t = PlainTriangle {
-                    p,
-                    normals,
+                    p: &p,
+                    normals: normals.map(|_| [0, 1, 2]),
+                    mesh: &mesh,
                     albedo: Vec3::ONE,
                     twosided,
                 };

@@ -130,11 +130,10 @@ impl IntersectionTest {
         let mut terms = [[[0.0f32; PACKET]; 3]; MAX_DEFERRED];
         let mut lit = [0u32; MAX_DEFERRED];
         for (l, light) in lights.iter().enumerate() {
-            let mut rays = [Ray::new(Vec3::ZERO, Vec3::Z); PACKET];
             let Light::Point { position, flux } = *light else {
                 unreachable!("deferred only with point lights")
             };
-            let active = at.point_terms(position, flux, wait, &mut terms[l], &mut rays);
+            let (active, rays) = at.point_terms(position, flux, wait, &mut terms[l]);
             block.counts.rays += active.count_ones() as u64;
             lit[l] = active & !scene.occluded_packet(&rays[..n], active);
         }
@@ -227,12 +226,12 @@ impl ShadingPoints {
         }
     }
 
-    /// `direct_diffuse`'s light term `L·cosθ` of a point light for the lanes in `mask`: the terms and shadow
-    /// rays of the lanes it reaches (returned as a mask), lane by lane with
+    /// `direct_diffuse`'s light term `L·cosθ` of a point light for the lanes in `mask`: the terms (into `c`),
+    /// and the mask of the lanes it reaches with their shadow rays, lane by lane with
     /// `Light::sample`'s and `shadow_ray`'s operations in their order; the arrays
     /// let the compiler do the square roots and divisions four lanes at a time.
     #[inline(always)]
-    fn point_terms(&self, position: Vec3, flux: Vec3, mask: u32, c: &mut [[f32; PACKET]; 3], rays: &mut [Ray; PACKET]) -> u32 {
+    fn point_terms(&self, position: Vec3, flux: Vec3, mask: u32, c: &mut [[f32; PACKET]; 3]) -> (u32, [Ray; PACKET]) {
         const L: usize = PACKET;
         let (p, ng, nf) = (&self.p, &self.ng, &self.nf);
         let mut v = [[0.0f32; L]; 3];
@@ -296,13 +295,17 @@ impl ShadingPoints {
             }
         }
         let mut reached = 0u32;
-        for i in 0..L {
-            rays[i].o = Vec3::new(o[0][i], o[1][i], o[2][i]);
-            rays[i].d = Vec3::new(d[0][i], d[1][i], d[2][i]);
-            (rays[i].t_min, rays[i].t_max) = (0.0, dist[i] * (1.0 - 1e-5));
-            reached |= (reach[i] as u32) << i;
+        for (i, &r) in reach.iter().enumerate() {
+            reached |= (r as u32) << i;
         }
-        reached
+        // made in place (an array filled with a template first cost a copy per lane)
+        let rays = std::array::from_fn(|i| Ray {
+            o: Vec3::new(o[0][i], o[1][i], o[2][i]),
+            d: Vec3::new(d[0][i], d[1][i], d[2][i]),
+            t_min: 0.0,
+            t_max: dist[i] * (1.0 - 1e-5),
+        });
+        (reached, rays)
     }
 }
 
@@ -357,9 +360,10 @@ struct PlainHits {
     n: [[[f32; PACKET]; 3]; 3],
     b: [[f32; PACKET]; 3],
     wo: [[f32; PACKET]; 3],
-    /// Lanes whose mesh has vertex normals.
-    normals: u32,
-    twosided: u32,
+    /// Lanes whose mesh has vertex normals (by lane, not as bits: the lane loops
+    /// vectorize without a shift per lane).
+    normals: [bool; PACKET],
+    twosided: [bool; PACKET],
 }
 
 // lanes are indexed in step across several arrays
@@ -383,7 +387,7 @@ impl PlainHits {
                         self.n[k][a][i] = n[a];
                     }
                 }
-                self.normals |= 1 << i;
+                self.normals[i] = true;
             }
             None => {
                 for k in 0..3 {
@@ -393,7 +397,7 @@ impl PlainHits {
                 }
             }
         }
-        self.twosided |= (t.twosided as u32) << i;
+        self.twosided[i] = t.twosided;
     }
 
     /// `Interaction::on_triangle_plain` and `facing_normal` of the lanes in `mask`,
@@ -432,20 +436,32 @@ impl PlainHits {
             len[i] = lane_dot(&c, &c, i).sqrt();
             slen[i] = lane_dot(&sv, &sv, i).sqrt();
         }
-        let (mut ng, mut ns) = ([[0.0f32; L]; 3], [[0.0f32; L]; 3]);
+        // interpolated vertex normals where the mesh has them and they do not vanish
+        // (`&`, not `&&`: no branches, so the lanes vectorize; finite as x − x = 0, which
+        // is NaN for ±∞ and NaN: `is_finite` was compiled to scalar bit tests)
+        let mut smooth = [false; L];
+        for i in 0..L {
+            smooth[i] = self.normals[i] & (slen[i] > 0.0) & (slen[i] - slen[i] == 0.0);
+        }
+        let (mut ng, mut unit) = ([[0.0f32; L]; 3], [[0.0f32; L]; 3]);
         for a in 0..3 {
             for i in 0..L {
                 ng[a][i] = c[a][i] / len[i];
-                // interpolated vertex normals where the mesh has them and they do not vanish
-                // `&`, not `&&`: no branches, so the lanes vectorize
-                let ok = (self.normals >> i & 1 != 0) & (slen[i] > 0.0) & slen[i].is_finite();
-                ns[a][i] = if ok { sv[a][i] / slen[i] } else { ng[a][i] };
+                unit[a][i] = sv[a][i] / slen[i];
+            }
+        }
+        // divided in every lane, then selected: a division under the condition was
+        // compiled to a branch and a scalar division per lane
+        let mut ns = [[0.0f32; L]; 3];
+        for a in 0..3 {
+            for i in 0..L {
+                ns[a][i] = if smooth[i] { unit[a][i] } else { ng[a][i] };
             }
         }
         let mut nf = [[0.0f32; L]; 3];
         let mut take = [false; L];
         for i in 0..L {
-            let flip = (self.twosided >> i & 1 != 0) & (lane_dot(&ns, wo, i) < 0.0);
+            let flip = self.twosided[i] & (lane_dot(&ns, wo, i) < 0.0);
             for a in 0..3 {
                 nf[a][i] = if flip { -ns[a][i] } else { ns[a][i] };
             }
@@ -675,7 +691,8 @@ mod tests {
 
     /// `PlainHits::shade` against `Interaction::on_triangle_plain` and `facing_normal`,
     /// bit for bit, on random triangles seen from both sides: one- and two-sided,
-    /// with and without vertex normals (some of them vanishing), lanes left out.
+    /// with and without vertex normals (some of them vanishing, some too long for a
+    /// float), lanes left out.
     #[test]
     fn plain_hits_shade_as_one_hit_at_a_time() {
         let mut k = 0u32;
@@ -690,10 +707,11 @@ mod tests {
             let mut mask = 0u32;
             for i in 0..PACKET {
                 let p = [v(&mut k), v(&mut k), v(&mut k)];
-                let normals = match i % 3 {
+                let normals = match i % 4 {
                     0 => None,
                     1 => Some([v(&mut k), v(&mut k), v(&mut k)]),
-                    _ => Some([Vec3::ZERO; 3]), // vanishing: the geometric normal
+                    2 => Some([Vec3::ZERO; 3]),                          // vanishing: the geometric normal
+                    _ => Some([v(&mut k) * 1e30, v(&mut k), v(&mut k)]), // infinite length: the same
                 };
                 let mesh = Mesh {
                     positions: p.to_vec(),

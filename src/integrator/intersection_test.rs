@@ -437,11 +437,10 @@ impl PlainHits {
             slen[i] = lane_dot(&sv, &sv, i).sqrt();
         }
         // interpolated vertex normals where the mesh has them and they do not vanish
-        // (`&`, not `&&`: no branches, so the lanes vectorize; finite as x − x = 0, which
-        // is NaN for ±∞ and NaN: `is_finite` was compiled to scalar bit tests)
+        // (`&`, not `&&`: no branches, so the lanes vectorize)
         let mut smooth = [false; L];
         for i in 0..L {
-            smooth[i] = self.normals[i] & (slen[i] > 0.0) & (slen[i] - slen[i] == 0.0);
+            smooth[i] = self.normals[i] & (slen[i] > 0.0) & finite(slen[i]);
         }
         let (mut ng, mut unit) = ([[0.0f32; L]; 3], [[0.0f32; L]; 3]);
         for a in 0..3 {
@@ -481,6 +480,14 @@ impl PlainHits {
         }
         facing
     }
+}
+
+/// `x.is_finite()` as `x − x = 0` (NaN for ±∞ and NaN): in lane loops this compiles
+/// to vector compares, where `is_finite` became scalar bit tests per lane.
+#[allow(clippy::eq_op)]
+#[inline(always)]
+fn finite(x: f32) -> bool {
+    x - x == 0.0
 }
 
 /// What the path meets at a hit (its emission added to `total`).

@@ -123,30 +123,40 @@ impl PathTracer {
         if scene.environment_light().is_some() {
             // `advance` a step at a time over the block, so that the sky's table and
             // texel loads overlap across paths (elsewhere the split costs more)
-            // uninitialised lanes rather than an array of `None`s, whose 300-byte template
-            // would be copied into every lane first (a memcpy per sample)
-            let mut lanes = [const { MaybeUninit::<Option<Vertex>>::uninit() }; PACKET];
+            // uninitialised lanes and a mark of those written, rather than an array of
+            // `Option`s: a `None` template would be copied into every lane first, and each
+            // `Option` returned by `begin` was copied whole, `None`s too (300 bytes each)
+            let mut lanes = [const { MaybeUninit::<Vertex>::uninit() }; PACKET];
+            let mut live = [false; PACKET];
             for i in 0..n {
-                lanes[i].write(paths[i].begin(self, scene, found(i), &mut block.samplers[i]));
+                if let Some(v) = paths[i].begin(self, scene, found(i), &mut block.samplers[i]) {
+                    lanes[i].write(v);
+                    live[i] = true;
+                }
             }
-            // SAFETY: the loop above wrote lanes 0..n, and `MaybeUninit<T>` has `T`'s
-            // layout, so they are a valid slice of `Option<Vertex>`; the lanes are
-            // dropped once, below, through that slice (a panic in between leaks them)
-            let vertices = unsafe { &mut *(&mut lanes[..n] as *mut [MaybeUninit<Option<Vertex>>] as *mut [Option<Vertex>]) };
             let mut samples = [None; PACKET];
             for i in 0..n {
-                // no closure here: it would be compiled apart from the kernel set's code
-                if let Some(v) = &vertices[i] {
+                if live[i] {
+                    // SAFETY: live lanes were written above (and are dropped only below)
+                    let v = unsafe { lanes[i].assume_init_ref() };
+                    // no closure here: it would be compiled apart from the kernel set's code
                     samples[i] = v.light_sample(scene);
                 }
             }
             for i in 0..n {
-                if let Some(v) = &vertices[i] {
+                if live[i] {
+                    // SAFETY: as above
+                    let v = unsafe { lanes[i].assume_init_ref() };
                     steps[i] = paths[i].end(self, scene, v, samples[i], 1, &mut block.samplers[i], block.counts);
                 }
             }
-            // SAFETY: the initialised lanes (above), dropped this once and not used again
-            unsafe { std::ptr::drop_in_place(vertices) };
+            for i in 0..n {
+                if live[i] {
+                    // SAFETY: a live lane, dropped this once and not used again (a panic
+                    // before here leaks the lanes)
+                    unsafe { lanes[i].assume_init_drop() };
+                }
+            }
         } else {
             for i in 0..n {
                 steps[i] = paths[i].advance(self, scene, found(i), &mut block.samplers[i], block.counts);

@@ -517,10 +517,10 @@ impl Film {
 fn add_tile_row(sum: &mut [[f64; 3]], weight: &mut [f64], row: usize, t: &FilmTile, y: usize) {
     let (tw, dst) = (t.w as usize, row + t.x0 as usize);
     let src = (y - t.y0 as usize) * tw;
-    for (d, s) in sum[dst..dst + tw].iter_mut().zip(&t.sum[src..src + tw]) {
-        for c in 0..3 {
-            d[c] += s[c] as f64;
-        }
+    // the channels as one flat row: the loop vectorizes (pixel by pixel it did not)
+    let to = sum[dst..dst + tw].as_flattened_mut();
+    for (d, s) in to.iter_mut().zip(t.sum[src..src + tw].as_flattened()) {
+        *d += *s as f64;
     }
     for (d, s) in weight[dst..dst + tw].iter_mut().zip(&t.weight[src..src + tw]) {
         *d += *s;

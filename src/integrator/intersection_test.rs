@@ -77,6 +77,8 @@ impl IntersectionTest {
         // plain diffuse triangles: their points made together below
         let mut plain = PlainHits::default();
         let mut plain_lanes = 0u32;
+        // the last lane's triangle and what `plain_diffuse_triangle` found for it
+        let (mut last_prim, mut last) = (u32::MAX, None);
         for i in 0..n {
             if !deferred {
                 let (ray, diff) = (block.rays[i], block.diffs[i]);
@@ -90,8 +92,12 @@ impl IntersectionTest {
                 continue;
             };
             if diff.is_none() && !scene.texture_coords {
-                if let Some(t) = plain_diffuse_triangle(scene, hit) {
-                    plain.set(i, &t, hit.b, ray.d);
+                // neighbouring pixels mostly hit the same triangle: its lookup is kept
+                if hit.prim != last_prim {
+                    (last_prim, last) = (hit.prim, plain_diffuse_triangle(scene, hit));
+                }
+                if let Some(t) = &last {
+                    plain.set(i, t, hit.b, ray.d);
                     plain_lanes |= 1 << i;
                     ends.set_albedo(i, t.albedo);
                     continue;
@@ -343,6 +349,7 @@ fn plain_diffuse_triangle<'a>(scene: &'a Scene, hit: &Hit) -> Option<PlainTriang
 
 /// What [`plain_diffuse_triangle`] finds, by reference: the vertices, the indices
 /// of the vertex normals in the mesh (if it has them), albedo and two-sidedness.
+#[derive(Clone, Copy)]
 struct PlainTriangle<'a> {
     p: &'a [Vec3; 3],
     normals: Option<[u32; 3]>,

@@ -208,6 +208,14 @@ pub fn offset_coordinates<const L: usize>(p: &[f32; L], n: &[f32; L], out: &mut 
     }
 }
 
+/// `x.is_finite()` as `x − x = 0` (NaN for ±∞ and NaN), for loops over lanes: it
+/// compiles to vector compares, where `is_finite` became scalar bit tests per lane.
+#[allow(clippy::eq_op)]
+#[inline(always)]
+pub fn is_finite_lane(x: f32) -> bool {
+    x - x == 0.0
+}
+
 /// Luminance of linear sRGB/Rec.709 primaries.
 #[inline]
 pub fn luminance(c: Vec3) -> f32 {

@@ -14,7 +14,7 @@ use crate::geometry::mesh::Mesh;
 use crate::geometry::{Ray, RayDifferential};
 use crate::light::Light;
 use crate::material::Material;
-use crate::math::{offset_coordinates, reflect, refract, Frame, Vec2, Vec3, INV_4PI, INV_PI};
+use crate::math::{is_finite_lane, offset_coordinates, reflect, refract, Frame, Vec2, Vec3, INV_4PI, INV_PI};
 use crate::sampler::PixelSampler;
 use crate::sampling::{cosine_hemisphere, power_heuristic};
 use crate::scene::{Hit, Interaction, Prim, Scene, Shape};
@@ -447,7 +447,7 @@ impl PlainHits {
         // (`&`, not `&&`: no branches, so the lanes vectorize)
         let mut smooth = [false; L];
         for i in 0..L {
-            smooth[i] = self.normals[i] & (slen[i] > 0.0) & finite(slen[i]);
+            smooth[i] = self.normals[i] & (slen[i] > 0.0) & is_finite_lane(slen[i]);
         }
         let (mut ng, mut unit) = ([[0.0f32; L]; 3], [[0.0f32; L]; 3]);
         for a in 0..3 {
@@ -487,14 +487,6 @@ impl PlainHits {
         }
         facing
     }
-}
-
-/// `x.is_finite()` as `x − x = 0` (NaN for ±∞ and NaN): in lane loops this compiles
-/// to vector compares, where `is_finite` became scalar bit tests per lane.
-#[allow(clippy::eq_op)]
-#[inline(always)]
-fn finite(x: f32) -> bool {
-    x - x == 0.0
 }
 
 /// What the path meets at a hit (its emission added to `total`).

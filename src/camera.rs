@@ -378,12 +378,7 @@ mod tests {
     #[test]
     fn pinhole_rays_are_sample_ray_bit_for_bit() {
         let mut state = 0x2545_f491u32;
-        let mut next = move || {
-            state ^= state << 13;
-            state ^= state >> 17;
-            state ^= state << 5;
-            state as f32 / u32::MAX as f32
-        };
+        let mut next = move || crate::math::xorshift32(&mut state) as f32 / u32::MAX as f32;
         for (fov, w, h, pos, look) in [
             (19.5, 512, 512, Vec3::new(0.0, 1.0, 6.8), Vec3::new(0.0, 1.0, 0.0)),
             (90.0, 37, 29, Vec3::new(-3.1, 0.2, 1e3), Vec3::new(0.3, -7.0, 2.0)),

@@ -608,12 +608,7 @@ mod tests {
     #[test]
     fn own_pixel_lanes_add_as_one_sample_at_a_time() {
         let mut state = 0x1234_5678u32;
-        let mut next = move || {
-            state ^= state << 13;
-            state ^= state >> 17;
-            state ^= state << 5;
-            state
-        };
+        let mut next = move || crate::math::xorshift32(&mut state);
         let specials = [
             f32::NAN,
             f32::INFINITY,

@@ -341,6 +341,16 @@ pub fn prefetch<T>(s: &[T], i: usize) {
     let _ = (s, i);
 }
 
+/// The next state of Marsaglia's xorshift32 (tests' random numbers: any bit
+/// pattern but 0).
+#[cfg(test)]
+pub(crate) fn xorshift32(state: &mut u32) -> u32 {
+    *state ^= *state << 13;
+    *state ^= *state >> 17;
+    *state ^= *state << 5;
+    *state
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -506,13 +516,8 @@ mod tests {
             0.001_953_125,
         ];
         let mut state = 0x9e37_79b9u32;
-        let mut next = || {
-            // xorshift32: any bit pattern, NaNs, infinities and subnormals included
-            state ^= state << 13;
-            state ^= state >> 17;
-            state ^= state << 5;
-            f32::from_bits(state)
-        };
+        // any bit pattern: NaNs, infinities and subnormals included
+        let mut next = || f32::from_bits(xorshift32(&mut state));
         let mut cases: Vec<(Vec3, Vec3)> = Vec::new();
         for &a in &specials {
             for &b in &normals {

@@ -189,34 +189,6 @@ impl FilmTile {
         self.splat(px, py, l, 1.0);
     }
 
-    /// [`FilmTile::add_own_pixel`] of a block's samples, lane `i` adding `l[i]` at
-    /// `pos[i]` where `keep[i]` (and `i < n`). The film test is made on all lanes at
-    /// once in floats, which vectorizes: for `x ≥ 0`, `floor(x) < w` is `x < w` and the
-    /// truncation is the floor; a NaN position goes to 0, as `floor_to_i32` takes it.
-    /// Films of 2²⁴ pixels or more across, whose sizes a float may not hold, go lane by
-    /// lane.
-    #[inline(always)]
-    pub fn add_own_pixels<const N: usize>(&mut self, pos: &[Vec2; N], l: &[Vec3; N], keep: &[bool; N], n: usize, film_w: i32, film_h: i32) {
-        if film_w >= 1 << 24 || film_h >= 1 << 24 {
-            for i in (0..n.min(N)).filter(|&i| keep[i]) {
-                self.add_own_pixel(pos[i], l[i], film_w, film_h);
-            }
-            return;
-        }
-        let (w, h) = (film_w as f32, film_h as f32);
-        let mut take = [false; N];
-        for i in 0..N {
-            let (x, y) = (pos[i].x, pos[i].y);
-            let in_x = ((x >= 0.0) & (x < w)) | x.is_nan();
-            let in_y = ((y >= 0.0) & (y < h)) | y.is_nan();
-            take[i] = keep[i] & in_x & in_y & (film_w > 0) & (film_h > 0);
-        }
-        for i in (0..n.min(N)).filter(|&i| take[i]) {
-            // in [0, size) or NaN: `as` truncates to the floor, NaN to 0
-            self.splat(pos[i].x as i32, pos[i].y as i32, l[i], 1.0);
-        }
-    }
-
     #[inline]
     fn splat(&mut self, x: i32, y: i32, l: Vec3, w: f32) {
         let (lx, ly) = (x - self.x0, y - self.y0);
@@ -601,64 +573,6 @@ fn filter_integral(filter: &Filter) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// `add_own_pixels` adds what `add_own_pixel` adds lane by lane, bit for bit:
-    /// positions inside and outside the film and the tile, on pixel edges, NaN and
-    /// infinite, lanes not kept and lanes past `n`; and on a film too wide for floats.
-    #[test]
-    fn own_pixel_lanes_add_as_one_sample_at_a_time() {
-        let mut state = 0x1234_5678u32;
-        let mut next = move || crate::math::xorshift32(&mut state);
-        let specials = [
-            f32::NAN,
-            f32::INFINITY,
-            -f32::INFINITY,
-            -0.0,
-            0.0,
-            -0.5,
-            3e9,
-            -3e9,
-            16.0,
-            15.999_999,
-        ];
-        for (film_w, film_h) in [(40, 30), (16, 16), (1 << 24, 20)] {
-            for round in 0..300 {
-                // tiles at the film's corner too, where a NaN position (pixel 0) lands
-                let rect = if round % 2 == 0 {
-                    (0, 0, 16, 16)
-                } else {
-                    (8, 4, 24.min(film_w), 20.min(film_h))
-                };
-                let (mut a, mut b) = (
-                    FilmTile::new(rect.0, rect.1, rect.2, rect.3, 0, film_w, film_h),
-                    FilmTile::new(rect.0, rect.1, rect.2, rect.3, 0, film_w, film_h),
-                );
-                let mut coord = |limit: i32| {
-                    let r = next();
-                    if r % 7 == 0 {
-                        specials[(r >> 8) as usize % specials.len()]
-                    } else {
-                        (r >> 8) as f32 / (1u32 << 24) as f32 * (limit as f32 + 8.0).min(60.0) - 4.0
-                    }
-                };
-                let pos: [Vec2; 16] = std::array::from_fn(|_| Vec2::new(coord(film_w), coord(film_h)));
-                let l: [Vec3; 16] = std::array::from_fn(|i| Vec3::new(i as f32 + 0.25, 1.0 / (i as f32 + 1.0), round as f32));
-                let keep: [bool; 16] = std::array::from_fn(|i| (i + round) % 5 != 0);
-                let n = 16 - round % 4;
-                a.add_own_pixels(&pos, &l, &keep, n, film_w, film_h);
-                for i in (0..n).filter(|&i| keep[i]) {
-                    b.add_own_pixel(pos[i], l[i], film_w, film_h);
-                }
-                let bits = |t: &FilmTile| {
-                    (
-                        t.sum.iter().flat_map(|s| s.map(f32::to_bits)).collect::<Vec<_>>(),
-                        t.weight.iter().map(|w| w.to_bits()).collect::<Vec<_>>(),
-                    )
-                };
-                assert_eq!(bits(&a), bits(&b), "film {film_w}x{film_h}, round {round}: {pos:?}");
-            }
-        }
-    }
 
     /// A reused tile is a new one: same rectangle, zero sums, whatever it held.
     #[test]

@@ -6,7 +6,7 @@
 use crate::camera::Camera;
 use crate::film::{AovTile, Film, FilmSettings, FilmTile, Splats};
 use crate::geometry::{Ray, RayDifferential};
-use crate::math::{is_finite_lane, Vec2, Vec3};
+use crate::math::{Vec2, Vec3};
 use crate::sampler::{first_2d_lanes, PixelSampler, LANES};
 use crate::scene::Scene;
 use rayon::prelude::*;
@@ -147,19 +147,15 @@ impl TileWork<'_, '_> {
         }
     }
 
-    /// [`TileWork::add`] of a block's first `n` samples where the film's filter keeps
-    /// each sample in its own pixel ([`crate::film::Filter::is_own_pixel_box`]), the
-    /// checks made on all lanes at once; inlined into the caller's loop.
+    /// [`TileWork::add`] where the film's filter keeps each sample in its own pixel
+    /// ([`crate::film::Filter::is_own_pixel_box`]), inlined into the caller's loop.
     #[inline(always)]
-    fn add_own_pixels<const N: usize>(&mut self, pos: &[Vec2; N], l: &[Vec3; N], n: usize) {
+    fn add_own_pixel(&mut self, pos: Vec2, l: Vec3) {
         let film = self.ctx.film;
         debug_assert!(film.filter.is_own_pixel_box());
-        let mut finite = [false; N];
-        for i in 0..N {
-            finite[i] = is_finite_lane(l[i].x) & is_finite_lane(l[i].y) & is_finite_lane(l[i].z);
+        if self.finite_or_counted(l) {
+            self.tile.add_own_pixel(pos, l, film.width as i32, film.height as i32);
         }
-        self.counts.invalid += finite[..n.min(N)].iter().filter(|&&f| !f).count() as u64;
-        self.tile.add_own_pixels(pos, l, &finite, n, film.width as i32, film.height as i32);
     }
 
     /// Whether `l` is finite; a sample that is not is counted as invalid.
@@ -366,12 +362,12 @@ where
                             },
                             &mut l[..n],
                         );
-                        if in_order {
-                            for (i, &(x, y)) in px.iter().enumerate() {
+                        for (i, &(x, y)) in px.iter().enumerate() {
+                            if in_order {
                                 done_px[(y - y0) as usize * tw + (x - x0) as usize] = (pos[i], l[i]);
+                            } else {
+                                t.add_own_pixel(pos[i], l[i]);
                             }
-                        } else {
-                            t.add_own_pixels(&pos, &l, n);
                         }
                     }
                 }

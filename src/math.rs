@@ -192,7 +192,7 @@ pub fn offset_coordinates<const L: usize>(p: &[f32; L], n: &[f32; L], out: &mut 
         for ((p4, n4), o4) in pc.zip(nc).zip(oc) {
             // SAFETY: each chunk is four f32s (`chunks_exact`); loads and store are
             // unaligned; SSE2 is part of the x86-64 baseline
-            // (`tests::offset_coordinates_match_the_scalar_formula_bit_for_bit`).
+            // (`tests::offset_ray_origin_lanes_match_the_scalar_formula_bit_for_bit`).
             unsafe {
                 let r = offset_lanes_sse2(_mm_loadu_ps(p4.as_ptr()), _mm_loadu_ps(n4.as_ptr()));
                 _mm_storeu_ps(o4.as_mut_ptr(), r);

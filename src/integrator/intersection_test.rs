@@ -99,7 +99,7 @@ impl IntersectionTest {
                 if let Some(t) = &last {
                     plain.set(i, t, hit.b, ray.d);
                     plain_lanes |= 1 << i;
-                    ends.set_albedo(i, t.albedo);
+                    set_lane(&mut ends.albedo, i, t.albedo);
                     continue;
                 }
             }
@@ -112,8 +112,8 @@ impl IntersectionTest {
                         out[i] = total + Vec3::ZERO; // what `direct_diffuse` returns there
                         continue;
                     };
-                    ends.set_albedo(i, albedo);
-                    ends.set_total(i, total);
+                    set_lane(&mut ends.albedo, i, albedo);
+                    set_lane(&mut ends.total, i, total);
                     at.set(i, &it, nrm);
                     wait |= 1 << i;
                 }
@@ -170,23 +170,17 @@ struct PathEnds {
     albedo: [[f32; PACKET]; 3],
 }
 
+/// Lane `i` of vectors stored by axis set to `v`.
+#[inline(always)]
+fn set_lane(lanes: &mut [[f32; PACKET]; 3], i: usize, v: Vec3) {
+    for (a, axis) in lanes.iter_mut().enumerate() {
+        axis[i] = v[a];
+    }
+}
+
 // lanes are indexed in step across several arrays
 #[allow(clippy::needless_range_loop)]
 impl PathEnds {
-    #[inline(always)]
-    fn set_albedo(&mut self, i: usize, albedo: Vec3) {
-        for a in 0..3 {
-            self.albedo[a][i] = albedo[a];
-        }
-    }
-
-    #[inline(always)]
-    fn set_total(&mut self, i: usize, total: Vec3) {
-        for a in 0..3 {
-            self.total[a][i] = total[a];
-        }
-    }
-
     /// The radiance of the lanes in `wait`: `direct_diffuse`'s sum of the lights'
     /// terms, in light order, over the lights that reach a lane unoccluded
     /// (transmittance 1), then `total + ρ/π · direct`, as glam orders it.
@@ -385,24 +379,16 @@ impl PlainHits {
             self.b[k][i] = b[k];
             self.wo[k][i] = -d[k];
         }
-        // a match, not `Option::map`: its closure was compiled apart from the kernel set's code
-        match t.normals {
-            Some(n) => {
-                for k in 0..3 {
-                    let n = t.mesh.normals[n[k] as usize];
-                    for a in 0..3 {
-                        self.n[k][a][i] = n[a];
-                    }
-                }
-                self.normals[i] = true;
-            }
-            None => {
-                for k in 0..3 {
-                    for a in 0..3 {
-                        self.n[k][a][i] = 0.0;
-                    }
+        // without vertex normals the lane's `n` stays as `default` left it (unread:
+        // `shade` takes the geometric normal there); each block starts a new `PlainHits`
+        if let Some(n) = t.normals {
+            for k in 0..3 {
+                let n = t.mesh.normals[n[k] as usize];
+                for a in 0..3 {
+                    self.n[k][a][i] = n[a];
                 }
             }
+            self.normals[i] = true;
         }
         self.twosided[i] = t.twosided;
     }

@@ -245,26 +245,31 @@ pub fn floor_f32(x: f32) -> f32 {
 /// `atan2(y, x)` in radians, within 2·10⁻⁷ of the exact angle, inlined without a
 /// library call (the polynomial of [`atan_unit`] after folding the angle into the
 /// first octant). NaN in, NaN out; two infinities give NaN (libm: a multiple of π/4).
-#[inline]
+/// Without branches (every case computed, then selected), so that loops over lanes
+/// vectorize: the sky's coordinates of a block's rays are taken together.
+#[inline(always)]
 pub fn atan2_poly(y: f32, x: f32) -> f32 {
-    if x.is_nan() || y.is_nan() {
-        return f32::NAN; // min and max below would drop it
-    }
     let (ax, ay) = (x.abs(), y.abs());
     let (lo, hi) = (ax.min(ay), ax.max(ay));
     // both zero: the angle 0, as libm gives for atan2(±0, +0)
-    let s = if hi > 0.0 { lo / hi } else { lo };
+    let s = select(hi > 0.0, lo / hi, lo);
     let a = atan_unit(s);
     // the octant's angle ± a; the constants in two parts (f32 value + rounding error)
     const HALF: (f32, f32) = (std::f32::consts::FRAC_PI_2, -4.371_139e-8);
     const FULL: (f32, f32) = (PI, -8.742_278e-8);
-    let a = match (ay > ax, x.is_sign_negative()) {
-        (false, false) => a,
-        (true, false) => (HALF.1 - a) + HALF.0,
-        (true, true) => (HALF.1 + a) + HALF.0,
-        (false, true) => (FULL.1 - a) + FULL.0,
-    };
-    a.copysign(y)
+    let (steep, left) = (ay > ax, x.is_sign_negative());
+    let steep_angle = select(left, (HALF.1 + a) + HALF.0, (HALF.1 - a) + HALF.0);
+    let flat_angle = select(left, (FULL.1 - a) + FULL.0, a);
+    let a = select(steep, steep_angle, flat_angle).copysign(y);
+    // min and max above drop a NaN
+    select(x.is_nan() || y.is_nan(), f32::NAN, a)
+}
+
+/// `if c { a } else { b }` for values already computed: a select, not a branch.
+#[inline(always)]
+pub fn select(c: bool, a: f32, b: f32) -> f32 {
+    let m = (c as u32).wrapping_neg();
+    f32::from_bits((a.to_bits() & m) | (b.to_bits() & !m))
 }
 
 /// `atan(s)` for `s` in [0, 1]: `s + s·t·P(t)` with `t = s²`, `P` a degree-7 fit

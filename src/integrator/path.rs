@@ -120,7 +120,14 @@ impl PathTracer {
             diff: diffs[i].as_ref(),
         };
         let mut steps = [(None, false); PACKET];
-        if scene.environment_light().is_some() {
+        if let Some((_, sky)) = scene.environment_light() {
+            // the sky's coordinates of the camera rays that miss, all lanes together
+            if hits[..n].iter().any(Option::is_none) {
+                let (uv, sin_theta) = sky.direction_coords_lanes(&directions(&paths));
+                for i in (0..n).filter(|&i| hits[i].is_none()) {
+                    paths[i].sky_coords = Some((Vec2::new(uv[0][i], uv[1][i]), sin_theta[i]));
+                }
+            }
             // `advance` a step at a time over the block, so that the sky's table and
             // texel loads overlap across paths (elsewhere the split costs more)
             // uninitialised lanes and a mark of those written, rather than an array of
@@ -147,8 +154,16 @@ impl PathTracer {
                 if live[i] {
                     // SAFETY: as above
                     let v = unsafe { lanes[i].assume_init_ref() };
-                    steps[i] = paths[i].end(self, scene, v, samples[i], 1, &mut block.samplers[i], block.counts);
+                    steps[i] = paths[i].end(self, scene, v, samples[i], 1, &mut block.samplers[i], block.counts, false);
                 }
+            }
+            // the sky's coordinates of the next rays, all lanes together (as `end` takes
+            // them for one), and their texels and pdf weights prefetched
+            let (uv, sin_theta) = sky.direction_coords_lanes(&directions(&paths));
+            for i in (0..n).filter(|&i| steps[i].1) {
+                let uv = Vec2::new(uv[0][i], uv[1][i]);
+                sky.prefetch_coords(uv);
+                paths[i].sky_coords = Some((uv, sin_theta[i]));
             }
             for i in 0..n {
                 if live[i] {
@@ -192,6 +207,12 @@ impl PathTracer {
             };
         }
     }
+}
+
+/// The directions of the paths' rays by axis (`[axis][lane]`).
+#[inline(always)]
+fn directions(paths: &[PathState; PACKET]) -> [[f32; PACKET]; 3] {
+    std::array::from_fn(|a| std::array::from_fn(|i| paths[i].ray.d[a]))
 }
 
 /// A light sample's term, waiting for its shadow ray.
@@ -285,7 +306,7 @@ impl PathState {
         match self.begin(tracer, scene, found, sampler) {
             Some(v) => {
                 let ls = v.light_sample(scene);
-                self.end(tracer, scene, &v, ls, segment, sampler, counts)
+                self.end(tracer, scene, &v, ls, segment, sampler, counts, true)
             }
             None => (None, false),
         }
@@ -355,7 +376,8 @@ impl PathState {
     }
 
     /// The last step of [`PathState::advance`]: the light sample's term and shadow
-    /// ray, the BSDF sample, roulette, the next segment's ray.
+    /// ray, the BSDF sample, roulette, the next segment's ray (and, with `sky_coords`,
+    /// its coordinates in the sky, which the caller otherwise takes).
     #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     fn end(
@@ -367,6 +389,7 @@ impl PathState {
         segment: u32,
         sampler: &mut PixelSampler,
         counts: &mut RayCounts,
+        sky_coords: bool,
     ) -> (Option<Shadow>, bool) {
         let (profile, it, bsdf) = (tracer.profile, &v.it, &v.bsdf);
         let (uc, u_bsdf) = (v.uc, v.u_bsdf);
@@ -414,7 +437,7 @@ impl PathState {
             self.beta /= q;
         }
         self.ray = spawn_ray(it, bs.wi);
-        if let Some((_, sky)) = scene.environment_light() {
+        if let (true, Some((_, sky))) = (sky_coords, scene.environment_light()) {
             // should the ray escape, its texels and pdf weight load during the traversal
             let coords = sky.direction_coords(self.ray.d);
             sky.prefetch_coords(coords.0);

@@ -7,7 +7,7 @@
 //! convention 10): `x = u·W − ½` wrapping, `y = v·(H − 1)`, bilinear.
 
 use super::{LightSample, LightSampling, ShadowTarget};
-use crate::math::{atan2_poly, floor_f32, luminance, prefetch, sin_cos_poly, Mat4, Vec2, Vec3, INV_PI, PI};
+use crate::math::{atan2_poly, floor_f32, luminance, prefetch, select, sin_cos_poly, Mat4, Vec2, Vec3, INV_PI, PI};
 use crate::pages::HugeBuf;
 use crate::sampling::{uniform_sphere, Distribution2D};
 use crate::texture::UvMapping;
@@ -135,12 +135,23 @@ impl EnvironmentLight {
     pub fn direction_coords(&self, w: Vec3) -> (Vec2, f32) {
         let l = self.to_local * w;
         let rho = (l.x * l.x + l.y * l.y).sqrt();
-        let mut phi = atan2_poly(l.y, l.x);
-        if phi < 0.0 {
-            phi += 2.0 * PI;
-        }
+        let phi = atan2_poly(l.y, l.x);
+        let phi = select(phi < 0.0, phi + 2.0 * PI, phi);
         let theta = atan2_poly(rho, l.z);
         (Vec2::new(phi * (0.5 * INV_PI), theta * INV_PI), rho / l.length())
+    }
+
+    /// [`Self::direction_coords`] of `L` directions given by axis (`d[axis][lane]`):
+    /// texture coordinates by axis and sinθ, each lane's bits as one call gives them
+    /// (the same operations, in a loop without branches, which vectorizes).
+    #[inline(always)]
+    pub fn direction_coords_lanes<const L: usize>(&self, d: &[[f32; L]; 3]) -> ([[f32; L]; 2], [f32; L]) {
+        let (mut uv, mut sin_theta) = ([[0.0; L]; 2], [0.0; L]);
+        for i in 0..L {
+            let (c, s) = self.direction_coords(Vec3::new(d[0][i], d[1][i], d[2][i]));
+            (uv[0][i], uv[1][i], sin_theta[i]) = (c.x, c.y, s);
+        }
+        (uv, sin_theta)
     }
 
     /// World direction of `uv`, and sinθ there.
@@ -356,6 +367,41 @@ mod tests {
             let w = uniform_sphere(Vec2::new((k as f32 + 0.3) / 50.0, (k as f32 * 0.618).fract()));
             let (back, _) = e.uv_to_direction(e.direction_to_uv(w));
             assert!((back - w).length() < 1e-4, "{w} -> {back}");
+        }
+    }
+
+    /// The lanes function gives each lane the bits of one call, compiled (as the
+    /// renderer runs it) for the widest kernel set, on directions of every octant,
+    /// the axes, zero and NaN, under a rotated sky.
+    #[test]
+    fn direction_coords_lanes_match_one_call_bit_for_bit() {
+        let rotation = Mat4::from_rotation_y(0.7) * Mat4::from_rotation_x(-0.3);
+        let e = EnvironmentLight::new(EnvImage::Constant(Vec3::ONE), 1.0, &rotation);
+        let mut dirs: Vec<Vec3> = vec![
+            Vec3::X,
+            -Vec3::Y,
+            Vec3::Z,
+            -Vec3::Z,
+            Vec3::ZERO,
+            Vec3::NAN,
+            Vec3::new(1e-30, 0.0, -0.0),
+        ];
+        let mut state = 0x9e37_79b9u32;
+        while dirs.len() < 16 * 64 {
+            let mut next = || crate::math::xorshift32(&mut state) as f32 / u32::MAX as f32;
+            dirs.push(uniform_sphere(Vec2::new(next(), next())));
+        }
+        let same = |a: f32, b: f32| a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan());
+        for chunk in dirs.chunks(16) {
+            let d: [[f32; 16]; 3] = std::array::from_fn(|a| std::array::from_fn(|i| chunk[i][a]));
+            let (uv, sin_theta) = crate::accel::wide::Isa::detect().run(
+                #[inline(always)]
+                || e.direction_coords_lanes(&d),
+            );
+            for (i, &w) in chunk.iter().enumerate() {
+                let (c, s) = e.direction_coords(w);
+                assert!(same(uv[0][i], c.x) && same(uv[1][i], c.y) && same(sin_theta[i], s), "{w}");
+            }
         }
     }
 

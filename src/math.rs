@@ -225,21 +225,16 @@ pub fn luminance(c: Vec3) -> f32 {
 /// `x.floor()`, bit for bit (signed zeros, NaN, infinities included), without a
 /// call: the baseline x86-64 target has no rounding instruction, so `f32::floor`
 /// is a library call. Below 2²³ in magnitude a float truncates exactly through
-/// `i32`; from there on every float is an integer.
-#[inline]
+/// `i32`; from there on every float is an integer. Without branches (a select), so
+/// that loops over lanes vectorize.
+#[inline(always)]
 pub fn floor_f32(x: f32) -> f32 {
-    if x.abs() < 8_388_608.0 {
-        let t = x as i32 as f32;
-        // truncation rounds towards zero: one down for negative non-integers
-        if t > x {
-            t - 1.0
-        } else {
-            // keeps the sign of a zero (−0.0 and −0.3 truncate to +0.0 and −1 …)
-            t.copysign(x)
-        }
-    } else {
-        x
-    }
+    // `as` saturates: a truncation that is unused when |x| ≥ 2²³ (or NaN)
+    let t = x as i32 as f32;
+    // truncation rounds towards zero: one down for negative non-integers, and
+    // otherwise the sign of a zero kept (−0.0 and −0.3 truncate to +0.0 and −1 …)
+    let below = select(t > x, t - 1.0, t.copysign(x));
+    select(x.abs() < 8_388_608.0, below, x)
 }
 
 /// `atan2(y, x)` in radians, within 2·10⁻⁷ of the exact angle, inlined without a
@@ -299,23 +294,22 @@ fn atan_unit(s: f32) -> f32 {
 /// renderer), inlined without a library call: `x` reduced by the nearest multiple of
 /// π/2 in two steps (Cody and Waite; the first constant's low bits are zero, so
 /// `k·HI` is exact), then degree-7 and degree-8 polynomials on [−π/4, π/4] (fits as
-/// for [`atan_unit`]). NaN and infinities give NaN.
-#[inline]
+/// for [`atan_unit`]). NaN and infinities give NaN. Without branches (the quadrant's
+/// swap and signs are selects), so that loops over lanes vectorize.
+#[inline(always)]
 pub fn sin_cos_poly(x: f32) -> (f32, f32) {
     const HI: f32 = 1.570_312_5;
     const LO: f32 = 4.838_268e-4;
-    if x.is_nan() || x.abs() > 1e4 {
-        return (f32::NAN, f32::NAN);
-    }
     let k = floor_f32(x * std::f32::consts::FRAC_2_PI + 0.5);
     let r = (x - k * HI) - k * LO;
     let (sin, cos) = sin_cos_quarter(r);
-    match (k as i32) & 3 {
-        0 => (sin, cos),
-        1 => (cos, -sin),
-        2 => (-sin, -cos),
-        _ => (-cos, sin),
-    }
+    // quadrant q: (sin, cos), (cos, −sin), (−sin, −cos), (−cos, sin)
+    let q = (k as i32) & 3;
+    let (s, c) = (select(q & 1 != 0, cos, sin), select(q & 1 != 0, sin, cos));
+    let s = select(q >= 2, -s, s);
+    let c = select(q == 1 || q == 2, -c, c);
+    let bad = x.is_nan() || x.abs() > 1e4;
+    (select(bad, f32::NAN, s), select(bad, f32::NAN, c))
 }
 
 /// `(sin r, cos r)` for |r| ≤ π/4 (the polynomials of [`sin_cos_poly`] without its

@@ -14,7 +14,8 @@ use super::pass::CameraBlock;
 use super::{spawn_ray, RayCounts};
 use crate::accel::wide::PACKET;
 use crate::geometry::{Ray, RayDifferential};
-use crate::light::{Light, LightSample};
+use crate::light::environment::EnvironmentLight;
+use crate::light::{Light, LightSample, LightSampling, ShadowTarget};
 use crate::material::bsdf::Bsdf;
 use crate::math::{Vec2, Vec3};
 use crate::sampler::PixelSampler;
@@ -120,7 +121,7 @@ impl PathTracer {
             diff: diffs[i].as_ref(),
         };
         let mut steps = [(None, false); PACKET];
-        if let Some((_, sky)) = scene.environment_light() {
+        if let Some((env, sky)) = scene.environment_light() {
             // the sky's coordinates of the camera rays that miss, all lanes together
             if hits[..n].iter().any(Option::is_none) {
                 let (uv, sin_theta) = sky.direction_coords_lanes(&directions(&paths));
@@ -141,20 +142,49 @@ impl PathTracer {
                     live[i] = true;
                 }
             }
+            // light samples; the sky's own (by importance) in two steps, their
+            // trigonometry for all lanes at once
             let mut samples = [None; PACKET];
+            let (mut sky_uv, mut sky_pdf, mut sky_lanes) = ([[0.0f32; PACKET]; 2], [0.0f32; PACKET], 0u32);
+            let importance = scene.light_sampling == LightSampling::Importance;
             for i in 0..n {
                 if live[i] {
                     // SAFETY: live lanes were written above (and are dropped only below)
                     let v = unsafe { lanes[i].assume_init_ref() };
-                    // no closure here: it would be compiled apart from the kernel set's code
-                    samples[i] = v.light_sample(scene);
+                    match v.light {
+                        Some((index, _, u)) if importance && index == env as usize => {
+                            let (uv, pdf) = sky.sample_uv(u);
+                            (sky_uv[0][i], sky_uv[1][i], sky_pdf[i]) = (uv.x, uv.y, pdf);
+                            sky_lanes |= 1 << i;
+                        }
+                        // no closure here: it would be compiled apart from the kernel set's code
+                        _ => samples[i] = v.light_sample(scene),
+                    }
+                }
+            }
+            // and the sky's coordinates of the sampled directions, for their radiance
+            let mut radiance_uv = [None; PACKET];
+            if sky_lanes != 0 {
+                let (wi, sin_theta) = sky.uv_to_direction_lanes(&sky_uv);
+                let (uv, _) = sky.direction_coords_lanes(&wi);
+                for i in (0..n).filter(|&i| sky_lanes >> i & 1 != 0) {
+                    let w = Vec3::new(wi[0][i], wi[1][i], wi[2][i]);
+                    samples[i] = EnvironmentLight::direction_sample(w, sin_theta[i], sky_pdf[i]).map(|(wi, pdf)| LightSample {
+                        radiance: Vec3::ZERO,
+                        wi,
+                        pdf,
+                        delta: false,
+                        target: ShadowTarget::Infinity,
+                    });
+                    radiance_uv[i] = Some(Vec2::new(uv[0][i], uv[1][i]));
                 }
             }
             for i in 0..n {
                 if live[i] {
                     // SAFETY: as above
                     let v = unsafe { lanes[i].assume_init_ref() };
-                    steps[i] = paths[i].end(self, scene, v, samples[i], 1, &mut block.samplers[i], block.counts, false);
+                    let sample = (samples[i], radiance_uv[i]);
+                    steps[i] = paths[i].end(self, scene, v, sample, 1, &mut block.samplers[i], block.counts, false);
                 }
             }
             // the sky's coordinates of the next rays, all lanes together (as `end` takes
@@ -306,7 +336,7 @@ impl PathState {
         match self.begin(tracer, scene, found, sampler) {
             Some(v) => {
                 let ls = v.light_sample(scene);
-                self.end(tracer, scene, &v, ls, segment, sampler, counts, true)
+                self.end(tracer, scene, &v, (ls, None), segment, sampler, counts, true)
             }
             None => (None, false),
         }
@@ -377,7 +407,8 @@ impl PathState {
 
     /// The last step of [`PathState::advance`]: the light sample's term and shadow
     /// ray, the BSDF sample, roulette, the next segment's ray (and, with `sky_coords`,
-    /// its coordinates in the sky, which the caller otherwise takes).
+    /// its coordinates in the sky, which the caller otherwise takes). A sample of the
+    /// sky may come with the texture coordinates of its direction (for its radiance).
     #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     fn end(
@@ -385,7 +416,7 @@ impl PathState {
         tracer: &PathTracer,
         scene: &Scene,
         v: &Vertex,
-        ls: Option<LightSample>,
+        (ls, sky_uv): (Option<LightSample>, Option<Vec2>),
         segment: u32,
         sampler: &mut PixelSampler,
         counts: &mut RayCounts,
@@ -400,7 +431,10 @@ impl PathState {
             let f = bsdf.eval(it.wo, ls.wi);
             let cos = it.ns.dot(ls.wi).abs();
             if f != Vec3::ZERO && ls.pdf > 0.0 && pmf > 0.0 && {
-                ls.radiance = light.radiance_of(&ls);
+                ls.radiance = match (sky_uv, light) {
+                    (Some(uv), Light::Environment(sky)) => sky.radiance_at(uv),
+                    _ => light.radiance_of(&ls),
+                };
                 ls.radiance != Vec3::ZERO
             } {
                 counts.rays += 1;

@@ -164,6 +164,19 @@ impl EnvironmentLight {
         ((self.to_world * l).normalize(), st)
     }
 
+    /// [`Self::uv_to_direction`] of `L` texture coordinates given by axis
+    /// (`uv[axis][lane]`): directions by axis and sinθ, each lane's bits as one call
+    /// gives them (a loop without branches, which vectorizes).
+    #[inline(always)]
+    pub fn uv_to_direction_lanes<const L: usize>(&self, uv: &[[f32; L]; 2]) -> ([[f32; L]; 3], [f32; L]) {
+        let (mut d, mut sin_theta) = ([[0.0; L]; 3], [0.0; L]);
+        for i in 0..L {
+            let (w, s) = self.uv_to_direction(Vec2::new(uv[0][i], uv[1][i]));
+            (d[0][i], d[1][i], d[2][i], sin_theta[i]) = (w.x, w.y, w.z, s);
+        }
+        (d, sin_theta)
+    }
+
     /// Unscaled radiance at texture coordinates `uv`.
     #[inline(always)]
     fn lookup(&self, uv: Vec2) -> Vec3 {
@@ -268,16 +281,31 @@ impl EnvironmentLight {
         match mode {
             LightSampling::Uniform => Some((uniform_sphere(u), 1.0 / (4.0 * PI))),
             LightSampling::Importance => {
-                let (uv, pdf_uv) = self.distribution.sample(u);
-                // the radiance will be looked up at (about) `uv`, after the trigonometry
-                self.prefetch_texels(uv);
+                let (uv, pdf_uv) = self.sample_uv(u);
                 let (wi, sin_theta) = self.uv_to_direction(uv);
-                if sin_theta <= 0.0 || pdf_uv <= 0.0 {
-                    return None;
-                }
-                Some((wi, pdf_uv / (2.0 * PI * PI * sin_theta)))
+                Self::direction_sample(wi, sin_theta, pdf_uv)
             }
         }
+    }
+
+    /// The first step of an importance sample ([`Self::sample_direction`]): the
+    /// texture coordinates drawn for `u` and their density over `[0, 1)²`.
+    #[inline(always)]
+    pub fn sample_uv(&self, u: Vec2) -> (Vec2, f32) {
+        let (uv, pdf_uv) = self.distribution.sample(u);
+        // the radiance will be looked up at (about) `uv`, after the trigonometry
+        self.prefetch_texels(uv);
+        (uv, pdf_uv)
+    }
+
+    /// The last step: direction `wi` of the drawn coordinates ([`Self::uv_to_direction`],
+    /// with sinθ there) and its solid-angle density; `None` where that has none.
+    #[inline(always)]
+    pub fn direction_sample(wi: Vec3, sin_theta: f32, pdf_uv: f32) -> Option<(Vec3, f32)> {
+        if sin_theta <= 0.0 || pdf_uv <= 0.0 {
+            return None;
+        }
+        Some((wi, pdf_uv / (2.0 * PI * PI * sin_theta)))
     }
 
     pub fn pdf(&self, wi: Vec3, mode: LightSampling) -> f32 {
@@ -370,11 +398,12 @@ mod tests {
         }
     }
 
-    /// The lanes function gives each lane the bits of one call, compiled (as the
-    /// renderer runs it) for the widest kernel set, on directions of every octant,
-    /// the axes, zero and NaN, under a rotated sky.
+    /// The lanes functions give each lane the bits of one call, compiled (as the
+    /// renderer runs them) for the widest kernel set: coordinates of directions of
+    /// every octant, the axes, zero and NaN, under a rotated sky, and the directions
+    /// of those coordinates.
     #[test]
-    fn direction_coords_lanes_match_one_call_bit_for_bit() {
+    fn lanes_match_one_call_bit_for_bit() {
         let rotation = Mat4::from_rotation_y(0.7) * Mat4::from_rotation_x(-0.3);
         let e = EnvironmentLight::new(EnvImage::Constant(Vec3::ONE), 1.0, &rotation);
         let mut dirs: Vec<Vec3> = vec![
@@ -398,9 +427,15 @@ mod tests {
                 #[inline(always)]
                 || e.direction_coords_lanes(&d),
             );
+            let (back, back_sin) = crate::accel::wide::Isa::detect().run(
+                #[inline(always)]
+                || e.uv_to_direction_lanes(&uv),
+            );
             for (i, &w) in chunk.iter().enumerate() {
                 let (c, s) = e.direction_coords(w);
                 assert!(same(uv[0][i], c.x) && same(uv[1][i], c.y) && same(sin_theta[i], s), "{w}");
+                let (b, s) = e.uv_to_direction(c);
+                assert!((0..3).all(|a| same(back[a][i], b[a])) && same(back_sin[i], s), "{c}");
             }
         }
     }

@@ -335,6 +335,10 @@ fn bvh_with_spheres_via_build_bvh() {
     }
     let (_, hits) = check_prims("spheres and triangles", &mut rng, prims, 6000);
     assert!(hits > 1000);
+    // and a tree of spheres alone (its traversal compiled without triangle blocks)
+    let spheres = random_spheres(&mut rng, 500, (1e-3, 0.3));
+    let (_, hits) = check_prims("spheres only", &mut rng, spheres, 3000);
+    assert!(hits > 500);
 }
 
 /// Spheres are tested one at a time, so the builder must not pack them eight

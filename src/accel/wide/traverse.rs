@@ -125,10 +125,32 @@ pub(super) struct RayData {
 impl RayData {
     #[inline(always)]
     pub(super) fn new(ray: &Ray) -> RayData {
+        Self::for_tree::<true>(ray)
+    }
+
+    /// The ray's data for a tree with triangle blocks (`TRIANGLES`) or without them,
+    /// whose rays need no watertight set-up (`tri_ok` false).
+    #[inline(always)]
+    pub(super) fn for_tree<const TRIANGLES: bool>(ray: &Ray) -> RayData {
         let inv = safe_inverse(ray.d);
         let inv = [inv.x, inv.y, inv.z];
         let near = [0, 1, 2].map(|a| 2 * a + (inv[a] < 0.0) as usize);
         let far = [0, 1, 2].map(|a| 2 * a + (inv[a] >= 0.0) as usize);
+        if !TRIANGLES {
+            return RayData {
+                o: ray.o,
+                d: ray.d,
+                t_min: ray.t_min,
+                inv,
+                near,
+                far,
+                k: [0, 1, 2],
+                op: [0.0; 3],
+                s: [0.0; 3],
+                dz_abs: 0.0,
+                tri_ok: false,
+            };
+        }
         // the watertight kernel's permutation and shear, exactly as it computes them
         let (kx, ky, kz) = watertight_axes(ray.d);
         // arrays, not `Vec3` indexing (a match on the axis, which became branches)
@@ -265,7 +287,19 @@ fn key(d: f32, child: u32) -> u64 {
 /// Closest hit; the generic body of every instruction set's entry point.
 #[inline(always)]
 pub(super) fn closest<K: Kernel, L: Leaves + ?Sized, const S: usize>(bvh: &WideBvh, prims: &L, ray: &Ray) -> Option<Hit> {
-    let r = RayData::new(ray);
+    // a tree without triangle blocks (spheres only, a top level of instances): its
+    // own copy, without the watertight set-up and the block test
+    if bvh.blocks.is_empty() {
+        closest_in::<K, L, S, false>(bvh, prims, ray)
+    } else {
+        closest_in::<K, L, S, true>(bvh, prims, ray)
+    }
+}
+
+/// [`closest`] in a tree with triangle blocks (`TRIANGLES`) or without.
+#[inline(always)]
+fn closest_in<K: Kernel, L: Leaves + ?Sized, const S: usize, const TRIANGLES: bool>(bvh: &WideBvh, prims: &L, ray: &Ray) -> Option<Hit> {
+    let r = RayData::for_tree::<TRIANGLES>(ray);
     let mut t_max = ray.t_max;
     let mut best: Option<Hit> = None;
     // stack entries: entry distance's bits above, child reference below (for
@@ -370,7 +404,18 @@ pub(super) fn closest<K: Kernel, L: Leaves + ?Sized, const S: usize>(bvh: &WideB
 /// Any hit; the generic body of every instruction set's entry point.
 #[inline(always)]
 pub(super) fn any<K: Kernel, L: Leaves + ?Sized, const S: usize>(bvh: &WideBvh, prims: &L, ray: &Ray) -> bool {
-    let r = RayData::new(ray);
+    // as in `closest`
+    if bvh.blocks.is_empty() {
+        any_in::<K, L, S, false>(bvh, prims, ray)
+    } else {
+        any_in::<K, L, S, true>(bvh, prims, ray)
+    }
+}
+
+/// [`any`] in a tree with triangle blocks (`TRIANGLES`) or without.
+#[inline(always)]
+fn any_in<K: Kernel, L: Leaves + ?Sized, const S: usize, const TRIANGLES: bool>(bvh: &WideBvh, prims: &L, ray: &Ray) -> bool {
+    let r = RayData::for_tree::<TRIANGLES>(ray);
     let t_max = ray.t_max;
     // not zeroed for every ray; entries `..sp` are initialised
     let mut st = [MaybeUninit::<u32>::uninit(); S];

@@ -54,6 +54,8 @@ fn path_packet_pass_matches_ray_by_ray() {
     let over = r#"{"film": {"resolution": [37, 29], "filter": {"type": "gaussian", "radius": 1.5}},
                    "integrator": {"type": "path", "max_depth": 8}}"#;
     check(&Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell.json"), &[over]);
+    // the sky, and second segments that hit something (a floor, glass, metal)
+    check(&Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/showcase.json"), &[over]);
     if let Some(s) = common::shared() {
         // an area light and a glass sphere; the sky
         check(&s.join("refs/scenes/caustic_cbox.json"), &[over]);

@@ -97,8 +97,10 @@ impl PathTracer {
     /// hits, are traced as one packet each (a packet query gives the single-ray
     /// answer; without masks a shadow ray's transmittance is 1 or 0); each path
     /// then goes on alone, as later segments' rays scatter and trace faster one at
-    /// a time (README, "Speed"). Each path draws its numbers in `li`'s order and
-    /// sums its terms in the same order.
+    /// a time (README, "Speed"). Under a sky the block's second segments are still
+    /// taken in step (their rays, one at a time, then each path's step), so that the
+    /// sky's lookups overlap; stepping every segment so was slower elsewhere. Each
+    /// path draws its numbers in `li`'s order and sums its terms in the same order.
     pub fn li_block(&self, scene: &Scene, block: &mut CameraBlock, out: &mut [Vec3]) {
         scene.bvh.isa().run(
             #[inline(always)]
@@ -221,7 +223,7 @@ impl PathTracer {
         } else {
             0
         };
-        for (i, (shadow, goes_on)) in steps.iter().enumerate().take(n) {
+        for (i, (shadow, _)) in steps.iter().enumerate().take(n) {
             if let Some(s) = shadow {
                 let tr = if scene.packets() {
                     (lit >> i & 1) as f32
@@ -230,8 +232,38 @@ impl PathTracer {
                 };
                 paths[i].add_unoccluded(s, tr);
             }
-            out[i] = if *goes_on {
-                self.finish(scene, paths[i], 2, None, &mut block.samplers[i], block.counts)
+        }
+        let mut going = (0..n).filter(|&i| steps[i].1).fold(0u32, |m, i| m | 1 << i);
+        let mut segment = 1;
+        if scene.environment_light().is_some() {
+            // the second segment's rays one after another, then each path's step (the
+            // first turn of `finish`'s loop): independent traversals and the sky's lookups
+            // of the rays that escape overlap across paths
+            let mut hits = [None; PACKET];
+            for i in (0..n).filter(|&i| going >> i & 1 != 0) {
+                block.counts.rays += 1;
+                hits[i] = scene.intersect(&paths[i].ray);
+            }
+            let traced = going;
+            for i in (0..n).filter(|&i| traced >> i & 1 != 0) {
+                let found = Found {
+                    hit: hits[i],
+                    segment: 2,
+                    diff: None,
+                };
+                let (shadow, goes_on) = paths[i].advance(self, scene, found, &mut block.samplers[i], block.counts);
+                if let Some(s) = shadow {
+                    paths[i].add_unoccluded(&s, scene.transmittance(&s.ray));
+                }
+                if !goes_on {
+                    going &= !(1 << i);
+                }
+            }
+            segment = 2;
+        }
+        for i in 0..n {
+            out[i] = if going >> i & 1 != 0 {
+                self.finish(scene, paths[i], segment + 1, None, &mut block.samplers[i], block.counts)
             } else {
                 paths[i].l
             };

@@ -39,7 +39,29 @@ impl Sphere {
     }
 
     /// Distance to the nearest hit in `[t_min, t_max]`; tangent rays miss.
+    #[inline]
     pub fn intersect(&self, o: Vec3, d: Vec3, t_min: f32, t_max: f32) -> Option<f32> {
+        let t = self.hit_distance(o, d, t_min, t_max);
+        (!t.is_nan()).then_some(t)
+    }
+
+    /// [`Sphere::intersect`] of `L` rays given by axis (`o[axis][lane]`), NaN where
+    /// a ray misses: each lane's bits as one call gives them (a loop without
+    /// branches, which vectorizes).
+    #[inline(always)]
+    pub fn intersect_lanes<const L: usize>(&self, o: &[[f32; L]; 3], d: &[[f32; L]; 3], t_min: &[f32; L], t_max: &[f32; L]) -> [f32; L] {
+        let mut t = [0.0; L];
+        for i in 0..L {
+            let at = |v: &[[f32; L]; 3]| Vec3::new(v[0][i], v[1][i], v[2][i]);
+            t[i] = self.hit_distance(at(o), at(d), t_min[i], t_max[i]);
+        }
+        t
+    }
+
+    /// The nearest hit's distance in `[t_min, t_max]`, NaN for none: an f64 stable
+    /// quadratic, without branches (every case computed, then selected).
+    #[inline(always)]
+    fn hit_distance(&self, o: Vec3, d: Vec3, t_min: f32, t_max: f32) -> f32 {
         let dd = d.as_dvec3();
         // the length once for both uses (the same value `dd.length()` gives twice)
         let len = dd.length();
@@ -49,25 +71,21 @@ impl Sphere {
         let b = 2.0 * dd.dot(oc);
         let c = oc.dot(oc) - r * r;
         let disc = b * b - 4.0 * c;
-        if disc <= 0.0 {
-            return None;
-        }
         let sq = disc.sqrt();
         let q = if b >= 0.0 { -b - sq } else { sq - b };
-        let (mut t1, mut t2) = (q / 2.0, 2.0 * c / q);
-        if t1 > t2 {
-            std::mem::swap(&mut t1, &mut t2);
-        }
+        let (near, far) = (q / 2.0, 2.0 * c / q);
+        let (t1, t2) = if near > far { (far, near) } else { (near, far) };
         // distances are along the normalised direction; rescale to the ray's own
         let scale = 1.0 / len;
         let (t1, t2) = (t1 * scale, t2 * scale);
         let (lo, hi) = (t_min as f64, t_max as f64);
-        if t1 >= lo && t1 <= hi {
-            Some(t1 as f32)
-        } else if t2 >= lo && t2 <= hi {
-            Some(t2 as f32)
+        let (first, second) = (t1 >= lo && t1 <= hi, t2 >= lo && t2 <= hi);
+        let t = if first { t1 } else { t2 } as f32;
+        // tangent rays (and a NaN discriminant, whose distances are NaN) miss
+        if disc > 0.0 && (first || second) {
+            t
         } else {
-            None
+            f32::NAN
         }
     }
 

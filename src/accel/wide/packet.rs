@@ -248,6 +248,7 @@ fn each_bit(mut m: u32) -> impl Iterator<Item = usize> {
 pub(super) struct Packet<'r, V: Simd<N>, const N: usize> {
     rays: &'r [Ray],
     o: [V; 3],
+    d: [V; 3],
     inv: [V; 3],
     /// Lanes whose direction is negative on each axis: they enter a box at its high plane.
     neg: [V::M; 3],
@@ -309,6 +310,7 @@ impl<'r, V: Simd<N>, const N: usize> Packet<'r, V, N> {
         Packet {
             rays,
             o,
+            d,
             inv,
             neg: [inv[0].lt(zero), inv[1].lt(zero), inv[2].lt(zero)],
             t_min,
@@ -321,6 +323,34 @@ impl<'r, V: Simd<N>, const N: usize> Packet<'r, V, N> {
             valid,
             tri_ok,
         }
+    }
+}
+
+/// A packet's rays as arrays: origins and directions by axis, `t_min`, `t_max`.
+struct Rows<const N: usize> {
+    o: [[f32; N]; 3],
+    d: [[f32; N]; 3],
+    t_min: [f32; N],
+    t_max: [f32; N],
+}
+
+impl<V: Simd<N>, const N: usize> Packet<'_, V, N> {
+    /// The rays as arrays (for [`Sphere::intersect_lanes`](crate::geometry::sphere::Sphere::intersect_lanes)).
+    #[inline(always)]
+    fn rows(&self) -> Rows<N> {
+        let mut r = Rows {
+            o: [[0.0; N]; 3],
+            d: [[0.0; N]; 3],
+            t_min: [0.0; N],
+            t_max: [0.0; N],
+        };
+        for a in 0..3 {
+            self.o[a].store(&mut r.o[a]);
+            self.d[a].store(&mut r.d[a]);
+        }
+        self.t_min.store(&mut r.t_min);
+        self.t_max.store(&mut r.t_max);
+        r
     }
 }
 
@@ -665,14 +695,25 @@ pub(super) fn closest_packet<V: Simd<N>, L: Leaves + ?Sized, const N: usize, con
                     best.lim.store(&mut lim);
                     let (mut has, mut tv, mut bv) = (0u32, [0.0f32; N], [[0.0f32; N]; 3]);
                     let (mut prim, mut sub) = ([0u32; N], [0u32; N]);
-                    for r in each_bit(cur_mask & !best.flagged) {
-                        if let Some(h) = prims.closest(pi, &rays[r], lim[r]) {
+                    let live = cur_mask & !best.flagged;
+                    if let Some(sphere) = prims.sphere(pi) {
+                        // all rays at once (NaN: a miss); a sphere's `b` and `sub` are zero
+                        let r = p.rows();
+                        let t = sphere.intersect_lanes(&r.o, &r.d, &r.t_min, &lim);
+                        for r in each_bit(live).filter(|&r| !t[r].is_nan()) {
                             has |= 1 << r;
-                            tv[r] = h.t;
-                            for a in 0..3 {
-                                bv[a][r] = h.b[a];
+                            (tv[r], prim[r]) = (t[r], pi);
+                        }
+                    } else {
+                        for r in each_bit(live) {
+                            if let Some(h) = prims.closest(pi, &rays[r], lim[r]) {
+                                has |= 1 << r;
+                                tv[r] = h.t;
+                                for a in 0..3 {
+                                    bv[a][r] = h.b[a];
+                                }
+                                (prim[r], sub[r]) = (h.prim, h.sub);
                             }
-                            (prim[r], sub[r]) = (h.prim, h.sub);
                         }
                     }
                     if has != 0 {
@@ -789,9 +830,18 @@ pub(super) fn any_packet<V: Simd<N>, L: Leaves + ?Sized, const N: usize, const S
             let (first, count) = leaf_range(cur);
             if cur & GENERIC != 0 {
                 for &pi in &bvh.generic[first..first + count] {
-                    for r in each_bit(cur_mask & !occluded) {
-                        if prims.any(pi, &rays[r], rays[r].t_max) {
+                    if let Some(sphere) = prims.sphere(pi) {
+                        // all rays at once (NaN: a miss)
+                        let r = p.rows();
+                        let t = sphere.intersect_lanes(&r.o, &r.d, &r.t_min, &r.t_max);
+                        for r in each_bit(cur_mask & !occluded).filter(|&r| !t[r].is_nan()) {
                             occluded |= 1 << r;
+                        }
+                    } else {
+                        for r in each_bit(cur_mask & !occluded) {
+                            if prims.any(pi, &rays[r], rays[r].t_max) {
+                                occluded |= 1 << r;
+                            }
                         }
                     }
                 }

@@ -15,6 +15,7 @@ use super::node::{leaf_range, TriBlock, WideNode, EMPTY, GENERIC, LANES, LEAF, W
 use super::WideBvh;
 use crate::geometry::aabb::safe_inverse;
 use crate::geometry::prim::{Hit, Prim};
+use crate::geometry::sphere::Sphere;
 use crate::geometry::triangle::{intersect_watertight, watertight_axes};
 use crate::geometry::Ray;
 use crate::math::{gamma, Vec3};
@@ -28,6 +29,12 @@ pub trait Leaves {
     fn closest(&self, p: u32, ray: &Ray, t_max: f32) -> Option<Hit>;
     /// Whether primitive `p` is hit in `[ray.t_min, t_max]`.
     fn any(&self, p: u32, ray: &Ray, t_max: f32) -> bool;
+    /// Primitive `p` if it is a sphere (hit `prim: p`, `b` and `sub` zero), which the
+    /// packet kernels test against all their rays at once.
+    #[inline(always)]
+    fn sphere(&self, _p: u32) -> Option<&Sphere> {
+        None
+    }
 }
 
 impl Leaves for [Prim] {
@@ -38,6 +45,13 @@ impl Leaves for [Prim] {
     #[inline(always)]
     fn any(&self, p: u32, ray: &Ray, t_max: f32) -> bool {
         self[p as usize].intersect(ray, t_max).is_some()
+    }
+    #[inline(always)]
+    fn sphere(&self, p: u32) -> Option<&Sphere> {
+        match &self[p as usize] {
+            Prim::Sphere { sphere, .. } => Some(sphere),
+            _ => None,
+        }
     }
 }
 

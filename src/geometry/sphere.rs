@@ -41,7 +41,12 @@ impl Sphere {
     /// Distance to the nearest hit in `[t_min, t_max]`; tangent rays miss.
     #[inline]
     pub fn intersect(&self, o: Vec3, d: Vec3, t_min: f32, t_max: f32) -> Option<f32> {
-        let t = self.hit_distance(o, d, t_min, t_max);
+        let quadratic = self.quadratic(o, d);
+        // one ray alone stops here when it misses (most of a scene's spheres)
+        if !(quadratic.disc > 0.0) {
+            return None;
+        }
+        let t = quadratic.hit_distance(t_min, t_max);
         (!t.is_nan()).then_some(t)
     }
 
@@ -53,15 +58,14 @@ impl Sphere {
         let mut t = [0.0; L];
         for i in 0..L {
             let at = |v: &[[f32; L]; 3]| Vec3::new(v[0][i], v[1][i], v[2][i]);
-            t[i] = self.hit_distance(at(o), at(d), t_min[i], t_max[i]);
+            t[i] = self.quadratic(at(o), at(d)).hit_distance(t_min[i], t_max[i]);
         }
         t
     }
 
-    /// The nearest hit's distance in `[t_min, t_max]`, NaN for none: an f64 stable
-    /// quadratic, without branches (every case computed, then selected).
+    /// The ray's quadratic along its normalised direction (f64).
     #[inline(always)]
-    fn hit_distance(&self, o: Vec3, d: Vec3, t_min: f32, t_max: f32) -> f32 {
+    fn quadratic(&self, o: Vec3, d: Vec3) -> Quadratic {
         let dd = d.as_dvec3();
         // the length once for both uses (the same value `dd.length()` gives twice)
         let len = dd.length();
@@ -70,22 +74,11 @@ impl Sphere {
         let r = self.radius as f64;
         let b = 2.0 * dd.dot(oc);
         let c = oc.dot(oc) - r * r;
-        let disc = b * b - 4.0 * c;
-        let sq = disc.sqrt();
-        let q = if b >= 0.0 { -b - sq } else { sq - b };
-        let (near, far) = (q / 2.0, 2.0 * c / q);
-        let (t1, t2) = if near > far { (far, near) } else { (near, far) };
-        // distances are along the normalised direction; rescale to the ray's own
-        let scale = 1.0 / len;
-        let (t1, t2) = (t1 * scale, t2 * scale);
-        let (lo, hi) = (t_min as f64, t_max as f64);
-        let (first, second) = (t1 >= lo && t1 <= hi, t2 >= lo && t2 <= hi);
-        let t = if first { t1 } else { t2 } as f32;
-        // tangent rays (and a NaN discriminant, whose distances are NaN) miss
-        if disc > 0.0 && (first || second) {
-            t
-        } else {
-            f32::NAN
+        Quadratic {
+            len,
+            b,
+            c,
+            disc: b * b - 4.0 * c,
         }
     }
 
@@ -127,6 +120,40 @@ impl Sphere {
 
     pub fn area(&self) -> f32 {
         4.0 * PI * self.radius * self.radius
+    }
+}
+
+/// `t² + b·t + c = 0` of a ray and a sphere, `t` along the ray's normalised direction
+/// (its length `len`), and the discriminant.
+struct Quadratic {
+    len: f64,
+    b: f64,
+    c: f64,
+    disc: f64,
+}
+
+impl Quadratic {
+    /// The nearest root in `[t_min, t_max]` on the ray's own scale, NaN for none: the
+    /// stable form, without branches (every case computed, then selected).
+    #[inline(always)]
+    fn hit_distance(&self, t_min: f32, t_max: f32) -> f32 {
+        let Quadratic { len, b, c, disc } = *self;
+        let sq = disc.sqrt();
+        let q = if b >= 0.0 { -b - sq } else { sq - b };
+        let (near, far) = (q / 2.0, 2.0 * c / q);
+        let (t1, t2) = if near > far { (far, near) } else { (near, far) };
+        // distances are along the normalised direction; rescale to the ray's own
+        let scale = 1.0 / len;
+        let (t1, t2) = (t1 * scale, t2 * scale);
+        let (lo, hi) = (t_min as f64, t_max as f64);
+        let (first, second) = (t1 >= lo && t1 <= hi, t2 >= lo && t2 <= hi);
+        let t = if first { t1 } else { t2 } as f32;
+        // tangent rays (and a NaN discriminant, whose distances are NaN) miss
+        if disc > 0.0 && (first || second) {
+            t
+        } else {
+            f32::NAN
+        }
     }
 }
 

@@ -43,7 +43,7 @@ impl Sphere {
     pub fn intersect(&self, o: Vec3, d: Vec3, t_min: f32, t_max: f32) -> Option<f32> {
         let quadratic = self.quadratic(o, d);
         // one ray alone stops here when it misses (most of a scene's spheres)
-        if !(quadratic.disc > 0.0) {
+        if quadratic.disc <= 0.0 {
             return None;
         }
         let t = quadratic.hit_distance(t_min, t_max);

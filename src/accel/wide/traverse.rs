@@ -150,20 +150,21 @@ impl RayData {
         let inv = [inv.x, inv.y, inv.z];
         let near = [0, 1, 2].map(|a| 2 * a + (inv[a] < 0.0) as usize);
         let far = [0, 1, 2].map(|a| 2 * a + (inv[a] >= 0.0) as usize);
+        let boxes_only = RayData {
+            o: ray.o,
+            d: ray.d,
+            t_min: ray.t_min,
+            inv,
+            near,
+            far,
+            k: [0, 1, 2],
+            op: [0.0; 3],
+            s: [0.0; 3],
+            dz_abs: 0.0,
+            tri_ok: false,
+        };
         if !TRIANGLES {
-            return RayData {
-                o: ray.o,
-                d: ray.d,
-                t_min: ray.t_min,
-                inv,
-                near,
-                far,
-                k: [0, 1, 2],
-                op: [0.0; 3],
-                s: [0.0; 3],
-                dz_abs: 0.0,
-                tri_ok: false,
-            };
+            return boxes_only;
         }
         // the watertight kernel's permutation and shear, exactly as it computes them
         let (kx, ky, kz) = watertight_axes(ray.d);
@@ -171,17 +172,12 @@ impl RayData {
         let (d, o) = (ray.d.to_array(), ray.o.to_array());
         let dz = d[kz];
         RayData {
-            o: ray.o,
-            d: ray.d,
-            t_min: ray.t_min,
-            inv,
-            near,
-            far,
             k: [kx, ky, kz],
             op: [o[kx], o[ky], o[kz]],
             s: [-d[kx] / dz, -d[ky] / dz, 1.0 / dz],
             dz_abs: dz.abs(),
             tri_ok: dz != 0.0,
+            ..boxes_only
         }
     }
 }

@@ -54,8 +54,25 @@ fn path_packet_pass_matches_ray_by_ray() {
     let over = r#"{"film": {"resolution": [37, 29], "filter": {"type": "gaussian", "radius": 1.5}},
                    "integrator": {"type": "path", "max_depth": 8}}"#;
     check(&Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell.json"), &[over]);
-    // the sky, and second segments that hit something (a floor, glass, metal)
-    check(&Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/showcase.json"), &[over]);
+    // the sky, and second segments that hit something (a floor, glass, metal): a tree
+    // of one node (second segments traced as a packet), and with a row of small
+    // spheres added, of several (traced ray by ray)
+    let showcase = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/showcase.json");
+    check(&showcase, &[over]);
+    let row: Vec<String> = (0..24)
+        .map(|k| {
+            format!(
+                r#"{{"type": "sphere", "center": [{}, 0.15, 1.2], "radius": 0.12, "material_name": "blue"}}"#,
+                k as f32 * 0.3 - 3.6
+            )
+        })
+        .collect();
+    let objects = format!(
+        r#"{{"objects": [{{"type": "mesh", "path": "showcase/floor.obj", "material_name": "floor"}},
+            {{"type": "sphere", "center": [0.0, 0.8, 0.0], "radius": 0.8, "material_name": "glass"}}, {}]}}"#,
+        row.join(", ")
+    );
+    check(&showcase, &[over, &objects]);
     if let Some(s) = common::shared() {
         // an area light and a glass sphere; the sky
         check(&s.join("refs/scenes/caustic_cbox.json"), &[over]);

@@ -15,7 +15,7 @@ use super::{spawn_ray, RayCounts};
 use crate::accel::wide::PACKET;
 use crate::geometry::{Ray, RayDifferential};
 use crate::light::environment::EnvironmentLight;
-use crate::light::{Light, LightSample, LightSampling, ShadowTarget};
+use crate::light::{Light, LightSample, LightSampling};
 use crate::material::bsdf::Bsdf;
 use crate::math::{Vec2, Vec3};
 use crate::sampler::PixelSampler;
@@ -123,7 +123,8 @@ impl PathTracer {
             diff: diffs[i].as_ref(),
         };
         let mut steps = [(None, false); PACKET];
-        if let Some((env, sky)) = scene.environment_light() {
+        let environment = scene.environment_light();
+        if let Some((env, sky)) = environment {
             // the sky's coordinates of the camera rays that miss, all lanes together
             if hits[..n].iter().any(Option::is_none) {
                 let (uv, sin_theta) = sky.direction_coords_lanes(&directions(&paths));
@@ -171,13 +172,8 @@ impl PathTracer {
                 let (uv, _) = sky.direction_coords_lanes(&wi);
                 for i in (0..n).filter(|&i| sky_lanes >> i & 1 != 0) {
                     let w = Vec3::new(wi[0][i], wi[1][i], wi[2][i]);
-                    samples[i] = EnvironmentLight::direction_sample(w, sin_theta[i], sky_pdf[i]).map(|(wi, pdf)| LightSample {
-                        radiance: Vec3::ZERO,
-                        wi,
-                        pdf,
-                        delta: false,
-                        target: ShadowTarget::Infinity,
-                    });
+                    samples[i] =
+                        EnvironmentLight::direction_sample(w, sin_theta[i], sky_pdf[i]).map(|(wi, pdf)| LightSample::unlit_sky(wi, pdf));
                     radiance_uv[i] = Some(Vec2::new(uv[0][i], uv[1][i]));
                 }
             }
@@ -185,12 +181,11 @@ impl PathTracer {
                 if live[i] {
                     // SAFETY: as above
                     let v = unsafe { lanes[i].assume_init_ref() };
-                    let sample = (samples[i], radiance_uv[i]);
-                    steps[i] = paths[i].end(self, scene, v, sample, 1, &mut block.samplers[i], block.counts, false);
+                    steps[i] = paths[i].end(self, scene, v, samples[i], radiance_uv[i], 1, &mut block.samplers[i], block.counts);
                 }
             }
-            // the sky's coordinates of the next rays, all lanes together (as `end` takes
-            // them for one), and their texels and pdf weights prefetched
+            // the sky's coordinates of the next rays, all lanes together (as `advance`
+            // takes them for one), and their texels and pdf weights prefetched
             let (uv, sin_theta) = sky.direction_coords_lanes(&directions(&paths));
             for i in (0..n).filter(|&i| steps[i].1) {
                 let uv = Vec2::new(uv[0][i], uv[1][i]);
@@ -235,7 +230,7 @@ impl PathTracer {
         }
         let mut going = (0..n).filter(|&i| steps[i].1).fold(0u32, |m, i| m | 1 << i);
         let mut segment = 1;
-        if scene.environment_light().is_some() {
+        if environment.is_some() {
             // the second segment's rays one after another, then each path's step (the
             // first turn of `finish`'s loop): independent traversals and the sky's lookups
             // of the rays that escape overlap across paths
@@ -376,7 +371,14 @@ impl PathState {
         match self.begin(tracer, scene, found, sampler) {
             Some(v) => {
                 let ls = v.light_sample(scene);
-                self.end(tracer, scene, &v, (ls, None), segment, sampler, counts, true)
+                let step = self.end(tracer, scene, &v, ls, None, segment, sampler, counts);
+                if let (true, Some((_, sky))) = (step.1, scene.environment_light()) {
+                    // should the ray escape, its texels and pdf weight load during the traversal
+                    let coords = sky.direction_coords(self.ray.d);
+                    sky.prefetch_coords(coords.0);
+                    self.sky_coords = Some(coords);
+                }
+                step
             }
             None => (None, false),
         }
@@ -446,9 +448,9 @@ impl PathState {
     }
 
     /// The last step of [`PathState::advance`]: the light sample's term and shadow
-    /// ray, the BSDF sample, roulette, the next segment's ray (and, with `sky_coords`,
-    /// its coordinates in the sky, which the caller otherwise takes). A sample of the
-    /// sky may come with the texture coordinates of its direction (for its radiance).
+    /// ray, the BSDF sample, roulette, the next segment's ray (its coordinates in the
+    /// sky are the caller's to take). A sample of the sky may come with the texture
+    /// coordinates of its direction (`sky_uv`, for its radiance).
     #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     fn end(
@@ -456,11 +458,11 @@ impl PathState {
         tracer: &PathTracer,
         scene: &Scene,
         v: &Vertex,
-        (ls, sky_uv): (Option<LightSample>, Option<Vec2>),
+        ls: Option<LightSample>,
+        sky_uv: Option<Vec2>,
         segment: u32,
         sampler: &mut PixelSampler,
         counts: &mut RayCounts,
-        sky_coords: bool,
     ) -> (Option<Shadow>, bool) {
         let (profile, it, bsdf) = (tracer.profile, &v.it, &v.bsdf);
         let (uc, u_bsdf) = (v.uc, v.u_bsdf);
@@ -511,12 +513,6 @@ impl PathState {
             self.beta /= q;
         }
         self.ray = spawn_ray(it, bs.wi);
-        if let (true, Some((_, sky))) = (sky_coords, scene.environment_light()) {
-            // should the ray escape, its texels and pdf weight load during the traversal
-            let coords = sky.direction_coords(self.ray.d);
-            sky.prefetch_coords(coords.0);
-            self.sky_coords = Some(coords);
-        }
         (shadow, true)
     }
 }

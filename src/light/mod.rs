@@ -81,6 +81,21 @@ pub struct LightSample {
     pub target: ShadowTarget,
 }
 
+impl LightSample {
+    /// A sample of the environment towards `wi` with solid-angle density `pdf`, its
+    /// radiance left zero ([`Light::sample_unlit`]).
+    #[inline(always)]
+    pub fn unlit_sky(wi: Vec3, pdf: f32) -> LightSample {
+        LightSample {
+            radiance: Vec3::ZERO,
+            wi,
+            pdf,
+            delta: false,
+            target: ShadowTarget::Infinity,
+        }
+    }
+}
+
 /// How lights draw their samples: the light's own importance (area ∝, the
 /// cone of a sphere, the environment's luminance) or uniformly (uniform area
 /// over all triangles alike, over the whole sphere, uniform directions).
@@ -191,13 +206,7 @@ impl Light {
     #[inline]
     pub fn sample_unlit(&self, p: Vec3, u: Vec2, mode: LightSampling) -> Option<LightSample> {
         match self {
-            Light::Environment(e) => e.sample_direction(u, mode).map(|(wi, pdf)| LightSample {
-                radiance: Vec3::ZERO,
-                wi,
-                pdf,
-                delta: false,
-                target: ShadowTarget::Infinity,
-            }),
+            Light::Environment(e) => e.sample_direction(u, mode).map(|(wi, pdf)| LightSample::unlit_sky(wi, pdf)),
             _ => self.sample(p, u, mode),
         }
     }

@@ -31,8 +31,9 @@ pub fn watertight_axes(d: Vec3) -> (usize, usize, usize) {
     let x_max = (ad.x > ad.y) & (ad.x > ad.z);
     let y_over_z = ad.y > ad.z;
     let kz = (!x_max) as usize * (1 + (!y_over_z) as usize);
-    // kx = kz + 1 and ky = kx + 1, modulo 3
-    ([1, 2, 0][kz], [2, 0, 1][kz], kz)
+    // kx = kz + 1 and ky = kx + 1, modulo 3: two-bit fields of a constant (a table
+    // indexed by kz was built on the stack for every ray)
+    (0b00_10_01 >> (2 * kz) & 3, 0b01_00_10 >> (2 * kz) & 3, kz)
 }
 
 /// Watertight ray–triangle test (f32) for `t ∈ [t_min, t_max]`.

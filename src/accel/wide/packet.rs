@@ -410,7 +410,8 @@ struct BlockBest<V: Simd<N>, const N: usize> {
     has: u32,
     t: V,
     b: [V; 3],
-    /// The block lane of the best hit, per ray (as `f32`).
+    /// The block lane of the best hit, per ray, as the bits of an `f32` (selects
+    /// copy bits; reading it back needs no float-to-integer conversion).
     lane: V,
 }
 
@@ -527,7 +528,7 @@ fn block<V: Simd<N>, const N: usize, const CLOSEST: bool>(blk: &TriBlock, p: &Pa
                 for a in 0..3 {
                     best.b[a] = V::select(upd, b[a], best.b[a]);
                 }
-                best.lane = V::select(upd, V::splat(j as f32), best.lane);
+                best.lane = V::select(upd, V::splat(f32::from_bits(j as u32)), best.lane);
                 has_m = V::or(has_m, acc);
             }
             best.has |= hits;
@@ -736,7 +737,7 @@ pub(super) fn closest_packet<V: Simd<N>, L: Leaves + ?Sized, const N: usize, con
                         let mut lane = [0.0f32; N];
                         h.lane.store(&mut lane);
                         for r in each_bit(acc) {
-                            best.prim[r] = blk.prim[lane[r] as usize];
+                            best.prim[r] = blk.prim[lane[r].to_bits() as usize % LANES];
                             best.sub[r] = 0;
                         }
                     }

@@ -148,36 +148,36 @@ impl RayData {
     pub(super) fn for_tree<const TRIANGLES: bool>(ray: &Ray) -> RayData {
         let inv = safe_inverse(ray.d);
         let inv = [inv.x, inv.y, inv.z];
-        let near = [0, 1, 2].map(|a| 2 * a + (inv[a] < 0.0) as usize);
-        let far = [0, 1, 2].map(|a| 2 * a + (inv[a] >= 0.0) as usize);
-        let boxes_only = RayData {
+        let neg = inv.map(|c| (c < 0.0) as usize);
+        // built once, field by field (a copy of a boxes-only `RayData` updated with
+        // the watertight fields was stored twice)
+        let (d, o) = (ray.d.to_array(), ray.o.to_array());
+        let (k, op, s, dz_abs, tri_ok) = if TRIANGLES {
+            // the watertight kernel's permutation and shear, exactly as it computes them
+            let (kx, ky, kz) = watertight_axes(ray.d);
+            let dz = d[kz];
+            (
+                [kx, ky, kz],
+                [o[kx], o[ky], o[kz]],
+                [-d[kx] / dz, -d[ky] / dz, 1.0 / dz],
+                dz.abs(),
+                dz != 0.0,
+            )
+        } else {
+            ([0, 1, 2], [0.0; 3], [0.0; 3], 0.0, false)
+        };
+        RayData {
             o: ray.o,
             d: ray.d,
             t_min: ray.t_min,
             inv,
-            near,
-            far,
-            k: [0, 1, 2],
-            op: [0.0; 3],
-            s: [0.0; 3],
-            dz_abs: 0.0,
-            tri_ok: false,
-        };
-        if !TRIANGLES {
-            return boxes_only;
-        }
-        // the watertight kernel's permutation and shear, exactly as it computes them
-        let (kx, ky, kz) = watertight_axes(ray.d);
-        // arrays, not `Vec3` indexing (a match on the axis, which became branches)
-        let (d, o) = (ray.d.to_array(), ray.o.to_array());
-        let dz = d[kz];
-        RayData {
-            k: [kx, ky, kz],
-            op: [o[kx], o[ky], o[kz]],
-            s: [-d[kx] / dz, -d[ky] / dz, 1.0 / dz],
-            dz_abs: dz.abs(),
-            tri_ok: dz != 0.0,
-            ..boxes_only
+            near: [neg[0], 2 + neg[1], 4 + neg[2]],
+            far: [1 - neg[0], 3 - neg[1], 5 - neg[2]],
+            k,
+            op,
+            s,
+            dz_abs,
+            tri_ok,
         }
     }
 }

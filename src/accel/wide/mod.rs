@@ -101,6 +101,18 @@ impl Isa {
         f()
     }
 
+    /// Rays a packet traversal takes at once with these kernels unless told otherwise:
+    /// 16 where a lane vector holds them all (AVX-512) and for the portable lanes; 8 on
+    /// AVX2, whose 16 lanes are two vectors each and spill registers in the box tests
+    /// (cbox_point 4-8 % slower than with 8 on a Zen 5, the portable kernels 7 % faster
+    /// with 16).
+    pub fn packet_width(self) -> usize {
+        match self {
+            Isa::Avx2 => 8,
+            Isa::Portable | Isa::Avx512 => PACKET,
+        }
+    }
+
     /// Every variant this CPU can run.
     pub fn all_available() -> Vec<Isa> {
         [Isa::Portable, Isa::Avx2, Isa::Avx512]
@@ -148,8 +160,9 @@ pub struct WideBvh {
     stack_need: usize,
     /// Use the large stack even where the small one would do (tests).
     large_stack: bool,
-    /// Rays a packet traversal takes at once (8 or 16); 0: packet calls trace ray by ray.
-    packet_width: usize,
+    /// Rays a packet traversal takes at once (8 or 16; 0: packet calls trace ray by
+    /// ray), where set; else the instruction set's own ([`Isa::packet_width`]).
+    packet_width: Option<usize>,
 }
 
 /// A clone keeps the node and block arrays on huge pages (`pages`).
@@ -180,7 +193,7 @@ impl Default for WideBvh {
             isa: Isa::detect(),
             stack_need: 1,
             large_stack: false,
-            packet_width: PACKET,
+            packet_width: None,
         }
     }
 }
@@ -227,7 +240,7 @@ macro_rules! dispatch {
 macro_rules! dispatch_packet {
     ($bvh:expr, $portable:ident, [$a8:ident, $a16:ident], [$z8:ident, $z16:ident], ($($arg:expr),*)) => {{
         let small = $bvh.stack_need <= STACK_SMALL && !$bvh.large_stack;
-        let wide = $bvh.packet_width > 8;
+        let wide = $bvh.packet_width() > 8;
         match $bvh.isa {
             #[cfg(target_arch = "x86_64")]
             // SAFETY: `isa` is only ever set to an instruction set the CPU has (`set_isa`, `Isa::detect`).
@@ -389,7 +402,7 @@ impl WideBvh {
 
     /// Rays per packet traversal (8 or 16), 0 if packet calls trace ray by ray.
     pub fn packet_width(&self) -> usize {
-        self.packet_width
+        self.packet_width.unwrap_or(self.isa.packet_width())
     }
 
     /// Sets the packet width: 8, 16, or 0 (packet calls then trace ray by ray);
@@ -397,7 +410,7 @@ impl WideBvh {
     pub fn set_packet_width(&mut self, w: usize) -> bool {
         let ok = matches!(w, 0 | 8 | 16);
         if ok {
-            self.packet_width = w;
+            self.packet_width = Some(w);
         }
         ok
     }
@@ -422,7 +435,7 @@ impl WideBvh {
     pub fn intersect_packet_with<L: Leaves + ?Sized>(&self, leaves: &L, rays: &[Ray], active: u32, out: &mut [Option<Hit>]) {
         let n = rays.len().min(PACKET).min(out.len());
         let active = active & ((1u32 << n) - 1);
-        let w = self.packet_width;
+        let w = self.packet_width();
         if w == 0 || self.nodes.is_empty() {
             for i in (0..n).filter(|i| active >> i & 1 != 0) {
                 out[i] = self.intersect_with(leaves, &rays[i]);
@@ -457,7 +470,7 @@ impl WideBvh {
     pub fn occluded_packet_with<L: Leaves + ?Sized>(&self, leaves: &L, rays: &[Ray], active: u32) -> u32 {
         let n = rays.len().min(PACKET);
         let active = active & ((1u32 << n) - 1);
-        let w = self.packet_width;
+        let w = self.packet_width();
         if w == 0 || self.nodes.is_empty() {
             return (0..n)
                 .filter(|&i| active >> i & 1 != 0 && self.occluded_with(leaves, &rays[i]))
@@ -517,6 +530,23 @@ impl WideBvh {
 mod tests {
     use super::*;
     use crate::math::Vec3;
+
+    /// The packet width follows the instruction set until one is set, then stays.
+    #[test]
+    fn packet_width_is_the_sets_own_until_set() {
+        let mut bvh = WideBvh::default();
+        for isa in Isa::all_available() {
+            assert!(bvh.set_isa(isa));
+            assert_eq!(bvh.packet_width(), isa.packet_width(), "{isa:?}");
+        }
+        assert_eq!(Isa::Avx2.packet_width(), 8);
+        assert_eq!(Isa::Portable.packet_width(), PACKET);
+        assert!(bvh.set_packet_width(0) && !bvh.set_packet_width(12));
+        for isa in Isa::all_available() {
+            assert!(bvh.set_isa(isa));
+            assert_eq!(bvh.packet_width(), 0, "{isa:?}");
+        }
+    }
 
     /// `Isa::run` gives `f`'s result bit for bit with every set, those the CPU lacks too
     /// (they run `f` as it is): square roots and divisions over lanes.

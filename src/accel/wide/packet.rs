@@ -33,6 +33,9 @@ use crate::geometry::Ray;
 use crate::math::gamma;
 use std::mem::MaybeUninit;
 
+/// The watertight kernel's axis order `(kx, ky, kz)` for `kz` = 0, 1, 2.
+const PERMUTATIONS: [[usize; 3]; 3] = [[1, 2, 0], [2, 0, 1], [0, 1, 2]];
+
 /// Most rays a packet call takes.
 pub const PACKET: usize = 16;
 
@@ -258,9 +261,11 @@ pub(super) struct Packet<'r, V: Simd<N>, const N: usize> {
     op: [V; 3],
     s: [V; 3],
     dz_abs: V,
-    /// Rays by axis permutation (`k`, lanes): a block is tested once per group.
-    groups: [([usize; 3], u32); 6],
-    n_groups: usize,
+    /// The rays of each watertight axis permutation (`PERMUTATIONS[g]`: `kz` = `g`),
+    /// as lane masks: a block is tested once per non-empty group. (Masks alone: an
+    /// array of permutations and masks built here was copied into the packet by
+    /// wide loads of its narrow stores, which stalled every packet.)
+    groups: [u32; 3],
     /// Usable rays (finite, a range that is not NaN, in `active`).
     valid: u32,
     /// Rays that can hit a triangle (non-zero direction).
@@ -299,14 +304,7 @@ impl<'r, V: Simd<N>, const N: usize> Packet<'r, V, N> {
         let op = [pick3(m0, m1, &o, 0), pick3(m0, m1, &o, 1), pick3(m0, m1, &o, 2)];
         let tri_ok = valid & !V::bits(dkz.eq(zero));
         let (b0, b1) = (V::bits(m0), V::bits(m1));
-        let mut groups = [([0usize; 3], 0u32); 6];
-        let mut n_groups = 0;
-        for (k, g) in [([1, 2, 0], b0), ([2, 0, 1], b1 & !b0), ([0, 1, 2], !(b0 | b1))] {
-            if g & tri_ok != 0 {
-                groups[n_groups] = (k, g & tri_ok);
-                n_groups += 1;
-            }
-        }
+        let groups = [b0 & tri_ok, b1 & !b0 & tri_ok, !(b0 | b1) & tri_ok];
         Packet {
             rays,
             o,
@@ -319,7 +317,6 @@ impl<'r, V: Simd<N>, const N: usize> Packet<'r, V, N> {
             s: [dkx.neg().div(dkz), dky.neg().div(dkz), V::splat(1.0).div(dkz)],
             dz_abs: dkz.abs(),
             groups,
-            n_groups,
             valid,
             tri_ok,
         }
@@ -429,7 +426,7 @@ fn block<V: Simd<N>, const N: usize, const CLOSEST: bool>(blk: &TriBlock, p: &Pa
         lane: zero,
     };
     let mut has_m = V::from_bits(0);
-    for &(k, g) in &p.groups[..p.n_groups] {
+    for (&g, &k) in p.groups.iter().zip(&PERMUTATIONS) {
         let mut gm = g & mask;
         if gm == 0 {
             continue;

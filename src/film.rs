@@ -282,6 +282,16 @@ impl Sums {
         }
     }
 
+    /// [`Sums::zero`] on zeroed memory from the allocator, which the system fills in
+    /// only where it is touched (slower to add to: its pages fault 4 KiB at a time).
+    pub fn zero_lazily(pixels: usize) -> Sums {
+        Sums {
+            sum: vec![[0.0; 3]; pixels],
+            weight: vec![0.0; pixels],
+            splat: None,
+        }
+    }
+
     /// `self += other`, pixel by pixel (a missing splat buffer counts as absent, not
     /// as zeros, so an empty one never changes a bit of the other).
     pub fn add(&mut self, other: &Sums) {
@@ -485,10 +495,13 @@ impl Film {
     }
 
     /// Takes the sums out, leaving the film's at zero (the render loop keeps blocks
-    /// of passes apart this way).
-    pub fn take_sums(&mut self) -> Sums {
+    /// of passes apart this way). Unless `more` passes follow, the new zeros are left to
+    /// the operating system (`calloc`'s untouched pages): megabytes nothing may read,
+    /// which need no writing.
+    pub fn take_sums(&mut self, more: bool) -> Sums {
         let n = self.sums.sum.len();
-        std::mem::replace(&mut self.sums, Sums::zero(n))
+        let zero = if more { Sums::zero(n) } else { Sums::zero_lazily(n) };
+        std::mem::replace(&mut self.sums, zero)
     }
 
     /// Replaces the sums (a resumed render's unfinished block).

@@ -130,8 +130,8 @@ pub fn render_with_aov(scene: &Scene, job: &RenderJob, control: &RenderControl, 
         block_start = last.passes.start;
         film.set_sums(last.sums);
     }
-    let with_partial = |state: &FilmState, film: &Film, block_start: u32, end: u32| {
-        let mut s = state.clone();
+    // the pieces and, if the film holds an unfinished block, its sums as one more piece
+    let partial = |mut s: FilmState, film: &Film, block_start: u32, end: u32| {
         if end > block_start {
             s.pieces.push(Piece {
                 passes: block_start..end,
@@ -176,7 +176,7 @@ pub fn render_with_aov(scene: &Scene, job: &RenderJob, control: &RenderControl, 
         if next.is_multiple_of(BLOCK_PASSES) {
             state.push(Piece {
                 passes: block_start..next,
-                sums: film.take_sums(),
+                sums: film.take_sums(next < range.end),
             });
             block_start = next;
         }
@@ -185,7 +185,7 @@ pub fn render_with_aov(scene: &Scene, job: &RenderJob, control: &RenderControl, 
             .collect();
         if !due.is_empty() && next < range.end {
             job.integrator.prepare_image(&mut film);
-            let snap_state = with_partial(&state, &film, block_start, next);
+            let snap_state = partial(state.clone(), &film, block_start, next);
             let pixels = image_of(&snap_state, &film);
             let snap = Snapshot {
                 width: f.width,
@@ -203,8 +203,10 @@ pub fn render_with_aov(scene: &Scene, job: &RenderJob, control: &RenderControl, 
     // the image: with no finished block the film alone (also a compat render's
     // finished columns of an interrupted pass), else the pieces and the film's block
     job.integrator.prepare_image(&mut film);
-    let image_state = with_partial(&state, &film, block_start, next);
-    let pixels = if state.pieces.is_empty() {
+    let finished_blocks = !state.pieces.is_empty();
+    // the state moves into the output (a copy of its pieces was megabytes of fresh memory)
+    let image_state = partial(state, &film, block_start, next);
+    let pixels = if !finished_blocks {
         film.to_rgb_rows(1.0 / spp_of(&image_state).max(1) as f64)
     } else {
         image_of(&image_state, &film)

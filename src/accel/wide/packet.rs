@@ -621,6 +621,25 @@ pub(super) fn closest_packet<V: Simd<N>, L: Leaves + ?Sized, const N: usize, con
     active: u32,
     out: &mut [Option<Hit>],
 ) -> u32 {
+    // a tree without generic leaves gets its own copy: the spheres' set-up of the rays
+    // (directions normalised in f64, divisions and square roots) depends on the rays
+    // alone, so the compiler moves it to the entry, where every packet paid for it
+    if bvh.generic.is_empty() {
+        closest_in::<V, L, N, S, false>(bvh, prims, rays, active, out)
+    } else {
+        closest_in::<V, L, N, S, true>(bvh, prims, rays, active, out)
+    }
+}
+
+/// [`closest_packet`] in a tree with generic leaves (`GENERIC_LEAVES`) or without.
+#[inline(always)]
+fn closest_in<V: Simd<N>, L: Leaves + ?Sized, const N: usize, const S: usize, const GENERIC_LEAVES: bool>(
+    bvh: &WideBvh,
+    prims: &L,
+    rays: &[Ray],
+    active: u32,
+    out: &mut [Option<Hit>],
+) -> u32 {
     let p = Packet::<V, N>::new(rays, active);
     let t_max = p.t_max;
     let zero = V::splat(0.0);
@@ -685,7 +704,9 @@ pub(super) fn closest_packet<V: Simd<N>, L: Leaves + ?Sized, const N: usize, con
         } else if cur != EMPTY && cur & LEAF != 0 && cur_mask != 0 {
             let (first, count) = leaf_range(cur);
             if cur & GENERIC != 0 {
-                for &pi in &bvh.generic[first..first + count] {
+                // (the copy for trees without generic leaves compiles no test here)
+                let ids: &[u32] = if GENERIC_LEAVES { &bvh.generic[first..first + count] } else { &[] };
+                for &pi in ids {
                     // each ray tests the primitive alone; their hits are offered together
                     // (`offer` is lane by lane, and a ray's own limit is read before it
                     // changes)
@@ -791,6 +812,22 @@ pub(super) fn any_packet<V: Simd<N>, L: Leaves + ?Sized, const N: usize, const S
     rays: &[Ray],
     active: u32,
 ) -> u32 {
+    // as in `closest_packet`
+    if bvh.generic.is_empty() {
+        any_in::<V, L, N, S, false>(bvh, prims, rays, active)
+    } else {
+        any_in::<V, L, N, S, true>(bvh, prims, rays, active)
+    }
+}
+
+/// [`any_packet`] in a tree with generic leaves (`GENERIC_LEAVES`) or without.
+#[inline(always)]
+fn any_in<V: Simd<N>, L: Leaves + ?Sized, const N: usize, const S: usize, const GENERIC_LEAVES: bool>(
+    bvh: &WideBvh,
+    prims: &L,
+    rays: &[Ray],
+    active: u32,
+) -> u32 {
     let p = Packet::<V, N>::new(rays, active);
     let t_max = p.t_max;
     let mut st = [MaybeUninit::<(u32, u32)>::uninit(); S];
@@ -827,7 +864,9 @@ pub(super) fn any_packet<V: Simd<N>, L: Leaves + ?Sized, const N: usize, const S
         } else if cur != EMPTY && cur & LEAF != 0 && cur_mask != 0 {
             let (first, count) = leaf_range(cur);
             if cur & GENERIC != 0 {
-                for &pi in &bvh.generic[first..first + count] {
+                // (the copy for trees without generic leaves compiles no test here)
+                let ids: &[u32] = if GENERIC_LEAVES { &bvh.generic[first..first + count] } else { &[] };
+                for &pi in ids {
                     if let Some(sphere) = prims.sphere(pi) {
                         // all rays at once (NaN: a miss)
                         let r = p.rows();

@@ -9,7 +9,7 @@
 
 use super::pass::CameraBlock;
 use super::{shadow_ray, spawn_ray, RayCounts};
-use crate::accel::wide::PACKET;
+use crate::accel::wide::{PacketHits, PACKET};
 use crate::geometry::mesh::Mesh;
 use crate::geometry::{Ray, RayDifferential};
 use crate::light::Light;
@@ -60,10 +60,12 @@ impl IntersectionTest {
     }
 
     #[inline(always)]
+    // lanes are indexed in step across the block's arrays and the hits' lanes
+    #[allow(clippy::needless_range_loop)]
     fn li_block_body(&self, scene: &Scene, block: &mut CameraBlock, out: &mut [Vec3]) {
         let n = block.rays.len().min(PACKET);
-        let mut hits = [None; PACKET];
-        scene.intersect_packet(&block.rays[..n], (1 << n) - 1, &mut hits);
+        let mut hits = PacketHits::default();
+        scene.intersect_packet_lanes(&block.rays[..n], (1 << n) - 1, &mut hits);
         block.counts.rays += n as u64;
         let lights = &scene.lights;
         // shadow rays are 0 or 1 without masks (`Scene::transmittance`)
@@ -82,29 +84,36 @@ impl IntersectionTest {
         for i in 0..n {
             if !deferred {
                 let (ray, diff) = (block.rays[i], block.diffs[i]);
-                out[i] = li_from(scene, self, ray, hits[i], diff, &mut block.samplers[i], block.counts);
+                out[i] = li_from(scene, self, ray, hits.get(i), diff, &mut block.samplers[i], block.counts);
                 continue;
             }
             // by reference: a lane's ray and differentials are read, not copied
             let (ray, diff) = (&block.rays[i], &block.diffs[i]);
-            let Some(hit) = &hits[i] else {
+            if hits.found >> i & 1 == 0 {
                 out[i] = scene.environment_radiance(ray.d);
                 continue;
-            };
+            }
+            let prim = hits.prim[i];
             if diff.is_none() && !scene.texture_coords {
                 // neighbouring pixels mostly hit the same triangle: its lookup is kept
-                if hit.prim != last_prim {
-                    (last_prim, last) = (hit.prim, plain_diffuse_triangle(scene, hit));
+                if prim != last_prim {
+                    (last_prim, last) = (prim, plain_diffuse_triangle(scene, prim));
                 }
                 if let Some(t) = &last {
-                    plain.set(i, t, hit.b, ray.d);
+                    plain.set(i, t, [hits.b[0][i], hits.b[1][i], hits.b[2][i]], ray.d);
                     plain_lanes |= 1 << i;
                     set_lane(&mut ends.albedo, i, t.albedo);
                     continue;
                 }
             }
+            let hit = Hit {
+                t: hits.t[i],
+                prim,
+                b: [hits.b[0][i], hits.b[1][i], hits.b[2][i]],
+                sub: hits.sub[i],
+            };
             let mut total = Vec3::ZERO;
-            match surface(scene, ray, hit, diff.as_ref(), &mut total) {
+            match surface(scene, ray, &hit, diff.as_ref(), &mut total) {
                 Surface::Diffuse(it, texture, twosided) => {
                     // max_depth > 1: the light segment fits
                     let albedo = scene.textures[texture as usize].eval(it.tex_coord());
@@ -315,8 +324,8 @@ impl ShadingPoints {
 /// has no differentials, so its point is `Interaction::on_triangle_plain`). Its
 /// vertices, vertex normals (if the mesh has them), albedo and two-sidedness.
 #[inline(always)]
-fn plain_diffuse_triangle<'a>(scene: &'a Scene, hit: &Hit) -> Option<PlainTriangle<'a>> {
-    let Prim::Triangle { p, object, index } = &scene.prims[hit.prim as usize] else {
+fn plain_diffuse_triangle(scene: &Scene, prim: u32) -> Option<PlainTriangle<'_>> {
+    let Prim::Triangle { p, object, index } = &scene.prims[prim as usize] else {
         return None;
     };
     let obj = &scene.objects[*object as usize];

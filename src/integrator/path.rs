@@ -12,7 +12,7 @@
 
 use super::pass::CameraBlock;
 use super::{spawn_ray, RayCounts};
-use crate::accel::wide::PACKET;
+use crate::accel::wide::{PacketHits, PACKET};
 use crate::geometry::{Ray, RayDifferential};
 use crate::light::environment::EnvironmentLight;
 use crate::light::{Light, LightSample, LightSampling};
@@ -111,14 +111,14 @@ impl PathTracer {
     #[inline(always)]
     fn li_block_body(&self, scene: &Scene, block: &mut CameraBlock, out: &mut [Vec3]) {
         let n = block.rays.len().min(PACKET);
-        let mut hits = [None; PACKET];
-        scene.intersect_packet(&block.rays[..n], (1 << n) - 1, &mut hits);
+        let mut hits = PacketHits::default();
+        scene.intersect_packet_lanes(&block.rays[..n], (1 << n) - 1, &mut hits);
         block.counts.rays += n as u64;
         let mut paths: [PathState; PACKET] =
             std::array::from_fn(|i| PathState::new(block.rays.get(i).copied().unwrap_or(Ray::new(Vec3::ZERO, Vec3::Z))));
         let diffs = block.diffs;
         let found = |i: usize| Found {
-            hit: hits[i],
+            hit: hits.get(i),
             segment: 1,
             diff: diffs[i].as_ref(),
         };
@@ -126,9 +126,10 @@ impl PathTracer {
         let environment = scene.environment_light();
         if let Some((env, sky)) = environment {
             // the sky's coordinates of the camera rays that miss, all lanes together
-            if hits[..n].iter().any(Option::is_none) {
+            let missed = !hits.found & ((1 << n) - 1);
+            if missed != 0 {
                 let (uv, sin_theta) = sky.direction_coords_lanes(&directions(&paths));
-                for i in (0..n).filter(|&i| hits[i].is_none()) {
+                for i in (0..n).filter(|&i| missed >> i & 1 != 0) {
                     paths[i].sky_coords = Some((Vec2::new(uv[0][i], uv[1][i]), sin_theta[i]));
                 }
             }

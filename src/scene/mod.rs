@@ -192,6 +192,24 @@ impl Scene {
         }
     }
 
+    /// [`Scene::intersect_packet`] by lane: lane `i` of `out` gets `rays[i]`'s hit for
+    /// each bit `i` of `active`; other lanes are not found.
+    pub fn intersect_packet_lanes(&self, rays: &[Ray], active: u32, out: &mut crate::accel::wide::PacketHits) {
+        if self.packets() {
+            self.bvh.intersect_packet_lanes_with(&self.prims[..], rays, active, out);
+        } else {
+            out.found = 0;
+            for (i, r) in rays
+                .iter()
+                .enumerate()
+                .take(crate::accel::wide::PACKET)
+                .filter(|(i, _)| active >> i & 1 != 0)
+            {
+                out.set(i, self.intersect(r));
+            }
+        }
+    }
+
     /// [`Scene::occluded`] of up to [`crate::accel::wide::PACKET`] rays: bit `i` for
     /// `rays[i]` (0 outside `active`).
     pub fn occluded_packet(&self, rays: &[Ray], active: u32) -> u32 {

@@ -32,7 +32,7 @@ mod traverse;
 mod x86;
 
 pub use node::{ChildRef, TriBlock, WideNode, LANES, WIDTH};
-pub use packet::PACKET;
+pub use packet::{PacketHits, PACKET};
 
 use crate::accel::build::{self, PrimRef};
 use crate::geometry::prim::{Hit, Prim};
@@ -435,10 +435,24 @@ impl WideBvh {
     pub fn intersect_packet_with<L: Leaves + ?Sized>(&self, leaves: &L, rays: &[Ray], active: u32, out: &mut [Option<Hit>]) {
         let n = rays.len().min(PACKET).min(out.len());
         let active = active & ((1u32 << n) - 1);
+        let mut hits = PacketHits::default();
+        self.intersect_packet_lanes_with(leaves, &rays[..n], active, &mut hits);
+        for i in (0..n).filter(|i| active >> i & 1 != 0) {
+            out[i] = hits.get(i);
+        }
+    }
+
+    /// [`WideBvh::intersect_packet`] by lane: `out`'s lane `i` gets what
+    /// [`WideBvh::intersect`] returns for `rays[i]`, for each bit `i` of `active`;
+    /// other lanes are not found.
+    pub fn intersect_packet_lanes_with<L: Leaves + ?Sized>(&self, leaves: &L, rays: &[Ray], active: u32, out: &mut PacketHits) {
+        let n = rays.len().min(PACKET);
+        let active = active & ((1u32 << n) - 1);
+        out.found = 0;
         let w = self.packet_width();
         if w == 0 || self.nodes.is_empty() {
             for i in (0..n).filter(|i| active >> i & 1 != 0) {
-                out[i] = self.intersect_with(leaves, &rays[i]);
+                out.set(i, self.intersect_with(leaves, &rays[i]));
             }
             return;
         }
@@ -447,13 +461,13 @@ impl WideBvh {
             let end = (start + w).min(n);
             let a = active >> start & ((1u32 << (end - start)) - 1);
             if a != 0 {
-                let (rs, os) = (&rays[start..end], &mut out[start..end]);
+                let rs = &rays[start..end];
                 let f = dispatch_packet!(
                     self,
                     closest_packet,
                     [closest_avx2_8, closest_avx2_16],
                     [closest_avx512_8, closest_avx512_16],
-                    (self, leaves, rs, a, os)
+                    (self, leaves, rs, a, out, start)
                 );
                 flagged |= f << start;
             }
@@ -461,7 +475,7 @@ impl WideBvh {
         if flagged != 0 {
             PACKET_RETRACED.fetch_add(flagged.count_ones() as u64, Ordering::Relaxed);
             for i in (0..n).filter(|i| flagged >> i & 1 != 0) {
-                out[i] = self.intersect_with(leaves, &rays[i]);
+                out.set(i, self.intersect_with(leaves, &rays[i]));
             }
         }
     }

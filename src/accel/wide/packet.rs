@@ -33,6 +33,64 @@ use crate::geometry::Ray;
 use crate::math::gamma;
 use std::mem::MaybeUninit;
 
+/// Closest hits of up to [`PACKET`] rays by lane, in structure-of-arrays form (what
+/// a packet traversal finds, stored with a few vector stores; an `Option<Hit>` per
+/// ray took some 40 instructions a ray). Lane `i`'s fields hold [`Hit`]'s values
+/// where bit `i` of `found` is set; elsewhere they mean nothing.
+#[derive(Clone, Copy, Debug)]
+pub struct PacketHits {
+    pub found: u32,
+    pub t: [f32; PACKET],
+    pub prim: [u32; PACKET],
+    pub sub: [u32; PACKET],
+    /// Barycentrics by coordinate (`b[k][lane]`).
+    pub b: [[f32; PACKET]; 3],
+}
+
+impl Default for PacketHits {
+    fn default() -> Self {
+        PacketHits {
+            found: 0,
+            t: [0.0; PACKET],
+            prim: [0; PACKET],
+            sub: [0; PACKET],
+            b: [[0.0; PACKET]; 3],
+        }
+    }
+}
+
+impl PacketHits {
+    /// Lane `i`'s hit.
+    #[inline]
+    pub fn get(&self, i: usize) -> Option<Hit> {
+        (self.found >> i & 1 != 0).then(|| Hit {
+            t: self.t[i],
+            prim: self.prim[i],
+            b: [self.b[0][i], self.b[1][i], self.b[2][i]],
+            sub: self.sub[i],
+        })
+    }
+
+    /// Sets lane `i` to `hit`.
+    #[inline]
+    pub fn set(&mut self, i: usize, hit: Option<Hit>) {
+        self.found &= !(1 << i);
+        if let Some(h) = hit {
+            self.found |= 1 << i;
+            (self.t[i], self.prim[i], self.sub[i]) = (h.t, h.prim, h.sub);
+            for k in 0..3 {
+                self.b[k][i] = h.b[k];
+            }
+        }
+    }
+}
+
+/// Lanes `start..start + N` of a packet's array, as an array.
+#[inline(always)]
+fn lanes<T, const N: usize>(a: &mut [T; PACKET], start: usize) -> &mut [T; N] {
+    (&mut a[start..start + N]).try_into().expect("a packet's lanes lie within PACKET")
+}
+
 /// The watertight kernel's axis order `(kx, ky, kz)` for `kz` = 0, 1, 2.
 const PERMUTATIONS: [[usize; 3]; 3] = [[1, 2, 0], [2, 0, 1], [0, 1, 2]];
 
@@ -611,23 +669,25 @@ impl<V: Simd<N>, const N: usize> Best<V, N> {
     }
 }
 
-/// Closest hits of the packet's valid rays; returns (found, flagged) and
-/// writes the found rays' hits. Flagged rays' entries are left alone.
+/// Closest hits of the packet's valid rays, into lanes `start..start + N` of `out`
+/// (`found` set for the rays with one); returns the flagged rays, whose lanes are
+/// left for the caller (not found).
 #[inline(always)]
 pub(super) fn closest_packet<V: Simd<N>, L: Leaves + ?Sized, const N: usize, const S: usize>(
     bvh: &WideBvh,
     prims: &L,
     rays: &[Ray],
     active: u32,
-    out: &mut [Option<Hit>],
+    out: &mut PacketHits,
+    start: usize,
 ) -> u32 {
     // a tree without generic leaves gets its own copy: the spheres' set-up of the rays
     // (directions normalised in f64, divisions and square roots) depends on the rays
     // alone, so the compiler moves it to the entry, where every packet paid for it
     if bvh.generic.is_empty() {
-        closest_in::<V, L, N, S, false>(bvh, prims, rays, active, out)
+        closest_in::<V, L, N, S, false>(bvh, prims, rays, active, out, start)
     } else {
-        closest_in::<V, L, N, S, true>(bvh, prims, rays, active, out)
+        closest_in::<V, L, N, S, true>(bvh, prims, rays, active, out, start)
     }
 }
 
@@ -638,7 +698,8 @@ fn closest_in<V: Simd<N>, L: Leaves + ?Sized, const N: usize, const S: usize, co
     prims: &L,
     rays: &[Ray],
     active: u32,
-    out: &mut [Option<Hit>],
+    out: &mut PacketHits,
+    start: usize,
 ) -> u32 {
     let p = Packet::<V, N>::new(rays, active);
     let t_max = p.t_max;
@@ -784,23 +845,15 @@ fn closest_in<V: Simd<N>, L: Leaves + ?Sized, const N: usize, const S: usize, co
             }
         }
     }
-    let (mut ta, mut ba) = ([0.0f32; N], [[0.0f32; N]; 3]);
-    best.t.store(&mut ta);
+    best.t.store(lanes(&mut out.t, start));
     for a in 0..3 {
-        best.b[a].store(&mut ba[a]);
+        best.b[a].store(lanes(&mut out.b[a], start));
     }
-    let done = p.valid & !best.flagged;
-    for r in each_bit(done) {
-        out[r] = (best.found >> r & 1 != 0).then(|| Hit {
-            t: ta[r],
-            prim: best.prim[r],
-            b: [ba[0][r], ba[1][r], ba[2][r]],
-            sub: best.sub[r],
-        });
-    }
-    for r in each_bit(active & !p.valid & full::<N>()) {
-        out[r] = None;
-    }
+    *lanes(&mut out.prim, start) = best.prim;
+    *lanes(&mut out.sub, start) = best.sub;
+    // found: valid, unflagged rays with a hit (not the invalid ones, not the flagged)
+    let found = best.found & p.valid & !best.flagged;
+    out.found = (out.found & !(full::<N>() << start)) | found << start;
     best.flagged
 }
 

@@ -7,10 +7,9 @@
 //! from code that has not checked the CPU (the same rule as `x86`'s kernels).
 //! `min`/`max` are the instructions' `a < b ? a : b`, as in the single-ray kernels.
 
-use super::packet::{any_packet, closest_packet, ray_rows_by_lane, Simd};
+use super::packet::{any_packet, closest_packet, ray_rows_by_lane, PacketHits, Simd};
 use super::traverse::Leaves;
 use super::WideBvh;
-use crate::geometry::prim::Hit;
 use crate::geometry::Ray;
 use std::arch::x86_64::*;
 
@@ -25,9 +24,10 @@ macro_rules! entry {
             prims: &L,
             rays: &[Ray],
             active: u32,
-            out: &mut [Option<Hit>],
+            out: &mut PacketHits,
+            start: usize,
         ) -> u32 {
-            closest_packet::<$v, L, $n, S>(bvh, prims, rays, active, out)
+            closest_packet::<$v, L, $n, S>(bvh, prims, rays, active, out, start)
         }
         #[target_feature(enable = $feat)]
         pub(super) fn $any<L: Leaves + ?Sized, const S: usize>(bvh: &WideBvh, prims: &L, rays: &[Ray], active: u32) -> u32 {

@@ -210,7 +210,7 @@ enum Command {
         #[arg(long)]
         isa: Option<String>,
         /// Scene benchmark: rays a packet traversal takes (8 or 16, 0: every ray alone;
-        /// default 16) where the integrator traces packets.
+        /// default 8 with the AVX2 kernels, else 16) where the integrator traces packets.
         #[arg(long)]
         packet: Option<usize>,
         /// Mesh benchmark: ray sets to time, comma-separated (primary, incoherent, bounce; default all).

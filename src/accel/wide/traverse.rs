@@ -309,7 +309,7 @@ pub(super) fn closest<K: Kernel, L: Leaves + ?Sized, const S: usize>(bvh: &WideB
 /// [`closest`] in a tree with triangle blocks (`TRIANGLES`) or without.
 #[inline(always)]
 fn closest_in<K: Kernel, L: Leaves + ?Sized, const S: usize, const TRIANGLES: bool>(bvh: &WideBvh, prims: &L, ray: &Ray) -> Option<Hit> {
-    let r = RayData::for_tree::<TRIANGLES>(ray);
+    let r_data = RayData::for_tree::<TRIANGLES>(ray);
     let mut t_max = ray.t_max;
     let mut best: Option<Hit> = None;
     // stack entries: entry distance's bits above, child reference below (for
@@ -319,9 +319,13 @@ fn closest_in<K: Kernel, L: Leaves + ?Sized, const S: usize, const TRIANGLES: bo
     let mut sp = 0usize;
     let mut cur = 0u32;
     loop {
+        // read from memory where the kernels use it: the compiler otherwise broadcast
+        // every field into a vector register before the loop and spilled them all to
+        // the stack, a copy per ray that cost more than it saved (cbox_path: 3 %)
+        let r = std::hint::black_box(&r_data);
         if cur & LEAF == 0 {
             let node = &bvh.nodes[cur as usize];
-            let (mask, d) = K::node(node, &r, t_max);
+            let (mask, d) = K::node(node, r, t_max);
             if mask != 0 {
                 let a = mask.trailing_zeros() as usize;
                 let rest = mask & (mask - 1);
@@ -374,7 +378,7 @@ fn closest_in<K: Kernel, L: Leaves + ?Sized, const S: usize, const TRIANGLES: bo
                 }
             } else if r.tri_ok {
                 for blk in &bvh.blocks[first..first + count] {
-                    let h = K::block(blk, &r, t_max);
+                    let h = K::block(blk, r, t_max);
                     if h.mask != 0 {
                         let mut lane = h.mask.trailing_zeros() as usize;
                         let mut m = h.mask & (h.mask - 1);
@@ -425,16 +429,18 @@ pub(super) fn any<K: Kernel, L: Leaves + ?Sized, const S: usize>(bvh: &WideBvh, 
 /// [`any`] in a tree with triangle blocks (`TRIANGLES`) or without.
 #[inline(always)]
 fn any_in<K: Kernel, L: Leaves + ?Sized, const S: usize, const TRIANGLES: bool>(bvh: &WideBvh, prims: &L, ray: &Ray) -> bool {
-    let r = RayData::for_tree::<TRIANGLES>(ray);
+    let r_data = RayData::for_tree::<TRIANGLES>(ray);
     let t_max = ray.t_max;
     // not zeroed for every ray; entries `..sp` are initialised
     let mut st = [MaybeUninit::<u32>::uninit(); S];
     let mut sp = 0usize;
     let mut cur = 0u32;
     loop {
+        // as in `closest_in`
+        let r = std::hint::black_box(&r_data);
         if cur & LEAF == 0 {
             let node = &bvh.nodes[cur as usize];
-            let (mask, _) = K::node(node, &r, t_max);
+            let (mask, _) = K::node(node, r, t_max);
             if mask != 0 {
                 let mut m = mask & (mask - 1);
                 while m != 0 {
@@ -459,7 +465,7 @@ fn any_in<K: Kernel, L: Leaves + ?Sized, const S: usize, const TRIANGLES: bool>(
                 }
             } else if r.tri_ok {
                 for blk in &bvh.blocks[first..first + count] {
-                    if K::block(blk, &r, t_max).mask != 0 {
+                    if K::block(blk, r, t_max).mask != 0 {
                         return true;
                     }
                 }

@@ -100,18 +100,13 @@ impl IntersectionTest {
                     (last_prim, last) = (prim, plain_diffuse_triangle(scene, prim));
                 }
                 if let Some(t) = &last {
-                    plain.set(i, t, [hits.b[0][i], hits.b[1][i], hits.b[2][i]], ray.d);
+                    plain.set(i, t, hits.barycentrics(i), ray.d);
                     plain_lanes |= 1 << i;
                     set_lane(&mut ends.albedo, i, t.albedo);
                     continue;
                 }
             }
-            let hit = Hit {
-                t: hits.t[i],
-                prim,
-                b: [hits.b[0][i], hits.b[1][i], hits.b[2][i]],
-                sub: hits.sub[i],
-            };
+            let hit = hits.hit(i);
             let mut total = Vec3::ZERO;
             match surface(scene, ray, &hit, diff.as_ref(), &mut total) {
                 Surface::Diffuse(it, texture, twosided) => {

@@ -235,23 +235,23 @@ impl PathTracer {
             // the second segment's rays one after another, then each path's step (the
             // first turn of `finish`'s loop): independent traversals and the sky's lookups
             // of the rays that escape overlap across paths
-            let mut hits = [None; PACKET];
+            let mut hits = PacketHits::default();
             if scene.bvh.nodes.len() == 1 {
                 // a tree of one node: one box test of the root for all the scattered rays
                 // pays (env_sphere, the bundled showcase: 3–5 %); from 7 nodes on
                 // scattered packets were slower than single rays
                 let rays: [Ray; PACKET] = std::array::from_fn(|i| paths[i].ray);
-                scene.intersect_packet(&rays[..n], going, &mut hits);
+                scene.intersect_packet_lanes(&rays[..n], going, &mut hits);
             } else {
                 for i in (0..n).filter(|&i| going >> i & 1 != 0) {
-                    hits[i] = scene.intersect(&paths[i].ray);
+                    hits.set(i, scene.intersect(&paths[i].ray));
                 }
             }
             block.counts.rays += going.count_ones() as u64;
             let traced = going;
             for i in (0..n).filter(|&i| traced >> i & 1 != 0) {
                 let found = Found {
-                    hit: hits[i],
+                    hit: hits.get(i),
                     segment: 2,
                     diff: None,
                 };

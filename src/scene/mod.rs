@@ -172,28 +172,16 @@ impl Scene {
         }
     }
 
-    /// Whether packet queries ([`Scene::intersect_packet`], [`Scene::occluded_packet`])
+    /// Whether packet queries ([`Scene::intersect_packet_lanes`], [`Scene::occluded_packet`])
     /// trace rays together: a one-level tree without masks, with packets on.
     #[inline]
     pub fn packets(&self) -> bool {
         self.bvh.packet_width() != 0 && !self.has_masks && self.instances.is_empty()
     }
 
-    /// [`Scene::intersect`] of up to [`crate::accel::wide::PACKET`] rays (bit `i` of
-    /// `active` for `rays[i]`, into `out[i]`), traced together when
-    /// [`Scene::packets`] says so.
-    pub fn intersect_packet(&self, rays: &[Ray], active: u32, out: &mut [Option<Hit>]) {
-        if self.packets() {
-            self.bvh.intersect_packet(&self.prims, rays, active, out);
-        } else {
-            for (i, r) in rays.iter().enumerate().filter(|(i, _)| active >> i & 1 != 0) {
-                out[i] = self.intersect(r);
-            }
-        }
-    }
-
-    /// [`Scene::intersect_packet`] by lane: lane `i` of `out` gets `rays[i]`'s hit for
-    /// each bit `i` of `active`; other lanes are not found.
+    /// [`Scene::intersect`] of up to [`crate::accel::wide::PACKET`] rays, by lane: lane
+    /// `i` of `out` gets `rays[i]`'s hit for each bit `i` of `active` (other lanes are
+    /// not found); traced together when [`Scene::packets`] says so.
     pub fn intersect_packet_lanes(&self, rays: &[Ray], active: u32, out: &mut crate::accel::wide::PacketHits) {
         if self.packets() {
             self.bvh.intersect_packet_lanes_with(&self.prims[..], rays, active, out);

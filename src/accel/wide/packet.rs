@@ -63,12 +63,24 @@ impl PacketHits {
     /// Lane `i`'s hit.
     #[inline]
     pub fn get(&self, i: usize) -> Option<Hit> {
-        (self.found >> i & 1 != 0).then(|| Hit {
+        (self.found >> i & 1 != 0).then(|| self.hit(i))
+    }
+
+    /// Lane `i`'s fields as a [`Hit`] (meaningful where `found` says so).
+    #[inline]
+    pub fn hit(&self, i: usize) -> Hit {
+        Hit {
             t: self.t[i],
             prim: self.prim[i],
-            b: [self.b[0][i], self.b[1][i], self.b[2][i]],
+            b: self.barycentrics(i),
             sub: self.sub[i],
-        })
+        }
+    }
+
+    /// Lane `i`'s barycentrics.
+    #[inline]
+    pub fn barycentrics(&self, i: usize) -> [f32; 3] {
+        [self.b[0][i], self.b[1][i], self.b[2][i]]
     }
 
     /// Sets lane `i` to `hit`.
@@ -82,6 +94,17 @@ impl PacketHits {
                 self.b[k][i] = h.b[k];
             }
         }
+    }
+}
+
+/// The primitives of a generic leaf; none in the traversals' copy for trees without
+/// generic leaves, which thus compiles no test for them.
+#[inline(always)]
+fn generic_leaf<const GENERIC_LEAVES: bool>(bvh: &WideBvh, first: usize, count: usize) -> &[u32] {
+    if GENERIC_LEAVES {
+        &bvh.generic[first..first + count]
+    } else {
+        &[]
     }
 }
 
@@ -765,9 +788,7 @@ fn closest_in<V: Simd<N>, L: Leaves + ?Sized, const N: usize, const S: usize, co
         } else if cur != EMPTY && cur & LEAF != 0 && cur_mask != 0 {
             let (first, count) = leaf_range(cur);
             if cur & GENERIC != 0 {
-                // (the copy for trees without generic leaves compiles no test here)
-                let ids: &[u32] = if GENERIC_LEAVES { &bvh.generic[first..first + count] } else { &[] };
-                for &pi in ids {
+                for &pi in generic_leaf::<GENERIC_LEAVES>(bvh, first, count) {
                     // each ray tests the primitive alone; their hits are offered together
                     // (`offer` is lane by lane, and a ray's own limit is read before it
                     // changes)
@@ -917,9 +938,7 @@ fn any_in<V: Simd<N>, L: Leaves + ?Sized, const N: usize, const S: usize, const 
         } else if cur != EMPTY && cur & LEAF != 0 && cur_mask != 0 {
             let (first, count) = leaf_range(cur);
             if cur & GENERIC != 0 {
-                // (the copy for trees without generic leaves compiles no test here)
-                let ids: &[u32] = if GENERIC_LEAVES { &bvh.generic[first..first + count] } else { &[] };
-                for &pi in ids {
+                for &pi in generic_leaf::<GENERIC_LEAVES>(bvh, first, count) {
                     if let Some(sphere) = prims.sphere(pi) {
                         // all rays at once (NaN: a miss)
                         let r = p.rows();

@@ -17,7 +17,12 @@ pub struct Ray {
 }
 
 impl Ray {
-    pub fn new(o: Vec3, d: Vec3) -> Self {
+    /// A stand-in for the unused lanes of a ray array: from the origin along +z. A
+    /// constant, so arrays of it are copied from read-only data (a template built on
+    /// the stack with narrow stores and copied with wide loads stalled).
+    pub const IDLE: Ray = Ray::new(Vec3::ZERO, Vec3::Z);
+
+    pub const fn new(o: Vec3, d: Vec3) -> Self {
         Ray {
             o,
             d,

@@ -114,8 +114,12 @@ impl PathTracer {
         let mut hits = PacketHits::default();
         scene.intersect_packet_lanes(&block.rays[..n], (1 << n) - 1, &mut hits);
         block.counts.rays += n as u64;
-        let mut paths: [PathState; PACKET] =
-            std::array::from_fn(|i| PathState::new(block.rays.get(i).copied().unwrap_or(Ray::new(Vec3::ZERO, Vec3::Z))));
+        // a constant copied, then each lane's ray set in place: `array::from_fn` built each
+        // path on the stack with narrow stores and copied it with wide loads, which stalled
+        let mut paths = [PathState::IDLE; PACKET];
+        for (path, ray) in paths.iter_mut().zip(&block.rays[..n]) {
+            path.start(ray);
+        }
         let diffs = block.diffs;
         let found = |i: usize| Found {
             hit: hits.get(i),
@@ -166,23 +170,27 @@ impl PathTracer {
                     }
                 }
             }
-            // and the sky's coordinates of the sampled directions, for their radiance
-            let mut radiance_uv = [None; PACKET];
+            // and the sky's directions and their coordinates, for their radiance (by axis:
+            // each lane's sample is made where it is used, not stored in an array of
+            // `Option`s, whose narrow stores then stalled the wide loads that copied them)
+            let (mut wi, mut sin_theta, mut wi_uv) = ([[0.0f32; PACKET]; 3], [0.0f32; PACKET], [[0.0f32; PACKET]; 2]);
             if sky_lanes != 0 {
-                let (wi, sin_theta) = sky.uv_to_direction_lanes(&sky_uv);
-                let (uv, _) = sky.direction_coords_lanes(&wi);
-                for i in (0..n).filter(|&i| sky_lanes >> i & 1 != 0) {
-                    let w = Vec3::new(wi[0][i], wi[1][i], wi[2][i]);
-                    samples[i] =
-                        EnvironmentLight::direction_sample(w, sin_theta[i], sky_pdf[i]).map(|(wi, pdf)| LightSample::unlit_sky(wi, pdf));
-                    radiance_uv[i] = Some(Vec2::new(uv[0][i], uv[1][i]));
-                }
+                (wi, sin_theta) = sky.uv_to_direction_lanes(&sky_uv);
+                (wi_uv, _) = sky.direction_coords_lanes(&wi);
             }
             for i in 0..n {
                 if live[i] {
+                    let (sample, radiance_uv) = if sky_lanes >> i & 1 != 0 {
+                        let w = Vec3::new(wi[0][i], wi[1][i], wi[2][i]);
+                        let sample =
+                            EnvironmentLight::direction_sample(w, sin_theta[i], sky_pdf[i]).map(|(w, pdf)| LightSample::unlit_sky(w, pdf));
+                        (sample, Some(Vec2::new(wi_uv[0][i], wi_uv[1][i])))
+                    } else {
+                        (samples[i], None)
+                    };
                     // SAFETY: as above
                     let v = unsafe { lanes[i].assume_init_ref() };
-                    steps[i] = paths[i].end(self, scene, v, samples[i], radiance_uv[i], 1, &mut block.samplers[i], block.counts);
+                    steps[i] = paths[i].end(self, scene, v, sample, radiance_uv, 1, &mut block.samplers[i], block.counts);
                 }
             }
             // the sky's coordinates of the next rays, all lanes together (as `advance`
@@ -206,7 +214,7 @@ impl PathTracer {
             }
         }
         // the shadow rays, as one packet where the scene traces packets
-        let mut rays = [Ray::new(Vec3::ZERO, Vec3::Z); PACKET];
+        let mut rays = [Ray::IDLE; PACKET];
         let mut waiting = 0u32;
         for (i, (shadow, _)) in steps.iter().enumerate().take(n) {
             if let Some(s) = shadow {
@@ -333,7 +341,10 @@ struct PathState {
 }
 
 impl PathState {
-    fn new(ray: Ray) -> PathState {
+    /// [`PathState::new`] of [`Ray::IDLE`].
+    const IDLE: PathState = PathState::new(Ray::IDLE);
+
+    const fn new(ray: Ray) -> PathState {
         PathState {
             ray,
             l: Vec3::ZERO,
@@ -344,6 +355,15 @@ impl PathState {
             prev_p: ray.o,
             sky_coords: None,
         }
+    }
+
+    /// Makes this [`PathState::new`]`(*ray)`, field by field.
+    #[inline(always)]
+    fn start(&mut self, ray: &Ray) {
+        self.ray.o = ray.o;
+        self.ray.d = ray.d;
+        (self.ray.t_min, self.ray.t_max) = (ray.t_min, ray.t_max);
+        self.prev_p = ray.o;
     }
 
     /// A light term times the transmittance of its shadow ray.

@@ -145,10 +145,7 @@ impl PathTracer {
             let mut lanes = [const { MaybeUninit::<Vertex>::uninit() }; PACKET];
             let mut live = [false; PACKET];
             for i in 0..n {
-                if let Some(v) = paths[i].begin(self, scene, found(i), &mut block.samplers[i]) {
-                    lanes[i].write(v);
-                    live[i] = true;
-                }
+                live[i] = paths[i].begin(self, scene, found(i), &mut block.samplers[i], &mut lanes[i]);
             }
             // light samples; the sky's own (by importance) in two steps, their
             // trigonometry for all lanes at once
@@ -389,27 +386,40 @@ impl PathState {
         counts: &mut RayCounts,
     ) -> (Option<Shadow>, bool) {
         let segment = found.segment;
-        match self.begin(tracer, scene, found, sampler) {
-            Some(v) => {
-                let ls = v.light_sample(scene);
-                let step = self.end(tracer, scene, &v, ls, None, segment, sampler, counts);
-                if let (true, Some((_, sky))) = (step.1, scene.environment_light()) {
-                    // should the ray escape, its texels and pdf weight load during the traversal
-                    let coords = sky.direction_coords(self.ray.d);
-                    sky.prefetch_coords(coords.0);
-                    self.sky_coords = Some(coords);
-                }
-                step
-            }
-            None => (None, false),
+        let mut vertex = MaybeUninit::uninit();
+        if !self.begin(tracer, scene, found, sampler, &mut vertex) {
+            return (None, false);
         }
+        // SAFETY: `begin` wrote the vertex (it returned true); it is dropped below, once
+        let v = unsafe { vertex.assume_init_ref() };
+        let ls = v.light_sample(scene);
+        let step = self.end(tracer, scene, v, ls, None, segment, sampler, counts);
+        // SAFETY: as above; `v` is not used again (a panic before here leaks the vertex)
+        unsafe { vertex.assume_init_drop() };
+        if let (true, Some((_, sky))) = (step.1, scene.environment_light()) {
+            // should the ray escape, its texels and pdf weight load during the traversal
+            let coords = sky.direction_coords(self.ray.d);
+            sky.prefetch_coords(coords.0);
+            self.sky_coords = Some(coords);
+        }
+        step
     }
 
     /// The first step of [`PathState::advance`]: the emission the segment finds, and
     /// the vertex it reaches with its BSDF and all its numbers but roulette's (the
-    /// light's tables are prefetched); `None` where the path ends.
+    /// light's tables are prefetched), written into `out`; returns false (and writes
+    /// nothing) where the path ends. An out-parameter, because a returned vertex was
+    /// built on the stack with narrow stores and then copied with wide loads, which
+    /// stalled.
     #[inline(always)]
-    fn begin(&mut self, tracer: &PathTracer, scene: &Scene, found: Found, sampler: &mut PixelSampler) -> Option<Vertex> {
+    fn begin(
+        &mut self,
+        tracer: &PathTracer,
+        scene: &Scene,
+        found: Found,
+        sampler: &mut PixelSampler,
+        out: &mut MaybeUninit<Vertex>,
+    ) -> bool {
         let (profile, mode, ray) = (tracer.profile, scene.light_sampling, self.ray);
         let Found { hit, segment, diff } = found;
         let Some(hit) = hit else {
@@ -425,7 +435,7 @@ impl PathState {
                     self.l += self.beta * le * w;
                 }
             }
-            return None;
+            return false;
         };
         let mut it = scene.interaction(&ray, &hit);
         if let (1, Some(d)) = (segment, diff) {
@@ -442,10 +452,12 @@ impl PathState {
             }
         }
         if segment >= tracer.max_depth {
-            return None;
+            return false;
         }
         // an emitter without a material does not reflect (Mitsuba gives it a black BSDF)
-        let material = scene.material_of(&it)?;
+        let Some(material) = scene.material_of(&it) else {
+            return false;
+        };
         let bsdf = material.bsdf_at(&it, &scene.textures);
 
         // the BSDF's numbers follow the light's (the same order as drawn one after the
@@ -459,13 +471,14 @@ impl PathState {
         }
         let uc = sampler.next_1d();
         let u_bsdf = Vec2::from(sampler.next_2d());
-        Some(Vertex {
+        out.write(Vertex {
             it,
             bsdf,
             light,
             uc,
             u_bsdf,
-        })
+        });
+        true
     }
 
     /// The last step of [`PathState::advance`]: the light sample's term and shadow

@@ -141,7 +141,12 @@ impl Tables<'_> {
 
     #[inline(always)]
     fn sample_continuous(&self, u: f32) -> (f32, f32, usize) {
-        let (i, lo, hi, func) = self.find(u);
+        self.continuous_in(u, self.find(u))
+    }
+
+    /// [`Tables::sample_continuous`] of `u` with its bucket already found (`find(u)`).
+    #[inline(always)]
+    fn continuous_in(&self, u: f32, (i, lo, hi, func): (usize, f32, f32, f32)) -> (f32, f32, usize) {
         let width = hi - lo;
         let du = if width > 0.0 { (u - lo) / width } else { 0.0 };
         let n = self.func.len() as f32;
@@ -228,6 +233,16 @@ impl Distribution1D {
     }
 }
 
+/// The marginal's bucket of a [`Distribution2D`] sample, found once by
+/// [`Distribution2D::prefetch_sample`] for [`Distribution2D::sample_in`] (the search
+/// was made twice, and its loads miss the cache once the map's rows have evicted it).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RowDraw {
+    /// The `u.y` it was found for.
+    v: f32,
+    bucket: (usize, f32, f32, f32),
+}
+
 /// Piecewise-constant 2D distribution over `[0, 1)²` (rows are `v`, columns `u`).
 /// The rows' conditional distributions live in flat arrays (row `r`'s weights at
 /// `r·nu…`, its cdf at `r·(nu + 1)…`), so a sample touches no per-row header.
@@ -277,18 +292,36 @@ impl Distribution2D {
     /// A point `(u, v)` and its density with respect to area in `[0, 1)²`.
     #[inline(always)]
     pub fn sample(&self, u: Vec2) -> (Vec2, f32) {
-        let (v, pdf_v, row) = self.marginal.sample_continuous(u.y);
+        self.sample_in(u, self.row_draw(u))
+    }
+
+    /// [`Self::sample`] of `u` with the marginal's bucket `draw` found for it before
+    /// ([`Self::prefetch_sample`] of the same `u`).
+    #[inline(always)]
+    pub fn sample_in(&self, u: Vec2, draw: RowDraw) -> (Vec2, f32) {
+        debug_assert!(draw.v.to_bits() == u.y.to_bits(), "a row drawn for another sample");
+        let (v, pdf_v, row) = self.marginal.tables().continuous_in(u.y, draw.bucket);
         let (x, pdf_u, _) = self.row(row).sample_continuous(u.x);
         (Vec2::new(x, v), pdf_u * pdf_v)
     }
 
-    /// Prefetches the guide entries [`Self::sample`] will read for `u` (a hint: the
-    /// marginal's search is repeated, its tables are small and cached).
+    /// The marginal's bucket for `u`.
+    #[inline(always)]
+    fn row_draw(&self, u: Vec2) -> RowDraw {
+        RowDraw {
+            v: u.y,
+            bucket: self.marginal.tables().find(u.y),
+        }
+    }
+
+    /// Prefetches the guide entry [`Self::sample`] will read in its row for `u` (a
+    /// hint), and returns the row's bucket for [`Self::sample_in`].
     #[inline]
-    pub fn prefetch_sample(&self, u: Vec2) {
-        let row = self.marginal.tables().find(u.y).0;
+    pub fn prefetch_sample(&self, u: Vec2) -> RowDraw {
+        let draw = self.row_draw(u);
         let col = ((u.x * self.nu as f32) as usize).min(self.nu - 1);
-        crate::math::prefetch(&self.guide, row * self.nu + col);
+        crate::math::prefetch(&self.guide, draw.bucket.0 * self.nu + col);
+        draw
     }
 
     /// Prefetches the weight [`Self::pdf`] reads at `p` (a hint).
@@ -459,6 +492,12 @@ mod tests {
                 let (v, pv, row) = marginal.sample_continuous(u.y);
                 let (x, pu, _) = rows[row].sample_continuous(u.x);
                 let (p, pdf) = d.sample(u);
+                assert_eq!(
+                    (p.x.to_bits(), p.y.to_bits(), pdf.to_bits()),
+                    (x.to_bits(), v.to_bits(), (pu * pv).to_bits())
+                );
+                // with the row drawn by the prefetch: the same sample
+                let (p, pdf) = d.sample_in(u, d.prefetch_sample(u));
                 assert_eq!(
                     (p.x.to_bits(), p.y.to_bits(), pdf.to_bits()),
                     (x.to_bits(), v.to_bits(), (pu * pv).to_bits())

@@ -19,7 +19,7 @@ use crate::light::{Light, LightSample, LightSampling};
 use crate::material::bsdf::Bsdf;
 use crate::math::{Vec2, Vec3};
 use crate::sampler::PixelSampler;
-use crate::sampling::power_heuristic;
+use crate::sampling::{power_heuristic, RowDraw};
 use crate::scene::{Hit, Interaction, Scene};
 use std::mem::MaybeUninit;
 
@@ -158,7 +158,7 @@ impl PathTracer {
                     let v = unsafe { lanes[i].assume_init_ref() };
                     match v.light {
                         Some((index, _, u)) if importance && index == env as usize => {
-                            let (uv, pdf) = sky.sample_uv(u);
+                            let (uv, pdf) = sky.sample_uv_in(u, v.sky_row);
                             (sky_uv[0][i], sky_uv[1][i], sky_pdf[i]) = (uv.x, uv.y, pdf);
                             sky_lanes |= 1 << i;
                         }
@@ -309,6 +309,9 @@ struct Vertex {
     /// The light chosen for next-event estimation: its index, probability and
     /// sample numbers (`None`: no light sample here).
     light: Option<(usize, f32, Vec2)>,
+    /// The environment's row drawn for the light sample, if the light is the sky
+    /// sampled by importance ([`Light::prefetch_sample`]).
+    sky_row: Option<RowDraw>,
     uc: f32,
     u_bsdf: Vec2,
 }
@@ -318,7 +321,7 @@ impl Vertex {
     #[inline(always)]
     fn light_sample(&self, scene: &Scene) -> Option<LightSample> {
         let (index, _, u_light) = self.light?;
-        scene.lights[index].sample_unlit(self.it.p, u_light, scene.light_sampling)
+        scene.lights[index].sample_unlit(self.it.p, u_light, scene.light_sampling, self.sky_row)
     }
 }
 
@@ -462,11 +465,11 @@ impl PathState {
 
         // the BSDF's numbers follow the light's (the same order as drawn one after the
         // other), drawn before the light sample is taken, while its tables load
-        let mut light = None;
+        let (mut light, mut sky_row) = (None, None);
         if profile != PathProfile::RandomWalk && !bsdf.is_delta() && !scene.lights.is_empty() {
             let (index, pmf, _) = scene.light_sampler.sample(sampler.next_1d());
             let u_light = Vec2::from(sampler.next_2d());
-            scene.lights[index].prefetch_sample(u_light, mode);
+            sky_row = scene.lights[index].prefetch_sample(u_light, mode);
             light = Some((index, pmf, u_light));
         }
         let uc = sampler.next_1d();
@@ -475,6 +478,7 @@ impl PathState {
             it,
             bsdf,
             light,
+            sky_row,
             uc,
             u_bsdf,
         });

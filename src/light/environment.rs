@@ -9,7 +9,7 @@
 use super::{LightSample, LightSampling, ShadowTarget};
 use crate::math::{atan2_poly, floor_f32, luminance, prefetch, select, sin_cos_poly, Mat4, Vec2, Vec3, INV_PI, PI};
 use crate::pages::HugeBuf;
-use crate::sampling::{uniform_sphere, Distribution2D};
+use crate::sampling::{uniform_sphere, Distribution2D, RowDraw};
 use crate::texture::UvMapping;
 use glam::Mat3;
 
@@ -235,12 +235,11 @@ impl EnvironmentLight {
         }
     }
 
-    /// Prefetches what [`Self::sample_direction`] will read first for `u` (a hint).
+    /// Prefetches what [`Self::sample_direction`] will read first for `u` (a hint);
+    /// for importance sampling, the row drawn, which [`Self::sample_uv_in`] takes.
     #[inline]
-    pub fn prefetch_sample(&self, u: Vec2, mode: LightSampling) {
-        if mode == LightSampling::Importance {
-            self.distribution.prefetch_sample(u);
-        }
+    pub fn prefetch_sample(&self, u: Vec2, mode: LightSampling) -> Option<RowDraw> {
+        (mode == LightSampling::Importance).then(|| self.distribution.prefetch_sample(u))
     }
 
     /// Prefetches the texels and the pdf's weight at `uv` (a hint for a ray that may miss
@@ -278,10 +277,17 @@ impl EnvironmentLight {
     /// ([`Self::radiance`] of the direction).
     #[inline(always)]
     pub fn sample_direction(&self, u: Vec2, mode: LightSampling) -> Option<(Vec3, f32)> {
+        self.sample_direction_in(u, mode, None)
+    }
+
+    /// [`Self::sample_direction`] with the row drawn for `u` before, if it was
+    /// ([`Self::prefetch_sample`]).
+    #[inline(always)]
+    pub fn sample_direction_in(&self, u: Vec2, mode: LightSampling, draw: Option<RowDraw>) -> Option<(Vec3, f32)> {
         match mode {
             LightSampling::Uniform => Some((uniform_sphere(u), 1.0 / (4.0 * PI))),
             LightSampling::Importance => {
-                let (uv, pdf_uv) = self.sample_uv(u);
+                let (uv, pdf_uv) = self.sample_uv_in(u, draw);
                 let (wi, sin_theta) = self.uv_to_direction(uv);
                 Self::direction_sample(wi, sin_theta, pdf_uv)
             }
@@ -292,7 +298,17 @@ impl EnvironmentLight {
     /// texture coordinates drawn for `u` and their density over `[0, 1)²`.
     #[inline(always)]
     pub fn sample_uv(&self, u: Vec2) -> (Vec2, f32) {
-        let (uv, pdf_uv) = self.distribution.sample(u);
+        self.sample_uv_in(u, None)
+    }
+
+    /// [`Self::sample_uv`] with the row drawn for `u` before, if it was
+    /// ([`Self::prefetch_sample`]).
+    #[inline(always)]
+    pub fn sample_uv_in(&self, u: Vec2, draw: Option<RowDraw>) -> (Vec2, f32) {
+        let (uv, pdf_uv) = match draw {
+            Some(d) => self.distribution.sample_in(u, d),
+            None => self.distribution.sample(u),
+        };
         // the radiance will be looked up at (about) `uv`, after the trigonometry
         self.prefetch_texels(uv);
         (uv, pdf_uv)

@@ -15,7 +15,7 @@ pub use projector::Projector;
 pub use textured_spot::TexturedSpot;
 
 use crate::math::{luminance, Vec2, Vec3, INV_4PI, PI};
-use crate::sampling::Distribution1D;
+use crate::sampling::{Distribution1D, RowDraw};
 
 #[derive(Clone, Debug)]
 pub enum Light {
@@ -203,20 +203,25 @@ impl Light {
     /// [`Self::sample`], except that an environment's radiance is left zero for
     /// [`Self::radiance_of`] to give: a caller that may drop the sample first (a
     /// direction the BSDF does not reflect) saves the environment lookup.
+    /// `draw`: the environment's row drawn for `u` by [`Self::prefetch_sample`], if it was.
     #[inline]
-    pub fn sample_unlit(&self, p: Vec3, u: Vec2, mode: LightSampling) -> Option<LightSample> {
+    pub fn sample_unlit(&self, p: Vec3, u: Vec2, mode: LightSampling, draw: Option<RowDraw>) -> Option<LightSample> {
         match self {
-            Light::Environment(e) => e.sample_direction(u, mode).map(|(wi, pdf)| LightSample::unlit_sky(wi, pdf)),
+            Light::Environment(e) => e
+                .sample_direction_in(u, mode, draw)
+                .map(|(wi, pdf)| LightSample::unlit_sky(wi, pdf)),
             _ => self.sample(p, u, mode),
         }
     }
 
     /// Prefetches what [`Self::sample`] with `u` will read first (a hint, for the
-    /// environment's tables), so that other work overlaps the loads.
+    /// environment's tables), so that other work overlaps the loads; an environment
+    /// sampled by importance returns the row it drew, for [`Self::sample_unlit`].
     #[inline]
-    pub fn prefetch_sample(&self, u: Vec2, mode: LightSampling) {
-        if let Light::Environment(e) = self {
-            e.prefetch_sample(u, mode);
+    pub fn prefetch_sample(&self, u: Vec2, mode: LightSampling) -> Option<RowDraw> {
+        match self {
+            Light::Environment(e) => e.prefetch_sample(u, mode),
+            _ => None,
         }
     }
 

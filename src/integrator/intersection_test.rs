@@ -206,8 +206,17 @@ impl PathEnds {
                 radiance[a][i] = self.total[a][i] + self.albedo[a][i] * INV_PI * direct[a][i];
             }
         }
+        // interleaved into x, y, z by lane with vector stores first: a lane's radiance
+        // stored as three floats was read back by the film as two and one, a load the
+        // stores could not forward (a stall per sample)
+        let mut xyz = [0.0f32; 3 * L];
+        for i in 0..L {
+            for a in 0..3 {
+                xyz[3 * i + a] = radiance[a][i];
+            }
+        }
         for i in (0..L.min(out.len())).filter(|&i| wait >> i & 1 != 0) {
-            out[i] = Vec3::new(radiance[0][i], radiance[1][i], radiance[2][i]);
+            out[i] = Vec3::from_slice(&xyz[3 * i..3 * i + 3]);
         }
     }
 }

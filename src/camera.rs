@@ -399,7 +399,7 @@ mod tests {
                     x[i] = (next() * 1.2 - 0.1) * w as f32;
                     y[i] = (next() * 1.2 - 0.1) * h as f32;
                 }
-                let mut out = [Ray::new(Vec3::ZERO, Vec3::Z); 16];
+                let mut out = [Ray::IDLE; 16];
                 assert!(c.pinhole_rays(&x, &y, 16, &mut out));
                 for i in 0..16 {
                     let r = c.sample_ray(x[i], y[i], Vec2::ZERO);

@@ -328,7 +328,7 @@ where
                         }
                         let px = &px[..n];
                         let mut pos = [Vec2::ZERO; N];
-                        let mut rays = [Ray::new(Vec3::ZERO, Vec3::Z); N];
+                        let mut rays = [Ray::IDLE; N];
                         let mut diffs = [None; N];
                         if plain_pinhole {
                             // `camera_sample` with the samples and rays made together (lanes past

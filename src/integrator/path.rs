@@ -158,7 +158,7 @@ impl PathTracer {
                     let v = unsafe { lanes[i].assume_init_ref() };
                     match v.light {
                         Some((index, _, u)) if importance && index == env as usize => {
-                            let (uv, pdf) = sky.sample_uv_in(u, v.sky_row);
+                            let (uv, pdf) = sky.sample_uv(u, v.sky_row);
                             (sky_uv[0][i], sky_uv[1][i], sky_pdf[i]) = (uv.x, uv.y, pdf);
                             sky_lanes |= 1 << i;
                         }

@@ -236,7 +236,7 @@ impl EnvironmentLight {
     }
 
     /// Prefetches what [`Self::sample_direction`] will read first for `u` (a hint);
-    /// for importance sampling, the row drawn, which [`Self::sample_uv_in`] takes.
+    /// for importance sampling, the row drawn, which [`Self::sample_uv`] takes.
     #[inline]
     pub fn prefetch_sample(&self, u: Vec2, mode: LightSampling) -> Option<RowDraw> {
         (mode == LightSampling::Importance).then(|| self.distribution.prefetch_sample(u))
@@ -263,7 +263,7 @@ impl EnvironmentLight {
     }
 
     pub fn sample(&self, u: Vec2, mode: LightSampling) -> Option<LightSample> {
-        let (wi, pdf) = self.sample_direction(u, mode)?;
+        let (wi, pdf) = self.sample_direction(u, mode, None)?;
         Some(LightSample {
             radiance: self.radiance(wi),
             wi,
@@ -275,19 +275,13 @@ impl EnvironmentLight {
 
     /// The direction and solid-angle pdf of [`Self::sample`], without its radiance
     /// ([`Self::radiance`] of the direction).
+    /// `draw`: the row [`Self::prefetch_sample`] drew for `u`, if it was.
     #[inline(always)]
-    pub fn sample_direction(&self, u: Vec2, mode: LightSampling) -> Option<(Vec3, f32)> {
-        self.sample_direction_in(u, mode, None)
-    }
-
-    /// [`Self::sample_direction`] with the row drawn for `u` before, if it was
-    /// ([`Self::prefetch_sample`]).
-    #[inline(always)]
-    pub fn sample_direction_in(&self, u: Vec2, mode: LightSampling, draw: Option<RowDraw>) -> Option<(Vec3, f32)> {
+    pub fn sample_direction(&self, u: Vec2, mode: LightSampling, draw: Option<RowDraw>) -> Option<(Vec3, f32)> {
         match mode {
             LightSampling::Uniform => Some((uniform_sphere(u), 1.0 / (4.0 * PI))),
             LightSampling::Importance => {
-                let (uv, pdf_uv) = self.sample_uv_in(u, draw);
+                let (uv, pdf_uv) = self.sample_uv(u, draw);
                 let (wi, sin_theta) = self.uv_to_direction(uv);
                 Self::direction_sample(wi, sin_theta, pdf_uv)
             }
@@ -296,15 +290,9 @@ impl EnvironmentLight {
 
     /// The first step of an importance sample ([`Self::sample_direction`]): the
     /// texture coordinates drawn for `u` and their density over `[0, 1)²`.
+    /// `draw`: the row [`Self::prefetch_sample`] drew for `u`, if it was.
     #[inline(always)]
-    pub fn sample_uv(&self, u: Vec2) -> (Vec2, f32) {
-        self.sample_uv_in(u, None)
-    }
-
-    /// [`Self::sample_uv`] with the row drawn for `u` before, if it was
-    /// ([`Self::prefetch_sample`]).
-    #[inline(always)]
-    pub fn sample_uv_in(&self, u: Vec2, draw: Option<RowDraw>) -> (Vec2, f32) {
+    pub fn sample_uv(&self, u: Vec2, draw: Option<RowDraw>) -> (Vec2, f32) {
         let (uv, pdf_uv) = match draw {
             Some(d) => self.distribution.sample_in(u, d),
             None => self.distribution.sample(u),

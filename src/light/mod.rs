@@ -207,9 +207,7 @@ impl Light {
     #[inline]
     pub fn sample_unlit(&self, p: Vec3, u: Vec2, mode: LightSampling, draw: Option<RowDraw>) -> Option<LightSample> {
         match self {
-            Light::Environment(e) => e
-                .sample_direction_in(u, mode, draw)
-                .map(|(wi, pdf)| LightSample::unlit_sky(wi, pdf)),
+            Light::Environment(e) => e.sample_direction(u, mode, draw).map(|(wi, pdf)| LightSample::unlit_sky(wi, pdf)),
             _ => self.sample(p, u, mode),
         }
     }

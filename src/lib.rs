@@ -16,6 +16,7 @@ pub mod material;
 pub mod math;
 pub mod metrics;
 mod pages;
+pub use pages::HugePageAllocator;
 pub mod render;
 pub mod robustness;
 pub mod sampler;

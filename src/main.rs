@@ -17,6 +17,11 @@ use std::process::ExitCode;
 use std::sync::Arc;
 use std::time::Instant;
 
+/// Large blocks on huge pages (`rdr::HugePageAllocator`: fewer page faults when a big
+/// mesh is read and its BVH built).
+#[global_allocator]
+static ALLOCATOR: rdr::HugePageAllocator = rdr::HugePageAllocator;
+
 #[derive(Parser)]
 #[command(name = "rdr", version, about = "A physically based CPU ray tracer for RDR171 JSON scenes")]
 struct Cli {

@@ -2,6 +2,11 @@
 //! prints the best of RUNS (default 5) one-thread CPU times (Linux schedstat) of the
 //! fast reader and one of the reference reader, with MB/s.
 
+/// As in the `rdr` binary: large blocks advised for huge pages, so the reader's arrays
+/// fault in as they do there.
+#[global_allocator]
+static ALLOCATOR: rdr::HugePageAllocator = rdr::HugePageAllocator;
+
 fn cpu_seconds() -> f64 {
     let s = std::fs::read_to_string("/proc/thread-self/schedstat").unwrap_or_default();
     s.split_whitespace().next().and_then(|w| w.parse::<u64>().ok()).unwrap_or(0) as f64 * 1e-9

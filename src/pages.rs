@@ -16,7 +16,10 @@
 //! (a mesh file's bytes, the parsed mesh, the BVH builder's arrays) faults in 2 MiB at a
 //! time too. Embree does the same for its own large blocks (`os_malloc`: `MAP_HUGETLB`,
 //! else `madvise(MADV_HUGEPAGE)`). Where page faults are dear, as in this project's VMs,
-//! that takes a third off loading a large mesh (README, "Speed").
+//! that takes a third off loading a large mesh (README, "Speed"). Where the kernel compacts
+//! memory for advised faults (`/sys/kernel/mm/transparent_hugepage/defrag` = `madvise`, the
+//! usual default), a badly fragmented machine may spend time there instead; Embree makes
+//! the same trade.
 
 use std::alloc::{alloc, dealloc, handle_alloc_error, GlobalAlloc, Layout, System};
 use std::ptr::NonNull;

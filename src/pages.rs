@@ -140,9 +140,12 @@ pub(crate) fn filled_huge<T: Clone>(n: usize, value: T) -> Vec<T> {
 /// pages changes. For a binary's `#[global_allocator]`.
 pub struct HugePageAllocator;
 
-// SAFETY: every method hands the call to `System` unchanged, so the blocks, their layout
-// and their contents are `System`'s, which meets `GlobalAlloc`'s contract; `advise` only
-// tells the kernel how to back pages of a block it was given (see `advise`).
+// SAFETY: every block comes from `System` and goes back to it with the layout it was
+// made with, so `System` meets `GlobalAlloc`'s contract for them; the one call not handed
+// on as it is, growth to a large block in `realloc`, does what `realloc` must (a block of
+// the new size and the same alignment holding the old contents, the old one freed, or null
+// and the old one kept). `advise` only tells the kernel how to back pages of a block it was
+// given (see `advise`).
 unsafe impl GlobalAlloc for HugePageAllocator {
     #[inline]
     unsafe fn alloc(&self, layout: Layout) -> *mut u8 {

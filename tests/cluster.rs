@@ -159,6 +159,11 @@ fn slurm_array_with_preemption_and_animation_merges_to_one_render() {
         .expect("the pre-empted shard saved its passes");
     let saved = held.state.passes_done();
     assert!(saved > 0 && saved < 2400, "pre-empted shard holds {saved} of 2400 passes");
+    // not at once, though: slurmd refuses to launch a job in the same wall-clock second
+    // it was killed in ("Job credential revoked": probably because revocation times are
+    // stored to the second), the task then fails and the merge can never run (seen on
+    // CI when the release came 0.3 s after the requeue)
+    std::thread::sleep(Duration::from_millis(2100));
     sh(Command::new("scontrol").args(["update", &format!("jobid={task0}"), "StartTime=now"]));
     let merged = out.join("frame_0.exr");
     // the update is repeated while the task still waits for its begin time (once it

@@ -15,7 +15,9 @@
 # are what an AVX2-only machine would see. Prints each burst's lines, then the best per
 # column and rdr/Embree ratios (Mrays/s ratios, build as Embree's time / rdr's time, so above
 # 1 means rdr is faster).
-# EMBREE_PY (default /work/venv-embree/bin/python) runs Embree; ISAS (default "avx512 avx2").
+# EMBREE_PY (default /work/venv-embree/bin/python) runs Embree; ISAS (default "avx512 avx2");
+# EMBREE_ROBUST=1 runs Embree in its robust mode (watertight triangles and conservative box
+# tests, the guarantees rdr's kernels always give) instead of its default.
 set -euo pipefail
 here=$(cd "$(dirname "$0")/.." && pwd)
 shared=$(realpath -m "${SHARED:-$here/../shared}")
@@ -36,7 +38,7 @@ for mesh in bunny dragon; do
   for b in $(seq "$bursts"); do
     for isa in $isas; do
       EMBREE_LIB=$embree_lib EMBREE_CONFIG="isa=$isa" LD_PRELOAD=$shim \
-        taskset -c 0 "$py" "$here/scripts/embree_time.py" "$shared/meshes/$mesh.obj" "${files[@]}" --reps 1 |
+        taskset -c 0 "$py" "$here/scripts/embree_time.py" "$shared/meshes/$mesh.obj" "${files[@]}" --reps 1 ${EMBREE_ROBUST:+--robust} |
         sed "s|^|$mesh embree/$isa |" | tee -a "$log"
     done
     for spec in "${rdrs[@]}"; do

@@ -2,7 +2,7 @@
 """Embree 4 timed on ray files in process CPU time (for side-by-side bursts with `rdr bench`).
 
 Usage (one thread; `embreex` as in ../shared/tools/embree_rays.py's header):
-    taskset -c 0 /work/venv-embree/bin/python scripts/embree_time.py MESH.obj RAYS.rays.f32... [--reps 3]
+    taskset -c 0 /work/venv-embree/bin/python scripts/embree_time.py MESH.obj RAYS.rays.f32... [--reps 3] [--robust]
 
 Builds the mesh `--reps` times (the build is Embree's lazy commit, timed around a first one-ray
 query) and traces each file's rays (the format of `rdr bench --ray-file`) with closest and any
@@ -22,6 +22,7 @@ def main():
     ap.add_argument("mesh")
     ap.add_argument("rays", nargs="+")
     ap.add_argument("--reps", type=int, default=3)
+    ap.add_argument("--robust", action="store_true", help="Embree's robust mode (RTC_SCENE_FLAG_ROBUST: watertight, as rdr's triangle test)")
     a = ap.parse_args()
     from embree_rays import load_obj
     from embreex import rtcore as rtc, rtcore_scene as rtcs, mesh_construction as mc
@@ -31,7 +32,7 @@ def main():
     best = float("inf")
     one, up = np.zeros((1, 3), np.float32), np.array([[0, 0, 1]], np.float32)
     for _ in range(a.reps):
-        scene = rtcs.EmbreeScene(dev, robust=False)
+        scene = rtcs.EmbreeScene(dev, robust=a.robust)
         mc.TriangleMesh(scene, V, F)
         t0 = time.process_time()
         scene.run(one, up, query="OCCLUDED")

@@ -32,13 +32,15 @@ log=$(mktemp)
 shim=$(mktemp --suffix=.so)
 cc -shared -fPIC -O2 -o "$shim" "$here/scripts/embree_config_shim.c" -ldl
 embree_lib=$("$py" -c 'import embreex, glob, os; print(glob.glob(os.path.join(os.path.dirname(embreex.__file__), "..", "embreex.libs", "libembree4*"))[0])')
+robust=()
+[ "${EMBREE_ROBUST:-0}" = 1 ] && robust=(--robust)
 for mesh in bunny dragon; do
   files=()
   for s in primary incoherent bounce; do files+=("$dir/${mesh}_$s.rays.f32"); done
   for b in $(seq "$bursts"); do
     for isa in $isas; do
       EMBREE_LIB=$embree_lib EMBREE_CONFIG="isa=$isa" LD_PRELOAD=$shim \
-        taskset -c 0 "$py" "$here/scripts/embree_time.py" "$shared/meshes/$mesh.obj" "${files[@]}" --reps 1 ${EMBREE_ROBUST:+--robust} |
+        taskset -c 0 "$py" "$here/scripts/embree_time.py" "$shared/meshes/$mesh.obj" "${files[@]}" --reps 1 "${robust[@]}" |
         sed "s|^|$mesh embree/$isa |" | tee -a "$log"
     done
     for spec in "${rdrs[@]}"; do

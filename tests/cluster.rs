@@ -152,19 +152,26 @@ fn slurm_array_with_preemption_and_animation_merges_to_one_render() {
     wait_for("task 0's first checkpoint", deadline, &out, || part0.exists());
     assert_eq!(job_state(&task0), "RUNNING", "task 0 after its first checkpoint");
     sh(Command::new("scancel").args(["--signal=TERM", "--batch", &task0]));
-    // requeued tasks wait 2 minutes before they may start again: let it go at once
     wait_for("task 0 to be requeued", deadline, &out, || job_state(&task0) == "PENDING");
     let held = rdr::render::statefile::read(&part0)
         .unwrap()
         .expect("the pre-empted shard saved its passes");
     let saved = held.state.passes_done();
     assert!(saved > 0 && saved < 2400, "pre-empted shard holds {saved} of 2400 passes");
-    // not at once, though: slurmd refuses to launch a job in the same wall-clock second
-    // it was killed in ("Job credential revoked": probably because revocation times are
-    // stored to the second), the task then fails and the merge can never run (seen on
-    // CI when the release came 0.3 s after the requeue)
+    // requeued tasks wait 2 minutes before they may start again: let it go soon, but not
+    // in the wall-clock second it was killed in, when slurmd refuses to launch it ("Job
+    // credential revoked": probably because revocation times are stored to the second);
+    // the task then fails and the merge can never run (seen on CI when the release came
+    // 0.3 s after the requeue)
+    let release = || {
+        Command::new("scontrol")
+            .args(["update", &format!("jobid={task0}"), "StartTime=now"])
+            .output()
+            .unwrap()
+    };
     std::thread::sleep(Duration::from_millis(2100));
-    sh(Command::new("scontrol").args(["update", &format!("jobid={task0}"), "StartTime=now"]));
+    let o = release();
+    assert!(o.status.success(), "releasing task 0: {}", String::from_utf8_lossy(&o.stderr));
     let merged = out.join("frame_0.exr");
     // the update is repeated while the task still waits for its begin time (once it
     // raced the requeue on a loaded machine, we think: CI timed out here), and a
@@ -172,9 +179,7 @@ fn slurm_array_with_preemption_and_animation_merges_to_one_render() {
     let mut kicked = Instant::now();
     wait_for("the merge job", deadline, &out, || {
         if job_reason(&task0) == "BeginTime" && kicked.elapsed() > Duration::from_secs(3) {
-            let _ = Command::new("scontrol")
-                .args(["update", &format!("jobid={task0}"), "StartTime=now"])
-                .output();
+            let _ = release();
             kicked = Instant::now();
         }
         let reason = job_reason(&merge);

@@ -10,7 +10,8 @@
 //! an import. A path resolves to the file of the longest existing module prefix
 //! (`a/b.rs` or `a/b/mod.rs`), and then through that file's `pub use` re-exports
 //! to the file that defines the name, so `crate::accel::WideBvh` names
-//! `accel/wide.rs`. `main.rs` is the binary crate and is not part of the graph.
+//! `accel/wide.rs`. `main.rs` and its modules under `cli/` are the binary crate and
+//! are not part of the graph.
 //!
 //! Containment edges are left out: a module file referring to its own
 //! submodules (a `mod.rs` re-exporting or calling its children, `lib.rs`
@@ -602,7 +603,7 @@ fn assert_layers(c: &Crate) {
     assert!(r.is_empty(), "{} layering violations:\n{}", r.len(), r.join("\n"));
 }
 
-/// The library crate's files under `src/` (not `main.rs`, the binary), or under
+/// The library crate's files under `src/` (not `main.rs` and `cli/`, the binary), or under
 /// `$RDR_MODULE_GRAPH_SRC` when set (to check another tree, e.g. a branch's
 /// `git archive` before merging it).
 fn src_crate() -> Crate {
@@ -619,7 +620,7 @@ fn src_crate() -> Crate {
                 stack.push(p);
             } else if p.extension().is_some_and(|e| e == "rs") {
                 let rel = p.strip_prefix(&root).unwrap().to_string_lossy().replace('\\', "/");
-                if rel != "main.rs" && !rel.starts_with("bin/") {
+                if rel != "main.rs" && !rel.starts_with("bin/") && !rel.starts_with("cli/") {
                     files.insert(rel, std::fs::read_to_string(&p).unwrap());
                 }
             }

@@ -1,0 +1,118 @@
+//! `rdr bench`: a scene's load, build and render timings, or a mesh's BVH benchmark.
+
+use super::common::{check_threads, load, say, setup_threads};
+use super::SceneArgs;
+use anyhow::Result;
+use rdr::{Loaded, RenderControl};
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::time::Instant;
+
+/// `--isa NAME`.
+fn parse_isa(isa: Option<&str>) -> Result<Option<rdr::accel::Isa>> {
+    Ok(match isa {
+        None => None,
+        Some("portable") => Some(rdr::accel::Isa::Portable),
+        Some("avx2") => Some(rdr::accel::Isa::Avx2),
+        Some("avx512") => Some(rdr::accel::Isa::Avx512),
+        Some(other) => anyhow::bail!("--isa: unknown instruction set '{other}' (portable, avx2, avx512)"),
+    })
+}
+
+/// `rdr bench MESH`: the BVH benchmark.
+pub fn bench_mesh(
+    args: &SceneArgs,
+    repeat: usize,
+    isa: Option<&str>,
+    rays: Vec<String>,
+    trace_only: bool,
+    ray_files: Vec<PathBuf>,
+) -> Result<ExitCode> {
+    let all = args
+        .threads
+        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+    check_threads(all)?;
+    anyhow::ensure!(repeat <= 1000, "--repeat {repeat} is more than the 1000 supported");
+    let mut threads = vec![1];
+    if all > 1 {
+        threads.push(all);
+    }
+    let isa = parse_isa(isa)?;
+    let opts = rdr::bench::Options {
+        repeat,
+        threads,
+        isa,
+        rays,
+        trace_only,
+        ray_files,
+    };
+    let report = rdr::bench::run(&args.scene, &opts)?;
+    say(report.text.trim_end_matches('\n'))?;
+    anyhow::ensure!(
+        report.agrees,
+        "closest-hit distances disagree with a distances file beyond the tolerance (see above)"
+    );
+    Ok(ExitCode::SUCCESS)
+}
+
+/// `rdr bench SCENE.json`: load, build and render without writing.
+pub fn bench_scene(args: &SceneArgs, isa: Option<&str>, packet: Option<usize>) -> Result<ExitCode> {
+    setup_threads(args.threads)?;
+    let isa = parse_isa(isa)?;
+    let t0 = Instant::now();
+    let Loaded { mut scene, job } = load(args, true)?;
+    let load_s = t0.elapsed().as_secs_f64();
+    let trees = std::iter::once(&mut scene.bvh).chain(scene.groups.iter_mut().map(|g| &mut g.bvh));
+    for bvh in trees {
+        if let Some(i) = isa {
+            anyhow::ensure!(bvh.set_isa(i), "--isa {}: this CPU cannot run these kernels", i.name());
+        }
+        if let Some(w) = packet {
+            anyhow::ensure!(bvh.set_packet_width(w), "--packet {w}: 8, 16 or 0");
+        }
+    }
+    let cpu0 = rdr::bench::process_cpu_seconds();
+    let out = rdr::render(&scene, &job, &RenderControl::default());
+    let render_cpu = cpu0.zip(rdr::bench::process_cpu_seconds()).map(|(a, b)| b - a);
+    use std::fmt::Write as _;
+    let mut t = String::new();
+    let _ = writeln!(t, "scene            {}", args.scene.display());
+    let _ = writeln!(t, "threads          {}", rayon::current_num_threads());
+    let _ = writeln!(t, "cpu              {}", rdr::bench::cpu_line(scene.bvh.isa()));
+    let _ = writeln!(
+        t,
+        "packets          {}",
+        match scene.bvh.packet_width() {
+            0 => "off".to_string(),
+            w => format!("{w} rays"),
+        }
+    );
+    let _ = writeln!(t, "primitives       {} ({} triangles)", scene.prims.len(), scene.triangle_count());
+    let _ = writeln!(
+        t,
+        "load + build     {:.1} ms (BVH {:.2} ms, {} nodes)",
+        load_s * 1e3,
+        scene.bvh_seconds * 1e3,
+        scene.bvh.nodes.len()
+    );
+    let _ = writeln!(
+        t,
+        "render           {}x{} at {} spp in {:.3} s",
+        out.width, out.height, out.spp_done, out.seconds
+    );
+    if let Some(cpu) = render_cpu {
+        // what `mi.render`'s process CPU time measures: the render alone, every thread
+        let _ = writeln!(t, "render cpu       {cpu:.3} s (all threads)");
+    }
+    let _ = writeln!(t, "samples/s        {:.3e}", out.samples as f64 / out.seconds);
+    if out.rays > 0 {
+        let _ = writeln!(
+            t,
+            "rays/s           {:.3e} ({:.2} rays per sample)",
+            out.rays as f64 / out.seconds,
+            out.rays as f64 / out.samples as f64
+        );
+    }
+    say(t.trim_end_matches('\n'))?;
+    Ok(ExitCode::SUCCESS)
+}

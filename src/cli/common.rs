@@ -1,0 +1,91 @@
+//! What the subcommands share: standard output, threads, loading a scene.
+
+use super::{Compat, SceneArgs};
+use anyhow::{Context, Result};
+use rdr::limits::sanitize;
+use rdr::{Loaded, Profile};
+use std::io::Write;
+use std::path::Path;
+
+/// Standard output was closed by its reader (`rdr … | head`): end quietly.
+#[derive(Debug)]
+pub struct BrokenPipe;
+
+impl std::fmt::Display for BrokenPipe {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("broken pipe")
+    }
+}
+
+impl std::error::Error for BrokenPipe {}
+
+/// Writes `text` and a newline to standard output.
+pub fn say(text: impl std::fmt::Display) -> Result<()> {
+    let mut o = std::io::stdout().lock();
+    match writeln!(o, "{text}").and_then(|_| o.flush()) {
+        Ok(()) => Ok(()),
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Err(BrokenPipe.into()),
+        Err(e) => Err(anyhow::anyhow!("cannot write to standard output: {e}")),
+    }
+}
+
+/// Most worker threads: a few per core is plenty; more only costs memory (stacks).
+fn max_threads() -> usize {
+    4 * std::thread::available_parallelism().map_or(1, |n| n.get())
+}
+
+pub fn check_threads(n: usize) -> Result<()> {
+    anyhow::ensure!(n > 0, "--threads must be at least 1");
+    let max = max_threads();
+    anyhow::ensure!(n <= max, "--threads {n} is more than the {max} supported (4 per core)");
+    Ok(())
+}
+
+pub fn profile(args: &SceneArgs) -> Profile {
+    match args.compat {
+        Some(Compat::Rdr171) => Profile::Rdr171,
+        None => Profile::Physical,
+    }
+}
+
+pub fn setup_threads(threads: Option<usize>) -> Result<()> {
+    if let Some(n) = threads {
+        check_threads(n)?;
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(n)
+            .build_global()
+            .context("cannot start the thread pool")?;
+    }
+    Ok(())
+}
+
+/// Loads the scene and the job it describes, with the command line's `--spp` and
+/// `--seed` applied.
+pub fn load(args: &SceneArgs, quiet: bool) -> Result<Loaded> {
+    Ok(load_desc(args, quiet)?.0)
+}
+
+/// [`load`], also returning the scene's description.
+pub fn load_desc(args: &SceneArgs, quiet: bool) -> Result<(Loaded, rdr::desc::SceneDesc)> {
+    let desc = rdr::desc::SceneDesc::load_with_defines(&args.scene, &args.overrides, &args.defines).map_err(anyhow::Error::msg)?;
+    let mut loaded = Loaded::build(&desc, profile(args)).map_err(anyhow::Error::msg)?;
+    if !quiet {
+        for w in &loaded.scene.warnings {
+            note!("warning: {}", sanitize(w));
+        }
+    }
+    if let Some(spp) = args.spp {
+        anyhow::ensure!(spp > 0, "--spp must be at least 1");
+        loaded.job.spp = spp;
+    }
+    loaded.job.seed = args.seed;
+    Ok((loaded, desc))
+}
+
+/// Whether two paths name the same existing file (links and spellings resolved).
+pub fn same_file(a: &Path, b: &Path) -> bool {
+    match (std::fs::canonicalize(a), std::fs::canonicalize(b)) {
+        (Ok(x), Ok(y)) => x == y,
+        _ => false,
+    }
+}

@@ -1,0 +1,241 @@
+//! The subcommands of `rdr`, one module each, and their command-line definitions.
+
+use anyhow::Result;
+use clap::{Parser, Subcommand, ValueEnum};
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+mod bench;
+pub mod common;
+mod compare;
+mod convert;
+mod merge;
+mod render;
+
+#[derive(Parser)]
+#[command(name = "rdr", version, about = "A physically based CPU ray tracer for RDR171 JSON scenes")]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Command,
+    /// Memory the large buffers (film, images, meshes) may take, such as 8G or 512M;
+    /// default half of what this process may use (physical memory, address-space
+    /// limit, cgroup limit, whichever is smallest).
+    #[arg(long, global = true, value_name = "SIZE", value_parser = parse_size)]
+    pub max_memory: Option<u64>,
+}
+
+fn parse_define(s: &str) -> Result<(String, String), String> {
+    match s.split_once('=') {
+        Some((k, v)) if !k.is_empty() && k.chars().all(|c| c.is_alphanumeric() || c == '_') => Ok((k.to_string(), v.to_string())),
+        _ => Err(format!("expected NAME=VALUE (a name of letters, digits and _), found '{s}'")),
+    }
+}
+
+fn parse_size(s: &str) -> Result<u64, String> {
+    rdr::limits::parse_bytes(s)
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum Compat {
+    /// Reproduce the RDR171 course renderer's reference images bit for bit.
+    Rdr171,
+}
+
+#[derive(clap::Args)]
+pub struct SceneArgs {
+    /// Scene file (RDR171 JSON, or Mitsuba XML when it ends in .xml).
+    scene: PathBuf,
+    /// JSON object merged into the scene before it is read; may be repeated.
+    #[arg(long = "override", value_name = "JSON")]
+    overrides: Vec<String>,
+    /// Mitsuba XML scenes: sets the parameter `$NAME` (as Mitsuba's -D); may be repeated.
+    #[arg(short = 'D', long = "define", value_name = "NAME=VALUE", value_parser = parse_define)]
+    defines: Vec<(String, String)>,
+    /// Emulate another renderer's conventions.
+    #[arg(long, value_enum)]
+    compat: Option<Compat>,
+    /// Samples per pixel (overrides the scene's `spp`).
+    #[arg(long)]
+    spp: Option<u32>,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    threads: Option<usize>,
+    /// Seed of the sampler; different seeds give independent images.
+    #[arg(long, default_value_t = 0)]
+    seed: u32,
+}
+
+/// Options of `rdr render` for long renders: resume, checkpoints, shards, previews.
+#[derive(clap::Args, Default)]
+pub struct FlowArgs {
+    /// Continue from the passes the output (.exr) already holds, after an interruption
+    /// or to add passes up to a higher --spp; starts afresh when it does not exist yet.
+    #[arg(long)]
+    resume: bool,
+    /// Rewrite the output (atomically) every this many seconds while rendering, so a
+    /// killed render can --resume from it.
+    #[arg(long, value_name = "SECONDS")]
+    checkpoint: Option<f64>,
+    /// Render only the K-th (0-based) of N disjoint runs of pass blocks; combine the
+    /// N outputs with `rdr merge`.
+    #[arg(long, value_name = "K/N")]
+    shard: Option<String>,
+    /// Keep `<output>.preview.png` (sRGB) and the output itself up to date while
+    /// rendering, every SECONDS (2 when not given), written atomically.
+    #[arg(long, value_name = "SECONDS", num_args = 0..=1, default_missing_value = "2")]
+    preview: Option<f64>,
+    /// Stream the image to a running tev viewer (`tev`, default port 14158).
+    #[arg(long, value_name = "HOST:PORT")]
+    tev: Option<String>,
+    /// Also write feature buffers as layers of the .exr output: albedo, normal,
+    /// depth, position (comma-separated; from the first non-specular hit).
+    #[arg(long, value_name = "LIST")]
+    aov: Option<String>,
+    /// Denoise the image with Intel Open Image Denoise, guided by albedo and normal
+    /// (needs the `denoise` build feature and libOpenImageDenoise; see RDR_OIDN_LIB).
+    #[arg(long)]
+    denoise: bool,
+}
+
+#[derive(Subcommand)]
+pub enum Command {
+    /// Render a scene to an image.
+    Render {
+        #[command(flatten)]
+        args: SceneArgs,
+        /// Output image, .exr (float32 RGB) or .png (8-bit sRGB); default `<scene>.exr`
+        /// beside the scene file.
+        #[arg(short, long)]
+        output: Option<PathBuf>,
+        /// Print only errors: no warnings, progress bar or summary.
+        #[arg(short, long, alias = "quite")]
+        quiet: bool,
+        /// Stop after the last pass that completes within this many seconds and
+        /// write the image with the samples so far.
+        #[arg(long, value_name = "SECONDS")]
+        time_limit: Option<f64>,
+        #[command(flatten)]
+        flow: FlowArgs,
+    },
+    /// Merge the parts of a render (`render --shard K/N` outputs) into one image,
+    /// identical to rendering it on one machine.
+    Merge {
+        /// The parts (.exr files written by `rdr render`).
+        #[arg(required = true)]
+        parts: Vec<PathBuf>,
+        /// The merged image (.exr).
+        #[arg(short, long)]
+        output: PathBuf,
+        /// Merge even when passes are missing (says which); the result can be merged
+        /// again with the missing parts later.
+        #[arg(long)]
+        partial: bool,
+        /// Print only errors.
+        #[arg(short, long)]
+        quiet: bool,
+    },
+    /// Convert a scene between RDR171 JSON and Mitsuba 3 XML (by the extensions; meshes
+    /// JSON cannot name as they are are written as OBJ files beside the output).
+    Convert {
+        /// Scene to read (.json or .xml).
+        input: PathBuf,
+        /// Scene to write (.json or .xml).
+        #[arg(short, long)]
+        output: PathBuf,
+        /// JSON object merged into a JSON input before it is read; may be repeated.
+        #[arg(long = "override", value_name = "JSON")]
+        overrides: Vec<String>,
+        /// Parameter `$NAME` of an XML input; may be repeated.
+        #[arg(short = 'D', long = "define", value_name = "NAME=VALUE", value_parser = parse_define)]
+        defines: Vec<(String, String)>,
+        /// Print only errors.
+        #[arg(short, long)]
+        quiet: bool,
+    },
+    /// Compare an image with a reference: mean RGB and relative MSE,
+    /// mean((x − r)² / (r² + 0.01)), the metric of shared/refs/README.md.
+    Compare {
+        image: PathBuf,
+        reference: PathBuf,
+        /// The reference's variance image (`<name>.var.exr`): also print the
+        /// part of the error that is the reference's own noise.
+        #[arg(long)]
+        variance: Option<PathBuf>,
+    },
+    /// Benchmark: with a scene (.json), load, build and render it without writing it and
+    /// print timings; with a mesh (.obj or .ply), benchmark the BVH (build time and size,
+    /// Mrays/s of primary, incoherent and bounce rays, closest and any hit, 1 and all
+    /// threads) after checking every traversal variant against a reference.
+    Bench {
+        #[command(flatten)]
+        args: SceneArgs,
+        /// Mesh benchmark: best of this many runs of each measurement.
+        #[arg(long, default_value_t = 3)]
+        repeat: usize,
+        /// Kernels to time (portable, avx2, avx512; default the best available).
+        #[arg(long)]
+        isa: Option<String>,
+        /// Scene benchmark: rays a packet traversal takes (8 or 16, 0: every ray alone;
+        /// default 8 with the AVX2 kernels, else 16) where the integrator traces packets.
+        #[arg(long)]
+        packet: Option<usize>,
+        /// Mesh benchmark: ray sets to time, comma-separated (primary, incoherent, bounce; default all).
+        #[arg(long, value_delimiter = ',')]
+        rays: Vec<String>,
+        /// Mesh benchmark: skip the build timings and the kernel check (for profiling).
+        #[arg(long)]
+        trace_only: bool,
+        /// Mesh benchmark: trace the rays of this file (raw little-endian f32, 6 a ray:
+        /// origin, unit direction) and check them against X.t.f32 beside X.rays.f32;
+        /// repeatable. The generated sets are then timed only if --rays names them.
+        #[arg(long, value_name = "FILE")]
+        ray_file: Vec<PathBuf>,
+    },
+}
+
+/// Runs a subcommand.
+pub fn run(command: Command) -> Result<ExitCode> {
+    match command {
+        Command::Render {
+            args,
+            output,
+            quiet,
+            time_limit,
+            flow,
+        } => render::render(&args, output, quiet, time_limit, &flow),
+        Command::Merge {
+            parts,
+            output,
+            partial,
+            quiet,
+        } => merge::merge(&parts, &output, partial, quiet),
+        Command::Compare {
+            image,
+            reference,
+            variance,
+        } => compare::compare(&image, &reference, variance.as_deref()),
+        Command::Convert {
+            input,
+            output,
+            overrides,
+            defines,
+            quiet,
+        } => convert::convert(&input, &output, &overrides, &defines, quiet),
+        Command::Bench {
+            args,
+            repeat,
+            isa,
+            packet,
+            rays,
+            trace_only,
+            ray_file,
+        } => {
+            let ext = args.scene.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
+            if ext == "obj" || ext == "ply" {
+                bench::bench_mesh(&args, repeat, isa.as_deref(), rays, trace_only, ray_file)
+            } else {
+                bench::bench_scene(&args, isa.as_deref(), packet)
+            }
+        }
+    }
+}

@@ -1,0 +1,387 @@
+//! `rdr render`: one render, or a part of a long one (resume, checkpoints, shards, previews, tev, AOVs, denoise).
+
+use super::common::{load_desc, profile, same_file, say, setup_threads};
+use super::{FlowArgs, SceneArgs};
+use anyhow::{Context, Result};
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use rdr::imageio::{check_output_path, encode_image, save_elsewhere, write_atomically, ExrPixels};
+use rdr::integrator::StopToken;
+use rdr::limits::sanitize;
+use rdr::render::identity::RenderIdentity;
+use rdr::render::statefile::{self, StateHeader};
+use rdr::render::{FilmState, Periodic, Snapshot};
+use rdr::{Loaded, Profile, RenderControl};
+use std::io::IsTerminal;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::sync::Arc;
+
+fn default_output(scene: &Path) -> PathBuf {
+    let stem = scene.file_stem().map(|s| s.to_os_string()).unwrap_or_else(|| "out".into());
+    scene.with_file_name(Path::new(&stem).with_extension("exr"))
+}
+
+/// `K/N` of `--shard`, checked.
+fn parse_shard(text: &str) -> Result<(u32, u32)> {
+    let bad = || anyhow::anyhow!("--shard '{text}': expected K/N with 0 <= K < N (such as 0/4)");
+    let (k, n) = text.split_once('/').ok_or_else(bad)?;
+    let (k, n): (u32, u32) = (k.trim().parse().map_err(|_| bad())?, n.trim().parse().map_err(|_| bad())?);
+    anyhow::ensure!(n > 0 && k < n, bad());
+    Ok((k, n))
+}
+
+fn state_header(identity: &rdr::render::identity::RenderIdentity, spp: u32, shard: Option<(u32, u32)>) -> StateHeader {
+    StateHeader {
+        identity: identity.clone(),
+        spp,
+        shard,
+        version: env!("CARGO_PKG_VERSION").into(),
+        commit: env!("RDR_COMMIT").into(),
+    }
+}
+
+/// Where a resumed render starts: the state `output` holds, checked against the job.
+/// `Ok(None)` when there is no file yet.
+fn resume_state(
+    output: &Path,
+    identity: &rdr::render::identity::RenderIdentity,
+    shard: Option<(u32, u32)>,
+    total: u32,
+    range: &std::ops::Range<u32>,
+) -> Result<Option<FilmState>> {
+    if !output.exists() {
+        return Ok(None);
+    }
+    let name = output.display();
+    let Some(file) = statefile::read(output)? else {
+        anyhow::bail!("{name}: cannot resume: it holds no rdr film state (written by another program, or with --compat rdr171)");
+    };
+    if let Some(why) = statefile::mismatch(identity, &file.header.identity) {
+        anyhow::bail!("{name}: cannot resume: {why}");
+    }
+    if file.header.shard != shard {
+        let say = |s: Option<(u32, u32)>| s.map_or("the whole render".to_string(), |(k, n)| format!("shard {k}/{n}"));
+        anyhow::bail!("{name}: cannot resume: it holds {}, not {}", say(file.header.shard), say(shard));
+    }
+    if shard.is_some() && file.header.spp != total {
+        anyhow::bail!(
+            "{name}: cannot resume: it is a shard of a render of {} passes, not {total} (shards split the passes of one --spp)",
+            file.header.spp
+        );
+    }
+    let ranges = file.state.ranges();
+    let held = ranges.first().cloned().unwrap_or(range.start..range.start);
+    if ranges.len() > 1 || held.start != range.start {
+        anyhow::bail!(
+            "{name}: cannot resume: it holds passes {}, not one run from pass {}",
+            rdr::render::blocks::format_ranges(&ranges),
+            range.start
+        );
+    }
+    if held.end > range.end {
+        anyhow::bail!(
+            "{name}: cannot resume: it holds {} passes, more than the {} asked (give --spp {} or more)",
+            held.end - held.start,
+            range.end - range.start,
+            held.end
+        );
+    }
+    Ok(Some(file.state))
+}
+
+/// `rdr render`.
+pub fn render(args: &SceneArgs, output: Option<PathBuf>, quiet: bool, time_limit: Option<f64>, flow: &FlowArgs) -> Result<ExitCode> {
+    if let Some(t) = time_limit {
+        anyhow::ensure!(t.is_finite() && t > 0.0, "--time-limit must be a positive number of seconds");
+    }
+    for (name, t) in [("--checkpoint", flow.checkpoint), ("--preview", flow.preview)] {
+        if let Some(t) = t {
+            anyhow::ensure!(t.is_finite() && t > 0.0, "{name} must be a positive number of seconds");
+        }
+    }
+    let shard = flow.shard.as_deref().map(parse_shard).transpose()?;
+    let aov = match &flow.aov {
+        Some(text) => rdr::integrator::aov::AovSet::parse(text).map_err(|e| anyhow::anyhow!("--aov '{}': {e}", sanitize(text)))?,
+        None => rdr::integrator::aov::AovSet::default(),
+    };
+    setup_threads(args.threads)?;
+    let (Loaded { scene, mut job }, desc) = load_desc(args, quiet)?;
+    job.time_limit = time_limit;
+    let output = output.unwrap_or_else(|| default_output(&args.scene));
+    // Fail before the render, not after it.
+    if same_file(&output, &args.scene) {
+        anyhow::bail!(
+            "{}: refusing to write the image over the scene file (choose another output with -o)",
+            output.display()
+        );
+    }
+    check_output_path(&output)?;
+    let is_exr = output.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr"));
+    let physical = matches!(profile(args), Profile::Physical);
+    let asked = |what: &str| {
+        (what == "--resume" && flow.resume)
+            || (what == "--shard" && shard.is_some())
+            || (what == "--checkpoint" && flow.checkpoint.is_some())
+    };
+    for what in ["--resume", "--shard", "--checkpoint"] {
+        if !asked(what) {
+            continue;
+        }
+        anyhow::ensure!(
+            physical,
+            "{what}: --compat rdr171 renders in one pass of columns, which cannot be resumed, checkpointed or split"
+        );
+        anyhow::ensure!(
+            job.integrator.passes_independent() || what == "--checkpoint",
+            "{what}: the {} integrator's passes depend on earlier ones (or on the total spp), so they cannot be {}; render it in one go",
+            job.integrator.name(),
+            if what == "--shard" { "split over machines" } else { "continued" }
+        );
+        anyhow::ensure!(
+            is_exr || what == "--checkpoint",
+            "{what}: needs an .exr output ({} cannot hold the film state)",
+            output.display()
+        );
+    }
+    if flow.denoise {
+        rdr::render::denoise::check().map_err(|e| anyhow::anyhow!("--denoise: {e}"))?;
+    }
+    for what in ["--aov", "--denoise"] {
+        if (what == "--aov" && !aov.any()) || (what == "--denoise" && !flow.denoise) {
+            continue;
+        }
+        anyhow::ensure!(
+            physical,
+            "{what}: not with --compat rdr171 (the course renderer had no feature buffers)"
+        );
+        anyhow::ensure!(
+            job.integrator.supports_aov(),
+            "{what}: the {} integrator does not make feature buffers (path, intersection_test, bdpt, ptracer, photon and normals do)",
+            job.integrator.name()
+        );
+        anyhow::ensure!(
+            !flow.resume && shard.is_none(),
+            "{what}: not with --resume or --shard yet (the feature sums are not kept in the film state)"
+        );
+    }
+    if aov.any() {
+        anyhow::ensure!(is_exr, "--aov: needs an .exr output ({} cannot hold layers)", output.display());
+    }
+    let identity = if physical && is_exr {
+        Some(RenderIdentity::of(&args.scene, &args.overrides, &args.defines, &desc, job.seed)?)
+    } else {
+        None
+    };
+    let total = job.integrator.pass_count(job.spp);
+    let range = match shard {
+        Some((k, n)) => rdr::render::blocks::shard_range(k, n, total),
+        None => 0..total,
+    };
+    job.passes = Some(range.clone());
+    let start = match (&identity, flow.resume) {
+        (Some(id), true) => resume_state(&output, id, shard, total, &range)?.unwrap_or_default(),
+        _ => FilmState::default(),
+    };
+    let header = identity.as_ref().map(|id| state_header(id, total, shard));
+    let resumable = job.integrator.passes_independent();
+    if flow.resume && start.passes_done() == range.end - range.start && range.end > range.start {
+        say(output.display())?;
+        if !quiet {
+            note!(
+                "{}: already holds all {} passes: nothing to render",
+                output.display(),
+                start.passes_done()
+            );
+        }
+        return Ok(ExitCode::SUCCESS);
+    }
+    let passes_left = range.end - start.passes_done().min(range.end - range.start) - range.start;
+
+    let stop = Arc::new(StopToken::new());
+    {
+        let stop = stop.clone();
+        ctrlc::set_handler(move || {
+            if stop.stop_again() {
+                std::process::exit(130);
+            }
+            note!("\ninterrupted: saving the finished passes (press Ctrl-C again to quit at once)");
+        })
+        .context("cannot install the Ctrl-C handler")?;
+    }
+    let exr = match profile(args) {
+        Profile::Physical => ExrPixels::Float,
+        Profile::Rdr171 => ExrPixels::HalfTinyexr,
+    };
+    // the bytes of the output file for an image and its state
+    let encode = {
+        let output = output.clone();
+        let header = header.clone();
+        move |w: u32, h: u32, pixels: &[rdr::math::Vec3], state: &FilmState, layers: Vec<rdr::imageio::ExrChannel>| -> Result<Vec<u8>> {
+            match &header {
+                Some(hd) => Ok(statefile::encode(w, h, pixels, state, resumable, hd, layers)),
+                None => encode_image(&output, w, h, pixels, exr),
+            }
+        }
+    };
+    let encode = Arc::new(encode);
+    let mut periodic = Vec::new();
+    if let Some(every) = flow.checkpoint {
+        let (encode, output) = (encode.clone(), output.clone());
+        periodic.push(Periodic {
+            every,
+            call: Arc::new(move |snap: &Snapshot| {
+                let written =
+                    encode(snap.width, snap.height, snap.pixels, snap.state, Vec::new()).and_then(|b| write_atomically(&output, &b));
+                if let Err(e) = written {
+                    note!("warning: checkpoint: {e:#}");
+                }
+            }),
+        });
+    }
+    if let Some(every) = flow.preview {
+        let (encode, output) = (encode.clone(), output.clone());
+        let png = preview_path(&output);
+        periodic.push(Periodic {
+            every,
+            call: Arc::new(move |snap: &Snapshot| {
+                let written = rdr::imageio::write_png(&png, snap.width, snap.height, snap.pixels)
+                    .and_then(|_| encode(snap.width, snap.height, snap.pixels, snap.state, Vec::new()))
+                    .and_then(|b| write_atomically(&output, &b));
+                if let Err(e) = written {
+                    note!("warning: preview: {e:#}");
+                }
+            }),
+        });
+    }
+    let tev = match &flow.tev {
+        Some(addr) => {
+            let name = output.file_name().map_or("rdr".into(), |n| n.to_string_lossy().into_owned());
+            let t = rdr::render::tev::Tev::connect(addr, &name, job.film.width, job.film.height)
+                .map_err(|e| anyhow::anyhow!("--tev {addr}: cannot connect to tev: {e}"))?;
+            Some(Arc::new(std::sync::Mutex::new(Some(t))))
+        }
+        None => None,
+    };
+    // a failed send ends the stream (tev closed), with one warning
+    let send_tev = |tev: &Arc<std::sync::Mutex<Option<rdr::render::tev::Tev>>>, w: u32, h: u32, px: &[rdr::math::Vec3]| {
+        let mut guard = tev.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some(t) = guard.as_mut() {
+            if let Err(e) = t.update(w, h, px) {
+                note!("warning: --tev: {e}; no more updates");
+                *guard = None;
+            }
+        }
+    };
+    if let Some(tev) = &tev {
+        let tev = tev.clone();
+        periodic.push(Periodic {
+            every: 0.5,
+            call: Arc::new(move |snap: &Snapshot| send_tev(&tev, snap.width, snap.height, snap.pixels)),
+        });
+    }
+    let samples_left = job.film.width as u64 * job.film.height as u64 * job.integrator.spp_done(job.spp, passes_left) as u64;
+    let bar = if !quiet && std::io::stderr().is_terminal() {
+        let b = ProgressBar::with_draw_target(Some(samples_left), ProgressDrawTarget::stderr());
+        b.set_style(ProgressStyle::with_template("{bar:40} {percent:>3}%  {elapsed_precise} elapsed, ETA {eta}").expect("valid template"));
+        Some(b)
+    } else {
+        None
+    };
+    let control = RenderControl {
+        stop,
+        progress: bar
+            .clone()
+            .map(|b| Arc::new(move |n: u64| b.inc(n)) as Arc<dyn Fn(u64) + Send + Sync>),
+        periodic,
+    };
+    let mut out = rdr::render::render_with_aov(&scene, &job, &control, start, aov.any() || flow.denoise);
+    if let Some(b) = bar {
+        b.finish_and_clear();
+    }
+    if out.invalid_samples > 0 {
+        note!("warning: {} sample(s) were NaN or infinite and were left out", out.invalid_samples);
+    }
+    if out.invalid_rays > 0 {
+        note!(
+            "warning: {} ray(s) were NaN or infinite and were counted as misses",
+            out.invalid_rays
+        );
+    }
+    if let Some(tev) = &tev {
+        send_tev(tev, out.width, out.height, &out.pixels);
+    }
+    if flow.preview.is_some() {
+        if let Err(e) = rdr::imageio::write_png(&preview_path(&output), out.width, out.height, &out.pixels) {
+            note!("warning: preview: {e:#}");
+        }
+    }
+    let mut layers = out
+        .aov
+        .as_ref()
+        .map_or_else(Vec::new, |sums| rdr::integrator::aov::channels(sums, aov));
+    if flow.denoise {
+        let sums = out.aov.as_ref().expect("feature sums for --denoise");
+        let (albedo, normal) = (rdr::integrator::aov::layer_rgb(sums, 0), rdr::integrator::aov::layer_rgb(sums, 3));
+        let clean = rdr::render::denoise::denoise(out.width, out.height, &out.pixels, &albedo, &normal)
+            .map_err(|e| anyhow::anyhow!("--denoise: {e}"))?;
+        // the noisy image stays in the file, beside the film state it is made of
+        if header.is_some() {
+            layers.extend(rdr::imageio::rgb_channels("noisy.", &out.pixels));
+        }
+        out.pixels = clean;
+    }
+    let bytes = encode(out.width, out.height, &out.pixels, &out.state, layers)?;
+    if let Err(e) = write_atomically(&output, &bytes) {
+        // the render is not lost: keep it where it can be written
+        match save_elsewhere(&output, &bytes) {
+            Ok(saved) => anyhow::bail!("{e:#}; the image was saved to {} instead", saved.display()),
+            Err(e2) => anyhow::bail!("{e:#}; saving it in the temporary folder failed too ({e2:#}): the image is lost"),
+        }
+    }
+    say(output.display())?;
+    for (name, pixels) in &out.extra_images {
+        let path = extra_image_path(&output, name);
+        let bytes = encode_image(&path, out.width, out.height, pixels, exr)?;
+        write_atomically(&path, &bytes)?;
+    }
+    if !quiet && !out.extra_images.is_empty() {
+        note!(
+            "wrote {} strategy images beside it ({})",
+            out.extra_images.len(),
+            extra_image_path(&output, "sS_tT").display()
+        );
+    }
+    if !quiet {
+        note!(
+            "rendered {}x{} at {} spp in {:.2} s ({:.3e} samples/s){}",
+            out.width,
+            out.height,
+            out.spp_done,
+            out.seconds,
+            out.samples as f64 / out.seconds.max(1e-9),
+            if out.interrupted {
+                ", interrupted"
+            } else if out.time_limited {
+                ", time limit reached"
+            } else {
+                ""
+            }
+        );
+        if let Some(summary) = &out.summary {
+            eprintln!("{summary}");
+        }
+    }
+    Ok(if out.interrupted { ExitCode::from(130) } else { ExitCode::SUCCESS })
+}
+
+/// `out.exr` and `s2_t1` → `out.s2_t1.exr`.
+fn extra_image_path(output: &Path, name: &str) -> PathBuf {
+    let ext = output.extension().map_or("exr".into(), |e| e.to_string_lossy().into_owned());
+    output.with_extension(format!("{name}.{ext}"))
+}
+
+/// `out.exr` → `out.preview.png`.
+fn preview_path(output: &Path) -> PathBuf {
+    output.with_extension("preview.png")
+}

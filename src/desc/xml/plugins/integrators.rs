@@ -1,0 +1,115 @@
+//! `<integrator>`: the plugins Mitsuba renders with, as rdr's integrators.
+
+use super::{Reader, INTEGRATORS};
+use crate::desc::xml::document::Element;
+use crate::desc::xml::props::Plugin;
+use crate::desc::MAX_DEPTH;
+use crate::error::Result;
+use crate::integrator::{bdpt::Heuristic, Bdpt, Integrator, PathProfile, PathTracer, PhotonMapper, Ptracer, Sppm};
+
+impl<'a> Reader<'a> {
+    pub(super) fn integrator(&self, el: &'a Element) -> Result<(Integrator, Option<(&'a Element, String)>)> {
+        let p = Plugin::new(el, self.ids)?;
+        let mut note = None;
+        let mut depth = |default: i64| -> Result<u32> {
+            let d = p.integer("max_depth", default)?;
+            if d == -1 || d > MAX_DEPTH as i64 {
+                if d != -1 || default == -1 {
+                    note = Some((
+                        el,
+                        format!("max_depth {d} is more than the {MAX_DEPTH} supported; using {MAX_DEPTH}"),
+                    ));
+                }
+                return Ok(MAX_DEPTH);
+            }
+            if d < 1 {
+                return Err(p.value_error("max_depth", format!("must be −1 (unbounded) or at least 1, found {d}")));
+            }
+            Ok(d as u32)
+        };
+        let integrator = match p.ty.as_str() {
+            // rdr has no participating media: `volpath` of a scene without them is `path`
+            // (whose shadow rays pass through masks as volpath's do)
+            "path" | "volpath" => {
+                let max_depth = depth(-1)?;
+                p.integer_in("rr_depth", 5, 1, i32::MAX as i64)?;
+                Integrator::Path(PathTracer {
+                    max_depth,
+                    profile: PathProfile::Mis,
+                    rr_threshold: 0.1,
+                })
+            }
+            "direct" => {
+                for k in ["emitter_samples", "bsdf_samples", "shading_samples"] {
+                    if let Some(n) = p.integer_opt(k)? {
+                        if n != 1 {
+                            self.ids
+                                .warn(el, format!("{k} {n} noted: rdr takes one emitter and one BSDF sample per pass"));
+                        }
+                    }
+                }
+                Integrator::Path(PathTracer {
+                    max_depth: 2,
+                    profile: PathProfile::Mis,
+                    rr_threshold: 0.1,
+                })
+            }
+            "ptracer" => {
+                let max_depth = depth(-1)?;
+                p.integer_in("rr_depth", 5, 1, i32::MAX as i64)?;
+                p.ignore("samples_per_pass");
+                Integrator::Ptracer(Ptracer {
+                    max_depth,
+                    rr_threshold: 0.1,
+                })
+            }
+            "bdpt" => {
+                let max_depth = depth(-1)?;
+                p.integer_in("rr_depth", 5, 1, i32::MAX as i64)?;
+                for k in ["light_image", "sample_direct", "strict_normals"] {
+                    p.ignore(k);
+                }
+                Integrator::Bdpt(Bdpt {
+                    max_depth,
+                    rr_threshold: 0.1,
+                    heuristic: Heuristic::Power,
+                    strategy: None,
+                    strategy_weighted: false,
+                    visualize_strategies: false,
+                    connection_roulette: crate::integrator::bdpt::CONNECTION_ROULETTE,
+                })
+            }
+            "photonmapper" | "photon" => {
+                let max_depth = depth(-1)?;
+                Integrator::Photon(PhotonMapper {
+                    n_photons: p.integer_in("global_photons", 100_000, 1, i32::MAX as i64)? as u32,
+                    n_iterations: 1,
+                    n_near_photons: p.integer_in("lookup_size", 64, 1, 1 << 20)? as u32,
+                    max_depth,
+                    rr_threshold: 0.1,
+                })
+            }
+            "sppm" => {
+                let max_depth = depth(-1)?;
+                let alpha = p.float("alpha", 0.7)?;
+                if !(alpha > 0.0 && alpha <= 1.0) {
+                    return Err(p.value_error("alpha", "must lie in (0, 1]"));
+                }
+                let r = p.float_opt("initial_radius")?.filter(|r| *r > 0.0);
+                Integrator::Sppm(Sppm {
+                    photons_per_iteration: p.integer_in("photon_count", 250_000, 1, i32::MAX as i64)? as u32,
+                    initial_radius: r,
+                    alpha,
+                    max_depth,
+                    rr_threshold: 0.1,
+                })
+            }
+            other => return Err(p.error(format!("unsupported integrator \"{other}\" (supported: {INTEGRATORS})"))),
+        };
+        if p.boolean("hide_emitters", false)? {
+            return Err(p.value_error("hide_emitters", "is not supported (rdr's camera rays always see emitters)"));
+        }
+        p.finish(&[])?;
+        Ok((integrator, note))
+    }
+}

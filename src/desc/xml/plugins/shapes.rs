@@ -1,0 +1,212 @@
+//! `<shape>`: meshes, generated shapes, spheres, cylinders, shape groups and instances.
+
+use super::{check_point, source, Reader, SHAPES};
+use crate::desc::xml::document::Element;
+use crate::desc::xml::props::Plugin;
+use crate::desc::{AreaLightDesc, Located, MeshFile, MeshFormat, MeshNormals, MeshOptions, ObjectDesc, ShapeGroupDesc, TextureRef};
+use crate::error::Result;
+use crate::geometry::sphere::Sphere;
+use crate::math::{Mat4, Vec3};
+use crate::scene::Shape;
+use std::collections::HashMap;
+use std::path::PathBuf;
+
+impl<'a> Reader<'a> {
+    pub(super) fn shape(&mut self, el: &'a Element) -> Result<ObjectDesc> {
+        let p = Plugin::new(el, self.ids)?;
+        let to_world = p.transform_opt("to_world")?.unwrap_or(Mat4::IDENTITY);
+        if to_world.determinant() == 0.0 {
+            return Err(p.value_error("to_world", "the transform is singular"));
+        }
+        let flip_normals = p.boolean("flip_normals", false)?;
+        let mesh = |format: MeshFormat, path: Located<String>, flip_uv: bool, normals: MeshNormals| {
+            Shape::Mesh(MeshFile {
+                path,
+                transform: to_world,
+                translate: Vec3::ZERO,
+                options: MeshOptions {
+                    format,
+                    normals,
+                    flip_normals,
+                    flip_uv,
+                },
+            })
+        };
+        let normals = |p: &Plugin| -> Result<MeshNormals> {
+            Ok(if p.boolean("face_normals", false)? {
+                MeshNormals::Face
+            } else {
+                MeshNormals::SmoothWhenMissing
+            })
+        };
+        let none = Located {
+            value: String::new(),
+            source: source(el),
+        };
+        let shape = match p.ty.as_str() {
+            "obj" => {
+                let path = self.file(el, &p, "filename")?;
+                // Mitsuba flips OBJ's v by default, which is rdr's orientation already
+                let flip = !p.boolean("flip_tex_coords", true)?;
+                mesh(MeshFormat::Obj, path, flip, normals(&p)?)
+            }
+            "ply" => {
+                let path = self.file(el, &p, "filename")?;
+                // Mitsuba's PLY reader keeps v as it is (v = 0 is an image's top row)
+                let flip = !p.boolean("flip_tex_coords", false)?;
+                mesh(MeshFormat::Ply, path, flip, normals(&p)?)
+            }
+            "serialized" => {
+                let path = self.file(el, &p, "filename")?;
+                let index = p.integer_in("shape_index", 0, 0, u32::MAX as i64)? as u32;
+                let n = normals(&p)?;
+                p.ignore("max_smooth_angle");
+                mesh(MeshFormat::Serialized { shape_index: index }, path, true, n)
+            }
+            "rectangle" => mesh(MeshFormat::Rectangle, none, false, MeshNormals::AsInFile),
+            "cube" => mesh(MeshFormat::Cube, none, false, MeshNormals::AsInFile),
+            "disk" => {
+                self.ids
+                    .warn(el, format!("disk tessellated into {} triangles", crate::desc::DISK_SEGMENTS));
+                mesh(MeshFormat::Disk, none, false, MeshNormals::AsInFile)
+            }
+            "sphere" => {
+                let center = to_world.transform_point3(p.point_opt("center")?.unwrap_or(Vec3::ZERO));
+                let r = p.float("radius", 1.0)?;
+                // the transform's scale must be uniform for the sphere to stay one
+                let axes = [Vec3::X, Vec3::Y, Vec3::Z].map(|a| to_world.transform_vector3(a));
+                let s = axes[0].length();
+                let orthogonal = axes[0].dot(axes[1]).abs() + axes[1].dot(axes[2]).abs() + axes[0].dot(axes[2]).abs() < 1e-4 * s * s;
+                if !orthogonal || axes.iter().any(|a| (a.length() - s).abs() > 1e-4 * s) {
+                    return Err(p.value_error("to_world", "a sphere's transform must be a rotation, translation and uniform scale"));
+                }
+                if flip_normals {
+                    return Err(p.value_error("flip_normals", "is not supported on spheres"));
+                }
+                let radius = r * s;
+                if !(radius > 0.0 && radius <= crate::limits::MAX_COORD) {
+                    return Err(p.value_error("radius", format!("must be positive, found {radius}")));
+                }
+                check_point(&p, "center", center)?;
+                // Mitsuba's uv lives in the object frame (z the pole), v in its sense
+                let frame = glam::Mat3::from_cols(axes[0] / s, axes[1] / s, axes[2] / s);
+                let Some(q) = crate::desc::rotation_quat(&frame) else {
+                    return Err(p.value_error(
+                        "to_world",
+                        "a sphere's transform must be a rotation, translation and uniform scale (this one mirrors)",
+                    ));
+                };
+                Shape::Sphere(Sphere {
+                    center,
+                    radius,
+                    uv_frame: Some(q),
+                })
+            }
+            "cylinder" => {
+                let p0 = p.point_opt("p0")?.unwrap_or(Vec3::ZERO);
+                let p1 = p.point_opt("p1")?.unwrap_or(Vec3::Z);
+                check_point(&p, "p0", p0)?;
+                check_point(&p, "p1", p1)?;
+                let c = crate::desc::cylinder_shape(p0, p1, p.float("radius", 1.0)?, flip_normals, &to_world).map_err(|(k, e)| {
+                    let k = if k == "transform" { "to_world" } else { k };
+                    p.value_error(k, e)
+                })?;
+                Shape::Cylinder(c)
+            }
+            other => return Err(p.error(format!("unsupported shape \"{other}\" (supported: {SHAPES})"))),
+        };
+        let bsdfs = p.objects("bsdf");
+        if let Some((_, second)) = bsdfs.get(1) {
+            return Err(second.error("a shape takes one <bsdf>"));
+        }
+        let mut material = match bsdfs.first() {
+            Some((b, at)) => Some(Located {
+                value: self.material(b)?,
+                source: source(at),
+            }),
+            None => None,
+        };
+        let emitters = p.objects("emitter");
+        if let Some((_, second)) = emitters.get(1) {
+            return Err(second.error("a shape takes one <emitter>"));
+        }
+        let light = match emitters.first() {
+            None => None,
+            Some((e, at)) => {
+                let ep = Plugin::new(e, self.ids)?;
+                if ep.ty != "area" {
+                    return Err(at.error(format!("a shape's emitter must be \"area\", found \"{}\"", ep.ty)));
+                }
+                // a constant, or a texture looked up at the emitting point's uv
+                let (radiance, texture) = match self.texture_ref(&ep, "radiance", Vec3::ONE)? {
+                    TextureRef::Color(c) => (c, None),
+                    TextureRef::Named(t) => (Vec3::ONE, Some(t)),
+                };
+                if let Some(w) = ep.float_opt("sampling_weight")? {
+                    if w != 1.0 {
+                        self.ids.warn(e, format!("sampling_weight {w} noted: rdr chooses lights by power"));
+                    }
+                }
+                ep.finish(&[])?;
+                Some(AreaLightDesc {
+                    source: source(e),
+                    radiance,
+                    texture,
+                })
+            }
+        };
+        if material.is_none() && light.is_none() {
+            // Mitsuba gives a shape without a BSDF a diffuse of reflectance 0.5
+            material = Some(Located {
+                value: self.default_material(),
+                source: source(el),
+            });
+        }
+        p.finish(&["bsdf", "emitter"])?;
+        Ok(ObjectDesc {
+            source: source(el),
+            shape,
+            material,
+            light,
+        })
+    }
+
+    /// Reads a `<shape type="shapegroup">` once (however often instanced); returns its name.
+    pub(super) fn shapegroup(
+        &mut self,
+        el: &'a Element,
+        groups: &mut Vec<ShapeGroupDesc>,
+        group_of: &mut HashMap<*const Element, String>,
+    ) -> Result<String> {
+        if let Some(n) = group_of.get(&(el as *const Element)) {
+            return Ok(n.clone());
+        }
+        let p = Plugin::new(el, self.ids)?;
+        let Some(id) = el.attr("id") else {
+            return Err(p.error("a shapegroup needs an \"id\" (its instances refer to it)"));
+        };
+        let mut objects = Vec::new();
+        for (m, at) in p.objects("shape") {
+            if matches!(m.attr("type"), Some("shapegroup" | "instance")) {
+                return Err(at.error("nested instancing is not supported (a shapegroup holds plain shapes, as in Mitsuba)"));
+            }
+            let o = self.shape(m)?;
+            if let Some(l) = &o.light {
+                return Err(l.source.error(
+                    &PathBuf::new(),
+                    "emitters inside a shapegroup are not supported (Mitsuba refuses them too)",
+                ));
+            }
+            objects.push(o);
+        }
+        p.finish(&["shape"])?;
+        let name = id.to_string();
+        groups.push(ShapeGroupDesc {
+            name: name.clone(),
+            source: source(el),
+            objects,
+        });
+        group_of.insert(el as *const Element, name.clone());
+        Ok(name)
+    }
+}

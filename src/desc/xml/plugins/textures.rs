@@ -1,0 +1,165 @@
+//! `<texture>`: bitmaps, checkerboards, mesh attributes, and texture parameters.
+
+use super::{source, Reader, TEXTURES};
+use crate::desc::xml::document::Element;
+use crate::desc::xml::props::{Colour, Plugin};
+use crate::desc::xml::values;
+use crate::desc::{ImageFile, Located, TextureDesc, TextureRef};
+use crate::error::Result;
+use crate::math::{Mat4, Vec2, Vec3};
+use crate::texture::{Texture, UvMapping};
+
+impl<'a> Reader<'a> {
+    pub(super) fn texture_ref(&mut self, p: &Plugin<'a>, name: &str, default: Vec3) -> Result<TextureRef> {
+        Ok(match p.colour(name, default)? {
+            Colour::Constant(c) => {
+                if c.min_element() < 0.0 || !c.is_finite() {
+                    return Err(p.value_error(name, "a colour must not be negative"));
+                }
+                TextureRef::Color(c)
+            }
+            Colour::Texture(t) => TextureRef::Named(Located {
+                value: self.texture(t)?,
+                source: source(t),
+            }),
+        })
+    }
+
+    /// A texture parameter Mitsuba reads as a float (`eval_1`: blendbsdf's `weight`,
+    /// mask's `opacity`, principled's float keys): as [`Reader::texture_ref`], except
+    /// that Mitsuba 3's checkerboard `eval_1` gives `color1` where its `eval` gives
+    /// `color0` (checked with 3.9.1: at uv (0.2, 0.2) `eval` is color0, `eval_1`
+    /// color1), so a checkerboard read as a float is a twin with the colours swapped.
+    pub(super) fn float_texture_ref(&mut self, p: &Plugin<'a>, name: &str, default: Vec3) -> Result<TextureRef> {
+        let r = self.texture_ref(p, name, default)?;
+        let (Colour::Texture(el), TextureRef::Named(n)) = (p.colour(name, default)?, &r) else {
+            return Ok(r);
+        };
+        let key = el as *const Element;
+        if let Some(twin) = self.float_texture_of.get(&key) {
+            return Ok(TextureRef::Named(Located {
+                value: twin.clone(),
+                source: n.source.clone(),
+            }));
+        }
+        let Some(t) = self.textures.iter().find(|t| t.name == n.value) else {
+            return Ok(r);
+        };
+        let Texture::Checkerboard { color0, color1, mapping } = t.texture else {
+            return Ok(r);
+        };
+        let twin = self.unique(Some(&format!("{}-as-float", n.value)), "texture");
+        self.textures.push(TextureDesc {
+            name: twin.clone(),
+            source: t.source.clone(),
+            texture: Texture::Checkerboard {
+                color0: color1,
+                color1: color0,
+                mapping,
+            },
+        });
+        self.float_texture_of.insert(key, twin.clone());
+        Ok(TextureRef::Named(Located {
+            value: twin,
+            source: n.source.clone(),
+        }))
+    }
+
+    /// The name of the texture of a `<texture>` (read once however often referenced).
+    pub(super) fn texture(&mut self, el: &'a Element) -> Result<String> {
+        if let Some(n) = self.texture_of.get(&(el as *const Element)) {
+            return Ok(n.clone());
+        }
+        self.nest(el)?;
+        let t = self.texture_value(el);
+        self.depth -= 1;
+        let texture = t?;
+        let name = self.unique(el.attr("id"), "texture");
+        self.textures.push(TextureDesc {
+            name: name.clone(),
+            source: source(el),
+            texture,
+        });
+        self.texture_of.insert(el as *const Element, name.clone());
+        Ok(name)
+    }
+
+    pub(super) fn texture_value(&mut self, el: &'a Element) -> Result<Texture<ImageFile>> {
+        let p = Plugin::new(el, self.ids)?;
+        let to_uv = self.to_uv(&p)?;
+        let t = match p.ty.as_str() {
+            "bitmap" => {
+                let path = self.file(el, &p, "filename")?;
+                // Mitsuba has no MIP maps: its bilinear reads the full-resolution image
+                let filter = match p.string("filter_type", "bilinear")?.as_str() {
+                    "bilinear" => crate::texture::image::ImageFilter::Bilinear,
+                    "nearest" => crate::texture::image::ImageFilter::Nearest,
+                    other => return Err(p.value_error("filter_type", format!("unknown filter_type \"{other}\" (bilinear, nearest)"))),
+                };
+                if let Some(w) = p.string_opt("wrap_mode")? {
+                    if w != "repeat" {
+                        self.ids.warn(el, format!("wrap_mode \"{w}\" noted: rdr repeats images"));
+                    }
+                }
+                let raw = p.boolean("raw", false)?;
+                // Mitsuba's row 0 is v = 0, rdr's is v = 1
+                Texture::Image(ImageFile {
+                    path,
+                    mapping: UvMapping {
+                        scale: to_uv.0,
+                        delta: Vec2::new(to_uv.1.x, 1.0 - to_uv.0.y - to_uv.1.y),
+                    },
+                    filter,
+                    raw,
+                })
+            }
+            "checkerboard" => Texture::Checkerboard {
+                color0: p.rgb("color0", Vec3::splat(0.4))?,
+                color1: p.rgb("color1", Vec3::splat(0.2))?,
+                // the same cells as Mitsuba's in its v, which runs the other way
+                mapping: UvMapping {
+                    scale: Vec2::new(to_uv.0.x, -to_uv.0.y),
+                    delta: Vec2::new(to_uv.1.x, to_uv.0.y + to_uv.1.y),
+                },
+            },
+            "mesh_attribute" => {
+                let name = p.required_string("name")?;
+                let face = match name.as_str() {
+                    "vertex_color" => false,
+                    "face_color" => true,
+                    other => {
+                        return Err(p.value_error(
+                            "name",
+                            format!("unsupported mesh attribute \"{other}\" (supported: vertex_color, face_color)"),
+                        ))
+                    }
+                };
+                let scale = p.float("scale", 1.0)?;
+                if !scale.is_finite() {
+                    return Err(p.value_error("scale", "must be a finite number"));
+                }
+                Texture::MeshAttribute { face, scale }
+            }
+            other => return Err(p.error(format!("unsupported texture \"{other}\" (supported: {TEXTURES})"))),
+        };
+        p.finish(&[])?;
+        Ok(t)
+    }
+
+    /// `to_uv` (or the 0.6 `uscale`, `vscale`, `uoffset`, `voffset`) as scale and offset.
+    pub(super) fn to_uv(&self, p: &Plugin) -> Result<(Vec2, Vec2)> {
+        let legacy = ["uoffset", "voffset", "uscale", "vscale"].iter().any(|k| p.has(k));
+        let m = if legacy {
+            let o = Vec3::new(p.float("uoffset", 0.0)?, p.float("voffset", 0.0)?, 0.0);
+            let s = Vec3::new(p.float("uscale", 1.0)?, p.float("vscale", 1.0)?, 1.0);
+            values::scale(s) * values::translate(o)
+        } else {
+            p.transform_opt("to_uv")?.unwrap_or(Mat4::IDENTITY)
+        };
+        let (s, o) = (Vec2::new(m.x_axis.x, m.y_axis.y), Vec2::new(m.w_axis.x, m.w_axis.y));
+        if m.x_axis.y != 0.0 || m.y_axis.x != 0.0 || s.x == 0.0 || s.y == 0.0 {
+            return Err(p.value_error("to_uv", "only a scale and offset of the texture coordinates are supported"));
+        }
+        Ok((s, o))
+    }
+}

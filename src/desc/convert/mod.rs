@@ -1,0 +1,174 @@
+//! `rdr convert`: a scene description written as RDR171 JSON or Mitsuba 3 XML, for
+//! everything both can say, with a warning for what the target cannot. Point lights:
+//! Mitsuba's intensity I is rdr's flux 4πI. Paths are rewritten relative to the output
+//! file. JSON can only name OBJ files, so meshes it cannot say as they are (PLY,
+//! serialized, generated rectangles and cubes, Mitsuba's smoothed normals) are
+//! written as OBJ files beside the output (`<stem>_meshes/`).
+//!
+//! [`to_json`] is in `write_json.rs`, [`to_xml`] in `write_xml.rs`; what both use is here.
+
+mod write_json;
+mod write_xml;
+
+pub use write_json::to_json;
+pub use write_xml::to_xml;
+
+use crate::desc::{MeshFile, SceneDesc};
+use crate::error::{Result, SceneError};
+use crate::geometry::obj::ObjData;
+use crate::material::Distribution;
+use crate::math::{Mat4, Vec2, Vec3};
+use serde_json::Value;
+use std::fmt::Write as _;
+use std::path::{Component, Path, PathBuf};
+
+/// A converted scene: its text, the extra files it refers to, and what could not be said.
+pub struct Converted {
+    pub text: String,
+    pub files: Vec<(PathBuf, Vec<u8>)>,
+    pub warnings: Vec<String>,
+}
+
+pub(super) fn absolute(p: &Path) -> PathBuf {
+    let p = if p.is_absolute() {
+        p.to_path_buf()
+    } else {
+        std::env::current_dir().unwrap_or_default().join(p)
+    };
+    let mut out = PathBuf::new();
+    for c in p.components() {
+        match c {
+            Component::ParentDir => {
+                out.pop();
+            }
+            Component::CurDir => {}
+            c => out.push(c),
+        }
+    }
+    out
+}
+
+/// `target` relative to the folder `from` (both made absolute), with `/` separators.
+pub fn relative(target: &Path, from: &Path) -> String {
+    let (t, f) = (absolute(target), absolute(from));
+    let (tc, fc): (Vec<_>, Vec<_>) = (t.components().collect(), f.components().collect());
+    let common = tc.iter().zip(&fc).take_while(|(a, b)| a == b).count();
+    if common == 0 {
+        return t.display().to_string();
+    }
+    let mut parts: Vec<String> = vec!["..".into(); fc.len() - common];
+    parts.extend(tc[common..].iter().map(|c| c.as_os_str().to_string_lossy().into_owned()));
+    parts.join("/")
+}
+
+pub(super) fn out_dir(out: &Path) -> PathBuf {
+    out.parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(Path::new("."))
+        .to_path_buf()
+}
+
+/// A file named in the description, relative to the output's folder.
+pub(super) fn rebase(desc: &SceneDesc, path: &str, out: &Path) -> String {
+    relative(&desc.base_dir.join(path), &out_dir(out))
+}
+
+pub(super) fn obj_has_normals(desc: &SceneDesc, file: &MeshFile) -> Result<bool> {
+    let full = desc.base_dir.join(&file.path.value);
+    let bytes = crate::limits::read_input_file(&full, crate::limits::max_input_file()).map_err(|e| {
+        file.path
+            .source
+            .error(&desc.file, format!("cannot read mesh '{}': {e}", full.display()))
+    })?;
+    Ok(String::from_utf8_lossy(&bytes).lines().any(|l| l.trim_start().starts_with("vn ")))
+}
+
+pub(super) fn num(x: f32) -> Value {
+    // the shortest decimal that reads back as the same f32
+    serde_json::from_str(&format!("{x}")).unwrap_or(Value::Null)
+}
+
+pub(super) fn vec3(v: Vec3) -> Value {
+    Value::Array(v.to_array().into_iter().map(num).collect())
+}
+
+pub(super) fn vec2(v: Vec2) -> Value {
+    Value::Array(v.to_array().into_iter().map(num).collect())
+}
+
+pub(super) fn row_major(m: &Mat4) -> [f32; 16] {
+    m.transpose().to_cols_array()
+}
+
+/// An OBJ file of a mesh's data (1-based indices, uv and normal per corner).
+pub fn obj_text(d: &ObjData) -> String {
+    let mut s = String::from("# written by rdr convert\n");
+    for p in &d.positions {
+        let _ = writeln!(s, "v {} {} {}", p.x, p.y, p.z);
+    }
+    for t in &d.uvs {
+        let _ = writeln!(s, "vt {} {}", t.x, t.y);
+    }
+    for n in &d.normals {
+        let _ = writeln!(s, "vn {} {} {}", n.x, n.y, n.z);
+    }
+    for t in &d.triangles {
+        s += "f";
+        for c in 0..3 {
+            let _ = match (t.uv, t.n) {
+                (None, None) => write!(s, " {}", t.p[c] + 1),
+                (Some(uv), None) => write!(s, " {}/{}", t.p[c] + 1, uv[c] + 1),
+                (None, Some(n)) => write!(s, " {}//{}", t.p[c] + 1, n[c] + 1),
+                (Some(uv), Some(n)) => write!(s, " {}/{}/{}", t.p[c] + 1, uv[c] + 1, n[c] + 1),
+            };
+        }
+        s += "\n";
+    }
+    s
+}
+
+/// The description as RDR171 JSON, for the file `out`.
+/// Textured emitters (a spot's `texture`, a projector, an area light's radiance
+/// texture) are not carried yet: an error naming the first, not a silently plain light.
+pub(super) fn refuse_textured_emitters(desc: &SceneDesc) -> Result<()> {
+    if let Some(l) = desc.integrator.delta_lights.iter().find(|l| l.texture.is_some()) {
+        return Err(SceneError::new(
+            &desc.file,
+            Some(&l.key),
+            "rdr convert does not carry textured spot lights and projectors yet",
+        ));
+    }
+    if let Some(t) = desc.objects.iter().find_map(|o| o.light.as_ref().and_then(|l| l.texture.as_ref())) {
+        return Err(t
+            .source
+            .error(&desc.file, "rdr convert does not carry area lights with a radiance texture yet"));
+    }
+    Ok(())
+}
+
+pub(super) fn distribution_name(d: Distribution) -> &'static str {
+    if d == Distribution::Ggx {
+        "ggx"
+    } else {
+        "beckmann"
+    }
+}
+
+/// A cylinder as Mitsuba's parameters: `p0`, `p1`, `radius` and, when its `u = 0`
+/// direction is not the one Mitsuba's frame of the axis gives, a `to_world` that
+/// places the unit cylinder ((0,0,0)–(0,0,1), radius 1) exactly.
+pub(super) fn cylinder_params(c: &crate::geometry::cylinder::CylinderShape) -> (Vec3, Vec3, f32, Option<Mat4>) {
+    let c = &c.cylinder;
+    let (x, _) = crate::geometry::cylinder::mitsuba_frame(c.axis.normalize());
+    if (x - c.x).length() < 1e-6 {
+        return (c.p0, c.p0 + c.axis, c.radius, None);
+    }
+    let (_, y) = c.frame();
+    let m = Mat4::from_cols(
+        (c.x * c.radius).extend(0.0),
+        (y * c.radius).extend(0.0),
+        c.axis.extend(0.0),
+        c.p0.extend(1.0),
+    );
+    (Vec3::ZERO, Vec3::Z, 1.0, Some(m))
+}

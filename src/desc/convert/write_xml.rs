@@ -373,7 +373,12 @@ pub fn to_xml(desc: &SceneDesc, out: &Path) -> Result<Converted> {
     }
     let _ = write!(
         s,
-        "  <sensor type=\"{sensor}\">\n{keys}    <transform name=\"to_world\">\n{scale}      <lookat origin=\"{}\" target=\"{}\" up=\"{}\"/>\n    </transform>\n    <film type=\"hdrfilm\">\n      <integer name=\"width\" value=\"{}\"/>\n      <integer name=\"height\" value=\"{}\"/>\n      <string name=\"pixel_format\" value=\"rgb\"/>\n      {filter}\n    </film>\n    <sampler type=\"independent\">\n      <integer name=\"sample_count\" value=\"{}\"/>\n    </sampler>\n  </sensor>\n",
+        "  <sensor type=\"{sensor}\">\n{keys}    <transform name=\"to_world\">\n\
+         {scale}      <lookat origin=\"{}\" target=\"{}\" up=\"{}\"/>\n    </transform>\n    \
+         <film type=\"hdrfilm\">\n      <integer name=\"width\" value=\"{}\"/>\n      \
+         <integer name=\"height\" value=\"{}\"/>\n      <string name=\"pixel_format\" value=\"rgb\"/>\n      \
+         {filter}\n    </film>\n    <sampler type=\"independent\">\n      \
+         <integer name=\"sample_count\" value=\"{}\"/>\n    </sampler>\n  </sensor>\n",
         v3(c.position),
         v3(c.look_at),
         v3(c.ref_up),
@@ -463,7 +468,9 @@ pub fn to_xml(desc: &SceneDesc, out: &Path) -> Result<Converted> {
                 };
                 let _ = writeln!(
                     s,
-                    "  <texture type=\"bitmap\" id=\"{}\">\n    <string name=\"filename\" value=\"{}\"/>\n    <string name=\"filter_type\" value=\"{filter}\"/>\n    <boolean name=\"raw\" value=\"{}\"/>\n    {}\n  </texture>",
+                    "  <texture type=\"bitmap\" id=\"{}\">\n    <string name=\"filename\" value=\"{}\"/>\n    \
+                     <string name=\"filter_type\" value=\"{filter}\"/>\n    <boolean name=\"raw\" value=\"{}\"/>\n    {}\n  \
+                     </texture>",
                     esc(&id),
                     esc(&rebase(desc, &img.path.value, out)),
                     img.raw,
@@ -668,7 +675,10 @@ pub fn to_xml(desc: &SceneDesc, out: &Path) -> Result<Converted> {
                 let up = if axis.x.abs() < 0.9 { Vec3::X } else { Vec3::Y };
                 let _ = writeln!(
                     s,
-                    "  <emitter type=\"spot\">\n    <transform name=\"to_world\"><lookat origin=\"{}\" target=\"{}\" up=\"{}\"/></transform>\n    <rgb name=\"intensity\" value=\"{}\"/>\n    <float name=\"cutoff_angle\" value=\"{}\"/>\n    <float name=\"beam_width\" value=\"{}\"/>\n  </emitter>",
+                    "  <emitter type=\"spot\">\n    \
+                     <transform name=\"to_world\"><lookat origin=\"{}\" target=\"{}\" up=\"{}\"/></transform>\n    \
+                     <rgb name=\"intensity\" value=\"{}\"/>\n    <float name=\"cutoff_angle\" value=\"{}\"/>\n    \
+                     <float name=\"beam_width\" value=\"{}\"/>\n  </emitter>",
                     v3(*position),
                     v3(*position + *axis),
                     v3(up),

@@ -106,29 +106,25 @@ fn map_of(pts: Vec<[f32; 3]>, photons: Vec<Photon>, emitted: u64, rays: u64) -> 
 /// Rounds of [`shoot_until_stored`] at most.
 pub const MAX_ROUNDS: usize = 1024;
 
-/// Shoots photons for `iteration` until `s.count` are stored (Jensen's and Mitsuba's
-/// photon maps count stored photons): rounds of `s.count` photons (rounded up to whole
-/// chunks), then the shortest prefix of chunks that stores `s.count`; the chunks shot
-/// are the estimate's N. Where few photons land on stored surfaces (a sky over a wide
-/// floor: first hits are not stored, most photons then leave the scene) the map still
-/// holds enough for its k-NN radii to stay small. Stops after a round that stored
-/// nothing and after [`MAX_ROUNDS`]. `None` when the stop token was set.
+/// Shoots `s.count` photons for `iteration`, and more rounds of as many until the
+/// map holds at least `s.count` (Jensen's and Mitsuba's photon maps count stored
+/// photons); all photons shot are the estimate's N. Where most photons leave the scene
+/// before a stored hit (a sky over a wide floor: first hits are not stored) the map
+/// still fills, so its k-NN radii stay small; where the first round fills it, this is
+/// [`shoot`]. Stops after a round that stored nothing and after [`MAX_ROUNDS`]. `None`
+/// when the stop token was set.
 pub fn shoot_until_stored(scene: &Scene, s: Shooting, iteration: u32, seed: u32, stop: &StopToken) -> Option<PhotonMap> {
-    let target = s.count as usize;
-    let round = target.div_ceil(CHUNK) * CHUNK;
+    let n = s.count as usize;
     let (mut pts, mut photons, mut rays, mut emitted) = (Vec::new(), Vec::new(), 0, 0u64);
     for r in 0..MAX_ROUNDS {
-        let chunks = shoot_chunks(scene, s, r * round..(r + 1) * round, iteration, seed, stop)?;
         let before = photons.len();
-        for (p, ph, c_rays) in chunks {
+        for (p, ph, c_rays) in shoot_chunks(scene, s, r * n..(r + 1) * n, iteration, seed, stop)? {
+            pts.extend(p);
+            photons.extend(ph);
             rays += c_rays;
-            if photons.len() < target {
-                pts.extend(p);
-                photons.extend(ph);
-                emitted += CHUNK as u64;
-            }
         }
-        if photons.len() >= target || photons.len() == before {
+        emitted += n as u64;
+        if photons.len() >= n || photons.len() == before {
             break;
         }
     }
@@ -150,8 +146,8 @@ pub fn shoot_deposits(scene: &Scene, s: Shooting, iteration: u32, seed: u32, sto
     Some((pts, photons, rays))
 }
 
-/// The deposits of photons `range` (`range.start` a multiple of [`CHUNK`]), chunk by
-/// chunk in photon order; `None` when the stop token was set.
+/// The deposits of photons `range`, in chunks of [`CHUNK`] from its start, in photon
+/// order; `None` when the stop token was set.
 fn shoot_chunks(
     scene: &Scene,
     s: Shooting,
@@ -163,15 +159,15 @@ fn shoot_chunks(
     if scene.lights.is_empty() || range.is_empty() || s.max_segments < s.min_segments.max(1) {
         return Some(Vec::new());
     }
-    debug_assert_eq!(range.start % CHUNK, 0);
-    (range.start / CHUNK..range.end.div_ceil(CHUNK))
+    (0..range.len().div_ceil(CHUNK))
         .into_par_iter()
         .map(|c| {
             if stop.is_stopped() {
                 return None;
             }
             let (mut pts, mut ph, mut rays) = (Vec::new(), Vec::new(), 0u64);
-            for i in c * CHUNK..((c + 1) * CHUNK).min(range.end) {
+            let first = range.start + c * CHUNK;
+            for i in first..(first + CHUNK).min(range.end) {
                 let mut rng = photon_rng(seed, iteration, i as u64);
                 rays += trace_photon(scene, s, &mut rng, &mut |p, photon| {
                     pts.push(p.to_array());
@@ -395,7 +391,8 @@ pub fn direct_light(scene: &Scene, it: &Interaction, bsdf: &Bsdf, sampler: &mut 
 }
 
 /// Parameters (JSON `integrator` keys, besides `type`):
-/// * `n_photons` (int ≥ 1, 100000) — photons stored per map (see [`shoot_until_stored`]);
+/// * `n_photons` (int ≥ 1, 100000) — photons shot per map, and more until the map holds
+///   at least as many (see [`shoot_until_stored`]);
 /// * `n_iterations` (int ≥ 1, 1) — independent photon maps; the image averages them;
 /// * `spp` (int ≥ 1, 16) — camera samples per pixel per iteration (`--spp` sets it);
 ///   a render takes `n_iterations · spp` passes of one sample per pixel;

@@ -29,7 +29,7 @@ fn photon_and_sppm_against_path(label: &str, scene: impl Fn(serde_json::Value) -
 }
 
 /// The camera inside two nested `refraction` balls: the photons that reach the red
-/// ball crossed both inwards, (1/1.5)⁴ ≈ 0.20 of their flux. Measured: means 0.94 %
+/// ball crossed both inwards, (1/1.5)⁴ ≈ 0.20 of their flux. Measured: means 0.68 %
 /// (`photon`) and 0.35 % (`sppm`) from `path`; photons sampled in radiance mode
 /// (`refraction` reports η = 1, so the old η² patch never applied): 342 % and 335 %.
 #[test]

@@ -7,6 +7,7 @@
 //! the reference averaged over k×k blocks (exact in expectation with a box filter).
 
 mod common;
+use common::transport::*;
 use common::*;
 use rdr::math::Vec3;
 use rdr::metrics::{compare, Comparison, Image};
@@ -15,12 +16,6 @@ use serde_json::{json, Value};
 use std::path::Path;
 
 const BDPT: &str = r#"{"integrator": {"type": "bdpt"}}"#;
-
-fn scene_from(value: &Value, dir: &Path) -> rdr::Loaded {
-    let desc = rdr::desc::SceneDesc::from_value(value, &dir.join("scene.json"), dir).unwrap_or_else(|e| panic!("{e}"));
-    assert!(desc.warnings.is_empty(), "{:?}", desc.warnings);
-    rdr::Loaded::build(&desc, Profile::Physical).unwrap_or_else(|e| panic!("{e}"))
-}
 
 /// `scene.json` of the references at 1/k resolution: two independent renders.
 fn reduced(shared: &Path, scene: &str, k: u64, spp: u32, extra: &[&str]) -> (Image, Image) {
@@ -101,46 +96,6 @@ fn connection_roulette_is_unbiased_and_traces_fewer_rays() {
         (default as f64) < 0.95 * all as f64 && aggressive < default,
         "{all} {default} {aggressive}"
     );
-}
-
-/// A UV sphere of radius `r` about the origin, `n` segments around, with vertex
-/// normals (outward) or without; triangles wound inwards when `inward`.
-fn sphere_obj(n: usize, r: f32, inward: bool, normals: bool) -> String {
-    use std::fmt::Write;
-    let m = n / 2;
-    let mut s = String::new();
-    for i in 0..=m {
-        let th = std::f32::consts::PI * i as f32 / m as f32;
-        for j in 0..n {
-            let ph = 2.0 * std::f32::consts::PI * j as f32 / n as f32;
-            let d = Vec3::new(th.sin() * ph.cos(), th.cos(), th.sin() * ph.sin());
-            writeln!(s, "v {} {} {}", d.x * r, d.y * r, d.z * r).unwrap();
-            if normals {
-                writeln!(s, "vn {} {} {}", d.x, d.y, d.z).unwrap();
-            }
-        }
-    }
-    let id = |i: usize, j: usize| i * n + (j % n) + 1;
-    let mut face = |a: usize, b: usize, c: usize| {
-        let (b, c) = if inward { (c, b) } else { (b, c) };
-        if normals {
-            writeln!(s, "f {a}//{a} {b}//{b} {c}//{c}").unwrap();
-        } else {
-            writeln!(s, "f {a} {b} {c}").unwrap();
-        }
-    };
-    for i in 0..m {
-        for j in 0..n {
-            // outward winding: (i,j) (i,j+1) (i+1,j) seen from outside is counter-clockwise
-            if i > 0 {
-                face(id(i, j), id(i, j + 1), id(i + 1, j));
-            }
-            if i + 1 < m {
-                face(id(i, j + 1), id(i + 1, j + 1), id(i + 1, j));
-            }
-        }
-    }
-    s
 }
 
 /// The camera inside a closed diffuse sphere of albedo 0.5: emitting 0.5 on its
@@ -356,6 +311,16 @@ fn visualize_strategies_files_beside_the_output() {
     assert!(mean > 0.2, "albedo.R mean {mean}");
 }
 
+/// Bounds of the MIS self-check ([`rdr::integrator::bdpt::mis_self_check`], 3000
+/// samples a scene). The weights sum to 1 within 2.4e-7 (float rounding); a strategy
+/// dropped from the sample's loop ((2, 2)) or from the weights' sums (t = 1) or a
+/// one-sided connection density (x_{s+1}'s camera-side density taken towards
+/// x_{s+2}) put a sum 1.0 off. Samples with a density more than 1 % off: at most 15
+/// (grazing corners, see `MisCheck::samples_off`); the light walk caching its
+/// forward density as the reverse one gives 1763 on cbox, the one-sided density 2654.
+const MIS_SUM_TOLERANCE: f32 = 1e-4;
+const MIS_SAMPLES_OFF: usize = 60;
+
 #[test]
 fn mis_weights_of_every_path_sum_to_one_and_densities_match_the_geometry() {
     let Some(shared) = shared() else { return };
@@ -366,16 +331,24 @@ fn mis_weights_of_every_path_sum_to_one_and_densities_match_the_geometry() {
         let c = rdr::integrator::bdpt::mis_self_check(&l.scene, &l.job.camera, f.width, f.height, 8, 3000);
         eprintln!("{scene}: {c:?}");
         assert!(c.paths > 1000, "{scene}: {c:?}");
-        assert!(c.max_sum_error < 1e-3, "{scene}: {c:?}");
-        assert!(c.samples_off * 100 < 3000, "{scene}: {c:?}");
+        assert!(c.max_sum_error < MIS_SUM_TOLERANCE, "{scene}: {c:?}");
+        assert!(c.samples_off <= MIS_SAMPLES_OFF, "{scene}: {c:?}");
     }
     // a point light and shading normals
-    let s = smooth_sphere(dir.path(), "bdpt", true);
+    let s = smooth_sphere(dir.path(), json!({"type": "bdpt"}), 10, true);
     let f = &s.job.film;
     let c = rdr::integrator::bdpt::mis_self_check(&s.scene, &s.job.camera, f.width, f.height, 6, 3000);
     eprintln!("smooth sphere: {c:?}");
-    assert!(c.paths > 1000 && c.max_sum_error < 1e-3 && c.samples_off * 100 < 3000, "{c:?}");
+    assert!(
+        c.paths > 1000 && c.max_sum_error < MIS_SUM_TOLERANCE && c.samples_off <= MIS_SAMPLES_OFF,
+        "{c:?}"
+    );
 }
+
+/// How far `ptracer`'s image mean may be from `path`'s in the splat test: measured
+/// 0.10 % (box) and 1.23 % (gaussian, 4× below); splats scaled by 1.2 (in the film's
+/// normalisation) are 20.1 % off (4× above).
+const SPLAT_SCALE_TOLERANCE: f32 = 0.05;
 
 #[test]
 fn splats_are_normalised_for_any_spp_filter_thread_count_and_time_limit() {
@@ -390,6 +363,17 @@ fn splats_are_normalised_for_any_spp_filter_thread_count_and_time_limit() {
         }
         eprintln!("{filter}: 1 spp ×32 {ones}, 64 spp {many}");
         assert!(((ones - many) / many).abs().max_element() < 0.03, "{filter}: {ones} vs {many}");
+        // their absolute scale: `ptracer` (every contribution a splat) against `path`
+        let with = |integrator: &str| {
+            let o = format!(
+                r#"{{"film": {{"resolution": [24, 24], "filter": {filter}}}, "integrator": {{"type": "{integrator}", "max_depth": 4}}}}"#
+            );
+            load_scene(&shared.join("refs/scenes/cbox_path.json"), &[&o], Profile::Physical)
+        };
+        let (pt, path) = (render(&with("ptracer"), 64, 5).mean(), render(&with("path"), 64, 6).mean());
+        let off = ((pt - path) / path).abs().max_element();
+        eprintln!("   ptracer {pt} vs path {path}: off by {:.2} %", 100.0 * off);
+        assert!(off < SPLAT_SCALE_TOLERANCE, "{filter}: ptracer {pt} vs path {path}");
         // a time-limited render averages the passes it finished
         let job = rdr::RenderJob {
             spp: 100_000,
@@ -426,117 +410,29 @@ fn splats_are_normalised_for_any_spp_filter_thread_count_and_time_limit() {
     assert_eq!(one, bits(3), "3 threads");
 }
 
-/// A ~100-triangle sphere with vertex normals under a quad area light (or a point
-/// light beside it), on a large floor with an image texture (4×4 texels, bilinear).
-fn smooth_sphere(dir: &Path, integrator: &str, point_light: bool) -> rdr::Loaded {
-    let texels: Vec<Vec3> = (0..16)
-        .map(|i| Vec3::new(0.2 + 0.05 * i as f32, 0.9 - 0.04 * i as f32, 0.3 + 0.3 * (i % 2) as f32))
-        .collect();
-    rdr::imageio::write_png(&dir.join("tiles.png"), 4, 4, &texels).unwrap();
-    std::fs::write(dir.join("ball.obj"), sphere_obj(10, 0.6, false, true)).unwrap();
-    std::fs::write(
-        dir.join("lamp.obj"),
-        "v -0.5 2.5 -0.5\nv 0.5 2.5 -0.5\nv 0.5 2.5 0.5\nv -0.5 2.5 0.5\nf 1 2 3 4\n",
-    )
-    .unwrap();
-    let mut objects = vec![
-        json!({"type": "mesh", "path": "ball.obj", "material_name": "white", "translate": [0.0, 0.6, 0.0]}),
-        json!({"type": "sphere", "center": [0.0, -100.0, 0.0], "radius": 100.0, "material_name": "floor"}),
-    ];
-    let mut integ = json!({"type": integrator, "max_depth": 5, "lights": []});
-    if point_light {
-        integ["lights"] = json!([{"type": "point", "position": [1.0, 1.8, 1.0], "flux": [40, 40, 40]}]);
-    } else {
-        objects.push(json!({"type": "mesh", "path": "lamp.obj", "light": {"type": "area", "radiance": [8, 8, 8]}}));
-    }
-    let v = json!({
-        "integrator": integ,
-        "film": {"resolution": [32, 24]},
-        "camera": {"position": [0.0, 1.2, 3.2], "look_at": [0.0, 0.5, 0.0], "ref_up": [0.0, 1.0, 0.0], "fov": 40.0},
-        "textures": {"white": {"type": "constant", "color": [0.8, 0.7, 0.6]},
-                     "tiles": {"type": "image", "path": "tiles.png", "tex_coordinate_generator": {"type": "uvmapping2d", "scale": [400, 200]}}},
-        "materials": {"white": {"type": "diffuse", "texture_name": "white"}, "floor": {"type": "diffuse", "texture_name": "tiles"}},
-        "objects": objects
-    });
-    scene_from(&v, dir)
-}
-
-/// `bdpt` against `path` on the same scene (path's two halves as the reference).
-fn bdpt_vs_path(name: &str, path: &rdr::Loaded, bdpt: &rdr::Loaded, spp_path: u32, spp_bdpt: u32, k: usize) -> Comparison {
-    let (p1, p2) = (render(path, spp_path, 21), render(path, spp_path, 22));
-    let r = Image::new(
-        p1.width,
-        p1.height,
-        p1.pixels.iter().zip(&p2.pixels).map(|(a, b)| (*a + *b) * 0.5).collect(),
-    );
-    let vr = Image::new(
-        p1.width,
-        p1.height,
-        p1.pixels
-            .iter()
-            .zip(&p2.pixels)
-            .map(|(a, b)| (*a - *b) * (*a - *b) * 0.25)
-            .collect(),
-    );
-    let (b1, b2) = (render(bdpt, spp_bdpt, 23), render(bdpt, spp_bdpt, 24));
-    check(
-        name,
-        (&b1.block_average(k, false), &b2.block_average(k, false)),
-        &r.block_average(k, false),
-        &vr.block_average(k, true),
-    )
-}
-
+/// Shading normals on light subpaths (Veach's correction in `rdr::material::adjoint`).
+/// Under the area light the sphere has 6 segments, so its shading normals stray far
+/// from the facets: measured +5.6e-5 ± 5.0e-5 against a bound (5σ + 2e-4) of 4.5e-4;
+/// without the correction +5.1e-3 (11× the bound). The point light (10 segments)
+/// covers delta lights with shading normals.
 #[test]
 fn bdpt_equals_path_on_a_smooth_shaded_mesh() {
     let dir = temp_dir("smooth");
-    for point in [false, true] {
-        let b = smooth_sphere(dir.path(), "bdpt", point);
-        let p = smooth_sphere(dir.path(), "path", point);
-        let c = bdpt_vs_path(&format!("smooth sphere, point light {point}"), &p, &b, 256, 64, 2);
+    for (point, segments) in [(false, 6), (true, 10)] {
+        let b = smooth_sphere(dir.path(), json!({"type": "bdpt"}), segments, point);
+        let p = smooth_sphere(dir.path(), json!({"type": "path"}), segments, point);
+        let (c, _) = against_path(&format!("smooth sphere, point light {point}"), &p, &b, 256, 64, 2);
         assert!(converges(&c), "{c:?}");
     }
-}
-
-/// The camera and a diffuse ball inside a big glass (or `refraction`) ball, lit from
-/// outside by an area light in a big diffuse sphere: every light subpath that
-/// reaches the camera crossed the glass once more inwards than outwards, so the
-/// η² of refraction must be right on both subpaths (radiance: scaled, importance:
-/// not, for `glass`; the reverse for `refraction`).
-fn nested_glass(dir: &Path, integrator: &str, outer: &str) -> rdr::Loaded {
-    std::fs::write(
-        dir.join("lamp.obj"),
-        "v -0.6 2.6 -0.6\nv 0.6 2.6 -0.6\nv 0.6 2.6 0.6\nv -0.6 2.6 0.6\nf 1 2 3 4\n",
-    )
-    .unwrap();
-    let v = json!({
-        "integrator": {"type": integrator, "max_depth": 8, "lights": []},
-        "film": {"resolution": [24, 24]},
-        "camera": {"position": [0.0, 0.3, 1.6], "look_at": [0.0, 0.0, 0.0], "ref_up": [0.0, 1.0, 0.0], "fov": 50.0},
-        "textures": {"white": {"type": "constant", "color": [0.8, 0.8, 0.8]}, "red": {"type": "constant", "color": [0.8, 0.3, 0.2]}},
-        "materials": {
-            "white": {"type": "diffuse", "texture_name": "white", "twosided": true},
-            "red": {"type": "diffuse", "texture_name": "red"},
-            "glass": {"type": "glass", "eta": 1.5},
-            "refraction": {"type": "refraction", "eta": 1.5}
-        },
-        "objects": [
-            {"type": "sphere", "center": [0.0, 0.0, 0.0], "radius": 2.2, "material_name": outer},
-            {"type": "sphere", "center": [0.0, 0.0, 0.0], "radius": 0.6, "material_name": "red"},
-            {"type": "sphere", "center": [0.0, 0.0, 0.0], "radius": 6.0, "material_name": "white"},
-            {"type": "mesh", "path": "lamp.obj", "light": {"type": "area", "radiance": [6, 6, 6]}}
-        ]
-    });
-    scene_from(&v, dir)
 }
 
 #[test]
 fn glass_and_refraction_transport_importance_as_path_transports_radiance() {
     let dir = temp_dir("nested");
     for outer in ["glass", "refraction"] {
-        let b = nested_glass(dir.path(), "bdpt", outer);
-        let p = nested_glass(dir.path(), "path", outer);
-        let c = bdpt_vs_path(&format!("nested {outer}"), &p, &b, 256, 64, 2);
+        let b = nested_glass(dir.path(), json!({"type": "bdpt"}), outer, 1);
+        let p = nested_glass(dir.path(), json!({"type": "path"}), outer, 1);
+        let (c, _) = against_path(&format!("nested {outer}"), &p, &b, 256, 64, 2);
         assert!(converges(&c), "{outer}: {c:?}");
     }
 }

@@ -12,10 +12,8 @@
 //!
 //! **Photons** leave the lights in proportion to power (the scene's light
 //! sampler), start with flux `Le·|cos| / (pmf · pdf_pos · pdf_dir)`, and carry
-//! flux: at a refraction the BSDF's radiance weight includes 1/η², which flux
-//! does not have (adjoint transport), so the photon's weight is multiplied by
-//! η² again; at shading normals the adjoint correction
-//! `|wo·ng||wi·ns| / (|wo·ns||wi·ng|)` applies. They are stored at every
+//! flux, scattered by the adjoint BSDF ([`crate::material::adjoint`]: importance
+//! transport at refractions, Veach's shading-normal correction). They are stored at every
 //! non-specular surface after the first segment and continue by BSDF sampling;
 //! Russian roulette (`rr_threshold`) starts once a photon's flux drops below that
 //! fraction of its initial flux, survivors keep at least that fraction.
@@ -33,7 +31,7 @@ use crate::accel::photon_map::KdTree;
 use crate::film::Film;
 use crate::geometry::{Ray, RayDifferential};
 use crate::light::SceneBounds;
-use crate::material::{Bsdf, BsdfKind};
+use crate::material::{Bsdf, BsdfKind, Normals};
 use crate::math::{offset_ray_origin, Vec2, Vec3, PI};
 use crate::sampler::PixelSampler;
 use crate::sampling::{mix64, SplitMix64};
@@ -91,32 +89,85 @@ pub type Deposits = (Vec<[f32; 3]>, Vec<Photon>, u64);
 /// Shoots `s.count` photons for `iteration`; `None` when the stop token was set.
 pub fn shoot(scene: &Scene, s: Shooting, iteration: u32, seed: u32, stop: &StopToken) -> Option<PhotonMap> {
     let (pts, photons, rays) = shoot_deposits(scene, s, iteration, seed, stop)?;
+    Some(map_of(pts, photons, s.count as u64, rays))
+}
+
+fn map_of(pts: Vec<[f32; 3]>, photons: Vec<Photon>, emitted: u64, rays: u64) -> PhotonMap {
     let tree = KdTree::build(pts);
     let photons = tree.permute(&photons);
-    Some(PhotonMap {
+    PhotonMap {
         tree,
         photons,
-        emitted: s.count as u64,
+        emitted,
         rays,
-    })
+    }
+}
+
+/// Rounds of [`shoot_until_stored`] at most.
+pub const MAX_ROUNDS: usize = 1024;
+
+/// Shoots `s.count` photons for `iteration`, and more rounds of as many until the
+/// map holds at least `s.count` (Jensen's and Mitsuba's photon maps count stored
+/// photons); all photons shot are the estimate's N. Where most photons leave the scene
+/// before a stored hit (a sky over a wide floor: first hits are not stored) the map
+/// still fills, so its k-NN radii stay small; where the first round fills it, this is
+/// [`shoot`]. Stops after a round that stored nothing and after [`MAX_ROUNDS`]. `None`
+/// when the stop token was set.
+pub fn shoot_until_stored(scene: &Scene, s: Shooting, iteration: u32, seed: u32, stop: &StopToken) -> Option<PhotonMap> {
+    let n = s.count as usize;
+    let (mut pts, mut photons, mut rays, mut emitted) = (Vec::new(), Vec::new(), 0, 0u64);
+    for r in 0..MAX_ROUNDS {
+        let before = photons.len();
+        for (p, ph, c_rays) in shoot_chunks(scene, s, r * n..(r + 1) * n, iteration, seed, stop)? {
+            pts.extend(p);
+            photons.extend(ph);
+            rays += c_rays;
+        }
+        emitted += n as u64;
+        if photons.len() >= n || photons.len() == before {
+            break;
+        }
+    }
+    Some(map_of(pts, photons, emitted, rays))
 }
 
 /// The deposits of `s.count` photons for `iteration`, positions and payloads in
 /// photon order whatever the thread count, and the rays cast; `None` when the stop
 /// token was set.
 pub fn shoot_deposits(scene: &Scene, s: Shooting, iteration: u32, seed: u32, stop: &StopToken) -> Option<Deposits> {
-    let n = s.count as usize;
-    if scene.lights.is_empty() || n == 0 || s.max_segments < s.min_segments.max(1) {
-        return Some((Vec::new(), Vec::new(), 0));
+    let mut pts = Vec::new();
+    let mut photons = Vec::new();
+    let mut rays = 0;
+    for (p, ph, r) in shoot_chunks(scene, s, 0..s.count as usize, iteration, seed, stop)? {
+        pts.extend(p);
+        photons.extend(ph);
+        rays += r;
     }
-    let chunks: Vec<Option<Deposits>> = (0..n.div_ceil(CHUNK))
+    Some((pts, photons, rays))
+}
+
+/// The deposits of photons `range`, in chunks of [`CHUNK`] from its start, in photon
+/// order; `None` when the stop token was set.
+fn shoot_chunks(
+    scene: &Scene,
+    s: Shooting,
+    range: std::ops::Range<usize>,
+    iteration: u32,
+    seed: u32,
+    stop: &StopToken,
+) -> Option<Vec<Deposits>> {
+    if scene.lights.is_empty() || range.is_empty() || s.max_segments < s.min_segments.max(1) {
+        return Some(Vec::new());
+    }
+    (0..range.len().div_ceil(CHUNK))
         .into_par_iter()
         .map(|c| {
             if stop.is_stopped() {
                 return None;
             }
             let (mut pts, mut ph, mut rays) = (Vec::new(), Vec::new(), 0u64);
-            for i in c * CHUNK..((c + 1) * CHUNK).min(n) {
+            let first = range.start + c * CHUNK;
+            for i in first..(first + CHUNK).min(range.end) {
                 let mut rng = photon_rng(seed, iteration, i as u64);
                 rays += trace_photon(scene, s, &mut rng, &mut |p, photon| {
                     pts.push(p.to_array());
@@ -125,17 +176,7 @@ pub fn shoot_deposits(scene: &Scene, s: Shooting, iteration: u32, seed: u32, sto
             }
             Some((pts, ph, rays))
         })
-        .collect();
-    let mut pts = Vec::new();
-    let mut photons = Vec::new();
-    let mut rays = 0;
-    for c in chunks {
-        let (p, ph, r) = c?;
-        pts.extend(p);
-        photons.extend(ph);
-        rays += r;
-    }
-    Some((pts, photons, rays))
+        .collect()
 }
 
 /// The random numbers of photon `i` of `iteration` for `seed`: the (seed, iteration) pair
@@ -195,16 +236,11 @@ fn trace_photon(scene: &Scene, s: Shooting, rng: &mut SplitMix64, store: &mut im
             break;
         }
         let (uc, u) = (rng.unit_f32(), Vec2::new(rng.unit_f32(), rng.unit_f32()));
-        let Some(bs) = bsdf.sample(it.wo, u, uc) else { break };
-        // flux, not radiance: undo the BSDF's 1/η² (bs.eta² = 1/eta_ti²), and the
-        // adjoint shading-normal correction
-        let (won, wig) = (it.wo.dot(it.ns).abs(), bs.wi.dot(it.ng).abs());
-        let correction = if won > 0.0 && wig > 0.0 {
-            it.wo.dot(it.ng).abs() * bs.wi.dot(it.ns).abs() / (won * wig)
-        } else {
-            0.0
+        // flux, not radiance: the adjoint BSDF
+        let Some(bs) = bsdf.sample_adjoint(it.wo, u, uc, Normals { ns: it.ns, ng: it.ng }) else {
+            break;
         };
-        beta *= bs.weight * (bs.eta * bs.eta * correction);
+        beta *= bs.weight;
         if !beta.is_finite() || beta.max_element() <= 0.0 {
             break;
         }
@@ -355,7 +391,8 @@ pub fn direct_light(scene: &Scene, it: &Interaction, bsdf: &Bsdf, sampler: &mut 
 }
 
 /// Parameters (JSON `integrator` keys, besides `type`):
-/// * `n_photons` (int ≥ 1, 100000) — photons shot per iteration;
+/// * `n_photons` (int ≥ 1, 100000) — photons shot per map, and more until the map holds
+///   at least as many (see [`shoot_until_stored`]);
 /// * `n_iterations` (int ≥ 1, 1) — independent photon maps; the image averages them;
 /// * `spp` (int ≥ 1, 16) — camera samples per pixel per iteration (`--spp` sets it);
 ///   a render takes `n_iterations · spp` passes of one sample per pixel;
@@ -412,7 +449,7 @@ impl PhotonMapper {
                 rr_threshold: self.rr_threshold,
                 min_segments: 2,
             };
-            let Some(map) = shoot(scene, shooting, iteration, ctx.seed, ctx.stop) else {
+            let Some(map) = shoot_until_stored(scene, shooting, iteration, ctx.seed, ctx.stop) else {
                 if let Some(s) = state {
                     film.set_aux(s);
                 }

@@ -15,6 +15,7 @@
 //! on it; Mitsuba scenes wrap it in `twosided`, which then changes nothing), where
 //! Mitsuba's bare `roughconductor` is black from behind.
 
+pub mod adjoint;
 pub mod bsdf;
 pub mod bump;
 pub mod conductor;
@@ -26,6 +27,7 @@ pub mod principled;
 pub mod principledthin;
 pub mod sample;
 
+pub use adjoint::Normals;
 pub use bsdf::{Bsdf, BsdfKind};
 pub use microfacet::Distribution;
 pub use sample::{BsdfSample, TransportMode};

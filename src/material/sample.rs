@@ -9,8 +9,8 @@ use crate::math::Vec3;
 /// `glass` scales radiance by (η_o/η_i)² and importance not at all; `refraction`
 /// (radiance weight 1) has the adjoint weight (η_o/η_i)², η_o being the index on
 /// the side of `wo`; `roughdielectric` likewise scales radiance by (η_o/η_i)² in
-/// `eval` and `sample`, importance not. (The shading-normal correction of the adjoint lives with the
-/// integrator, which knows the geometric normal.)
+/// `eval` and `sample`, importance not. Integrators reach importance transport through
+/// [`super::adjoint`], which adds the shading-normal correction.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum TransportMode {
     #[default]
@@ -25,6 +25,8 @@ pub struct BsdfSample {
     pub weight: Vec3,
     pub pdf: f32,
     pub delta: bool,
-    /// Relative index crossed (η_t/η_i for a refraction, 1 otherwise).
+    /// Relative index crossed where the radiance weight carries its 1/η² (η_t/η_i for
+    /// the refractions of `glass`, `roughdielectric`, `principled`; 1 otherwise,
+    /// `refraction` included, whose radiance weight is 1): for roulette on the throughput without it.
     pub eta: f32,
 }

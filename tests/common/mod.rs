@@ -6,6 +6,7 @@ pub mod chi2;
 pub mod gen;
 pub mod lattice;
 pub mod rng;
+pub mod transport;
 
 // each test file uses some of these
 #[allow(unused_imports)]

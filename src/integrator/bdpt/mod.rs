@@ -30,6 +30,8 @@
 //! segment on, a subpath continues with probability min(0.95, throughput) (the
 //! light subpath's throughput relative to its start), survivors reweighted.
 
+mod check;
+mod connect;
 pub mod mis;
 pub mod strategies;
 pub mod vertex;
@@ -38,11 +40,12 @@ use super::{CameraSample, RayCounts};
 use crate::geometry::ray::RAY_T_MAX;
 use crate::geometry::{Ray, RayDifferential};
 use crate::light::SceneBounds;
-use crate::material::TransportMode;
+use crate::material::{Normals, TransportMode};
 use crate::math::{offset_ray_origin, Vec2, Vec3};
 use crate::sampler::PixelSampler;
+pub use check::{mis_self_check, MisCheck};
 pub use mis::{Heuristic, PathDensities};
-use vertex::{shading_correction, Ctx, Kind, Vertex};
+use vertex::{Ctx, Kind, Vertex};
 
 /// Segment from which Russian roulette may end subpaths (as `path`).
 const RR_DEPTH: usize = 5;
@@ -235,26 +238,7 @@ impl Engine<'_> {
         let mut acc = 0.0f32;
         for t in 1..=cam.len() {
             for s in 0..=light.len() {
-                let segments = s + t - 1;
-                if segments == 0 || segments > self.max_depth {
-                    continue;
-                }
-                let weighted = match self.select {
-                    Select::All | Select::Each => true,
-                    Select::Only(s0, t0, w) if (s0, t0) == (s, t) => w,
-                    Select::Only(..) => continue,
-                    Select::LightTracing => {
-                        let env_seen = s == 0 && t == 2 && cam[1].infinite;
-                        if t != 1 && !env_seen {
-                            continue;
-                        }
-                        false
-                    }
-                };
-                // one-segment paths: s = 0 (the light tracer: s = 1 for surfaces)
-                if (s, t) == (1, 1) && weighted {
-                    continue;
-                }
+                let Some(weighted) = self.selected(s, t, cam) else { continue };
                 let rr = (self.roulette > 0.0 && matches!(self.select, Select::All | Select::Each) && t > 1).then_some(self.roulette * acc);
                 let Some((c, pos)) = self.connect(light, cam, s, t, sampler, counts, weighted, rr) else {
                     continue;
@@ -265,6 +249,29 @@ impl Engine<'_> {
                 sink(s, t, c, pos);
             }
         }
+    }
+
+    /// Whether the sample evaluates strategy (s, t), and MIS-weighted or not
+    /// (`cam`: the camera subpath, for the light tracer's view of the environment).
+    fn selected(&self, s: usize, t: usize, cam: &[Vertex]) -> Option<bool> {
+        let segments = s + t - 1;
+        if segments == 0 || segments > self.max_depth {
+            return None;
+        }
+        let weighted = match self.select {
+            Select::All | Select::Each => true,
+            Select::Only(s0, t0, w) if (s0, t0) == (s, t) => w,
+            Select::Only(..) => return None,
+            Select::LightTracing => {
+                let env_seen = s == 0 && t == 2 && cam[1].infinite;
+                if t != 1 && !env_seen {
+                    return None;
+                }
+                false
+            }
+        };
+        // one-segment paths: s = 0 (the light tracer: s = 1 for surfaces)
+        (!((s, t) == (1, 1) && weighted)).then_some(weighted)
     }
 
     /// Traces a subpath from `ray` and appends its vertices to `path` (which holds
@@ -315,14 +322,13 @@ impl Engine<'_> {
                 break;
             }
             let uc = sampler.next_1d();
-            let Some(bs) = bsdf.sample_mode(it.wo, Vec2::from(sampler.next_2d()), uc, mode) else {
-                break;
+            let u = Vec2::from(sampler.next_2d());
+            let sampled = match mode {
+                TransportMode::Radiance => bsdf.sample(it.wo, u, uc),
+                TransportMode::Importance => bsdf.sample_adjoint(it.wo, u, uc, Normals { ns: it.ns, ng: it.ng }),
             };
-            let mut weight = bs.weight;
-            if mode == TransportMode::Importance {
-                weight *= shading_correction(it.wo, bs.wi, it.ns, it.ng);
-            }
-            beta *= weight;
+            let Some(bs) = sampled else { break };
+            beta *= bs.weight;
             let (pdf_fwd, pdf_rev) = if bs.delta { (0.0, 0.0) } else { (bs.pdf, bsdf.pdf(bs.wi, it.wo)) };
             let n = path.len();
             path[n - 1].delta = bs.delta;
@@ -398,419 +404,4 @@ impl Engine<'_> {
             path[1].pdf_fwd = ctx.pdf_light(&path[0], &path[1]);
         }
     }
-
-    /// Strategy (s, t): its contribution (MIS-weighted when `weighted`) and, for
-    /// t = 1, the film position to splat it to.
-    #[allow(clippy::too_many_arguments)]
-    fn connect(
-        &self,
-        light: &[Vertex],
-        cam: &[Vertex],
-        s: usize,
-        t: usize,
-        sampler: &mut PixelSampler,
-        counts: &mut RayCounts,
-        weighted: bool,
-        rr: Option<f32>,
-    ) -> Option<(Vec3, Option<Vec2>)> {
-        let ctx = &self.ctx;
-        let scene = ctx.scene;
-        let mut sampled = None;
-        let mut pos = None;
-        let mut l;
-        if s == 0 {
-            let pt = &cam[t - 1];
-            pt.light()?;
-            l = pt.beta * ctx.emitted(pt, pt.dir_to(&cam[t - 2]));
-            if l == Vec3::ZERO {
-                return None;
-            }
-        } else if t == 1 {
-            let qs = &light[s - 1];
-            if !qs.connectible() || qs.infinite || (s == 1 && scene.lights[qs.light()? as usize].is_delta_position()) {
-                return None;
-            }
-            // a thin lens: a point on it, drawn uniformly (its area density cancels
-            // against the lens area in the importance)
-            let lens = if ctx.camera.has_lens() {
-                let mut c = Vertex::new(
-                    Kind::Camera,
-                    ctx.camera.lens_point(Vec2::from(sampler.next_2d())),
-                    Vec3::ZERO,
-                    Vec3::ONE,
-                );
-                c.pdf_fwd = 1.0 / ctx.camera.lens_area();
-                c
-            } else {
-                cam[0].clone()
-            };
-            let (p, cos_cam) = ctx.camera.project_from(lens.p, qs.p)?;
-            let v = lens.p - qs.p;
-            let d2 = v.length_squared();
-            let w = v / d2.sqrt();
-            // We·cos_cam = 1/(A cos³θ): the pinhole's importance (1/(A cos⁴θ)) times its
-            // cosine; a lens's 1/(A·lens_area·cos⁴θ) times cos over its density 1/lens_area
-            let we = 1.0 / (ctx.camera.image_plane_area() * cos_cam * cos_cam * cos_cam);
-            let f = if s == 1 {
-                ctx.emitted(qs, w)
-            } else {
-                qs.f(w, TransportMode::Importance)
-            };
-            l = qs.beta * f * (qs.cos(w) * we / d2);
-            if l == Vec3::ZERO {
-                return None;
-            }
-            l = self.through(l, qs, &lens, counts)?;
-            sampled = Some(lens);
-            pos = Some(p);
-        } else if s == 1 {
-            let pt = &cam[t - 1];
-            if !pt.connectible() || scene.lights.is_empty() {
-                return None;
-            }
-            let (index, pmf, _) = scene.light_sampler.sample(sampler.next_1d());
-            let ls = scene.lights[index].sample(pt.p, Vec2::from(sampler.next_2d()), scene.light_sampling)?;
-            if ls.pdf <= 0.0 || pmf <= 0.0 {
-                return None;
-            }
-            let mut q = match ls.target {
-                crate::light::ShadowTarget::Infinity => {
-                    let mut q = Vertex::new(Kind::Light(index as u32), pt.p, ls.wi, Vec3::ONE);
-                    q.infinite = true;
-                    q
-                }
-                crate::light::ShadowTarget::Point { p, n } => Vertex::new(Kind::Light(index as u32), p, n.unwrap_or(Vec3::ZERO), Vec3::ONE),
-            };
-            q.pdf_fwd = ctx.pdf_light_origin(&q);
-            l = pt.beta * pt.f(ls.wi, TransportMode::Radiance) * ls.radiance * (pt.cos(ls.wi) / (pmf * ls.pdf));
-            if l == Vec3::ZERO {
-                return None;
-            }
-            if let Some(tau) = rr {
-                l = self.roulette(l, tau, sampler, s, t)?;
-            }
-            l = self.through(l, pt, &q, counts)?;
-            sampled = Some(q);
-        } else {
-            let (qs, pt) = (&light[s - 1], &cam[t - 1]);
-            if !qs.connectible() || !pt.connectible() {
-                return None;
-            }
-            let v = pt.p - qs.p;
-            let d2 = v.length_squared();
-            if d2 == 0.0 {
-                return None;
-            }
-            let w = v / d2.sqrt();
-            l = qs.beta * qs.f(w, TransportMode::Importance) * pt.f(-w, TransportMode::Radiance) * pt.beta * (qs.cos(w) * pt.cos(w) / d2);
-            if l == Vec3::ZERO {
-                return None;
-            }
-            if let Some(tau) = rr {
-                l = self.roulette(l, tau, sampler, s, t)?;
-            }
-            l = self.through(l, qs, pt, counts)?;
-        }
-        if !weighted {
-            return Some((l, pos));
-        }
-        let w = self.connection(light, cam, s, t, sampled.as_ref()).weight(self.heuristic);
-        Some((l * w, pos))
-    }
-
-    /// `connection_roulette`: a contribution below `tau` survives with probability
-    /// (its luminance)/`tau` and is divided by it; the number is keyed by (s, t), so
-    /// it does not depend on what other strategies drew.
-    fn roulette(&self, c: Vec3, tau: f32, sampler: &PixelSampler, s: usize, t: usize) -> Option<Vec3> {
-        let y = crate::math::luminance(c);
-        // (NaN and non-positive luminance pass untouched)
-        if y.is_nan() || y >= tau || y <= 0.0 {
-            return Some(c);
-        }
-        let q = y / tau;
-        (sampler.keyed_1d((s as u32) << 16 | t as u32) < q).then(|| c / q)
-    }
-
-    /// The contribution `l` of a connection between two vertices times the
-    /// fraction of light passing between them ([`crate::scene::Scene::transmittance`]: 1 or 0
-    /// unless masks lie between); `None` when nothing passes.
-    fn through(&self, l: Vec3, a: &Vertex, b: &Vertex, counts: &mut RayCounts) -> Option<Vec3> {
-        let tr = self.transmittance(a, b, counts);
-        (tr > 0.0).then(|| l * tr)
-    }
-
-    /// The fraction of light passing between two vertices (either may be at infinity).
-    fn transmittance(&self, a: &Vertex, b: &Vertex, counts: &mut RayCounts) -> f32 {
-        counts.rays += 1;
-        let (a, b) = if a.infinite { (b, a) } else { (a, b) };
-        let ray = if b.infinite {
-            Ray::with_range(a.origin_towards(b.ng), b.ng, 0.0, RAY_T_MAX)
-        } else {
-            let (oa, ob) = (a.origin_towards(b.p - a.p), b.origin_towards(a.p - b.p));
-            let v = ob - oa;
-            let dist = v.length();
-            if dist == 0.0 {
-                return 0.0;
-            }
-            Ray::with_range(oa, v / dist, 0.0, dist * (1.0 - 1e-5))
-        };
-        self.ctx.scene.transmittance(&ray)
-    }
-
-    /// The densities of the path strategy (s, t) made, from the subpaths' cached
-    /// densities and the four the connection changes (pbrt-v4's `MISWeight` scheme),
-    /// read in place by [`Connection::weight`].
-    fn connection<'v>(&self, light: &'v [Vertex], cam: &'v [Vertex], s: usize, t: usize, sampled: Option<&'v Vertex>) -> Connection<'v> {
-        let ctx = &self.ctx;
-        let mut c = Connection {
-            light,
-            cam,
-            s,
-            t,
-            sampled,
-            light_s: 0.0,
-            light_s1: 0.0,
-            cam_s1: 0.0,
-            cam_s2: 0.0,
-            delta_light: false,
-        };
-        let pt = c.cv(t - 1);
-        let pt_minus = (t > 1).then(|| c.cv(t - 2));
-        let qs = (s > 0).then(|| c.lv(s - 1));
-        let qs_minus = (s > 1).then(|| c.lv(s - 2));
-        // the four densities the connection changes, two at each connection vertex
-        match (qs, qs_minus) {
-            (Some(q), Some(qm)) => (c.light_s, c.cam_s2) = ctx.pdf_pair(q, qm, pt),
-            (Some(q), None) => c.light_s = ctx.pdf(q, None, pt),
-            (None, _) => c.light_s = ctx.pdf_light_origin(pt),
-        }
-        match (qs, pt_minus) {
-            (Some(q), Some(pm)) => (c.cam_s1, c.light_s1) = ctx.pdf_pair(pt, pm, q),
-            (Some(q), None) => c.cam_s1 = ctx.pdf(pt, None, q),
-            (None, Some(pm)) => c.light_s1 = ctx.pdf_light(pt, pm),
-            (None, None) => {}
-        }
-        let x0 = if s > 0 { c.lv(0) } else { pt };
-        c.delta_light = x0.light().is_some_and(|i| ctx.scene.lights[i as usize].is_delta());
-        c
-    }
-
-    /// [`Engine::connection`]'s densities collected (for checking them).
-    fn densities(&self, light: &[Vertex], cam: &[Vertex], s: usize, t: usize, sampled: Option<&Vertex>, d: &mut PathDensities) {
-        let c = self.connection(light, cam, s, t, sampled);
-        d.clear();
-        for i in 0..s + t {
-            let (pl, pe, delta) = c.at(i);
-            d.push(pl, pe, delta);
-        }
-        d.delta_light = c.delta_light;
-    }
-}
-
-/// The path of strategy (s, t): the subpaths' prefixes, the vertex the connection
-/// sampled (s = 1: a light; t = 1: the pinhole), and the densities it changes.
-struct Connection<'v> {
-    light: &'v [Vertex],
-    cam: &'v [Vertex],
-    s: usize,
-    t: usize,
-    sampled: Option<&'v Vertex>,
-    /// p_L of x_s and x_{s+1}; p_E of x_{s−1} and x_{s−2}.
-    light_s: f32,
-    light_s1: f32,
-    cam_s1: f32,
-    cam_s2: f32,
-    delta_light: bool,
-}
-
-impl<'v> Connection<'v> {
-    #[inline(always)]
-    fn lv(&self, i: usize) -> &'v Vertex {
-        match self.sampled {
-            Some(v) if self.s == 1 && i == 0 => v,
-            _ => &self.light[i],
-        }
-    }
-
-    #[inline(always)]
-    fn cv(&self, j: usize) -> &'v Vertex {
-        match self.sampled {
-            Some(v) if self.t == 1 && j == 0 => v,
-            _ => &self.cam[j],
-        }
-    }
-
-    /// Path vertex `i` (0 at the light): (p_L, p_E, specular).
-    #[inline(always)]
-    fn at(&self, i: usize) -> (f32, f32, bool) {
-        let s = self.s;
-        if i < s {
-            let v = self.lv(i);
-            match s - i {
-                1 => (v.pdf_fwd, self.cam_s1, false),
-                2 => (v.pdf_fwd, self.cam_s2, v.delta),
-                _ => (v.pdf_fwd, v.pdf_rev, v.delta),
-            }
-        } else {
-            let v = self.cv(s + self.t - 1 - i);
-            match i - s {
-                0 => (self.light_s, v.pdf_fwd, false),
-                1 => (self.light_s1, v.pdf_fwd, v.delta),
-                _ => (v.pdf_rev, v.pdf_fwd, v.delta),
-            }
-        }
-    }
-
-    fn weight(&self, heuristic: Heuristic) -> f32 {
-        mis::weight_of(self.s + self.t, self.s, self.delta_light, heuristic, |i| self.at(i))
-    }
-}
-
-/// The densities of a whole path x₀ (light) … x_{n−1} (camera) recomputed from its
-/// geometry alone, for checking the cached ones.
-fn recomputed(ctx: &Ctx, x: &[&Vertex]) -> PathDensities {
-    let n = x.len();
-    let mut d = PathDensities::default();
-    for i in 0..n {
-        let pl = match i {
-            0 => ctx.pdf_light_origin(x[0]),
-            1 => ctx.pdf_light(x[0], x[1]),
-            _ => ctx.pdf(x[i - 1], Some(x[i - 2]), x[i]),
-        };
-        let pe = if i == n - 1 {
-            1.0
-        } else {
-            ctx.pdf(x[i + 1], (i + 2 < n).then(|| x[i + 2]), x[i])
-        };
-        d.push(pl, pe, x[i].delta && i > 0 && i < n - 1);
-    }
-    d.delta_light = x[0].light().is_some_and(|i| ctx.scene.lights[i as usize].is_delta());
-    d
-}
-
-/// What [`mis_self_check`] found.
-#[derive(Clone, Copy, Debug, Default)]
-pub struct MisCheck {
-    /// Connections (paths) checked.
-    pub paths: usize,
-    /// Largest |Σ_s w_s − 1| over the strategies that could make each path.
-    pub max_sum_error: f32,
-    /// Largest relative difference between the cached densities a connection
-    /// assembles and those recomputed from the path's geometry.
-    pub max_density_error: f32,
-    /// Camera samples with a path whose density is off by more than 1 % (relative).
-    /// Vertices close to each other at grazing angles (in corners) differ by
-    /// 0.1–10 %: the sampled direction is the ray's, the recomputed one joins the
-    /// (rounded) hit points.
-    pub samples_off: usize,
-}
-
-/// Checks the MIS of `bdpt` on random paths of a scene: for `samples` camera
-/// samples (random film positions), every connection (s, t) that carries light is
-/// taken as a path; the weights of all strategies that could have made it must sum
-/// to 1, and the densities the connection assembled must equal those recomputed
-/// from the vertices alone (specular vertices excepted: density 0 either way).
-pub fn mis_self_check(
-    scene: &crate::scene::Scene,
-    camera: &crate::camera::Camera,
-    width: u32,
-    height: u32,
-    max_depth: u32,
-    samples: u32,
-) -> MisCheck {
-    let e = Engine {
-        ctx: ctx(scene, camera),
-        max_depth: max_depth as usize,
-        heuristic: Heuristic::Power,
-        select: Select::All,
-        roulette: 0.0,
-    };
-    let mut out = MisCheck::default();
-    let mut counts = RayCounts::default();
-    let mut d = PathDensities::default();
-    for i in 0..samples {
-        let mut sampler = PixelSampler::new(i % width, (i / width) % height, i, 77);
-        let (u, v) = sampler.next_2d();
-        let ray = camera.ray(u * width as f32, v * height as f32);
-        let mut cam = vec![Vertex::new(Kind::Camera, camera.position, Vec3::ZERO, Vec3::ONE)];
-        cam[0].pdf_fwd = 1.0;
-        e.walk(
-            ray,
-            None,
-            Vec3::ONE,
-            camera.pdf_dir(ray.d),
-            TransportMode::Radiance,
-            e.max_depth + 1,
-            &mut cam,
-            &mut sampler,
-            &mut counts,
-        );
-        let mut light = Vec::new();
-        e.light_subpath(&mut light, &mut sampler, &mut counts);
-        let mut sample_off = false;
-        for t in 1..=cam.len() {
-            for s in 0..=light.len() {
-                let n = s + t;
-                if n < 3 || n - 1 > e.max_depth {
-                    continue;
-                }
-                let mut probe = sampler;
-                let Some((c, _)) = e.connect(&light, &cam, s, t, &mut probe, &mut counts, false, None) else {
-                    continue;
-                };
-                if c == Vec3::ZERO {
-                    continue;
-                }
-                // the vertex a connection samples (s = 1: a light; t = 1: the pinhole)
-                let mut sampled = None;
-                if s == 1 && t > 1 {
-                    let mut probe = sampler;
-                    let (index, _, _) = scene.light_sampler.sample(probe.next_1d());
-                    let Some(ls) = scene.lights[index].sample(cam[t - 1].p, Vec2::from(probe.next_2d()), scene.light_sampling) else {
-                        continue;
-                    };
-                    let mut q = match ls.target {
-                        crate::light::ShadowTarget::Infinity => {
-                            let mut q = Vertex::new(Kind::Light(index as u32), cam[t - 1].p, ls.wi, Vec3::ONE);
-                            q.infinite = true;
-                            q
-                        }
-                        crate::light::ShadowTarget::Point { p, n } => {
-                            Vertex::new(Kind::Light(index as u32), p, n.unwrap_or(Vec3::ZERO), Vec3::ONE)
-                        }
-                    };
-                    q.pdf_fwd = e.ctx.pdf_light_origin(&q);
-                    sampled = Some(q);
-                } else if t == 1 {
-                    sampled = Some(cam[0].clone());
-                }
-                e.densities(&light, &cam, s, t, sampled.as_ref(), &mut d);
-                let mut x: Vec<&Vertex> = Vec::with_capacity(n);
-                for i in 0..s {
-                    x.push(if s == 1 { sampled.as_ref().unwrap_or(&light[0]) } else { &light[i] });
-                }
-                for j in (0..t).rev() {
-                    x.push(if t == 1 { sampled.as_ref().unwrap_or(&cam[0]) } else { &cam[j] });
-                }
-                let fresh = recomputed(&e.ctx, &x);
-                let mut off = false;
-                for i in 0..n {
-                    if fresh.delta[i] || (i > 0 && fresh.delta[i - 1]) || (i + 1 < n && fresh.delta[i + 1]) {
-                        continue; // densities next to specular vertices are conventions
-                    }
-                    for (a, b) in [(d.light[i], fresh.light[i]), (d.camera[i], fresh.camera[i])] {
-                        let err = (a - b).abs() / a.abs().max(b.abs()).max(1e-20);
-                        out.max_density_error = out.max_density_error.max(err);
-                        off |= err > 1e-2;
-                    }
-                }
-                let sum: f32 = (0..n).filter(|&k| d.possible(k)).map(|k| d.weight(k, Heuristic::Power)).sum();
-                out.max_sum_error = out.max_sum_error.max((sum - 1.0).abs());
-                out.paths += 1;
-                sample_off |= off;
-            }
-        }
-        out.samples_off += sample_off as usize;
-    }
-    out
 }

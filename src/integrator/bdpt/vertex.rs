@@ -3,7 +3,7 @@
 
 use crate::camera::Camera;
 use crate::light::{Light, SceneBounds};
-use crate::material::{Bsdf, TransportMode};
+use crate::material::{Bsdf, Normals, TransportMode};
 use crate::math::{offset_ray_origin, Vec3, INV_4PI, INV_PI, PI};
 use crate::scene::Scene;
 
@@ -115,14 +115,19 @@ impl Vertex {
     }
 
     /// The BSDF from `wo` to `wi` (towards the next vertex) for the quantity the
-    /// subpath carries: importance gets Veach's shading-normal correction.
+    /// subpath carries: importance gets the adjoint ([`crate::material::adjoint`]).
     pub fn f(&self, wi: Vec3, mode: TransportMode) -> Vec3 {
         let Some(bsdf) = &self.bsdf else { return Vec3::ZERO };
-        let f = bsdf.eval_mode(self.wo, wi, mode);
         match mode {
-            TransportMode::Radiance => f,
-            TransportMode::Importance => f * shading_correction(self.wo, wi, self.ns, self.ng),
+            TransportMode::Radiance => bsdf.eval(self.wo, wi),
+            TransportMode::Importance => bsdf.eval_adjoint(self.wo, wi, self.normals()),
         }
+    }
+
+    /// The shading and geometric normals (for the adjoint BSDF).
+    #[inline]
+    pub fn normals(&self) -> Normals {
+        Normals { ns: self.ns, ng: self.ng }
     }
 
     /// A point just off the surface, on the side of direction `w`.
@@ -133,18 +138,6 @@ impl Vertex {
         } else {
             self.p
         }
-    }
-}
-
-/// Veach's correction of the adjoint BSDF for shading normals:
-/// |wo·ns| |wi·ng| / (|wo·ng| |wi·ns|) (1 without shading normals).
-#[inline]
-pub fn shading_correction(wo: Vec3, wi: Vec3, ns: Vec3, ng: Vec3) -> f32 {
-    let den = wo.dot(ng).abs() * wi.dot(ns).abs();
-    if den == 0.0 {
-        0.0
-    } else {
-        wo.dot(ns).abs() * wi.dot(ng).abs() / den
     }
 }
 

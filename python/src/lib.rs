@@ -200,8 +200,11 @@ fn into_floats(v: Vec<Vec3>) -> Vec<f32> {
     unsafe { Vec::from_raw_parts(ptr.cast::<f32>(), len * 3, cap * 3) }
 }
 
-/// Renders; returns the image (H, W, C), its channel names, whether it was
+/// A render for Python: the image (H, W, C), its channel names, whether it was
 /// interrupted, the samples per pixel it holds, and warnings.
+type Rendered<'py> = (Bound<'py, PyArray3<f32>>, Vec<String>, bool, u32, Vec<String>);
+
+/// Renders (see [`Rendered`]).
 #[pyfunction]
 #[pyo3(signature = (scene, spp, seed, threads, integrator, time_limit, aovs, progress))]
 #[allow(clippy::too_many_arguments)]
@@ -215,7 +218,7 @@ fn render<'py>(
     time_limit: Option<f64>,
     aovs: Vec<String>,
     progress: Option<Bound<'py, PyAny>>,
-) -> PyResult<(Bound<'py, PyArray3<f32>>, Vec<String>, bool, u32, Vec<String>)> {
+) -> PyResult<Rendered<'py>> {
     let aov = match aovs.is_empty() {
         true => AovSet::default(),
         false => AovSet::parse(&aovs.join(",")).map_err(|e| error(format!("aovs: {e}")))?,

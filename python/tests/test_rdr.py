@@ -8,6 +8,7 @@ import signal
 import subprocess
 import sys
 import textwrap
+import time
 from pathlib import Path
 
 import numpy as np
@@ -276,14 +277,12 @@ def test_write_and_read_as_the_cli_writes(tmp_path):
 
 
 CTRL_C_CHILD = """
-import sys, rdr
-scene = rdr.load_file(sys.argv[1])
-def progress(done, total):
-    # two passes of the film's 384x256 pixels done: interrupt now
-    if done >= 2 * 384 * 256:
-        print("rendering", flush=True)
+import json, sys, rdr
+scene = rdr.load_file(sys.argv[1], overrides=[json.loads(sys.argv[2])])
+print("start", flush=True)
 try:
-    rdr.render(scene, spp=100000, progress=progress)
+    # no progress callback: only render's own polling can see the signal
+    rdr.render(scene, spp=1000000)
     print("finished")
 except rdr.RenderInterrupted as e:
     assert isinstance(e, KeyboardInterrupt)
@@ -295,19 +294,20 @@ except rdr.RenderInterrupted as e:
 def test_ctrl_c_stops_between_passes_and_keeps_the_finished_ones(tmp_path):
     child = tmp_path / "child.py"
     child.write_text(textwrap.dedent(CTRL_C_CHILD))
-    p = subprocess.Popen([sys.executable, str(child), str(SHOWCASE)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    args = [sys.executable, str(child), str(SHOWCASE), json.dumps(SMALL)]
+    p = subprocess.Popen(args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
-        assert p.stdout.readline().strip() == "rendering"
+        assert p.stdout.readline().strip() == "start"
+        time.sleep(1.5)  # a pass of the 48x32 film takes milliseconds
         p.send_signal(signal.SIGINT)
         out, err = p.communicate(timeout=60)
     finally:
         p.kill()
-    lines = [x for x in out.splitlines() if x != "rendering"]
     assert p.returncode == 0, err
-    words = lines[0].split()
-    assert words[0] == "interrupted", lines
-    assert 2 <= int(words[1]) < 100000
-    assert words[2:] == ["(256,", "384,", "3)", "True", "True"]
+    words = out.split()
+    assert words[0] == "interrupted", out
+    assert 1 <= int(words[1]) < 1000000
+    assert words[2:] == ["(32,", "48,", "3)", "True", "True"]
 
 
 def test_example_notebook_runs(monkeypatch):

@@ -38,6 +38,12 @@ enum Field<'a> {
     Roughness(&'a mut f32),
 }
 
+/// `alpha_x` and `alpha_y`.
+fn anisotropic<'a>(prefix: &str, x: &'a mut f32, y: &'a mut f32, out: &mut Vec<(String, Field<'a>)>) {
+    out.push((format!("{prefix}alpha_x"), Field::Roughness(x)));
+    out.push((format!("{prefix}alpha_y"), Field::Roughness(y)));
+}
+
 /// The editable fields of a material, named as under `materials.NAME.`, in a fixed order.
 fn fields<'a>(m: &'a mut Material<TextureRef>, prefix: &str, out: &mut Vec<(String, Field<'a>)>) {
     let name = |k: &str| format!("{prefix}{k}");
@@ -56,8 +62,7 @@ fn fields<'a>(m: &'a mut Material<TextureRef>, prefix: &str, out: &mut Vec<(Stri
             texture, alpha_x, alpha_y, ..
         } => {
             colour("color", texture, out);
-            out.push((name("alpha_x"), Field::Roughness(alpha_x)));
-            out.push((name("alpha_y"), Field::Roughness(alpha_y)));
+            anisotropic(prefix, alpha_x, alpha_y, out);
         }
         Material::RoughDielectric {
             reflect,
@@ -68,8 +73,7 @@ fn fields<'a>(m: &'a mut Material<TextureRef>, prefix: &str, out: &mut Vec<(Stri
         } => {
             out.push((name("R"), Field::Colour(reflect)));
             out.push((name("T"), Field::Colour(transmit)));
-            out.push((name("alpha_x"), Field::Roughness(alpha_x)));
-            out.push((name("alpha_y"), Field::Roughness(alpha_y)));
+            anisotropic(prefix, alpha_x, alpha_y, out);
         }
         Material::Plastic { texture, specular, .. } => {
             colour("color", texture, out);

@@ -73,14 +73,18 @@ pub fn thread_pool(threads: Option<usize>, caller: Caller) -> Result<rayon::Thre
         .map_err(|e| format!("cannot start the thread pool: {e}"))
 }
 
+/// A time limit, checked.
+pub fn check_time_limit(seconds: Option<f64>, caller: Caller) -> Result<(), String> {
+    match seconds {
+        Some(t) if !(t.is_finite() && t > 0.0) => Err(format!("{} must be a positive number of seconds", caller.option("time-limit"))),
+        _ => Ok(()),
+    }
+}
+
 impl RenderOptions {
     /// Checks the options against `job` (rendered in `profile`) and applies them to it.
     pub fn apply(&self, job: &mut RenderJob, profile: Profile, caller: Caller) -> Result<(), String> {
-        if let Some(t) = self.time_limit {
-            if !(t.is_finite() && t > 0.0) {
-                return Err(format!("{} must be a positive number of seconds", caller.option("time-limit")));
-            }
-        }
+        check_time_limit(self.time_limit, caller)?;
         if let Some(n) = self.threads {
             check_threads(n, caller)?;
         }

@@ -9,8 +9,8 @@ use self::job::{parse_camera, parse_film, parse_integrator};
 use self::materials::{parse_materials, parse_texture};
 use crate::desc::json::{Context, Props};
 use crate::desc::{
-    cylinder_shape, json, principled, rotation_quat, xml, AreaLightDesc, EnvMapDesc, InstanceDesc, IntegratorDesc, MeshFile, MeshOptions, ObjectDesc,
-    SceneDesc, ShapeGroupDesc, TextureRef,
+    cylinder_shape, json, principled, rotation_quat, xml, AreaLightDesc, EnvMapDesc, InstanceDesc, IntegratorDesc, MeshFile, MeshOptions,
+    ObjectDesc, SceneDesc, ShapeGroupDesc, TextureRef,
 };
 use crate::error::Result;
 use crate::geometry::sphere::Sphere;

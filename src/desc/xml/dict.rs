@@ -30,57 +30,29 @@ pub enum DictValue {
     Dict(Vec<(String, DictValue)>),
 }
 
-/// The XML tag of each plugin type.
-const PLUGIN_TAGS: [(&str, &[&str]); 9] = [
-    ("sensor", &["perspective", "thinlens", "orthographic"]),
-    ("film", &["hdrfilm"]),
-    ("sampler", &["independent", "stratified", "multijitter", "ldsampler", "orthogonal"]),
-    ("rfilter", &["box", "tent", "gaussian", "mitchell"]),
-    (
-        "integrator",
-        &["path", "volpath", "direct", "ptracer", "bdpt", "photonmapper", "sppm"],
-    ),
-    (
-        "shape",
-        &[
-            "obj",
-            "ply",
-            "serialized",
-            "rectangle",
-            "cube",
-            "disk",
-            "sphere",
-            "cylinder",
-            "shapegroup",
-            "instance",
-        ],
-    ),
-    (
-        "bsdf",
-        &[
-            "diffuse",
-            "dielectric",
-            "thindielectric",
-            "roughdielectric",
-            "conductor",
-            "roughconductor",
-            "plastic",
-            "roughplastic",
-            "twosided",
-            "bumpmap",
-            "normalmap",
-            "mask",
-            "principled",
-            "principledthin",
-            "blendbsdf",
-        ],
-    ),
-    (
-        "emitter",
-        &["area", "point", "spot", "directional", "projector", "constant", "envmap"],
-    ),
-    ("texture", &["bitmap", "checkerboard", "mesh_attribute"]),
-];
+/// The XML tag of a plugin type, from the lists of types the XML reader takes (the
+/// first word of each entry: "volpath (without media)"; `area` emitters sit in shapes).
+fn tag_of(ty: &str) -> Option<&'static str> {
+    use super::plugins::{BSDFS, EMITTERS, FILTERS, INTEGRATORS, SHAPES, TEXTURES};
+    let lists = [
+        ("sensor", "perspective, thinlens, orthographic"),
+        ("film", "hdrfilm"),
+        ("sampler", "independent, stratified, multijitter, ldsampler, orthogonal"),
+        ("rfilter", FILTERS),
+        ("integrator", INTEGRATORS),
+        ("shape", SHAPES),
+        ("bsdf", BSDFS),
+        ("emitter", EMITTERS),
+        ("texture", TEXTURES),
+    ];
+    if ty == "area" {
+        return Some("emitter");
+    }
+    lists
+        .iter()
+        .find(|(_, list)| list.split(", ").any(|entry| entry.split_whitespace().next() == Some(ty)))
+        .map(|(tag, _)| *tag)
+}
 
 /// Reads a scene dictionary; `name` stands for it in messages (`<dict>`), and relative
 /// file names are looked up in `base_dir`.
@@ -200,7 +172,7 @@ impl Builder<'_> {
             }
             _ => {}
         }
-        let Some((tag, _)) = PLUGIN_TAGS.iter().find(|(_, types)| types.contains(&ty)) else {
+        let Some(tag) = tag_of(ty) else {
             return Err(self.error(&join(path, "type"), format!("unknown plugin type \"{ty}\"")));
         };
         let id = entries.iter().find_map(|(k, v)| match (k.as_str(), v) {

@@ -324,3 +324,14 @@ def test_example_notebook_runs(monkeypatch):
             exec(compile("".join(c["source"]), str(notebook), "exec"), namespace)
     errors = namespace["errors"]
     assert len(errors) == 7 and errors[-1] < errors[0] / 8
+
+
+def test_traverse_leaves_out_colours_a_light_copied():
+    # a constant <emitter> is a sky built from its texture's colour: editing the texture
+    # alone would not change the light, so it is not offered
+    scene = rdr.load_file(ROUGHPLASTIC, spp=1)
+    params = rdr.traverse(scene)
+    assert "materials.bsdf_2.alpha" in params
+    assert not any(k.startswith("textures.") for k in params)
+    with pytest.raises(KeyError, match="not a parameter that can change"):
+        params["textures.environment.color"] = [1.0, 0.0, 0.0]

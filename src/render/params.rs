@@ -111,6 +111,21 @@ fn area_key(desc: &SceneDesc, i: usize) -> String {
     }
 }
 
+/// Whether a light copies texture `name` when the scene is built (the sky, a textured
+/// area light, spot or projector): its colour is then not editable here.
+fn lights_copy(desc: &SceneDesc, name: &str) -> bool {
+    desc.environment_map.as_ref().is_some_and(|e| e.texture.value == name)
+        || desc
+            .objects
+            .iter()
+            .any(|o| o.light.as_ref().and_then(|l| l.texture.as_ref()).is_some_and(|t| t.value == name))
+        || desc
+            .integrator
+            .delta_lights
+            .iter()
+            .any(|l| matches!(&l.texture, Some(TextureRef::Named(t)) if t.value == name))
+}
+
 /// Every editable parameter of a scene with its value, in a fixed order.
 pub fn list(desc: &SceneDesc) -> Vec<(String, ParamValue)> {
     let c = &desc.camera;
@@ -123,8 +138,8 @@ pub fn list(desc: &SceneDesc) -> Vec<(String, ParamValue)> {
         ("integrator.spp".to_string(), ParamValue::Int(desc.integrator.spp)),
     ];
     for t in &desc.textures {
-        if let Texture::Constant(c) = t.texture {
-            out.push((format!("textures.{}.color", t.name), ParamValue::Vec3(c)));
+        if let (Texture::Constant(c), false) = (&t.texture, lights_copy(desc, &t.name)) {
+            out.push((format!("textures.{}.color", t.name), ParamValue::Vec3(*c)));
         }
     }
     for m in &desc.materials {
@@ -192,8 +207,11 @@ fn edit_desc(desc: &mut SceneDesc, changes: &[(String, ParamValue)]) -> Result<(
                 _ => return Err(format!("{key}: expected a whole number of at least 1")),
             },
             _ => {
-                if let Some(t) = desc.textures.iter_mut().find(|t| key == format!("textures.{}.color", t.name)) {
-                    let Texture::Constant(c) = &mut t.texture else {
+                if let Some(i) = desc.textures.iter().position(|t| key == format!("textures.{}.color", t.name)) {
+                    if lights_copy(desc, &desc.textures[i].name) {
+                        return Err(not_editable(key));
+                    }
+                    let Texture::Constant(c) = &mut desc.textures[i].texture else {
                         return Err(not_editable(key));
                     };
                     *c = colour(key, v, "a colour")?;

@@ -3,6 +3,7 @@
 use super::{Compat, SceneArgs};
 use anyhow::{Context, Result};
 use rdr::limits::sanitize;
+use rdr::render::session::Caller;
 use rdr::{Loaded, Profile};
 use std::io::Write;
 use std::path::Path;
@@ -29,16 +30,8 @@ pub fn say(text: impl std::fmt::Display) -> Result<()> {
     }
 }
 
-/// Most worker threads: a few per core is plenty; more only costs memory (stacks).
-fn max_threads() -> usize {
-    4 * std::thread::available_parallelism().map_or(1, |n| n.get())
-}
-
 pub fn check_threads(n: usize) -> Result<()> {
-    anyhow::ensure!(n > 0, "--threads must be at least 1");
-    let max = max_threads();
-    anyhow::ensure!(n <= max, "--threads {n} is more than the {max} supported (4 per core)");
-    Ok(())
+    rdr::render::session::check_threads(n, Caller::Cli).map_err(anyhow::Error::msg)
 }
 
 pub fn profile(args: &SceneArgs) -> Profile {

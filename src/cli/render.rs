@@ -8,6 +8,7 @@ use rdr::imageio::{check_output_path, encode_image, save_elsewhere, write_atomic
 use rdr::integrator::StopToken;
 use rdr::limits::sanitize;
 use rdr::render::identity::RenderIdentity;
+use rdr::render::session::{self, Caller};
 use rdr::render::statefile::{self, StateHeader};
 use rdr::render::{FilmState, Periodic, Snapshot};
 use rdr::{Loaded, Profile, RenderControl};
@@ -92,9 +93,7 @@ fn resume_state(
 
 /// `rdr render`.
 pub fn render(args: &SceneArgs, output: Option<PathBuf>, quiet: bool, time_limit: Option<f64>, flow: &FlowArgs) -> Result<ExitCode> {
-    if let Some(t) = time_limit {
-        anyhow::ensure!(t.is_finite() && t > 0.0, "--time-limit must be a positive number of seconds");
-    }
+    session::check_time_limit(time_limit, Caller::Cli).map_err(anyhow::Error::msg)?;
     for (name, t) in [("--checkpoint", flow.checkpoint), ("--preview", flow.preview)] {
         if let Some(t) = t {
             anyhow::ensure!(t.is_finite() && t > 0.0, "{name} must be a positive number of seconds");
@@ -151,15 +150,7 @@ pub fn render(args: &SceneArgs, output: Option<PathBuf>, quiet: bool, time_limit
         if (what == "--aov" && !aov.any()) || (what == "--denoise" && !flow.denoise) {
             continue;
         }
-        anyhow::ensure!(
-            physical,
-            "{what}: not with --compat rdr171 (the course renderer had no feature buffers)"
-        );
-        anyhow::ensure!(
-            job.integrator.supports_aov(),
-            "{what}: the {} integrator does not make feature buffers (path, intersection_test, bdpt, ptracer, photon and normals do)",
-            job.integrator.name()
-        );
+        session::check_features(&what[2..], &job, profile(args), Caller::Cli).map_err(anyhow::Error::msg)?;
         anyhow::ensure!(
             !flow.resume && shard.is_none(),
             "{what}: not with --resume or --shard yet (the feature sums are not kept in the film state)"
@@ -295,7 +286,8 @@ pub fn render(args: &SceneArgs, output: Option<PathBuf>, quiet: bool, time_limit
             .map(|b| Arc::new(move |n: u64| b.inc(n)) as Arc<dyn Fn(u64) + Send + Sync>),
         periodic,
     };
-    let mut out = rdr::render::render_with_aov(&scene, &job, &control, start, aov.any() || flow.denoise);
+    let pool = session::thread_pool(args.threads, Caller::Cli).map_err(anyhow::Error::msg)?;
+    let mut out = session::run(&scene, &job, &control, start, aov.any() || flow.denoise, &pool);
     if let Some(b) = bar {
         b.finish_and_clear();
     }

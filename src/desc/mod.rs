@@ -28,6 +28,7 @@ pub use build::{build, BuildOptions};
 pub use checked::{
     cylinder_shape, default_fov_deg, directional_light, light_frame, projector_light, rotation_quat, spot_light, textured_spot,
 };
+pub use parse::integrator_from_value;
 pub use source::{Located, Source};
 pub use types::{
     AreaLightDesc, DeltaLightDesc, EnvMapDesc, FilmDesc, ImageFile, InstanceDesc, IntegratorDesc, MaterialDesc, MeshFile, MeshFormat,

@@ -13,6 +13,9 @@ pub enum Source {
     /// A 1-based line and column in a file, for scene readers of formats without key
     /// paths.
     Position { file: PathBuf, line: u32, column: u32 },
+    /// A key path in a document that is not a file of its own, such as
+    /// `sphere.bsdf.reflectance` of a Python scene dictionary (`file` names it).
+    Key { file: PathBuf, key: String },
 }
 
 impl Source {
@@ -23,6 +26,7 @@ impl Source {
         match self {
             Source::Json(path) => SceneError::new(scene, (!path.is_empty()).then_some(path.as_str()), msg),
             Source::Position { file, line, column } => SceneError::new(file, Some(&format!("line {line}, column {column}")), msg),
+            Source::Key { file, key } => SceneError::new(file, (!key.is_empty()).then_some(key.as_str()), msg),
         }
     }
 }

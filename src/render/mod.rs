@@ -7,6 +7,8 @@ pub mod blocks;
 pub mod denoise;
 pub mod identity;
 pub mod job;
+pub mod params;
+pub mod session;
 pub mod statefile;
 pub mod tev;
 

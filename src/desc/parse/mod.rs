@@ -9,8 +9,8 @@ use self::job::{parse_camera, parse_film, parse_integrator};
 use self::materials::{parse_materials, parse_texture};
 use crate::desc::json::{Context, Props};
 use crate::desc::{
-    cylinder_shape, json, principled, rotation_quat, xml, AreaLightDesc, EnvMapDesc, InstanceDesc, MeshFile, MeshOptions, ObjectDesc,
-    SceneDesc, ShapeGroupDesc, TextureRef,
+    cylinder_shape, json, principled, rotation_quat, xml, AreaLightDesc, EnvMapDesc, InstanceDesc, IntegratorDesc, MeshFile, MeshOptions,
+    ObjectDesc, SceneDesc, ShapeGroupDesc, TextureRef,
 };
 use crate::error::Result;
 use crate::geometry::sphere::Sphere;
@@ -110,6 +110,17 @@ impl SceneDesc {
             convert_notes: Vec::new(),
         })
     }
+}
+
+/// An `integrator` object read on its own, as in a scene file (Python's
+/// `render(integrator=...)`), with the warnings about it; `file` names it in messages.
+pub fn integrator_from_value(value: &Value, file: &Path) -> Result<(IntegratorDesc, Vec<String>)> {
+    let ctx = Context::new(file);
+    let wrapped = serde_json::json!({ "integrator": value });
+    let root = Props::root(&wrapped, &ctx)?;
+    let integrator = parse_integrator(&root.object("integrator")?)?;
+    let warnings = ctx.warnings.borrow().clone();
+    Ok((integrator, warnings))
 }
 
 fn parse_instance(p: &Props) -> Result<InstanceDesc> {

@@ -18,6 +18,7 @@
 //! </scene>
 //! ```
 
+pub mod dict;
 pub mod document;
 pub mod plugins;
 pub mod props;

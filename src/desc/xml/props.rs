@@ -88,6 +88,7 @@ pub fn where_is(el: &Element) -> String {
     match &el.source {
         crate::desc::Source::Position { file, line, column } => format!("{}: line {line}, column {column}", file.display()),
         crate::desc::Source::Json(p) => p.clone(),
+        crate::desc::Source::Key { file, key } => format!("{}: {key}", file.display()),
     }
 }
 

@@ -32,13 +32,13 @@ mod sensors;
 mod shapes;
 mod textures;
 
-const SHAPES: &str = "obj, ply, serialized, rectangle, cube, disk, sphere, cylinder, shapegroup, instance";
-const BSDFS: &str =
+pub(super) const SHAPES: &str = "obj, ply, serialized, rectangle, cube, disk, sphere, cylinder, shapegroup, instance";
+pub(super) const BSDFS: &str =
     "diffuse, dielectric, thindielectric, roughdielectric, conductor, roughconductor, plastic, roughplastic, twosided, bumpmap, normalmap, mask, principled, principledthin, blendbsdf";
-const EMITTERS: &str = "point, spot, directional, projector, constant, envmap (and area inside a <shape>)";
-const TEXTURES: &str = "bitmap, checkerboard, mesh_attribute";
-const INTEGRATORS: &str = "path, volpath (without media), direct, ptracer, bdpt, photonmapper, sppm";
-const FILTERS: &str = "box, tent, gaussian, mitchell";
+pub(super) const EMITTERS: &str = "point, spot, directional, projector, constant, envmap (and area inside a <shape>)";
+pub(super) const TEXTURES: &str = "bitmap, checkerboard, mesh_attribute";
+pub(super) const INTEGRATORS: &str = "path, volpath (without media), direct, ptracer, bdpt, photonmapper, sppm";
+pub(super) const FILTERS: &str = "box, tent, gaussian, mitchell";
 
 /// Nesting of materials and textures before a reference is taken to be circular.
 const MAX_NESTING: usize = 32;

@@ -50,8 +50,10 @@ struct Run {
     timed_out: bool,
 }
 
-fn bin() -> &'static str {
-    env!("CARGO_BIN_EXE_rdr")
+/// The binary under test; `RDR_HOSTILE_BIN` runs the table against another one (an
+/// older build, to see which cases it fails).
+fn bin() -> String {
+    std::env::var("RDR_HOSTILE_BIN").unwrap_or_else(|_| env!("CARGO_BIN_EXE_rdr").to_string())
 }
 
 fn have_prlimit() -> bool {
@@ -217,6 +219,37 @@ fn check(run: &Run, expect: &Expect) -> Vec<String> {
     p
 }
 
+/// A Mitsuba scene: an 8×8 camera, `body`, a constant sky.
+fn mitsuba(body: &str) -> String {
+    format!(
+        r#"<scene version="3.0.0"><sensor type="perspective"><float name="fov" value="40"/>
+<transform name="to_world"><lookat origin="0,0,50" target="0,0,0" up="0,1,0"/></transform>
+<film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="8"/></film></sensor>
+{body}<emitter type="constant"/></scene>
+"#
+    )
+}
+
+/// A Mitsuba `.serialized` file of one single-precision mesh whose stream says `nv`
+/// vertices and `nt` triangles, followed by `zeros` bytes of zeros.
+fn serialized(nv: u64, nt: u64, zeros: usize) -> Vec<u8> {
+    use std::io::Write;
+    let mut z = flate2::write::ZlibEncoder::new(Vec::new(), flate2::Compression::best());
+    z.write_all(&0x1000u32.to_le_bytes()).unwrap();
+    z.write_all(b"m\0").unwrap();
+    z.write_all(&nv.to_le_bytes()).unwrap();
+    z.write_all(&nt.to_le_bytes()).unwrap();
+    let block = vec![0u8; 1 << 20];
+    for at in (0..zeros).step_by(block.len()) {
+        z.write_all(&block[..block.len().min(zeros - at)]).unwrap();
+    }
+    let mut out = vec![0x1c, 0x04, 4, 0];
+    out.extend(z.finish().unwrap());
+    out.extend(0u64.to_le_bytes());
+    out.extend(1u32.to_le_bytes());
+    out
+}
+
 /// Writes `BASE` edited by `f` to `dir/name.json`.
 fn scene(dir: &Path, name: &str, f: impl FnOnce(&mut Value)) -> PathBuf {
     let mut v: Value = serde_json::from_str(BASE).unwrap();
@@ -334,6 +367,48 @@ fn cases(dir: &Path) -> Vec<Case> {
     std::fs::write(&self_named, BASE).unwrap();
     let self_copy = std::fs::read(&self_named).unwrap();
     assert!(!self_copy.is_empty());
+    // issue 42: nested 8,000 deep (a stack overflow), 150,000 properties and 20,000
+    // instances (loading was quadratic), a sky with NaN, infinite and negative texels,
+    // serialized meshes with a corrupt stream and with counts their stream cannot hold
+    let n = 8000;
+    std::fs::write(
+        d("deep.xml"),
+        format!("<scene version=\"3.0.0\">{}{}</scene>", "<x>".repeat(n), "</x>".repeat(n)),
+    )
+    .unwrap();
+    let floats: String = (0..150_000).map(|i| format!("<float name=\"f{i}\" value=\"{i}.5\"/>\n")).collect();
+    std::fs::write(
+        d("floats.xml"),
+        mitsuba(&format!(
+            "<shape type=\"sphere\"><bsdf type=\"diffuse\">\n{floats}</bsdf></shape>\n"
+        )),
+    )
+    .unwrap();
+    let instances: String = (0..20_000)
+        .map(|i| {
+            let (x, y) = (i % 100, i / 100 % 100);
+            format!("<shape type=\"instance\"><ref id=\"g\"/><transform name=\"to_world\"><translate x=\"{x}\" y=\"{y}\"/></transform></shape>\n")
+        })
+        .collect();
+    let group = r#"<shape type="shapegroup" id="g"><shape type="sphere"><float name="radius" value="0.2"/></shape></shape>"#;
+    std::fs::write(d("instances.xml"), mitsuba(&format!("{group}\n{instances}"))).unwrap();
+    let mut sky = vec![rdr::math::Vec3::ONE; 8];
+    sky[1].x = f32::NAN;
+    sky[2].y = f32::INFINITY;
+    sky[5].z = -1.0;
+    rdr::imageio::write_exr(&d("sky.exr"), 4, 2, &sky, rdr::imageio::ExrPixels::Float).unwrap();
+    let mut corrupt = serialized(3, 1, 48);
+    corrupt[6] |= 0x07; // the first deflate block's type: 3, which does not exist
+    std::fs::write(d("corrupt.serialized"), corrupt).unwrap();
+    let lying = serialized(30_000_000, 60_000_000, 450 << 20);
+    assert!((400_000..520_000).contains(&lying.len()), "{} bytes", lying.len());
+    std::fs::write(d("lying.serialized"), &lying).unwrap();
+    let serialized_scene = |name: &str| {
+        let p = d(&format!("{name}.xml"));
+        let shape = format!(r#"<shape type="serialized"><string name="filename" value="{name}.serialized"/></shape>"#);
+        std::fs::write(&p, mitsuba(&shape)).unwrap();
+        p
+    };
 
     let mut c = vec![
         // 1. NaN and infinite rays
@@ -648,6 +723,52 @@ fn cases(dir: &Path) -> Vec<Case> {
                 &[],
             ),
             &[&"objects[0].material_name", &"\\u{1b}[2J"],
+        ),
+        // 8. issue 42
+        err(
+            "XML nested 8,000 deep",
+            render(&d("deep.xml"), &o("deep1"), &[]),
+            &[&"deep.xml", &"line 1, column 321", &"nested deeper than 100"],
+        ),
+        err(
+            "XML nested 8,000 deep, converted",
+            os(&[&"convert", &d("deep.xml"), &"-o", &d("deep.json")]),
+            &[&"deep.xml", &"line 1, column 321", &"nested deeper than 100"],
+        ),
+        image(
+            "XML with 150,000 <float> elements (5 MB)",
+            render(&d("floats.xml"), &o("floats"), &[]),
+            &o("floats"),
+            &[],
+        ),
+        image(
+            "XML with 20,000 instances",
+            render(&d("instances.xml"), &o("instances"), &[]),
+            &o("instances"),
+            &[],
+        ),
+        image(
+            "a sky with NaN, infinite and negative texels",
+            {
+                let s = edited("nansky", &|v| {
+                    v["textures"]["sky"] = json!({"type": "image", "path": "sky.exr", "tex_coordinate_generator": {"type": "uvmapping2d"}});
+                    v["environment_map"] = json!({"texture_name": "sky"});
+                });
+                render(&s, &o("nansky"), &[]).into_iter().filter(|a| a != "-q").collect()
+            },
+            &o("nansky"),
+            &["sky.exr: environment map with 2 NaN or infinite and 1 negative texel(s) of 8"],
+        ),
+        err(
+            "serialized mesh with a corrupt zlib stream",
+            render(&serialized_scene("corrupt"), &o("corrupt"), &[]),
+            &[&"corrupt.serialized", &"compressed mesh data is corrupt"],
+        ),
+        err(
+            "a serialized mesh of about 460 KB claiming 30M vertices and 60M triangles",
+            // a budget that lets the counts through: the stream's size must refuse them
+            render(&serialized_scene("lying"), &o("lying"), &["--max-memory", "16G"]),
+            &[&"lying.serialized", &"30000000 vertices", &"more than its"],
         ),
     ];
     if have_fifo {

@@ -335,6 +335,17 @@ pub fn build(desc: &SceneDesc, opts: BuildOptions) -> Result<Scene> {
                 Texture::Constant(color) => EnvImage::Constant(*color),
                 Texture::Image(img) => {
                     let level = &img.mipmap.levels()[0];
+                    let (not_finite, negative) = crate::light::environment::unusable_texels(&level.texels);
+                    if not_finite + negative > 0 {
+                        let file = match &desc.textures[t as usize].texture {
+                            Texture::Image(f) => desc.base_dir.join(&f.path.value).display().to_string(),
+                            _ => env.texture.value.clone(),
+                        };
+                        warnings.push(format!(
+                            "{file}: environment map with {not_finite} NaN or infinite and {negative} negative texel(s) of {}; they emit nothing",
+                            level.texels.len()
+                        ));
+                    }
                     EnvImage::Image {
                         width: level.width,
                         height: level.height,

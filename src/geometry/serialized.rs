@@ -30,6 +30,11 @@ const DOUBLE: u32 = 0x2000;
 /// against the memory budget with them before anything is allocated.
 const BYTES_PER_VERTEX: u64 = 64;
 const BYTES_PER_TRIANGLE: u64 = 160;
+/// Deflate's largest expansion: a 258-byte match coded in two bits.
+const MAX_INFLATE_RATIO: u64 = 1032;
+/// Decompressed bytes read at a time, so memory grows with the data that is really
+/// there rather than with the counts the file claims.
+const BLOCK: usize = 1 << 20;
 
 /// A decoded mesh and its flags.
 #[derive(Debug)]
@@ -37,6 +42,32 @@ pub struct SerializedMesh {
     pub data: ObjData,
     pub name: String,
     pub flags: u32,
+}
+
+/// The decompression error, told apart: a stream that stops early from one that is not
+/// zlib data at some point.
+fn stream_error(e: std::io::Error) -> anyhow::Error {
+    if e.kind() == std::io::ErrorKind::UnexpectedEof {
+        anyhow::anyhow!("the compressed mesh data ends early (truncated?)")
+    } else {
+        anyhow::anyhow!("the compressed mesh data is corrupt ({e})")
+    }
+}
+
+/// `n` values of `width` bytes each, decoded by `decode`, a block at a time (the
+/// reserved memory is only touched as the data arrives; `n` is checked against what
+/// the stream can hold before).
+fn read_values<T>(z: &mut impl Read, n: usize, width: usize, decode: impl Fn(&[u8]) -> T) -> Result<Vec<T>> {
+    let mut out = Vec::with_capacity(n);
+    let mut buf = vec![0u8; (BLOCK / width).min(n) * width];
+    let mut left = n;
+    while left > 0 {
+        let part = &mut buf[..left.min(BLOCK / width) * width];
+        z.read_exact(part).map_err(stream_error)?;
+        out.extend(part.chunks_exact(width).map(&decode));
+        left -= part.len() / width;
+    }
+    Ok(out)
 }
 
 fn u32_at(b: &[u8], at: usize) -> Result<u32> {
@@ -91,17 +122,18 @@ pub fn parse(bytes: &[u8], index: u32) -> Result<SerializedMesh> {
         bail!("mesh {index} does not start with the serialized header (a wrong offset table?)");
     }
     let mesh_version = u16::from_le_bytes([bytes[start + 2], bytes[start + 3]]);
+    let compressed = (end - start - 4) as u64;
     let mut z = flate2::read::ZlibDecoder::new(&bytes[start + 4..end]);
-    let mut read = |n: usize| -> Result<Vec<u8>> {
+    let read = |z: &mut flate2::read::ZlibDecoder<&[u8]>, n: usize| -> Result<Vec<u8>> {
         let mut buf = vec![0u8; n];
-        z.read_exact(&mut buf).context("the compressed mesh data ends early (truncated?)")?;
+        z.read_exact(&mut buf).map_err(stream_error)?;
         Ok(buf)
     };
-    let flags = u32::from_le_bytes(read(4)?.try_into().expect("4 bytes"));
+    let flags = u32::from_le_bytes(read(&mut z, 4)?.try_into().expect("4 bytes"));
     let mut name = String::new();
     if mesh_version == 4 {
         loop {
-            let c = read(1)?[0];
+            let c = read(&mut z, 1)?[0];
             if c == 0 {
                 break;
             }
@@ -111,27 +143,37 @@ pub fn parse(bytes: &[u8], index: u32) -> Result<SerializedMesh> {
             name.push(c as char);
         }
     }
-    let nv = u64::from_le_bytes(read(8)?.try_into().expect("8 bytes"));
-    let nt = u64::from_le_bytes(read(8)?.try_into().expect("8 bytes"));
-    let memory = nv
-        .checked_mul(BYTES_PER_VERTEX)
-        .and_then(|a| nt.checked_mul(BYTES_PER_TRIANGLE).and_then(|b| a.checked_add(b)));
-    crate::limits::check_memory(memory, || format!("a serialized mesh of {nv} vertices and {nt} triangles")).map_err(anyhow::Error::msg)?;
+    let nv = u64::from_le_bytes(read(&mut z, 8)?.try_into().expect("8 bytes"));
+    let nt = u64::from_le_bytes(read(&mut z, 8)?.try_into().expect("8 bytes"));
     let double = match (flags & SINGLE != 0, flags & DOUBLE != 0) {
         (_, true) => true,
         (true, false) => false,
         (false, false) => bail!("mesh {index} declares neither single nor double precision (flags {flags:#x})"),
     };
+    // what the counts need from the stream, against the most its bytes can inflate to
+    let width: u128 = if double { 8 } else { 4 };
+    let floats_per_vertex = [(HAS_NORMALS, 3), (HAS_UVS, 2), (HAS_COLORS, 3)]
+        .iter()
+        .filter(|(f, _)| flags & f != 0)
+        .fold(3u128, |a, (_, n)| a + n);
+    let index_width: u128 = if nv > u32::MAX as u64 { 8 } else { 4 };
+    let needed = nv as u128 * floats_per_vertex * width + nt as u128 * 3 * index_width;
+    let most = (compressed as u128 + 1) * MAX_INFLATE_RATIO as u128;
+    if needed > most {
+        bail!(
+            "mesh {index} claims {nv} vertices and {nt} triangles ({needed} bytes of data), more than its {compressed} compressed bytes can hold (corrupt or truncated?)"
+        );
+    }
+    let memory = nv
+        .checked_mul(BYTES_PER_VERTEX)
+        .and_then(|a| nt.checked_mul(BYTES_PER_TRIANGLE).and_then(|b| a.checked_add(b)));
+    crate::limits::check_memory(memory, || format!("a serialized mesh of {nv} vertices and {nt} triangles")).map_err(anyhow::Error::msg)?;
     let (nv, nt) = (nv as usize, nt as usize);
-    let mut floats = |n: usize| -> Result<Vec<f32>> {
-        let width = if double { 8 } else { 4 };
-        let raw = read(n * width)?;
-        let v: Vec<f32> = if double {
-            raw.chunks_exact(8)
-                .map(|c| f64::from_le_bytes(c.try_into().expect("8")) as f32)
-                .collect()
+    let floats = |z: &mut flate2::read::ZlibDecoder<&[u8]>, n: usize| -> Result<Vec<f32>> {
+        let v = if double {
+            read_values(z, n, 8, |c| f64::from_le_bytes(c.try_into().expect("8")) as f32)?
         } else {
-            raw.chunks_exact(4).map(|c| f32::from_le_bytes(c.try_into().expect("4"))).collect()
+            read_values(z, n, 4, |c| f32::from_le_bytes(c.try_into().expect("4")))?
         };
         if v.iter().any(|x| !x.is_finite()) {
             bail!("mesh {index} has a coordinate that is not a finite 32-bit number");
@@ -139,26 +181,22 @@ pub fn parse(bytes: &[u8], index: u32) -> Result<SerializedMesh> {
         Ok(v)
     };
     let mut data = ObjData {
-        positions: floats(nv * 3)?.chunks_exact(3).map(Vec3::from_slice).collect(),
+        positions: floats(&mut z, nv * 3)?.chunks_exact(3).map(Vec3::from_slice).collect(),
         ..ObjData::default()
     };
     if flags & HAS_NORMALS != 0 {
-        data.normals = floats(nv * 3)?.chunks_exact(3).map(Vec3::from_slice).collect();
+        data.normals = floats(&mut z, nv * 3)?.chunks_exact(3).map(Vec3::from_slice).collect();
     }
     if flags & HAS_UVS != 0 {
-        data.uvs = floats(nv * 2)?.chunks_exact(2).map(Vec2::from_slice).collect();
+        data.uvs = floats(&mut z, nv * 2)?.chunks_exact(2).map(Vec2::from_slice).collect();
     }
     if flags & HAS_COLORS != 0 {
-        floats(nv * 3)?;
+        floats(&mut z, nv * 3)?;
     }
-    let wide = nv > u32::MAX as usize;
-    let raw = read(nt * 3 * if wide { 8 } else { 4 })?;
-    let idx: Vec<u64> = if wide {
-        raw.chunks_exact(8).map(|c| u64::from_le_bytes(c.try_into().expect("8"))).collect()
+    let idx: Vec<u64> = if nv > u32::MAX as usize {
+        read_values(&mut z, nt * 3, 8, |c| u64::from_le_bytes(c.try_into().expect("8")))?
     } else {
-        raw.chunks_exact(4)
-            .map(|c| u32::from_le_bytes(c.try_into().expect("4")) as u64)
-            .collect()
+        read_values(&mut z, nt * 3, 4, |c| u32::from_le_bytes(c.try_into().expect("4")) as u64)?
     };
     if let Some(bad) = idx.iter().find(|&&i| i >= nv as u64) {
         bail!("mesh {index} has a vertex index {bad} out of range ({nv} vertices)");

@@ -39,8 +39,18 @@ pub struct EnvironmentLight {
 /// Resolution of the sampling grid for a constant environment (only sinθ varies).
 const CONSTANT_GRID: (usize, usize) = (8, 64);
 
+/// How many texels of an environment map are NaN or infinite, and how many negative
+/// (in some channel): `EnvironmentLight::new` takes them as zero, and the scene
+/// builder says so.
+pub fn unusable_texels(texels: &[Vec3]) -> (usize, usize) {
+    let not_finite = texels.iter().filter(|t| !t.is_finite()).count();
+    let negative = texels.iter().filter(|t| t.is_finite() && t.min_element() < 0.0).count();
+    (not_finite, negative)
+}
+
 impl EnvironmentLight {
-    /// Negative texels are clamped to zero (lossy EXR compression leaves some).
+    /// Negative texels are clamped to zero (lossy EXR compression leaves some), and
+    /// NaN or infinite ones are zero (see `unusable_texels`).
     pub fn new(image: EnvImage, scale: f32, transform: &Mat4) -> Self {
         let image = match image {
             EnvImage::Constant(c) => EnvImage::Constant(c),

@@ -22,6 +22,11 @@ use std::rc::Rc;
 
 /// Deepest `<include>` nesting.
 pub const MAX_INCLUDE_DEPTH: usize = 15;
+/// Deepest element nesting, counted through `<include>`s (the root is at depth 1).
+/// Real scenes nest about ten deep (scene, shape, bsdf, nested bsdfs, texture); the
+/// XML parser, this reader and what interprets its tree all recurse once per level,
+/// so a file nested some 10,000 deep would overflow the stack instead of being refused.
+pub const MAX_ELEMENT_DEPTH: usize = 100;
 
 /// One XML element.
 #[derive(Clone, Debug)]
@@ -138,20 +143,53 @@ impl Params {
     }
 }
 
-/// 1-based line and column of byte `pos` of `text`.
-pub fn line_column(text: &str, pos: usize) -> (u32, u32) {
-    let pos = pos.min(text.len());
-    let before = &text[..pos];
-    let line = before.matches('\n').count() + 1;
-    let start = before.rfind('\n').map_or(0, |i| i + 1);
-    (line as u32, (before[start..].chars().count() + 1) as u32)
+/// 1-based line and column of byte offsets in one text, each found in time
+/// logarithmic in the text's length: the line starts are found once, and a cursor
+/// remembers the last answer so that offsets asked in document order (as the reader
+/// asks them) count only the characters between one and the next, even on one long
+/// line. (Counting from the start for each element made loading quadratic.)
+pub struct Positions<'a> {
+    text: &'a [u8],
+    line_starts: Vec<usize>,
+    /// The last offset asked, its line and its column.
+    cursor: std::cell::Cell<(usize, u32, u32)>,
+}
+
+impl<'a> Positions<'a> {
+    pub fn new(text: &'a str) -> Positions<'a> {
+        let text = text.as_bytes();
+        let mut line_starts = vec![0];
+        line_starts.extend(text.iter().enumerate().filter(|(_, b)| **b == b'\n').map(|(i, _)| i + 1));
+        Positions {
+            text,
+            line_starts,
+            cursor: std::cell::Cell::new((0, 1, 1)),
+        }
+    }
+
+    /// 1-based line and column (in characters) of byte `pos`.
+    pub fn line_column(&self, pos: usize) -> (u32, u32) {
+        let pos = pos.min(self.text.len());
+        let line = self.line_starts.partition_point(|s| *s <= pos);
+        let start = self.line_starts[line - 1];
+        let (cur, cur_line, cur_col) = self.cursor.get();
+        let (from, col) = if cur_line as usize == line && cur <= pos {
+            (cur, cur_col)
+        } else {
+            (start, 1)
+        };
+        // characters are the bytes that do not continue a UTF-8 sequence
+        let col = col + self.text[from..pos].iter().filter(|b| (**b as i8) >= -64).count() as u32;
+        self.cursor.set((pos, line as u32, col));
+        (line as u32, col)
+    }
 }
 
 /// Reads a scene file (and what it includes) into its root element.
 pub fn read(file: &Path, params: &mut Params) -> Result<Element> {
     let mut stack = Vec::new();
     let search = Rc::new(Vec::new());
-    read_file(file, params, &mut stack, &search, None)
+    read_file(file, params, &mut stack, &search, None, 1)
 }
 
 fn position(file: &Path, line: u32, column: u32) -> Source {
@@ -168,6 +206,7 @@ fn read_file(
     stack: &mut Vec<PathBuf>,
     outer: &Rc<Vec<PathBuf>>,
     from: Option<&Source>,
+    depth: usize,
 ) -> Result<Element> {
     let fail = |msg: String| match from {
         Some(s) => s.error(Path::new(""), msg),
@@ -176,15 +215,28 @@ fn read_file(
     let bytes = crate::limits::read_input_file(file, crate::limits::max_input_file())
         .map_err(|e| fail(format!("cannot read '{}': {e}", file.display())))?;
     let text = String::from_utf8(bytes).map_err(|_| fail(format!("'{}' is not valid UTF-8", file.display())))?;
-    read_text(&text, file, params, stack, outer)
+    read_text(&text, file, params, stack, outer, depth)
 }
 
 /// Reads scene text as if it were the file `file` (whose folder anchors includes).
 pub fn read_str(text: &str, file: &Path, params: &mut Params) -> Result<Element> {
-    read_text(text, file, params, &mut Vec::new(), &Rc::new(Vec::new()))
+    read_text(text, file, params, &mut Vec::new(), &Rc::new(Vec::new()), 1)
 }
 
-fn read_text(text: &str, file: &Path, params: &mut Params, stack: &mut Vec<PathBuf>, outer: &Rc<Vec<PathBuf>>) -> Result<Element> {
+/// `depth`: where the file's root element stands in the whole tree (1 for the scene file).
+fn read_text(
+    text: &str,
+    file: &Path,
+    params: &mut Params,
+    stack: &mut Vec<PathBuf>,
+    outer: &Rc<Vec<PathBuf>>,
+    depth: usize,
+) -> Result<Element> {
+    let positions = Positions::new(text);
+    if let Some((at, tag)) = too_deep(text, depth) {
+        let (l, c) = positions.line_column(at);
+        return Err(position(file, l, c).error(Path::new(""), format!("<{tag}> is nested deeper than {MAX_ELEMENT_DEPTH} elements")));
+    }
     let doc = roxmltree::Document::parse_with_options(
         text,
         roxmltree::ParsingOptions {
@@ -202,7 +254,7 @@ fn read_text(text: &str, file: &Path, params: &mut Params, stack: &mut Vec<PathB
     })?;
     let root = doc.root_element();
     let at = |n: roxmltree::Node| {
-        let (l, c) = line_column(text, n.range().start);
+        let (l, c) = positions.line_column(n.range().start);
         position(file, l, c)
     };
     let version = root.attribute("version").ok_or_else(|| {
@@ -230,20 +282,20 @@ fn read_text(text: &str, file: &Path, params: &mut Params, stack: &mut Vec<PathB
     folders.retain(|d| *d != dir);
     folders.push(dir);
     let mut ctx = Reader {
-        text,
+        positions,
         file,
         legacy,
         search: Rc::new(folders),
         params,
         stack,
     };
-    let result = ctx.element(root, true);
+    let result = ctx.element(root, true, depth);
     stack.pop();
     result
 }
 
 struct Reader<'a> {
-    text: &'a str,
+    positions: Positions<'a>,
     file: &'a Path,
     legacy: bool,
     search: Rc<Vec<PathBuf>>,
@@ -253,11 +305,11 @@ struct Reader<'a> {
 
 impl Reader<'_> {
     fn source(&self, n: roxmltree::Node) -> Source {
-        let (l, c) = line_column(self.text, n.range().start);
+        let (l, c) = self.positions.line_column(n.range().start);
         position(self.file, l, c)
     }
 
-    fn element(&mut self, node: roxmltree::Node, is_root: bool) -> Result<Element> {
+    fn element(&mut self, node: roxmltree::Node, is_root: bool, depth: usize) -> Result<Element> {
         let source = self.source(node);
         let err = |msg: String| source.error(Path::new(""), msg);
         let mut tag = node.tag_name().name().to_string();
@@ -291,7 +343,7 @@ impl Reader<'_> {
             }
             match child.tag_name().name() {
                 "default" => {
-                    let c = self.element(child, false)?;
+                    let c = self.element(child, false, depth + 1)?;
                     let (Some(name), Some(value)) = (c.attr("name"), c.attr("value")) else {
                         return Err(c.error("<default> needs the attributes \"name\" and \"value\""));
                     };
@@ -304,7 +356,7 @@ impl Reader<'_> {
                     }
                 }
                 "path" => {
-                    let c = self.element(child, false)?;
+                    let c = self.element(child, false, depth + 1)?;
                     if !is_root {
                         return Err(c.error("<path> can only be a child of the root element"));
                     }
@@ -318,7 +370,7 @@ impl Reader<'_> {
                     self.search = Rc::new(s);
                 }
                 "include" => {
-                    let c = self.element(child, false)?;
+                    let c = self.element(child, false, depth + 1)?;
                     let name = c
                         .attr("filename")
                         .ok_or_else(|| c.error("<include> needs the attribute \"filename\""))?;
@@ -335,7 +387,7 @@ impl Reader<'_> {
                     }
                     let search = self.search.clone();
                     self.params.included.push(path.clone());
-                    let inc = read_file(&path, self.params, self.stack, &search, Some(&c.source))?;
+                    let inc = read_file(&path, self.params, self.stack, &search, Some(&c.source), depth + 1)?;
                     if inc.tag == "scene" {
                         el.children.extend(inc.children);
                     } else {
@@ -343,13 +395,74 @@ impl Reader<'_> {
                     }
                 }
                 _ => {
-                    let c = self.element(child, false)?;
+                    let c = self.element(child, false, depth + 1)?;
                     el.children.push(c);
                 }
             }
         }
         Ok(el)
     }
+}
+
+/// The byte offset and name of the first start tag in `text` that stands deeper than
+/// `MAX_ELEMENT_DEPTH` when the root stands at `root_depth`, found without recursion
+/// before the (recursive) XML parser sees the text. Comments, CDATA sections,
+/// processing instructions and quoted attribute values are skipped, so the depth is
+/// exact for well-formed XML; malformed XML is refused by the parser after this.
+fn too_deep(text: &str, root_depth: usize) -> Option<(usize, String)> {
+    let b = text.as_bytes();
+    let skip_to = |from: usize, end: &[u8]| {
+        b[from.min(b.len())..]
+            .windows(end.len())
+            .position(|w| w == end)
+            .map_or(b.len(), |p| from + p + end.len())
+    };
+    let mut depth = root_depth - 1;
+    let mut i = 0;
+    while let Some(p) = b[i..].iter().position(|c| *c == b'<') {
+        let at = i + p;
+        let rest = &b[at..];
+        i = if rest.starts_with(b"<!--") {
+            skip_to(at + 4, b"-->")
+        } else if rest.starts_with(b"<![CDATA[") {
+            skip_to(at + 9, b"]]>")
+        } else if rest.starts_with(b"<?") {
+            skip_to(at + 2, b"?>")
+        } else if rest.starts_with(b"<!") {
+            skip_to(at + 2, b">")
+        } else if rest.starts_with(b"</") {
+            depth = depth.saturating_sub(1);
+            at + 2
+        } else {
+            let mut quote = None;
+            let mut j = at + 1;
+            while j < b.len() {
+                match (quote, b[j]) {
+                    (Some(q), c) if c == q => quote = None,
+                    (None, c @ (b'"' | b'\'')) => quote = Some(c),
+                    (None, b'>') => break,
+                    _ => {}
+                }
+                j += 1;
+            }
+            depth += 1;
+            if depth > MAX_ELEMENT_DEPTH {
+                let name = text[at + 1..j.min(b.len())]
+                    .split(|c: char| c.is_whitespace() || c == '/' || c == '>')
+                    .next()
+                    .unwrap_or("");
+                return Some((at, name.chars().take(40).collect()));
+            }
+            if b[j - 1] == b'/' {
+                depth -= 1;
+            }
+            j + 1
+        };
+        if i >= b.len() {
+            break;
+        }
+    }
+    None
 }
 
 fn strip_position(s: &str) -> String {
@@ -372,8 +485,45 @@ mod tests {
     }
 
     #[test]
-    fn line_and_column_of_a_byte() {
-        assert_eq!(line_column("ab\ncd", 0), (1, 1));
-        assert_eq!(line_column("ab\ncd", 4), (2, 2));
+    fn nesting_is_counted_past_comments_cdata_and_quoted_brackets() {
+        // a quoted "/>" does not close the tag
+        let nest = |n: usize, inner: &str| format!("{}{inner}{}", "<a x='/>'>".repeat(n), "</a>".repeat(n));
+        let max = MAX_ELEMENT_DEPTH;
+        // `max` deep is fine, and nothing inside comments, CDATA or PIs counts
+        assert_eq!(too_deep(&nest(max, "<!-- > <c> --><![CDATA[ > <d>]]><?pi > <e> ?>"), 1), None);
+        assert_eq!(too_deep(&nest(max - 1, "<b/>"), 2).map(|(_, t)| t), Some("b".into()));
+        let deep = nest(max + 1, "");
+        assert_eq!(too_deep(&deep, 1), Some((max * 10, "a".into())));
+        // through an include: the included root stands where the <include> was
+        assert_eq!(too_deep(&nest(10, ""), max - 9), None);
+        assert!(too_deep(&nest(10, ""), max - 8).is_some());
+        // the whole file is read (no recursion) and refused before the parser sees it
+        let dir = std::env::temp_dir().join(format!("rdr-deep-{}", std::process::id()));
+        let e = read_str(
+            &format!("<scene version='3.0.0'>{}</scene>", nest(20_000, "")),
+            &dir.join("d.xml"),
+            &mut Params::default(),
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("line 1, column") && e.contains("nested deeper than"), "{e}");
+    }
+
+    #[test]
+    fn line_and_column_of_a_byte_in_any_order() {
+        let text = "ab\ncé\n\nxyz";
+        // what counting from the start gives
+        let slow = |pos: usize| {
+            let before = &text.as_bytes()[..pos];
+            let line = before.iter().filter(|b| **b == b'\n').count() + 1;
+            let start = before.iter().rposition(|b| *b == b'\n').map_or(0, |i| i + 1);
+            (line as u32, (String::from_utf8_lossy(&before[start..]).chars().count() + 1) as u32)
+        };
+        let bounds: Vec<usize> = (0..=text.len()).filter(|i| text.is_char_boundary(*i)).collect();
+        let p = Positions::new(text);
+        for &i in bounds.iter().chain(bounds.iter().rev()).chain([4, 0, 9, 2, 100].iter()) {
+            assert_eq!(p.line_column(i), slow(i.min(text.len())), "byte {i}");
+        }
+        assert_eq!(p.line_column(4), (2, 2));
     }
 }

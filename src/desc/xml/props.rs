@@ -8,7 +8,7 @@ use super::values::{self, SpectrumValue};
 use crate::error::{Result, SceneError};
 use crate::math::{Mat4, Vec3};
 use std::cell::RefCell;
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 
 /// The elements that are objects (plugins) rather than values.
 pub const OBJECT_TAGS: [&str; 13] = [
@@ -133,9 +133,11 @@ pub struct Plugin<'a> {
     pub el: &'a Element,
     pub ty: String,
     values: Vec<(String, Value, &'a Element)>,
+    /// Where each name is in `values` (a plugin may hold any number of them).
+    value_index: HashMap<String, usize>,
     /// Child objects, nested or referenced: (property name if given, element, where).
     objects: Vec<(Option<String>, &'a Element, &'a Element)>,
-    used: RefCell<Vec<String>>,
+    used: RefCell<HashSet<String>>,
     pub ids: &'a Ids<'a>,
 }
 
@@ -152,8 +154,9 @@ impl<'a> Plugin<'a> {
             el,
             ty,
             values: Vec::new(),
+            value_index: HashMap::new(),
             objects: Vec::new(),
-            used: RefCell::new(Vec::new()),
+            used: RefCell::new(HashSet::new()),
             ids,
         };
         for c in &el.children {
@@ -247,27 +250,28 @@ impl<'a> Plugin<'a> {
                 return Err(e.error(format!("<{}> cannot be a child of a property", e.tag)));
             }
         }
-        if self.values.iter().any(|(n, _, _)| *n == name) {
+        if self.value_index.contains_key(&name) {
             return Err(bad(format!("property \"{name}\" was specified twice")));
         }
+        self.value_index.insert(name.clone(), self.values.len());
         self.values.push((name, value, c));
         Ok(())
     }
 
     fn get(&self, name: &str) -> Option<&(String, Value, &'a Element)> {
-        let v = self.values.iter().find(|(n, _, _)| n == name)?;
-        self.used.borrow_mut().push(name.to_string());
+        let v = &self.values[*self.value_index.get(name)?];
+        self.used.borrow_mut().insert(name.to_string());
         Some(v)
     }
 
     pub fn has(&self, name: &str) -> bool {
-        self.values.iter().any(|(n, _, _)| n == name) || self.objects.iter().any(|(n, _, _)| n.as_deref() == Some(name))
+        self.value_index.contains_key(name) || self.objects.iter().any(|(n, _, _)| n.as_deref() == Some(name))
     }
 
     /// Marks a property as read without interpreting it.
     pub fn ignore(&self, name: &str) {
         self.get(name);
-        self.used.borrow_mut().push(name.to_string());
+        self.used.borrow_mut().insert(name.to_string());
     }
 
     fn wrong(&self, el: &Element, name: &str, want: &str, found: &Value) -> SceneError {
@@ -395,7 +399,7 @@ impl<'a> Plugin<'a> {
     /// A colour that may also be a texture (nested or referenced by `name`).
     pub fn colour(&self, name: &str, default: Vec3) -> Result<Colour<'a>> {
         if let Some((_, el, at)) = self.objects.iter().find(|(n, _, _)| n.as_deref() == Some(name)) {
-            self.used.borrow_mut().push(name.to_string());
+            self.used.borrow_mut().insert(name.to_string());
             if el.tag != "texture" {
                 return Err(at.error(format!(
                     "property \"{name}\" of {} must be a texture, found <{}>",
@@ -410,7 +414,7 @@ impl<'a> Plugin<'a> {
 
     /// Where a value property is (the plugin itself when absent).
     pub fn value_error(&self, name: &str, msg: impl Into<String>) -> SceneError {
-        let el = self.values.iter().find(|(n, _, _)| n == name).map_or(self.el, |(_, _, e)| *e);
+        let el = self.value_index.get(name).map_or(self.el, |i| self.values[*i].2);
         el.error(format!("property \"{name}\" of {}: {}", self.describe(), msg.into()))
     }
 
@@ -420,7 +424,7 @@ impl<'a> Plugin<'a> {
         for (n, el, at) in &self.objects {
             if el.tag == tag {
                 if let Some(n) = n {
-                    self.used.borrow_mut().push(n.clone());
+                    self.used.borrow_mut().insert(n.clone());
                 }
                 out.push((*el, *at));
             }

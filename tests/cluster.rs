@@ -114,14 +114,14 @@ fn submit(scene: &str, outdir: &Path, tail: &[&str], env: &[(&str, &Path)]) -> (
 #[test]
 fn slurm_array_with_preemption_and_animation_merges_to_one_render() {
     if std::env::var_os("RDR_CI_NO_SLURM").is_some_and(|v| !v.is_empty()) {
-        eprintln!("skipping: RDR_CI_NO_SLURM is set");
+        common::skip("RDR_CI_NO_SLURM is set");
         return;
     }
     if let Err(why) = slurm_up() {
         if std::env::var_os("CI").is_some() && std::env::var_os("RDR_CI_NO_SLURM").is_none() {
             panic!("CI is set but Slurm is not running ({why}); .ci/run starts it (RDR_CI_NO_SLURM=1 skips on purpose)");
         }
-        eprintln!("skipping: {why}");
+        common::skip(&why);
         return;
     }
     let t0 = Instant::now();

@@ -22,10 +22,13 @@ use rdr::metrics::Image;
 use rdr::{Loaded, Profile, RenderControl};
 use std::path::{Path, PathBuf};
 
-/// `../shared` beside the project, or `None` (with a printed reason) when absent.
-/// With `CI` set, a missing `../shared` is a failure, not a skip.
+/// `../shared` beside the project (or the folder `RDR_SHARED` names), or `None` (with
+/// a printed reason, see `skip`) when absent. With `CI` set, a missing `../shared` is
+/// a failure, not a skip.
 pub fn shared() -> Option<PathBuf> {
-    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared");
+    let p = std::env::var_os("RDR_SHARED")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared"));
     if p.join("refs").is_dir() && p.join("scenes").is_dir() {
         return Some(p);
     }
@@ -35,11 +38,42 @@ pub fn shared() -> Option<PathBuf> {
             p.display()
         );
     }
-    eprintln!(
-        "skipping: {} not found (reference images and course scenes live there)",
+    skip(&format!(
+        "{} not found (reference images and course scenes live there)",
         p.display()
-    );
+    ));
     None
+}
+
+/// Records that the running test skips for `reason`, which libtest would report as
+/// passed: prints `SKIPPED: binary::test: reason` (shown with `--nocapture`) and, when
+/// `RDR_SKIPPED_LOG` names a file, appends that line to it; `.ci/run` counts them.
+pub fn skip(reason: &str) {
+    use std::io::Write;
+    let binary = std::env::current_exe()
+        .ok()
+        .and_then(|p| p.file_stem().map(|s| s.to_string_lossy().into_owned()))
+        .map(|s| s.rsplit_once('-').map_or(s.clone(), |(name, _hash)| name.to_string()))
+        .unwrap_or_default();
+    let test = std::thread::current().name().unwrap_or("?").to_string();
+    let line = format!("SKIPPED: {binary}::{test}: {}\n", reason.replace('\n', " "));
+    eprint!("{line}");
+    // once per test, however often it asks
+    static SKIPPED: std::sync::Mutex<Vec<String>> = std::sync::Mutex::new(Vec::new());
+    let mut seen = SKIPPED.lock().unwrap_or_else(|e| e.into_inner());
+    if seen.contains(&test) {
+        return;
+    }
+    seen.push(test);
+    if let Some(log) = std::env::var_os("RDR_SKIPPED_LOG") {
+        // one write of one line in append mode: lines of parallel tests do not mix
+        let mut f = std::fs::OpenOptions::new()
+            .create(true)
+            .append(true)
+            .open(&log)
+            .unwrap_or_else(|e| panic!("RDR_SKIPPED_LOG {}: {e}", Path::new(&log).display()));
+        f.write_all(line.as_bytes()).unwrap();
+    }
 }
 
 /// The scene and the job of a scene file, for `profile`.

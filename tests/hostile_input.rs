@@ -403,6 +403,14 @@ fn cases(dir: &Path) -> Vec<Case> {
     let lying = serialized(30_000_000, 60_000_000, 450 << 20);
     assert!((400_000..520_000).contains(&lying.len()), "{} bytes", lying.len());
     std::fs::write(d("lying.serialized"), &lying).unwrap();
+    // outputs that are inputs: a texture, a mesh through a symbolic link, a merged part
+    std::os::unix::fs::symlink(d("tri.obj"), d("trilink.obj")).unwrap();
+    for k in 0..2 {
+        let part = d(&format!("part{k}.exr"));
+        let shard = format!("{k}/2");
+        let r = run(&os(&[&"render", &base, &"-o", &part, &"-q", &"--shard", &shard, &"--spp", &"2"]));
+        assert_eq!(r.code, Some(0), "shard {k}: {}", r.stderr);
+    }
     let serialized_scene = |name: &str| {
         let p = d(&format!("{name}.xml"));
         let shape = format!(r#"<shape type="serialized"><string name="filename" value="{name}.serialized"/></shape>"#);
@@ -769,6 +777,21 @@ fn cases(dir: &Path) -> Vec<Case> {
             // a budget that lets the counts through: the stream's size must refuse them
             render(&serialized_scene("lying"), &o("lying"), &["--max-memory", "16G"]),
             &[&"lying.serialized", &"30000000 vertices", &"more than its"],
+        ),
+        err(
+            "-o one of the scene's textures",
+            render(&edited("ownertex", &|v| textured(v, "img4.exr")), &d("img4.exr"), &[]),
+            &[&"img4.exr", &"one of the scene's files"],
+        ),
+        err(
+            "-o the scene's mesh through a symbolic link",
+            render(&base, &d("trilink.obj"), &[]),
+            &[&"trilink.obj", &"tri.obj", &"one of the scene's files"],
+        ),
+        err(
+            "merge -o one of its parts",
+            os(&[&"merge", &d("part0.exr"), &d("part1.exr"), &"-o", &d("part1.exr")]),
+            &[&"part1.exr", &"one of the parts merged"],
         ),
     ];
     if have_fifo {

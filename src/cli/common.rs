@@ -6,7 +6,7 @@ use rdr::limits::sanitize;
 use rdr::render::session::Caller;
 use rdr::{Loaded, Profile};
 use std::io::Write;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// Standard output was closed by its reader (`rdr … | head`): end quietly.
 #[derive(Debug)]
@@ -75,10 +75,24 @@ pub fn load_desc(args: &SceneArgs, quiet: bool) -> Result<(Loaded, rdr::desc::Sc
     Ok((loaded, desc))
 }
 
-/// Whether two paths name the same existing file (links and spellings resolved).
+/// Whether two paths name the same existing file: the same device and inode, so
+/// spellings, symbolic and hard links all count.
 pub fn same_file(a: &Path, b: &Path) -> bool {
-    match (std::fs::canonicalize(a), std::fs::canonicalize(b)) {
-        (Ok(x), Ok(y)) => x == y,
+    use std::os::unix::fs::MetadataExt;
+    match (std::fs::metadata(a), std::fs::metadata(b)) {
+        (Ok(x), Ok(y)) => (x.dev(), x.ino()) == (y.dev(), y.ino()),
         _ => false,
     }
+}
+
+/// Refuses an output that is one of the run's inputs (`what` names them).
+pub fn refuse_input_as_output(output: &Path, inputs: &[PathBuf], what: &str) -> Result<()> {
+    if let Some(input) = inputs.iter().find(|i| same_file(output, i)) {
+        anyhow::bail!(
+            "{}: refusing to write over {}, one of {what} (choose another output with -o)",
+            output.display(),
+            input.display()
+        );
+    }
+    Ok(())
 }

@@ -1,6 +1,6 @@
 //! `rdr merge`: the parts of a sharded render into one image.
 
-use super::common::say;
+use super::common::{refuse_input_as_output, say};
 use anyhow::Result;
 use rdr::imageio::{check_output_path, write_atomically};
 use rdr::render::statefile;
@@ -15,6 +15,7 @@ pub fn merge(parts: &[PathBuf], output: &Path, partial: bool, quiet: bool) -> Re
         "{}: merge writes an .exr (the merged film state goes in it)",
         output.display()
     );
+    refuse_input_as_output(output, parts, "the parts merged")?;
     check_output_path(output)?;
     let mut read = Vec::new();
     for p in parts {

@@ -1,6 +1,6 @@
 //! `rdr render`: one render, or a part of a long one (resume, checkpoints, shards, previews, tev, AOVs, denoise).
 
-use super::common::{load_desc, profile, same_file, say, setup_threads};
+use super::common::{load_desc, profile, refuse_input_as_output, same_file, say, setup_threads};
 use super::{FlowArgs, SceneArgs};
 use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
@@ -115,6 +115,7 @@ pub fn render(args: &SceneArgs, output: Option<PathBuf>, quiet: bool, time_limit
             output.display()
         );
     }
+    refuse_input_as_output(&output, &desc.input_files(), "the scene's files")?;
     check_output_path(&output)?;
     let is_exr = output.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr"));
     let physical = matches!(profile(args), Profile::Physical);

@@ -37,6 +37,32 @@ pub struct SceneDesc {
     pub convert_notes: Vec<String>,
 }
 
+impl SceneDesc {
+    /// The asset files the scene reads (image textures, then mesh files), as written
+    /// in it (relative to `base_dir`), each once, first mention first.
+    pub fn asset_paths(&self) -> Vec<String> {
+        let textures = self.textures.iter().filter_map(|t| match &t.texture {
+            Texture::Image(img) => Some(img.path.value.clone()),
+            _ => None,
+        });
+        let objects = self.objects.iter().chain(self.shapegroups.iter().flat_map(|g| g.objects.iter()));
+        let meshes = objects.filter_map(|o| match &o.shape {
+            Shape::Mesh(m) if m.options.format.reads_file() => Some(m.path.value.clone()),
+            _ => None,
+        });
+        let mut seen = std::collections::HashSet::new();
+        textures.chain(meshes).filter(|p| seen.insert(p.clone())).collect()
+    }
+
+    /// Every file the scene came from or reads: the scene file, its includes, its assets.
+    pub fn input_files(&self) -> Vec<PathBuf> {
+        let mut files = vec![self.file.clone()];
+        files.extend(self.included.iter().cloned());
+        files.extend(self.asset_paths().iter().map(|p| self.base_dir.join(p)));
+        files
+    }
+}
+
 /// `shapegroups.NAME`: `objects` (a list as the top-level one: meshes, spheres,
 /// cylinders with their `material_name`; no `light`, as Mitsuba refuses emitters in
 /// shape groups, and no `instance`). A group renders only through its instances,

@@ -3,8 +3,6 @@
 //! A resume or a merge is refused when any of them differs.
 
 use crate::desc::SceneDesc;
-use crate::scene::Shape;
-use crate::texture::Texture;
 use serde_json::Value;
 use std::path::Path;
 
@@ -53,23 +51,7 @@ impl RenderIdentity {
         let integrator = value.get("integrator").map_or_else(|| "{}".into(), canonical);
         let scene = Sha256::digest_hex(canonical(&value).as_bytes());
         let mut assets = Sha256::new();
-        let mut seen = std::collections::BTreeSet::new();
-        let mut paths = Vec::new();
-        for t in &desc.textures {
-            if let Texture::Image(img) = &t.texture {
-                paths.push(img.path.value.clone());
-            }
-        }
-        for o in desc.objects.iter().chain(desc.shapegroups.iter().flat_map(|g| g.objects.iter())) {
-            match &o.shape {
-                Shape::Mesh(m) if m.options.format.reads_file() => paths.push(m.path.value.clone()),
-                _ => {}
-            }
-        }
-        for p in paths {
-            if !seen.insert(p.clone()) {
-                continue;
-            }
+        for p in desc.asset_paths() {
             let full = desc.base_dir.join(&p);
             let bytes = std::fs::read(&full).map_err(|e| anyhow::anyhow!("cannot read {}: {e}", full.display()))?;
             assets.update(&(p.len() as u64).to_le_bytes());

@@ -387,6 +387,21 @@ impl<'a> Props<'a> {
             .inspect(|_| section.finish())
     }
 
+    /// The keys of this object nobody has read yet.
+    pub fn unread_keys(&self) -> Vec<String> {
+        let used = self.used.borrow();
+        self.map.keys().filter(|k| !used.contains(&k.as_str())).cloned().collect()
+    }
+
+    /// Every key asked for so far, present or not.
+    pub fn asked_keys(&self) -> Vec<String> {
+        let used = self.used.borrow();
+        used.iter()
+            .map(|k| k.to_string())
+            .chain(self.absent.borrow().iter().cloned())
+            .collect()
+    }
+
     /// Warns about every key of this object that nobody read.
     pub fn finish(&self) {
         let used = self.used.borrow();

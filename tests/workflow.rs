@@ -842,6 +842,7 @@ fn crop_renders_the_region_it_names() {
         sum / (p.width * p.height) as f64
     };
     let (own, shifted) = (diff(0, 0), diff(0, 3).min(diff(3, 0)));
+    eprintln!("crop: mean |difference| against its region {own:.4}, against the region 3 pixels off {shifted:.4}");
     assert!(
         own * 3.0 < shifted,
         "crop against its region {own:.4}, against the region 3 pixels off {shifted:.4}"

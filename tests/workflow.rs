@@ -570,6 +570,19 @@ fn scene_copy(bundled: &str, dir: &Path, name: &str, edit: impl FnOnce(&mut serd
     out
 }
 
+/// A Mitsuba XML scene in `dir` whose sensor has the property "fvo" (for "fov").
+fn xml_with_a_typo(dir: &Path) -> PathBuf {
+    let xml = dir.join("unknown.xml");
+    std::fs::write(
+        &xml,
+        r#"<scene version="3.0.0"><sensor type="perspective"><float name="fov" value="40"/><float name="fvo" value="40"/>
+<film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="8"/></film></sensor>
+<shape type="sphere"><bsdf type="diffuse"/></shape><emitter type="constant"/></scene>"#,
+    )
+    .unwrap();
+    xml
+}
+
 fn rdr_with(args: &[&str], scene_path: Option<&Path>, out: Option<&Path>) -> Output {
     let mut c = rdr();
     c.args(args);
@@ -601,14 +614,7 @@ fn day_one_refusals_name_the_way_out() {
         let name = name.clone();
         s["materials"][&name] = serde_json::json!({"type": "diffuse", "albedo": [0.8, 0.2, 0.2], "texture_name": "x"});
     });
-    let xml = d.join("unknown.xml");
-    std::fs::write(
-        &xml,
-        r#"<scene version="3.0.0"><sensor type="perspective"><float name="fov" value="40"/><float name="fvo" value="40"/>
-<film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="8"/></film></sensor>
-<shape type="sphere"><bsdf type="diffuse"/></shape><emitter type="constant"/></scene>"#,
-    )
-    .unwrap();
+    let xml = xml_with_a_typo(d);
     let exr = d.join("o.exr");
     let png = d.join("o.png");
     let cornell = scene("cornell.json");
@@ -728,14 +734,7 @@ fn day_one_warnings_and_help_texts() {
         err.contains("warning: ") && err.contains("unknown key 'resolutoin' ignored (did you mean 'resolution'?)"),
         "{err}"
     );
-    let xml = d.join("unknown.xml");
-    std::fs::write(
-        &xml,
-        r#"<scene version="3.0.0"><sensor type="perspective"><float name="fov" value="40"/><float name="fvo" value="40"/>
-<film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="8"/></film></sensor>
-<shape type="sphere"><bsdf type="diffuse"/></shape><emitter type="constant"/></scene>"#,
-    )
-    .unwrap();
+    let xml = xml_with_a_typo(d);
     let o = rdr_with(&["render", "--spp", "1"], Some(&xml), Some(&d.join("x.exr")));
     ok(&o, "XML with an unknown property");
     assert!(String::from_utf8_lossy(&o.stderr).contains("unknown property \"fvo\""));

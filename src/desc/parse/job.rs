@@ -240,8 +240,10 @@ pub(super) fn parse_integrator(p: &Props) -> Result<IntegratorDesc> {
         let others: Vec<String> = TYPES.iter().filter(|t| **t != kind).flat_map(|t| integrator_keys(t)).collect();
         for k in unread.iter().filter(|k| others.contains(k)) {
             p.ignore(k);
-            p.ctx()
-                .warn(&p.key_path(k), format!("a key of other integrators, not of '{kind}': ignored"));
+            p.ctx().warn(
+                &p.path,
+                format!("unknown key '{k}' ignored: it is another integrator's, not the '{kind}' integrator's"),
+            );
         }
     }
     p.finish();

@@ -85,6 +85,10 @@ pub struct Camera {
     half_h: f32,
     near_clip: f32,
     far_clip: f32,
+    /// The film's corner within the view, in pixels of the whole view (not zero
+    /// when cropped, [`Camera::crop`]), and the film's size.
+    film_origin: Vec2,
+    film_size: Vec2,
 }
 
 impl Camera {
@@ -114,7 +118,17 @@ impl Camera {
             half_h,
             near_clip: d.near_clip,
             far_clip: d.far_clip,
+            film_origin: Vec2::ZERO,
+            film_size: Vec2::new(width as f32, height as f32),
         }
+    }
+
+    /// The camera of a film that is the `w`×`h` region at `(x0, y0)` (film
+    /// coordinates, `y` upwards) of the whole view: film positions are offset by
+    /// the corner, so each pixel sees what it sees in the whole image.
+    pub fn crop(&mut self, x0: u32, y0: u32, w: u32, h: u32) {
+        self.film_origin = Vec2::new(x0 as f32, y0 as f32);
+        self.film_size = Vec2::new(w as f32, h as f32);
     }
 
     /// Whether rays need a lens sample ([`Camera::sample_ray`]'s `u_lens`).
@@ -171,8 +185,8 @@ impl Camera {
         // unnormalized direction, then `normalize_div`
         let (mut dx, mut dy, mut dz) = ([0.0f32; N], [0.0f32; N], [0.0f32; N]);
         for i in 0..N {
-            let sx = (x[i] / self.width) * 2.0 - 1.0;
-            let sy = (y[i] / self.height) * 2.0 - 1.0;
+            let sx = ((x[i] + self.film_origin.x) / self.width) * 2.0 - 1.0;
+            let sy = ((y[i] + self.film_origin.y) / self.height) * 2.0 - 1.0;
             dx[i] = (sx * self.right.x + sy * self.up.x) + self.forward.x;
             dy[i] = (sx * self.right.y + sy * self.up.y) + self.forward.y;
             dz[i] = (sx * self.right.z + sy * self.up.z) + self.forward.z;
@@ -204,8 +218,8 @@ impl Camera {
                 (o, normalize_div(focus - o))
             }
             Projection::Orthographic { .. } => {
-                let sx = (x / self.width) * 2.0 - 1.0;
-                let sy = (y / self.height) * 2.0 - 1.0;
+                let sx = ((x + self.film_origin.x) / self.width) * 2.0 - 1.0;
+                let sy = ((y + self.film_origin.y) / self.height) * 2.0 - 1.0;
                 (
                     self.position + self.unit_right * (sx * self.half_w) + self.unit_up * (sy * self.half_h),
                     self.axis,
@@ -272,8 +286,8 @@ impl Camera {
     /// upwards, `(0, 0)` is the bottom-left corner of the view.
     #[inline]
     pub fn direction(&self, x: f32, y: f32) -> Vec3 {
-        let sx = (x / self.width) * 2.0 - 1.0;
-        let sy = (y / self.height) * 2.0 - 1.0;
+        let sx = ((x + self.film_origin.x) / self.width) * 2.0 - 1.0;
+        let sy = ((y + self.film_origin.y) / self.height) * 2.0 - 1.0;
         normalize_div((sx * self.right + sy * self.up) + self.forward)
     }
 
@@ -299,8 +313,11 @@ impl Camera {
         }
         let sx = v.dot(self.right) / self.right.length_squared() / z;
         let sy = v.dot(self.up) / self.up.length_squared() / z;
-        let (x, y) = ((sx + 1.0) * 0.5 * self.width, (sy + 1.0) * 0.5 * self.height);
-        if !(x >= 0.0 && x < self.width && y >= 0.0 && y < self.height) {
+        let (x, y) = (
+            (sx + 1.0) * 0.5 * self.width - self.film_origin.x,
+            (sy + 1.0) * 0.5 * self.height - self.film_origin.y,
+        );
+        if !(x >= 0.0 && x < self.film_size.x && y >= 0.0 && y < self.film_size.y) {
             return None;
         }
         let cos = v.dot(self.forward) / (v.length() * self.forward.length());

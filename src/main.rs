@@ -66,14 +66,29 @@ fn parse_error(e: clap::Error) -> ExitCode {
             ExitCode::SUCCESS
         }
         ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand | ErrorKind::MissingSubcommand => {
-            note!("error: a subcommand is needed: render, merge, compare or bench (see rdr --help)");
+            let cmd = <cli::Cli as clap::CommandFactory>::command();
+            let names: Vec<&str> = cmd.get_subcommands().map(|c| c.get_name()).filter(|n| *n != "help").collect();
+            let list = match names.split_last() {
+                Some((last, rest)) if !rest.is_empty() => format!("{} or {last}", rest.join(", ")),
+                _ => names.join(""),
+            };
+            note!("error: a subcommand is needed: {list} (see rdr --help)");
             ExitCode::from(1)
         }
         _ => {
             let text = e.render().to_string();
             let first = text.lines().find(|l| !l.trim().is_empty()).unwrap_or("error: invalid command line");
             let first = first.strip_prefix("error: ").unwrap_or(first);
-            note!("error: {} (see rdr --help)", sanitize(first));
+            // clap's suggestion ("tip: a similar argument exists: '--spp'") is on a later line
+            let tip = text
+                .lines()
+                .filter_map(|l| l.trim().strip_prefix("tip: "))
+                .map(|t| match t.split_once(" exists: ") {
+                    Some((_, names)) if t.starts_with("a similar") => format!("; did you mean {names}?"),
+                    _ => format!("; {t}"),
+                })
+                .collect::<String>();
+            note!("error: {}{} (see rdr --help)", sanitize(first), sanitize(&tip));
             ExitCode::from(1)
         }
     }

@@ -101,6 +101,11 @@ impl Case {
             ..self
         }
     }
+    /// Adds `arg` to the command line.
+    fn with_arg(mut self, arg: &str) -> Case {
+        self.args.push(arg.to_string());
+        self
+    }
     /// Adds `--override <json>` to the command line.
     fn with_override(mut self, json: &str) -> Case {
         self.args.extend(["--override".to_string(), json.to_string()]);
@@ -480,7 +485,15 @@ fn cases() -> Vec<Case> {
             .with_override(r#"{"film": {"resolution": [0, 8]}}"#)
             .err(&["film.resolution"]),
         // --- accepted ----------------------------------------------------------------------
-        edit("unknown key warns", |s| s["camera"]["fvo"] = json!(60)).ok(&["camera", "fvo"]),
+        edit("unknown key is an error", |s| s["camera"]["fvo"] = json!(60)).err(&[
+            "camera",
+            "unknown key 'fvo'",
+            "did you mean 'fov'?",
+            "--lenient",
+        ]),
+        edit("unknown key warns with --lenient", |s| s["camera"]["fvo"] = json!(60))
+            .with_arg("--lenient")
+            .ok(&["camera", "fvo"]),
         edit("integer matrix", |s| {
             s["objects"][1]["transform"] = json!([1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1])
         })

@@ -542,3 +542,370 @@ fn outputs_follow_the_umask() {
         assert_eq!(got, mode, "{name} under umask {umask}: mode {got:o}, not {mode:o}");
     }
 }
+
+// --- Day one (issue 42): what a new user types ------------------------------------------
+
+/// A copy of a bundled scene in `dir` as `name`, edited by `edit`, its relative asset
+/// paths made absolute (so it renders from anywhere).
+fn scene_copy(bundled: &str, dir: &Path, name: &str, edit: impl FnOnce(&mut serde_json::Value)) -> PathBuf {
+    fn absolute(v: &mut serde_json::Value, base: &Path) {
+        match v {
+            serde_json::Value::Object(m) => {
+                for (k, x) in m.iter_mut() {
+                    match x {
+                        serde_json::Value::String(s) if k == "path" => *s = base.join(&*s).to_string_lossy().into_owned(),
+                        _ => absolute(x, base),
+                    }
+                }
+            }
+            serde_json::Value::Array(a) => a.iter_mut().for_each(|x| absolute(x, base)),
+            _ => {}
+        }
+    }
+    let mut v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(scene(bundled)).unwrap()).unwrap();
+    absolute(&mut v, &scene(""));
+    edit(&mut v);
+    let out = dir.join(name);
+    std::fs::write(&out, serde_json::to_string_pretty(&v).unwrap()).unwrap();
+    out
+}
+
+/// A Mitsuba XML scene in `dir` whose sensor has the property "fvo" (for "fov").
+fn xml_with_a_typo(dir: &Path) -> PathBuf {
+    let xml = dir.join("unknown.xml");
+    std::fs::write(
+        &xml,
+        r#"<scene version="3.0.0"><sensor type="perspective"><float name="fov" value="40"/><float name="fvo" value="40"/>
+<film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="8"/></film></sensor>
+<shape type="sphere"><bsdf type="diffuse"/></shape><emitter type="constant"/></scene>"#,
+    )
+    .unwrap();
+    xml
+}
+
+fn rdr_with(args: &[&str], scene_path: Option<&Path>, out: Option<&Path>) -> Output {
+    let mut c = rdr();
+    c.args(args);
+    if let Some(s) = scene_path {
+        c.arg(s);
+    }
+    if let Some(o) = out {
+        c.arg("-o").arg(o);
+    }
+    run(c)
+}
+
+/// Every refusal a new user meets on day one: one `error:` line, status 1, naming the
+/// way out (the formats rdr reads, the closest flag or key, the flag that relaxes it).
+#[test]
+fn day_one_refusals_name_the_way_out() {
+    let dir = common::temp_dir("rdr-dayone");
+    let d = dir.path();
+    let pbrt = d.join("a.pbrt");
+    std::fs::write(&pbrt, "Film \"rgb\"\nWorldBegin\n").unwrap();
+    let xml_as_txt = d.join("scene.txt");
+    std::fs::write(&xml_as_txt, "<scene version=\"3.0.0\"/>\n").unwrap();
+    let typo = scene_copy("cornell.json", d, "typo.json", |s| {
+        s["film"]["resolutoin"] = serde_json::json!([8, 8])
+    });
+    let shapes = scene_copy("cornell.json", d, "shapes.json", |s| s["shapes"] = serde_json::json!([]));
+    let both = scene_copy("cornell.json", d, "both.json", |s| {
+        let (name, _) = s["materials"].as_object().unwrap().iter().next().unwrap();
+        let name = name.clone();
+        s["materials"][&name] = serde_json::json!({"type": "diffuse", "albedo": [0.8, 0.2, 0.2], "texture_name": "x"});
+    });
+    let xml = xml_with_a_typo(d);
+    let exr = d.join("o.exr");
+    let png = d.join("o.png");
+    let cornell = scene("cornell.json");
+    let cases: Vec<(&str, Output, Vec<&str>)> = vec![
+        (
+            "a .pbrt scene",
+            rdr_with(&["render"], Some(&pbrt), Some(&exr)),
+            vec!["a.pbrt", "pbrt scenes", ".json", ".xml"],
+        ),
+        (
+            "XML named .txt",
+            rdr_with(&["render"], Some(&xml_as_txt), Some(&exr)),
+            vec!["looks like XML", ".xml"],
+        ),
+        (
+            "no subcommand",
+            rdr_with(&[], None, None),
+            vec!["render", "merge", "convert", "compare", "bench"],
+        ),
+        (
+            "--sp",
+            rdr_with(&["render", "--sp", "4"], Some(&cornell), Some(&exr)),
+            vec!["'--sp'", "did you mean '--spp'?"],
+        ),
+        (
+            "rendr",
+            rdr_with(&["rendr"], Some(&cornell), None),
+            vec!["'rendr'", "did you mean 'render'?"],
+        ),
+        (
+            "a misspelt film key",
+            rdr_with(&["render"], Some(&typo), Some(&exr)),
+            vec![
+                "typo.json: film: unknown key 'resolutoin'",
+                "did you mean 'resolution'?",
+                "--lenient",
+            ],
+        ),
+        (
+            "a top-level shapes",
+            rdr_with(&["render"], Some(&shapes), Some(&exr)),
+            vec!["shapes.json: unknown key 'shapes'", "did you mean 'objects'?", "--lenient"],
+        ),
+        (
+            "an unknown XML property with --strict",
+            rdr_with(&["render", "--strict"], Some(&xml), Some(&exr)),
+            vec!["unknown.xml", "unknown property \"fvo\"", "did you mean \"fov\"?", "--strict"],
+        ),
+        (
+            "albedo and texture_name",
+            rdr_with(&["render"], Some(&both), Some(&exr)),
+            vec!["albedo", "not both"],
+        ),
+        (
+            "--res 64",
+            rdr_with(&["render", "--res", "64"], Some(&cornell), Some(&exr)),
+            vec!["--res", "WIDTHxHEIGHT"],
+        ),
+        (
+            "--integrator nope",
+            rdr_with(&["render", "--integrator", "nope"], Some(&cornell), Some(&exr)),
+            vec!["'nope'", "available: path"],
+        ),
+        (
+            "--crop outside",
+            rdr_with(&["render", "--res", "40x30", "--crop", "0,0,41,30"], Some(&cornell), Some(&exr)),
+            vec!["--crop '0,0,41,30'", "outside the 40x30 film"],
+        ),
+        (
+            "--crop of a splatting integrator",
+            rdr_with(&["render", "--integrator", "bdpt", "--crop", "0,0,8,8"], Some(&cornell), Some(&exr)),
+            vec!["--crop", "bdpt", "splats"],
+        ),
+        (
+            "--exposure on .exr",
+            rdr_with(&["render", "--exposure", "1"], Some(&cornell), Some(&exr)),
+            vec!["--exposure", "PNG", "o.exr"],
+        ),
+        (
+            "--exposure not a number",
+            rdr_with(&["render", "--exposure", "inf"], Some(&cornell), Some(&png)),
+            vec!["--exposure"],
+        ),
+    ];
+    let mut failures = Vec::new();
+    for (name, o, words) in &cases {
+        let err = String::from_utf8_lossy(&o.stderr).into_owned();
+        let one_line = err.lines().count() == 1 && err.starts_with("error: ");
+        if o.status.code() != Some(1) || !one_line || words.iter().any(|w| !err.contains(w)) {
+            failures.push(format!(
+                "{name}: status {}, expected one error line with {words:?}, got {err:?}",
+                o.status
+            ));
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+    assert!(!exr.exists() && !png.exists(), "a refused render wrote an image");
+}
+
+/// What the refusals above let through: `--lenient` (JSON) warns with the suggestion;
+/// XML's unknown properties warn without `--strict`; the help texts name both formats.
+#[test]
+fn day_one_warnings_and_help_texts() {
+    let dir = common::temp_dir("rdr-dayone-ok");
+    let d = dir.path();
+    let typo = scene_copy("cornell.json", d, "typo.json", |s| {
+        s["film"]["resolutoin"] = serde_json::json!([8, 8])
+    });
+    let o = rdr_with(
+        &["render", "--lenient", "--spp", "1", "--res", "8x8"],
+        Some(&typo),
+        Some(&d.join("t.exr")),
+    );
+    ok(&o, "--lenient");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("warning: ") && err.contains("unknown key 'resolutoin' ignored (did you mean 'resolution'?)"),
+        "{err}"
+    );
+    let xml = xml_with_a_typo(d);
+    let o = rdr_with(&["render", "--spp", "1"], Some(&xml), Some(&d.join("x.exr")));
+    ok(&o, "XML with an unknown property");
+    assert!(String::from_utf8_lossy(&o.stderr).contains("unknown property \"fvo\""));
+    let help = |args: &[&str]| String::from_utf8_lossy(&rdr_with(args, None, None).stdout).into_owned();
+    let top = help(&["--help"]);
+    assert!(top.contains("JSON") && top.contains("Mitsuba"), "{top}");
+    let convert = help(&["convert", "--help"]);
+    assert!(!convert.contains("are are") && convert.contains("OBJ"), "{convert}");
+    let compare = help(&["compare", "--help"]);
+    assert!(
+        !compare.contains("shared/refs") && compare.contains("The image to measure"),
+        "{compare}"
+    );
+    let render = help(&["render", "--help"]);
+    for flag in ["--res", "--integrator", "--crop", "--exposure", "--lenient", "--strict"] {
+        assert!(render.contains(flag), "render --help lacks {flag}");
+    }
+}
+
+/// The pixels of two EXR renders are the same (the files' headers may differ).
+fn same_pixels(a: &Path, b: &Path) -> bool {
+    let (x, y) = (common::read(a), common::read(b));
+    (x.width, x.height) == (y.width, y.height) && x.pixels == y.pixels
+}
+
+/// A scene without `integrator` renders as `path` at its defaults; `--integrator`
+/// puts one in place of the scene's; `--res` is the film resolution in JSON and XML.
+#[test]
+fn integrator_default_and_everyday_flags() {
+    let dir = common::temp_dir("rdr-dayone-flags");
+    let d = dir.path();
+    let small = |s: &mut serde_json::Value| s["film"]["resolution"] = serde_json::json!([24, 16]);
+    let none = scene_copy("showcase.json", d, "none.json", |s| {
+        small(s);
+        s.as_object_mut().unwrap().remove("integrator");
+    });
+    let path = scene_copy("showcase.json", d, "path.json", |s| {
+        small(s);
+        s["integrator"] = serde_json::json!({"type": "path"});
+    });
+    let normals = scene_copy("showcase.json", d, "normals.json", |s| {
+        small(s);
+        // path's default spp: the declared spp sets the texture footprint, and stays
+        s["integrator"] = serde_json::json!({"type": "normals", "spp": 32});
+    });
+    let r = |scene_path: &Path, name: &str, extra: &[&str]| -> PathBuf {
+        let out = d.join(name);
+        let mut args = vec!["render", "-q", "--threads", "2", "--spp", "2"];
+        args.extend(extra);
+        ok(&rdr_with(&args, Some(scene_path), Some(&out)), name);
+        out
+    };
+    let (a, b) = (r(&none, "none.exr", &[]), r(&path, "path.exr", &[]));
+    assert!(same_pixels(&a, &b), "a scene without integrator is not rendered as path");
+    let c = r(&normals, "normals.exr", &[]);
+    assert!(!same_pixels(&a, &c), "normals and path gave the same image");
+    let e = r(&normals, "normals_as_path.exr", &["--integrator", "path"]);
+    assert!(same_pixels(&a, &e), "--integrator path did not replace the scene's normals");
+    // --res: the image of the resolution asked, the same as the scene saying it
+    let f = r(&none, "res.exr", &["--res", "12x20"]);
+    let res = scene_copy("showcase.json", d, "res.json", |s| {
+        s["film"]["resolution"] = serde_json::json!([12, 20]);
+        s.as_object_mut().unwrap().remove("integrator");
+    });
+    let g = r(&res, "res_scene.exr", &[]);
+    let img = common::read(&f);
+    assert_eq!((img.width, img.height), (12, 20));
+    assert!(same_pixels(&f, &g), "--res 12x20 differs from a scene of 12x20");
+    let xml = d.join("cornell.xml");
+    ok(
+        &rdr_with(&["convert", "-q"], Some(&scene("cornell.json")), Some(&xml)),
+        "convert to XML",
+    );
+    let h = r(&xml, "xml_res.exr", &["--res", "10x6"]);
+    let img = common::read(&h);
+    assert_eq!((img.width, img.height), (10, 6), "--res on an XML scene");
+}
+
+/// `--crop` renders the region of the film it names: each pixel sees what it sees
+/// in the whole image. The check is self-calibrated: the crop must be closer to
+/// its own region of a full render than to the region shifted by 3 pixels.
+#[test]
+fn crop_renders_the_region_it_names() {
+    let dir = common::temp_dir("rdr-dayone-crop");
+    let d = dir.path();
+    let (full, part) = (d.join("full.exr"), d.join("part.exr"));
+    let args = ["render", "-q", "--threads", "2", "--spp", "16", "--res", "48x36"];
+    ok(&rdr_with(&args, Some(&scene("cornell.json")), Some(&full)), "full render");
+    let (x0, y0, x1, y1) = (6usize, 4usize, 40usize, 22usize);
+    let mut crop_args = args.to_vec();
+    crop_args.extend(["--crop", "6,4,40,22"]);
+    ok(&rdr_with(&crop_args, Some(&scene("cornell.json")), Some(&part)), "cropped render");
+    let (f, p) = (common::read(&full), common::read(&part));
+    assert_eq!((p.width, p.height), (x1 - x0, y1 - y0));
+    let diff = |dx: isize, dy: isize| -> f64 {
+        let mut sum = 0.0;
+        for y in 0..p.height {
+            for x in 0..p.width {
+                let (fx, fy) = ((x + x0) as isize + dx, (y + y0) as isize + dy);
+                let q = f.pixels[fy as usize * f.width + fx as usize];
+                sum += ((p.pixels[y * p.width + x] - q).abs()).element_sum() as f64;
+            }
+        }
+        sum / (p.width * p.height) as f64
+    };
+    let (own, shifted) = (diff(0, 0), diff(0, 3).min(diff(3, 0)));
+    eprintln!("crop: mean |difference| against its region {own:.4}, against the region 3 pixels off {shifted:.4}");
+    assert!(
+        own * 3.0 < shifted,
+        "crop against its region {own:.4}, against the region 3 pixels off {shifted:.4}"
+    );
+}
+
+/// `--exposure S` scales a PNG's radiance by 2^S before the sRGB conversion.
+#[test]
+fn exposure_brightens_png_output() {
+    let dir = common::temp_dir("rdr-dayone-exposure");
+    let d = dir.path();
+    let (exr, png) = (d.join("e.exr"), d.join("e.png"));
+    let args = ["render", "-q", "--threads", "2", "--spp", "2", "--res", "24x24"];
+    ok(&rdr_with(&args, Some(&scene("cornell.json")), Some(&exr)), "exr");
+    let mut a = args.to_vec();
+    a.extend(["--exposure", "1.5"]);
+    ok(&rdr_with(&a, Some(&scene("cornell.json")), Some(&png)), "png with --exposure");
+    let (lin, img) = (common::read(&exr), rdr::imageio::read_texture_image_as(&png, true).unwrap());
+    let gain = 2f32.powf(1.5);
+    let worst = lin
+        .pixels
+        .iter()
+        .zip(&img.pixels)
+        .flat_map(|(l, p)| (0..3).map(move |c| (rdr::imageio::linear_to_srgb8(l[c] * gain) as f32 - p[c] * 255.0).abs()))
+        .fold(0.0f32, f32::max);
+    assert!(worst <= 1.0, "PNG differs from the exposed radiance by {worst} levels");
+}
+
+/// A diffuse material's inline `albedo` renders as a constant texture of that colour
+/// would, and survives `rdr convert` to XML and back as an inline colour.
+#[test]
+fn inline_albedo_renders_and_round_trips() {
+    let dir = common::temp_dir("rdr-dayone-albedo");
+    let d = dir.path();
+    let first = |s: &serde_json::Value| s["materials"].as_object().unwrap().keys().next().unwrap().clone();
+    let inline = scene_copy("cornell.json", d, "inline.json", |s| {
+        let m = first(s);
+        s["materials"][&m] = serde_json::json!({"type": "diffuse", "albedo": [0.8, 0.2, 0.2]});
+    });
+    let named = scene_copy("cornell.json", d, "named.json", |s| {
+        let m = first(s);
+        s["textures"]["inline_red"] = serde_json::json!({"type": "constant", "color": [0.8, 0.2, 0.2]});
+        s["materials"][&m] = serde_json::json!({"type": "diffuse", "texture_name": "inline_red"});
+    });
+    let args = ["render", "-q", "--threads", "2", "--spp", "2", "--res", "16x16"];
+    let (a, b) = (d.join("a.exr"), d.join("b.exr"));
+    ok(&rdr_with(&args, Some(&inline), Some(&a)), "inline albedo");
+    ok(&rdr_with(&args, Some(&named), Some(&b)), "named constant");
+    assert!(
+        same_pixels(&a, &b),
+        "an inline albedo renders differently from its constant texture"
+    );
+    let (xml, back) = (d.join("inline.xml"), d.join("back.json"));
+    ok(&rdr_with(&["convert", "-q"], Some(&inline), Some(&xml)), "to XML");
+    ok(&rdr_with(&["convert", "-q"], Some(&xml), Some(&back)), "back to JSON");
+    let v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&back).unwrap()).unwrap();
+    let has = v["materials"]
+        .as_object()
+        .unwrap()
+        .values()
+        .any(|m| m["type"] == "diffuse" && m["albedo"] == serde_json::json!([0.8, 0.2, 0.2]));
+    assert!(
+        has,
+        "no diffuse with albedo [0.8, 0.2, 0.2] after the round trip: {}",
+        v["materials"]
+    );
+}

@@ -1,6 +1,6 @@
 //! What the subcommands share: standard output, threads, loading a scene.
 
-use super::{Compat, SceneArgs};
+use super::{Compat, SceneArgs, UnknownArgs};
 use anyhow::{Context, Result};
 use rdr::limits::sanitize;
 use rdr::render::session::Caller;
@@ -60,7 +60,15 @@ pub fn load(args: &SceneArgs, quiet: bool) -> Result<Loaded> {
 
 /// [`load`], also returning the scene's description.
 pub fn load_desc(args: &SceneArgs, quiet: bool) -> Result<(Loaded, rdr::desc::SceneDesc)> {
-    let desc = rdr::desc::SceneDesc::load_with_defines(&args.scene, &args.overrides, &args.defines).map_err(anyhow::Error::msg)?;
+    let mut desc = rdr::desc::SceneDesc::load_with_defines(&args.scene, &args.overrides, &args.defines).map_err(anyhow::Error::msg)?;
+    refuse_unknown(&desc, args.unknown)?;
+    if let Some((w, h)) = args.res {
+        anyhow::ensure!((w as u64) * (h as u64) <= 1 << 28, "--res {w}x{h}: too large");
+        (desc.film.width, desc.film.height) = (w, h);
+    }
+    if let Some(name) = &args.integrator {
+        desc.set_integrator(name).map_err(anyhow::Error::msg)?;
+    }
     let mut loaded = Loaded::build(&desc, profile(args)).map_err(anyhow::Error::msg)?;
     if !quiet {
         for w in &loaded.scene.warnings {
@@ -73,6 +81,41 @@ pub fn load_desc(args: &SceneArgs, quiet: bool) -> Result<(Loaded, rdr::desc::Sc
     }
     loaded.job.seed = args.seed;
     Ok((loaded, desc))
+}
+
+/// JSON scenes' unknown keys are errors unless `--lenient`; XML scenes' unknown
+/// properties only with `--strict`.
+pub fn refuse_unknown(desc: &rdr::desc::SceneDesc, unknown: UnknownArgs) -> Result<()> {
+    let xml = rdr::desc::xml::is_xml(&desc.file);
+    let Some(first) = desc.unknown.first().filter(|_| if xml { unknown.strict } else { !unknown.lenient }) else {
+        return Ok(());
+    };
+    let more = match desc.unknown.len() - 1 {
+        0 => String::new(),
+        n => format!(" (and {n} more)"),
+    };
+    let why = if xml {
+        "--strict refuses unknown properties"
+    } else {
+        "--lenient ignores unknown keys with a warning"
+    };
+    anyhow::bail!("{first}{more}; {why}")
+}
+
+/// What the command line changes in the scene (`--res`, `--integrator`, `--crop`) as
+/// `-D`-style pairs, for the render's identity (a resumed render must match).
+pub fn scene_changes(args: &SceneArgs, crop: Option<&str>) -> Vec<(String, String)> {
+    let mut out = args.defines.clone();
+    if let Some((w, h)) = args.res {
+        out.push(("rdr:res".into(), format!("{w}x{h}")));
+    }
+    if let Some(i) = &args.integrator {
+        out.push(("rdr:integrator".into(), i.clone()));
+    }
+    if let Some(c) = crop {
+        out.push(("rdr:crop".into(), c.into()));
+    }
+    out
 }
 
 /// Whether two paths name the same existing file: the same device and inode, so

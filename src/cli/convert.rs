@@ -1,12 +1,20 @@
 //! `rdr convert`: a scene between RDR171 JSON and Mitsuba XML.
 
-use super::common::{same_file, say};
+use super::common::{refuse_unknown, same_file, say};
+use super::UnknownArgs;
 use anyhow::{Context, Result};
 use std::path::Path;
 use std::process::ExitCode;
 
 /// `rdr convert IN -o OUT`: JSON ↔ Mitsuba XML.
-pub fn convert(input: &Path, output: &Path, overrides: &[String], defines: &[(String, String)], quiet: bool) -> Result<ExitCode> {
+pub fn convert(
+    input: &Path,
+    output: &Path,
+    overrides: &[String],
+    defines: &[(String, String)],
+    quiet: bool,
+    unknown: UnknownArgs,
+) -> Result<ExitCode> {
     use rdr::desc::convert;
     let xml_out = match output.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref() {
         Some("xml") => true,
@@ -19,6 +27,7 @@ pub fn convert(input: &Path, output: &Path, overrides: &[String], defines: &[(St
         output.display()
     );
     let desc = rdr::desc::SceneDesc::load_with_defines(input, overrides, defines).map_err(anyhow::Error::msg)?;
+    refuse_unknown(&desc, unknown)?;
     let c = if xml_out {
         convert::to_xml(&desc, output)
     } else {

@@ -13,7 +13,11 @@ mod merge;
 mod render;
 
 #[derive(Parser)]
-#[command(name = "rdr", version, about = "A physically based CPU ray tracer for RDR171 JSON scenes")]
+#[command(
+    name = "rdr",
+    version,
+    about = "A physically based CPU ray tracer for RDR171 JSON (.json) and Mitsuba 3 XML (.xml) scenes"
+)]
 pub struct Cli {
     #[command(subcommand)]
     pub command: Command,
@@ -31,6 +35,17 @@ fn parse_define(s: &str) -> Result<(String, String), String> {
     }
 }
 
+/// `WxH` of `--res`, such as 640x480.
+fn parse_res(s: &str) -> Result<(u32, u32), String> {
+    let bad = || format!("expected WIDTHxHEIGHT in pixels (such as 640x480), found '{s}'");
+    let (w, h) = s.split_once(['x', 'X']).ok_or_else(bad)?;
+    let (w, h): (u32, u32) = (w.trim().parse().map_err(|_| bad())?, h.trim().parse().map_err(|_| bad())?);
+    if w == 0 || h == 0 {
+        return Err(bad());
+    }
+    Ok((w, h))
+}
+
 fn parse_size(s: &str) -> Result<u64, String> {
     rdr::limits::parse_bytes(s)
 }
@@ -43,7 +58,7 @@ enum Compat {
 
 #[derive(clap::Args)]
 pub struct SceneArgs {
-    /// Scene file (RDR171 JSON, or Mitsuba XML when it ends in .xml).
+    /// Scene file: RDR171 JSON (.json) or Mitsuba 3 XML (.xml).
     scene: PathBuf,
     /// JSON object merged into the scene before it is read; may be repeated.
     #[arg(long = "override", value_name = "JSON")]
@@ -63,6 +78,30 @@ pub struct SceneArgs {
     /// Seed of the sampler; different seeds give independent images.
     #[arg(long, default_value_t = 0)]
     seed: u32,
+    /// Image size in pixels, WIDTHxHEIGHT such as 640x480 (overrides the scene's film
+    /// resolution; JSON and XML scenes alike).
+    #[arg(long, value_name = "WxH", value_parser = parse_res)]
+    res: Option<(u32, u32)>,
+    /// Integrator to render with, at its default settings, in place of the scene's
+    /// (path, bdpt, guided, ptracer, intersection_test, photon, sppm, normals); the
+    /// scene's lights and spp stay.
+    #[arg(long, value_name = "NAME")]
+    integrator: Option<String>,
+    #[command(flatten)]
+    unknown: UnknownArgs,
+}
+
+/// What to do with scene keys and properties rdr does not know.
+#[derive(clap::Args, Clone, Copy)]
+pub struct UnknownArgs {
+    /// JSON scenes: only warn about unknown keys (by default they are errors, with
+    /// the closest known key suggested).
+    #[arg(long)]
+    lenient: bool,
+    /// Mitsuba XML scenes: refuse unknown properties (by default they are ignored
+    /// with a warning, as scenes often carry properties of other Mitsuba versions).
+    #[arg(long)]
+    strict: bool,
 }
 
 /// Options of `rdr render` for long renders: resume, checkpoints, shards, previews.
@@ -107,6 +146,15 @@ pub enum Command {
         /// beside the scene file.
         #[arg(short, long)]
         output: Option<PathBuf>,
+        /// Render only this region of the film: pixel columns x0..x1 and rows y0..y1
+        /// (x1 and y1 excluded), such as 100,50,300,200; the image is the region's size.
+        #[arg(long, value_name = "x0,y0,x1,y1")]
+        crop: Option<String>,
+        /// Brighten (positive) or darken (negative) PNG images by this many stops
+        /// (a factor 2^EXPOSURE) before the sRGB conversion; .exr images keep the
+        /// radiance as rendered.
+        #[arg(long, value_name = "STOPS", allow_negative_numbers = true)]
+        exposure: Option<f32>,
         /// Print only errors: no warnings, progress bar or summary.
         #[arg(short, long, alias = "quite")]
         quiet: bool,
@@ -134,8 +182,9 @@ pub enum Command {
         #[arg(short, long)]
         quiet: bool,
     },
-    /// Convert a scene between RDR171 JSON and Mitsuba 3 XML (by the extensions; meshes
-    /// JSON cannot name as they are are written as OBJ files beside the output).
+    /// Convert a scene between RDR171 JSON and Mitsuba 3 XML, by the extensions. Shapes
+    /// JSON has no type for (such as Mitsuba's rectangle or cube) are written as OBJ
+    /// meshes beside the output.
     Convert {
         /// Scene to read (.json or .xml).
         input: PathBuf,
@@ -151,11 +200,15 @@ pub enum Command {
         /// Print only errors.
         #[arg(short, long)]
         quiet: bool,
+        #[command(flatten)]
+        unknown: UnknownArgs,
     },
-    /// Compare an image with a reference: mean RGB and relative MSE,
-    /// mean((x − r)² / (r² + 0.01)), the metric of shared/refs/README.md.
+    /// Compare an image with a reference of the same size: mean RGB and the relative
+    /// MSE, mean((x − r)² / (r² + 0.01)) over pixels and channels.
     Compare {
+        /// The image to measure (.exr).
         image: PathBuf,
+        /// The reference image (.exr), such as a long render of the same scene.
         reference: PathBuf,
         /// The reference's variance image (`<name>.var.exr`): also print the
         /// part of the error that is the reference's own noise.
@@ -199,10 +252,12 @@ pub fn run(command: Command) -> Result<ExitCode> {
         Command::Render {
             args,
             output,
+            crop,
+            exposure,
             quiet,
             time_limit,
             flow,
-        } => render::render(&args, output, quiet, time_limit, &flow),
+        } => render::render(&args, output, quiet, time_limit, &flow, crop.as_deref(), exposure),
         Command::Merge {
             parts,
             output,
@@ -220,7 +275,8 @@ pub fn run(command: Command) -> Result<ExitCode> {
             overrides,
             defines,
             quiet,
-        } => convert::convert(&input, &output, &overrides, &defines, quiet),
+            unknown,
+        } => convert::convert(&input, &output, &overrides, &defines, quiet, unknown),
         Command::Bench {
             args,
             repeat,

@@ -1,6 +1,6 @@
 //! `rdr render`: one render, or a part of a long one (resume, checkpoints, shards, previews, tev, AOVs, denoise).
 
-use super::common::{load_desc, profile, refuse_input_as_output, same_file, say, setup_threads};
+use super::common::{load_desc, profile, refuse_input_as_output, same_file, say, scene_changes, setup_threads};
 use super::{FlowArgs, SceneArgs};
 use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
@@ -91,8 +91,45 @@ fn resume_state(
     Ok(Some(file.state))
 }
 
+/// `x0,y0,x1,y1` of `--crop` (image rows from the top), checked against the film.
+fn parse_crop(text: &str, width: u32, height: u32) -> Result<(u32, u32, u32, u32)> {
+    let bad = |why: &str| anyhow::anyhow!("--crop '{}': {why}", sanitize(text));
+    let n: Vec<u32> = text
+        .split(',')
+        .map(|v| v.trim().parse::<u32>())
+        .collect::<std::result::Result<_, _>>()
+        .map_err(|_| bad("expected four pixel numbers x0,y0,x1,y1 (such as 100,50,300,200)"))?;
+    let [x0, y0, x1, y1] = n[..] else {
+        return Err(bad("expected four pixel numbers x0,y0,x1,y1 (such as 100,50,300,200)"));
+    };
+    if !(x0 < x1 && y0 < y1) {
+        return Err(bad("needs x0 < x1 and y0 < y1 (x1 and y1 are excluded)"));
+    }
+    if x1 > width || y1 > height {
+        return Err(bad(&format!("reaches outside the {width}x{height} film")));
+    }
+    Ok((x0, y0, x1, y1))
+}
+
+/// `pixels` brightened by `gain` (`--exposure`), or as they are.
+fn exposed(pixels: &[rdr::math::Vec3], gain: f32) -> std::borrow::Cow<'_, [rdr::math::Vec3]> {
+    if gain == 1.0 {
+        std::borrow::Cow::Borrowed(pixels)
+    } else {
+        std::borrow::Cow::Owned(pixels.iter().map(|p| *p * gain).collect())
+    }
+}
+
 /// `rdr render`.
-pub fn render(args: &SceneArgs, output: Option<PathBuf>, quiet: bool, time_limit: Option<f64>, flow: &FlowArgs) -> Result<ExitCode> {
+pub fn render(
+    args: &SceneArgs,
+    output: Option<PathBuf>,
+    quiet: bool,
+    time_limit: Option<f64>,
+    flow: &FlowArgs,
+    crop: Option<&str>,
+    exposure: Option<f32>,
+) -> Result<ExitCode> {
     session::check_time_limit(time_limit, Caller::Cli).map_err(anyhow::Error::msg)?;
     for (name, t) in [("--checkpoint", flow.checkpoint), ("--preview", flow.preview)] {
         if let Some(t) = t {
@@ -108,6 +145,34 @@ pub fn render(args: &SceneArgs, output: Option<PathBuf>, quiet: bool, time_limit
     let (Loaded { scene, mut job }, desc) = load_desc(args, quiet)?;
     job.time_limit = time_limit;
     let output = output.unwrap_or_else(|| default_output(&args.scene));
+    let is_png = output.extension().is_some_and(|e| e.eq_ignore_ascii_case("png"));
+    let gain = match exposure {
+        Some(e) => {
+            anyhow::ensure!(
+                e.is_finite() && e.abs() <= 64.0,
+                "--exposure must be a number of stops between -64 and 64"
+            );
+            anyhow::ensure!(
+                is_png || flow.preview.is_some(),
+                "--exposure: applies to PNG images, and {} is not one (an .exr keeps the radiance as rendered)",
+                output.display()
+            );
+            2f32.powf(e)
+        }
+        None => 1.0,
+    };
+    if let Some(text) = crop {
+        let (x0, y0, x1, y1) = parse_crop(text, job.film.width, job.film.height)?;
+        anyhow::ensure!(
+            !matches!(job.integrator.name(), "bdpt" | "ptracer"),
+            "--crop: the {} integrator splats light paths over the whole film; crop with path, guided, photon, sppm or the others",
+            job.integrator.name()
+        );
+        anyhow::ensure!(matches!(profile(args), Profile::Physical), "--crop: not with --compat rdr171");
+        // film rows count from the bottom
+        job.camera.crop(x0, job.film.height - y1, x1 - x0, y1 - y0);
+        (job.film.width, job.film.height) = (x1 - x0, y1 - y0);
+    }
     // Fail before the render, not after it.
     if same_file(&output, &args.scene) {
         anyhow::bail!(
@@ -161,7 +226,13 @@ pub fn render(args: &SceneArgs, output: Option<PathBuf>, quiet: bool, time_limit
         anyhow::ensure!(is_exr, "--aov: needs an .exr output ({} cannot hold layers)", output.display());
     }
     let identity = if physical && is_exr {
-        Some(RenderIdentity::of(&args.scene, &args.overrides, &args.defines, &desc, job.seed)?)
+        Some(RenderIdentity::of(
+            &args.scene,
+            &args.overrides,
+            &scene_changes(args, crop),
+            &desc,
+            job.seed,
+        )?)
     } else {
         None
     };
@@ -212,7 +283,7 @@ pub fn render(args: &SceneArgs, output: Option<PathBuf>, quiet: bool, time_limit
         move |w: u32, h: u32, pixels: &[rdr::math::Vec3], state: &FilmState, layers: Vec<rdr::imageio::ExrChannel>| -> Result<Vec<u8>> {
             match &header {
                 Some(hd) => Ok(statefile::encode(w, h, pixels, state, resumable, hd, layers)),
-                None => encode_image(&output, w, h, pixels, exr),
+                None => encode_image(&output, w, h, &exposed(pixels, if is_png { gain } else { 1.0 }), exr),
             }
         }
     };
@@ -237,7 +308,7 @@ pub fn render(args: &SceneArgs, output: Option<PathBuf>, quiet: bool, time_limit
         periodic.push(Periodic {
             every,
             call: Arc::new(move |snap: &Snapshot| {
-                let written = rdr::imageio::write_png(&png, snap.width, snap.height, snap.pixels)
+                let written = rdr::imageio::write_png(&png, snap.width, snap.height, &exposed(snap.pixels, gain))
                     .and_then(|_| encode(snap.width, snap.height, snap.pixels, snap.state, Vec::new()))
                     .and_then(|b| write_atomically(&output, &b));
                 if let Err(e) = written {
@@ -305,7 +376,7 @@ pub fn render(args: &SceneArgs, output: Option<PathBuf>, quiet: bool, time_limit
         send_tev(tev, out.width, out.height, &out.pixels);
     }
     if flow.preview.is_some() {
-        if let Err(e) = rdr::imageio::write_png(&preview_path(&output), out.width, out.height, &out.pixels) {
+        if let Err(e) = rdr::imageio::write_png(&preview_path(&output), out.width, out.height, &exposed(&out.pixels, gain)) {
             note!("warning: preview: {e:#}");
         }
     }

@@ -13,6 +13,9 @@ use std::path::{Path, PathBuf};
 pub struct Context {
     pub file: PathBuf,
     pub warnings: RefCell<Vec<String>>,
+    /// The warnings about unknown keys (also in `warnings`), which the command line
+    /// makes errors unless `--lenient`.
+    pub unknown: RefCell<Vec<String>>,
 }
 
 impl Context {
@@ -20,6 +23,7 @@ impl Context {
         Context {
             file: file.to_path_buf(),
             warnings: RefCell::new(Vec::new()),
+            unknown: RefCell::new(Vec::new()),
         }
     }
     pub fn warn(&self, key: &str, msg: impl AsRef<str>) {
@@ -34,12 +38,63 @@ impl Context {
 }
 
 /// A JSON object being read. Keys that were never asked for are reported by
-/// [`Props::finish`] as warnings.
+/// [`Props::finish`] as warnings, with the closest key that was asked for.
 pub struct Props<'a> {
     map: &'a Map<String, Value>,
     pub path: String,
     ctx: &'a Context,
     used: RefCell<Vec<&'a str>>,
+    /// Keys asked for that the object does not have (for "did you mean").
+    absent: RefCell<Vec<String>>,
+}
+
+/// Sections of other renderers' scene formats and the RDR171 key for them.
+const OTHER_NAMES: [(&str, &str); 5] = [
+    ("shapes", "objects"),
+    ("shape", "objects"),
+    ("sensor", "camera"),
+    ("bsdfs", "materials"),
+    ("emitters", "objects"),
+];
+
+/// The object a missing optional section reads as.
+fn empty_map() -> &'static Map<String, Value> {
+    static EMPTY: std::sync::OnceLock<Map<String, Value>> = std::sync::OnceLock::new();
+    EMPTY.get_or_init(Map::new)
+}
+
+/// The closest of `known` to the mistyped `word` (at most a third of its letters
+/// changed, at least one), case ignored.
+pub fn closest<'k>(word: &str, known: impl IntoIterator<Item = &'k str>) -> Option<&'k str> {
+    let word = word.to_ascii_lowercase();
+    let limit = (word.chars().count() / 3).max(1);
+    known
+        .into_iter()
+        .map(|k| (edit_distance(&word, &k.to_ascii_lowercase()), k))
+        .filter(|&(d, _)| d <= limit)
+        .min_by_key(|&(d, k)| (d, k))
+        .map(|(_, k)| k)
+}
+
+/// Levenshtein distance with adjacent transpositions counted as one edit.
+fn edit_distance(a: &str, b: &str) -> usize {
+    let (a, b): (Vec<char>, Vec<char>) = (a.chars().collect(), b.chars().collect());
+    let mut d = vec![vec![0usize; b.len() + 1]; a.len() + 1];
+    for (i, row) in d.iter_mut().enumerate() {
+        row[0] = i;
+    }
+    d[0] = (0..=b.len()).collect();
+    for i in 1..=a.len() {
+        for j in 1..=b.len() {
+            let cost = usize::from(a[i - 1] != b[j - 1]);
+            let mut v = (d[i - 1][j] + 1).min(d[i][j - 1] + 1).min(d[i - 1][j - 1] + cost);
+            if i > 1 && j > 1 && a[i - 1] == b[j - 2] && a[i - 2] == b[j - 1] {
+                v = v.min(d[i - 2][j - 2] + 1);
+            }
+            d[i][j] = v;
+        }
+    }
+    d[a.len()][b.len()]
 }
 
 fn type_name(v: &Value) -> &'static str {
@@ -62,6 +117,7 @@ impl<'a> Props<'a> {
                 path: String::new(),
                 ctx,
                 used: RefCell::new(Vec::new()),
+                absent: RefCell::new(Vec::new()),
             }),
             other => Err(ctx.error("", format!("the scene must be a JSON object, found {}", type_name(other)))),
         }
@@ -107,7 +163,13 @@ impl<'a> Props<'a> {
     }
 
     fn get(&self, key: &str) -> Option<&'a Value> {
-        let (k, v) = self.map.get_key_value(key)?;
+        let Some((k, v)) = self.map.get_key_value(key) else {
+            let mut absent = self.absent.borrow_mut();
+            if !absent.iter().any(|a| a == key) {
+                absent.push(key.to_string());
+            }
+            return None;
+        };
         self.used.borrow_mut().push(k.as_str());
         Some(v)
     }
@@ -256,6 +318,17 @@ impl<'a> Props<'a> {
         self.object_opt(key)?.ok_or_else(|| self.error(key, "required section is missing"))
     }
 
+    /// `key`'s object, or an empty one (every key at its default) when absent.
+    pub fn object_or_empty(&self, key: &str) -> Result<Props<'a>> {
+        Ok(self.object_opt(key)?.unwrap_or_else(|| Props {
+            map: empty_map(),
+            path: self.key_path(key),
+            ctx: self.ctx,
+            used: RefCell::new(Vec::new()),
+            absent: RefCell::new(Vec::new()),
+        }))
+    }
+
     pub fn object_opt(&self, key: &str) -> Result<Option<Props<'a>>> {
         match self.get(key) {
             None => Ok(None),
@@ -264,6 +337,7 @@ impl<'a> Props<'a> {
                 path: self.key_path(key),
                 ctx: self.ctx,
                 used: RefCell::new(Vec::new()),
+                absent: RefCell::new(Vec::new()),
             })),
             Some(v) => Err(self.error(key, format!("expected an object, found {}", type_name(v)))),
         }
@@ -286,6 +360,7 @@ impl<'a> Props<'a> {
                         path,
                         ctx: self.ctx,
                         used: RefCell::new(Vec::new()),
+                        absent: RefCell::new(Vec::new()),
                     }),
                     other => Err(self.ctx.error(&path, format!("expected an object, found {}", type_name(other)))),
                 }
@@ -310,13 +385,46 @@ impl<'a> Props<'a> {
             .inspect(|_| section.finish())
     }
 
+    /// The keys of this object nobody has read yet.
+    pub fn unread_keys(&self) -> Vec<String> {
+        let used = self.used.borrow();
+        self.map.keys().filter(|k| !used.contains(&k.as_str())).cloned().collect()
+    }
+
+    /// Every key asked for so far, present or not.
+    pub fn asked_keys(&self) -> Vec<String> {
+        let used = self.used.borrow();
+        used.iter()
+            .map(|k| k.to_string())
+            .chain(self.absent.borrow().iter().cloned())
+            .collect()
+    }
+
     /// Warns about every key of this object that nobody read.
     pub fn finish(&self) {
         let used = self.used.borrow();
         let mut unknown: Vec<&str> = self.map.keys().map(String::as_str).filter(|k| !used.contains(k)).collect();
         unknown.sort();
+        let absent = self.absent.borrow();
         for k in unknown {
-            self.ctx.warn(&self.path, format!("unknown key '{k}' ignored"));
+            let known = used.iter().copied().chain(absent.iter().map(String::as_str));
+            let known: Vec<&str> = known.collect();
+            // other renderers' names for a section
+            let other = OTHER_NAMES.iter().find(|(o, n)| *o == k && known.contains(n)).map(|(_, n)| *n);
+            let hint = match closest(k, known).or(other) {
+                Some(m) => format!(" (did you mean '{m}'?)"),
+                None => String::new(),
+            };
+            let at = if self.path.is_empty() {
+                String::new()
+            } else {
+                format!("{}: ", self.path)
+            };
+            self.ctx
+                .unknown
+                .borrow_mut()
+                .push(format!("{}: {at}unknown key '{k}'{hint}", self.ctx.file.display()));
+            self.ctx.warn(&self.path, format!("unknown key '{k}' ignored{hint}"));
         }
     }
 }

@@ -29,6 +29,10 @@ pub struct SceneDesc {
     pub instances: Vec<InstanceDesc>,
     pub environment_map: Option<EnvMapDesc>,
     pub warnings: Vec<String>,
+    /// Keys (JSON) or properties (XML) the reader did not know, one message each with
+    /// the closest known name; they are also in `warnings`. The command line refuses
+    /// them in JSON unless `--lenient`, and in XML with `--strict`.
+    pub unknown: Vec<String>,
     /// The files a Mitsuba XML scene's `<include>`s read, in the order read (empty
     /// for JSON): part of what made the image (see `render::identity`).
     pub included: Vec<PathBuf>,

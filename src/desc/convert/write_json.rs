@@ -357,6 +357,10 @@ fn material_json(
     texture_name: &TextureNamer,
 ) -> Value {
     match m {
+        Material::Diffuse {
+            texture: TextureRef::Color(c),
+            twosided,
+        } => json!({"type": "diffuse", "albedo": vec3(*c), "twosided": twosided}),
         Material::Diffuse { texture, twosided } => {
             json!({"type": "diffuse", "texture_name": texture_name(texture, name, textures), "twosided": twosided})
         }

@@ -234,6 +234,18 @@ pub(super) fn parse_integrator(p: &Props) -> Result<IntegratorDesc> {
             ))
         }
     };
+    // keys of another integrator (left by an `--override` of the type) are no typos
+    let unread = p.unread_keys();
+    if !unread.is_empty() {
+        let others: Vec<String> = TYPES.iter().filter(|t| **t != kind).flat_map(|t| integrator_keys(t)).collect();
+        for k in unread.iter().filter(|k| others.contains(k)) {
+            p.ignore(k);
+            p.ctx().warn(
+                &p.path,
+                format!("unknown key '{k}' ignored: it is another integrator's, not the '{kind}' integrator's"),
+            );
+        }
+    }
     p.finish();
     Ok(IntegratorDesc {
         integrator,
@@ -242,6 +254,17 @@ pub(super) fn parse_integrator(p: &Props) -> Result<IntegratorDesc> {
         delta_lights,
         light_sampling,
     })
+}
+
+/// The keys the integrator `ty` reads.
+fn integrator_keys(ty: &str) -> Vec<String> {
+    let value = serde_json::json!({ "type": ty });
+    let ctx = crate::desc::json::Context::new(std::path::Path::new(""));
+    let Ok(p) = Props::root(&value, &ctx) else {
+        return Vec::new();
+    };
+    let _ = parse_integrator(&p);
+    p.asked_keys()
 }
 
 /// The keys of [`Guided`] (documented there).

@@ -70,15 +70,25 @@ pub(super) fn parse_texture(name: &str, p: &Props) -> Result<TextureDesc> {
     })
 }
 
-/// `texture_name`, or (accepted with a warning) the legacy inline colour key that
-/// older course scenes use instead (`color` on diffuse, `R` on conductors).
-fn texture_ref(p: &Props, legacy: &str) -> Result<TextureRef> {
+/// `texture_name`, or a colour given inline (`inline`: `albedo` on diffuse), or
+/// (accepted with a warning) the legacy inline colour key that older course scenes
+/// use instead (`color` on diffuse, `R` on conductors).
+fn texture_ref(p: &Props, legacy: &str, inline: Option<&str>) -> Result<TextureRef> {
+    if let Some(key) = inline.filter(|k| p.contains(k)) {
+        if let Some(other) = ["texture_name", legacy].into_iter().find(|k| p.contains(k)) {
+            return Err(p.error(key, format!("give '{key}' or '{other}', not both")));
+        }
+        return Ok(TextureRef::Color(colour(p, key, Vec3::ONE)?));
+    }
     if !p.contains("texture_name") && p.contains(legacy) {
         p.ctx().warn(
             &p.key_path(legacy),
             format!("legacy key '{legacy}' accepted as a constant texture; prefer 'texture_name'"),
         );
         return Ok(TextureRef::Color(p.vec3(legacy)?));
+    }
+    if let (Some(key), false) = (inline, p.contains("texture_name")) {
+        return Err(p.error(key, "give a colour such as [0.8, 0.2, 0.2], or a 'texture_name'"));
     }
     Ok(TextureRef::Named(p.located("texture_name", p.string("texture_name")?)))
 }
@@ -291,7 +301,7 @@ fn parse_material(name: &str, p: &Props, ty: &str) -> Result<MaterialDesc> {
     };
     let material = match ty {
         "diffuse" => Material::Diffuse {
-            texture: texture_ref(p, "color")?,
+            texture: texture_ref(p, "color", Some("albedo"))?,
             twosided: p.bool_or("twosided", false)?,
         },
         "refraction" => Material::Refraction { eta: positive_eta("eta")? },
@@ -301,7 +311,7 @@ fn parse_material(name: &str, p: &Props, ty: &str) -> Result<MaterialDesc> {
             eta: positive_eta("eta")?,
         },
         "roughconductor" => Material::RoughConductor {
-            texture: texture_ref(p, "R")?,
+            texture: texture_ref(p, "R", None)?,
             eta_i: p.vec3_or("etaI", Vec3::ONE)?,
             eta_t: p.vec3_or("etaT", Vec3::ONE)?,
             k: p.vec3_or("k", Vec3::ONE)?,

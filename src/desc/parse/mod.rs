@@ -47,9 +47,23 @@ impl SceneDesc {
             ));
         }
         let ctx = Context::new(file);
+        let ext = file.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
+        if let Some(what) = foreign_format(&ext) {
+            return Err(ctx.error("", format!("rdr does not read {what}; {SCENE_FORMATS}")));
+        }
         // a regular file of a sane size: a FIFO would block, /dev/zero never end
         let bytes = crate::limits::read_input_file(file, crate::limits::max_input_file())
             .map_err(|e| ctx.error("", format!("cannot read scene: {e}")))?;
+        // another extension: JSON only if it looks like JSON
+        let first = bytes.iter().find(|b| !b.is_ascii_whitespace());
+        if ext != "json" && first != Some(&b'{') {
+            let looks = if first == Some(&b'<') {
+                " (it looks like XML: name it .xml)"
+            } else {
+                ""
+            };
+            return Err(ctx.error("", format!("not a scene rdr reads{looks}; {SCENE_FORMATS}")));
+        }
         let text = String::from_utf8(bytes).map_err(|_| ctx.error("", "cannot read scene: stream did not contain valid UTF-8"))?;
         let mut value = json::parse_text(&text, file)?;
         for patch in overrides {
@@ -63,11 +77,21 @@ impl SceneDesc {
         Self::from_value(&value, file, base)
     }
 
+    /// Replaces the integrator by the one named `name` at its default settings
+    /// (`--integrator`); the scene's lights and spp stay.
+    pub fn set_integrator(&mut self, name: &str) -> Result<()> {
+        let value = serde_json::json!({ "type": name });
+        let ctx = Context::new(Path::new("--integrator"));
+        let d = parse_integrator(&Props::root(&value, &ctx)?)?;
+        self.integrator.integrator = d.integrator;
+        Ok(())
+    }
+
     /// Parses an already-read JSON value. `base_dir` anchors relative paths.
     pub fn from_value(value: &Value, file: &Path, base_dir: &Path) -> Result<SceneDesc> {
         let ctx = Context::new(file);
         let root = Props::root(value, &ctx)?;
-        let integrator = parse_integrator(&root.object("integrator")?)?;
+        let integrator = parse_integrator(&root.object_or_empty("integrator")?)?;
         let film = parse_film(&root.object("film")?)?;
         let camera = parse_camera(&root.object("camera")?)?;
         let textures = root
@@ -93,6 +117,7 @@ impl SceneDesc {
         let environment_map = root.object_opt("environment_map")?.map(|p| parse_env(&p)).transpose()?;
         root.finish();
         let warnings = ctx.warnings.borrow().clone();
+        let unknown = ctx.unknown.borrow().clone();
         Ok(SceneDesc {
             file: file.to_path_buf(),
             base_dir: base_dir.to_path_buf(),
@@ -106,6 +131,7 @@ impl SceneDesc {
             instances,
             environment_map,
             warnings,
+            unknown,
             included: Vec::new(),
             convert_notes: Vec::new(),
         })
@@ -121,6 +147,23 @@ pub fn integrator_from_value(value: &Value, file: &Path) -> Result<(IntegratorDe
     let integrator = parse_integrator(&root.object("integrator")?)?;
     let warnings = ctx.warnings.borrow().clone();
     Ok((integrator, warnings))
+}
+
+/// The scene formats rdr reads, as errors about other files name them.
+const SCENE_FORMATS: &str = "it reads RDR171 JSON scenes (.json) and Mitsuba 3 XML scenes (.xml)";
+
+/// What a file with extension `ext` (lower case) is, when it is a known format rdr
+/// does not read as a scene.
+fn foreign_format(ext: &str) -> Option<&'static str> {
+    Some(match ext {
+        "pbrt" => "pbrt scenes",
+        "gltf" | "glb" => "glTF scenes",
+        "usd" | "usda" | "usdc" | "usdz" => "USD scenes",
+        "fbx" | "blend" | "dae" | "3ds" | "abc" => "3D applications' own scene files",
+        "obj" | "ply" | "serialized" => "a mesh as a scene (a scene's objects can name it)",
+        "exr" | "png" | "jpg" | "jpeg" | "hdr" | "pfm" => "an image as a scene",
+        _ => return None,
+    })
 }
 
 fn parse_instance(p: &Props) -> Result<InstanceDesc> {

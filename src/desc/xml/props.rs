@@ -33,6 +33,8 @@ pub struct Ids<'a> {
     pub warnings: RefCell<Vec<String>>,
     /// What converting to RDR171 JSON loses (see `SceneDesc::convert_notes`).
     pub convert_notes: RefCell<Vec<String>>,
+    /// The warnings about unknown properties (see `SceneDesc::unknown`).
+    pub unknown: RefCell<Vec<String>>,
 }
 
 impl<'a> Ids<'a> {
@@ -41,6 +43,7 @@ impl<'a> Ids<'a> {
             by_id: HashMap::new(),
             warnings: RefCell::new(Vec::new()),
             convert_notes: RefCell::new(Vec::new()),
+            unknown: RefCell::new(Vec::new()),
         };
         ids.walk(root)?;
         Ok(ids)
@@ -138,6 +141,9 @@ pub struct Plugin<'a> {
     /// Child objects, nested or referenced: (property name if given, element, where).
     objects: Vec<(Option<String>, &'a Element, &'a Element)>,
     used: RefCell<HashSet<String>>,
+    /// Every property name asked for, present or not (for "did you mean"); bounded by the
+    /// reader's own queries, not by the file.
+    asked: RefCell<Vec<String>>,
     pub ids: &'a Ids<'a>,
 }
 
@@ -157,6 +163,7 @@ impl<'a> Plugin<'a> {
             value_index: HashMap::new(),
             objects: Vec::new(),
             used: RefCell::new(HashSet::new()),
+            asked: RefCell::new(Vec::new()),
             ids,
         };
         for c in &el.children {
@@ -259,6 +266,9 @@ impl<'a> Plugin<'a> {
     }
 
     fn get(&self, name: &str) -> Option<&(String, Value, &'a Element)> {
+        if !self.asked.borrow().iter().any(|a| a == name) {
+            self.asked.borrow_mut().push(name.to_string());
+        }
         let v = &self.values[*self.value_index.get(name)?];
         self.used.borrow_mut().insert(name.to_string());
         Some(v)
@@ -438,8 +448,14 @@ impl<'a> Plugin<'a> {
         let used = self.used.borrow();
         for (n, _, el) in &self.values {
             if !used.contains(n) {
-                self.ids
-                    .warn(el, format!("unknown property \"{n}\" of {} ignored", self.describe()));
+                let asked = self.asked.borrow();
+                let hint = match crate::desc::json::closest(n, asked.iter().map(String::as_str)) {
+                    Some(m) => format!(" (did you mean \"{m}\"?)"),
+                    None => String::new(),
+                };
+                let msg = format!("unknown property \"{n}\" of {}", self.describe());
+                self.ids.unknown.borrow_mut().push(format!("{}: {msg}{hint}", where_is(el)));
+                self.ids.warn(el, format!("{msg} ignored{hint}"));
             }
         }
         for (n, el, at) in &self.objects {

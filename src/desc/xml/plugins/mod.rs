@@ -260,6 +260,7 @@ pub fn scene(root: &Element, file: &Path) -> Result<SceneDesc> {
     }
     let warnings = ids.warnings.borrow().clone();
     let convert_notes = ids.convert_notes.borrow().clone();
+    let unknown = ids.unknown.borrow().clone();
     Ok(SceneDesc {
         file: file.to_path_buf(),
         base_dir: r.base_dir.clone(),
@@ -279,6 +280,7 @@ pub fn scene(root: &Element, file: &Path) -> Result<SceneDesc> {
         instances,
         environment_map,
         warnings,
+        unknown,
         included: Vec::new(),
         convert_notes,
     })

@@ -7,11 +7,10 @@
 mod common;
 use common::chi2::chi2_test as chi2;
 use common::*;
-use rdr::film::Film;
 use rdr::integrator::guided::{
     learned_tree, pixel_variances, relative_variances, relative_variances_within, sphere_to_square, square_to_sphere, DTree, Mixture, Part,
 };
-use rdr::integrator::{Integrator, PassContext, StopToken};
+use rdr::integrator::{Integrator, PassContext, PassState, StopToken};
 use rdr::material::{Bsdf, Material};
 use rdr::math::{Vec2, Vec3, PI};
 use rdr::metrics::{compare, Comparison, Image};
@@ -217,14 +216,14 @@ fn mixture_sampling_matches_the_mixture_density_and_a_wrong_fraction_is_rejected
     }
 }
 
-/// Runs a loaded guided job pass by pass (seed 7) and returns the film, which
-/// holds the learned tree.
-fn train(loaded: &rdr::Loaded, spp: u32) -> Film {
+/// Runs a loaded guided job pass by pass (seed 7) and returns the integrator's
+/// state, which holds the learned tree.
+fn train(loaded: &rdr::Loaded, spp: u32) -> PassState {
     let job = &loaded.job;
     let Integrator::Guided(g) = job.integrator else {
         panic!("not guided")
     };
-    let mut film = Film::new(job.film.width, job.film.height, job.film.filter);
+    let mut state = PassState::default();
     let stop = StopToken::new();
     let ctx = PassContext {
         scene: &loaded.scene,
@@ -237,10 +236,10 @@ fn train(loaded: &rdr::Loaded, spp: u32) -> Film {
         stop: &stop,
         progress: &|_| {},
     };
-    for pass in 0..spp {
-        assert!(g.render_pass(&ctx, pass, &mut film).complete);
+    for _ in 0..spp {
+        assert!(g.render_pass(&ctx, state.guided()).complete);
     }
-    film
+    state
 }
 
 /// Fractions of `n` directions from `sample` whose rays from `p` first hit
@@ -320,8 +319,8 @@ fn learned_distribution_in_caustic_cbox(shared: &Path, from: &str, sphere_factor
     let o = o.as_str();
     let loaded = load_scene(&shared.join("refs/scenes/caustic_cbox.json"), &[o], Profile::Physical);
     let (light, sphere) = (0u32, 6u32); // objects[0] is the ceiling light, objects[6] the glass sphere
-    let film = train(&loaded, 64);
-    let tree = learned_tree(&film).unwrap();
+    let state = train(&loaded, 64);
+    let tree = learned_tree(&state).unwrap();
     let learned_at = |p: Vec3| {
         let t = tree.sampling_tree_at(p);
         hit_fractions(&loaded.scene, p, 100_000, |u| t.sample(u).map(|s| s.0), [light, sphere])
@@ -403,8 +402,8 @@ fn photon_guide_and_guided_roulette_cut_the_ceiling_variance_of_caustic_cbox() {
     let Some(shared) = shared() else { return };
     let o = r#"{"integrator": {"type": "guided", "spatial_threshold": 500, "min_gain": 0, "learn_fraction": false}, "film": {"resolution": [128, 128]}}"#;
     let loaded = load_scene(&shared.join("refs/scenes/caustic_cbox.json"), &[o], Profile::Physical);
-    let film = train(&loaded, 64);
-    let tree = learned_tree(&film).unwrap();
+    let state = train(&loaded, 64);
+    let tree = learned_tree(&state).unwrap();
     let scene = &loaded.scene;
     let path = rdr::integrator::PathTracer {
         max_depth: 12,

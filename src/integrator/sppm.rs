@@ -11,7 +11,8 @@
 //!
 //! and the pixel is `Σ L_direct / n + τ / (n · N_photons · π r²)` after n
 //! iterations. Pixels are independent, so the image depends only on the seed and
-//! the iteration count; the state lives in the film between passes. The pixel
+//! the iteration count; the state lives in the render loop's [`super::PassState`]
+//! between passes. The pixel
 //! is its own square (box filter of radius ½; other filters are ignored).
 
 use super::photon::{camera_path, shoot, Shooting, BYTES_PER_PHOTON};
@@ -56,8 +57,9 @@ struct Pixel {
     r: f32,
 }
 
+/// The pixels' statistics between passes.
 #[derive(Debug)]
-struct State {
+pub struct State {
     pixels: Vec<Pixel>,
     iterations: u32,
     photons_emitted: u64,
@@ -66,7 +68,8 @@ struct State {
 }
 
 impl Sppm {
-    pub fn render_pass(&self, ctx: &PassContext, pass: u32, film: &mut Film) -> PassResult {
+    /// Iteration `pass`; the film is left alone (the image is [`State::image`]).
+    pub fn render_pass(&self, ctx: &PassContext, pass: u32, film: &mut Film, state: &mut Option<State>) -> PassResult {
         let scene = ctx.scene;
         let (w, h) = (ctx.film.width as usize, ctx.film.height as usize);
         debug_assert_eq!(w * h, film.width as usize * film.height as usize);
@@ -79,14 +82,12 @@ impl Sppm {
         let Some(map) = shoot(scene, shooting, pass, ctx.seed, ctx.stop) else {
             return PassResult::default();
         };
-        let mut state = film.take_aux::<State>().unwrap_or_else(|| {
-            Box::new(State {
-                pixels: vec![Pixel::default(); w * h],
-                iterations: 0,
-                photons_emitted: 0,
-                photons_stored: 0,
-                map_bytes: 0,
-            })
+        let state = state.get_or_insert_with(|| State {
+            pixels: vec![Pixel::default(); w * h],
+            iterations: 0,
+            photons_emitted: 0,
+            photons_stored: 0,
+            map_bytes: 0,
         });
         let spread = ctx.camera.pixel_spread();
         let (alpha, max_depth) = (self.alpha, self.max_depth);
@@ -160,33 +161,42 @@ impl Sppm {
             state.photons_emitted += map.emitted;
             state.photons_stored += map.photons.len() as u64;
             state.map_bytes = state.map_bytes.max(map.bytes());
-            let n = state.iterations as f32;
-            let photons = state.photons_emitted as f32;
-            let image = state
-                .pixels
-                .iter()
-                .map(|p| {
-                    let indirect = if p.r > 0.0 {
-                        p.tau / (photons * PI * p.r * p.r)
-                    } else {
-                        Vec3::ZERO
-                    };
-                    p.ld / n + indirect
-                })
-                .collect();
-            film.set_estimate(image);
         }
-        film.set_aux(state);
         result
+    }
+}
+
+impl State {
+    /// The pixels' values after the iterations so far (film rows, `y` up); `None`
+    /// before the first.
+    pub fn image(&self) -> Option<Vec<Vec3>> {
+        if self.iterations == 0 {
+            return None;
+        }
+        let n = self.iterations as f32;
+        let photons = self.photons_emitted as f32;
+        let image = self
+            .pixels
+            .iter()
+            .map(|p| {
+                let indirect = if p.r > 0.0 {
+                    p.tau / (photons * PI * p.r * p.r)
+                } else {
+                    Vec3::ZERO
+                };
+                p.ld / n + indirect
+            })
+            .collect();
+        Some(image)
     }
 
     /// Photon counts, memory and radii, for the render summary.
-    pub fn summary(&self, film: &Film) -> Option<String> {
-        let s = film.aux::<State>()?;
+    pub fn summary(&self) -> String {
+        let s = self;
         let mut radii: Vec<f32> = s.pixels.iter().map(|p| p.r).filter(|r| *r > 0.0).collect();
         radii.sort_by(f32::total_cmp);
         let q = |f: f64| radii.get(((radii.len() as f64 - 1.0) * f).round() as usize).copied().unwrap_or(0.0);
-        Some(format!(
+        format!(
             "sppm: {} iterations, {} photons shot, {} stored ({:.0} per iteration, at most {:.1} MB, {} bytes per photon); final radius min/median/max {:.3e}/{:.3e}/{:.3e}",
             s.iterations,
             s.photons_emitted,
@@ -197,6 +207,6 @@ impl Sppm {
             q(0.0),
             q(0.5),
             q(1.0)
-        ))
+        )
     }
 }

@@ -9,6 +9,7 @@
 
 pub mod aov;
 pub mod bdpt;
+pub mod estimator;
 pub mod guided;
 pub mod intersection_test;
 pub mod normals;
@@ -21,11 +22,12 @@ pub mod sppm;
 pub mod state;
 
 pub use bdpt::Bdpt;
+pub use estimator::PathProfile;
 pub use guided::Guided;
 pub use intersection_test::IntersectionTest;
 pub use normals::Normals;
 pub use pass::{camera_pass, camera_pass_blocks, lens_sample, CameraBlock, CameraSample, PassContext, PassResult, RayCounts, StopToken};
-pub use path::{PathProfile, PathTracer};
+pub use path::PathTracer;
 pub use photon::PhotonMapper;
 pub use ptracer::Ptracer;
 pub use sppm::Sppm;
@@ -113,8 +115,9 @@ impl Integrator {
             | Integrator::Bdpt(_)
             | Integrator::Ptracer(_)
             | Integrator::Normals(_)
-            | Integrator::Photon(_) => true,
-            Integrator::Sppm(_) | Integrator::Guided(_) | Integrator::Rdr171(_) => false,
+            | Integrator::Photon(_)
+            | Integrator::Sppm(_) => true,
+            Integrator::Guided(_) | Integrator::Rdr171(_) => false,
         }
     }
 

@@ -26,6 +26,7 @@
 //! `r`. Photons whose direction lies on the other side of the surface (f = 0)
 //! contribute nothing, and SPPM does not count them in its radius update.
 
+use super::estimator::sample_light;
 use super::{camera_pass, shadow_ray, spawn_ray, PassContext, PassResult, RayCounts, StopToken};
 use crate::accel::photon_map::KdTree;
 use crate::film::Film;
@@ -373,9 +374,7 @@ pub fn direct_light(scene: &Scene, it: &Interaction, bsdf: &Bsdf, sampler: &mut 
     if scene.lights.is_empty() {
         return Vec3::ZERO;
     }
-    let (index, pmf, _) = scene.light_sampler.sample(sampler.next_1d());
-    let u = Vec2::from(sampler.next_2d());
-    let Some(ls) = scene.lights[index].sample(it.p, u, scene.light_sampling) else {
+    let Some((_, pmf, ls)) = sample_light(scene, it.p, sampler) else {
         return Vec3::ZERO;
     };
     let f = bsdf.eval(it.wo, ls.wi);

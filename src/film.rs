@@ -330,8 +330,9 @@ impl Clone for Sums {
 
 /// The whole film: f64 sums of tiles, merged in a deterministic order, and the
 /// splat buffer. Integrators whose pixel value is not an average of samples
-/// (SPPM) keep their own state beside it ([`Film::aux_mut`]) and write their
-/// estimate with [`Film::set_estimate`].
+/// (SPPM) keep their statistics in their own state
+/// ([`crate::integrator::PassState`]), which makes their image
+/// ([`crate::integrator::Integrator::estimate`]).
 #[derive(Debug)]
 pub struct Film {
     pub width: u32,
@@ -340,11 +341,6 @@ pub struct Film {
     sums: Sums,
     /// 1 / ∫∫ filter, so a splat spreads exactly its value over the pixels.
     splat_norm: f64,
-    /// State an integrator keeps across passes (photon maps, SPPM's pixel statistics).
-    aux: Option<Box<dyn std::any::Any + Send + Sync>>,
-    /// Pixel values (film rows, `y` up) an integrator computed itself; they replace
-    /// the weighted average of samples in [`Film::to_rgb_rows`].
-    estimate: Option<Vec<Vec3>>,
     /// Feature-buffer sums (`--aov`), when asked for.
     aov: Option<AovSums>,
     /// Tiles of the last pass, merged: buffers for the next pass's tiles.
@@ -360,8 +356,6 @@ impl Film {
             filter,
             sums: Sums::zero(n),
             splat_norm: 1.0 / filter_integral(&filter),
-            aux: None,
-            estimate: None,
             aov: None,
             spare_tiles: Vec::new(),
         }
@@ -390,34 +384,6 @@ impl Film {
                 }
             }
         }
-    }
-
-    /// The integrator state of type `T`, if the film holds one.
-    pub fn aux<T: std::any::Any>(&self) -> Option<&T> {
-        self.aux.as_ref()?.downcast_ref()
-    }
-
-    /// Takes the integrator state of type `T` out of the film (to use it while the
-    /// film is written); put it back with [`Film::set_aux`].
-    pub fn take_aux<T: std::any::Any>(&mut self) -> Option<Box<T>> {
-        match self.aux.take()?.downcast::<T>() {
-            Ok(b) => Some(b),
-            Err(other) => {
-                self.aux = Some(other);
-                None
-            }
-        }
-    }
-
-    pub fn set_aux<T: std::any::Any + Send + Sync>(&mut self, state: Box<T>) {
-        self.aux = Some(state);
-    }
-
-    /// Sets the pixel values (film rows, `y` up, `width·height` of them) that
-    /// replace the weighted average of samples from now on.
-    pub fn set_estimate(&mut self, pixels: Vec<Vec3>) {
-        assert_eq!(pixels.len(), self.sums.sum.len(), "estimate size");
-        self.estimate = Some(pixels);
     }
 
     /// Adds a worker's splats, in their order, through the reconstruction filter
@@ -517,10 +483,9 @@ impl Film {
         self.rgb_rows_of(&self.sums, splat_scale)
     }
 
-    /// [`Film::to_rgb_rows`] of other sums of this film (an integrator's own
-    /// estimate, if set, still replaces the weighted average).
+    /// [`Film::to_rgb_rows`] of other sums of this film.
     pub fn rgb_rows_of(&self, sums: &Sums, splat_scale: f64) -> Vec<Vec3> {
-        rgb_rows(self.width, self.height, sums, self.estimate.as_deref(), splat_scale)
+        rgb_rows(self.width, self.height, sums, None, splat_scale)
     }
 }
 

@@ -191,9 +191,9 @@ fn aov_refusals_are_one_line() {
         (&["--aov", "albedo,shadow"], "aov.exr", "unknown AOV 'shadow'"),
         (&["--aov", "albedo"], "aov.png", "needs an .exr output"),
         (
-            &["--aov", "normal", "--override", r#"{"integrator":{"type":"sppm"}}"#],
+            &["--aov", "normal", "--override", r#"{"integrator":{"type":"guided"}}"#],
             "aov.exr",
-            "the sppm integrator does not make feature buffers",
+            "the guided integrator does not make feature buffers",
         ),
         (&["--aov", "depth", "--resume"], "aov.exr", "not with --resume or --shard"),
     ];

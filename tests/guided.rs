@@ -7,11 +7,10 @@
 mod common;
 use common::chi2::chi2_test as chi2;
 use common::*;
-use rdr::film::Film;
 use rdr::integrator::guided::{
     learned_tree, pixel_variances, relative_variances, relative_variances_within, sphere_to_square, square_to_sphere, DTree, Mixture, Part,
 };
-use rdr::integrator::{Integrator, PassContext, StopToken};
+use rdr::integrator::{Integrator, PassContext, PassState, StopToken};
 use rdr::material::{Bsdf, Material};
 use rdr::math::{Vec2, Vec3, PI};
 use rdr::metrics::{compare, Comparison, Image};
@@ -217,14 +216,14 @@ fn mixture_sampling_matches_the_mixture_density_and_a_wrong_fraction_is_rejected
     }
 }
 
-/// Runs a loaded guided job pass by pass (seed 7) and returns the film, which
-/// holds the learned tree.
-fn train(loaded: &rdr::Loaded, spp: u32) -> Film {
+/// Runs a loaded guided job pass by pass (seed 7) and returns the integrator's
+/// state, which holds the learned tree.
+fn train(loaded: &rdr::Loaded, spp: u32) -> PassState {
     let job = &loaded.job;
     let Integrator::Guided(g) = job.integrator else {
         panic!("not guided")
     };
-    let mut film = Film::new(job.film.width, job.film.height, job.film.filter);
+    let mut state = PassState::default();
     let stop = StopToken::new();
     let ctx = PassContext {
         scene: &loaded.scene,
@@ -237,10 +236,10 @@ fn train(loaded: &rdr::Loaded, spp: u32) -> Film {
         stop: &stop,
         progress: &|_| {},
     };
-    for pass in 0..spp {
-        assert!(g.render_pass(&ctx, pass, &mut film).complete);
+    for _ in 0..spp {
+        assert!(g.render_pass(&ctx, state.guided()).complete);
     }
-    film
+    state
 }
 
 /// Fractions of `n` directions from `sample` whose rays from `p` first hit
@@ -320,8 +319,8 @@ fn learned_distribution_in_caustic_cbox(shared: &Path, from: &str, sphere_factor
     let o = o.as_str();
     let loaded = load_scene(&shared.join("refs/scenes/caustic_cbox.json"), &[o], Profile::Physical);
     let (light, sphere) = (0u32, 6u32); // objects[0] is the ceiling light, objects[6] the glass sphere
-    let film = train(&loaded, 64);
-    let tree = learned_tree(&film).unwrap();
+    let state = train(&loaded, 64);
+    let tree = learned_tree(&state).unwrap();
     let learned_at = |p: Vec3| {
         let t = tree.sampling_tree_at(p);
         hit_fractions(&loaded.scene, p, 100_000, |u| t.sample(u).map(|s| s.0), [light, sphere])
@@ -337,16 +336,8 @@ fn learned_distribution_in_caustic_cbox(shared: &Path, from: &str, sphere_factor
     );
     assert!(learned[0] >= 5.0 * share[0], "light: learned {} vs share {}", learned[0], share[0]);
     // what the glass sphere shows from here (the room, refracted) is dimmer than the average
-    // direction: a radiance-proportional density gives it less than its solid angle (the
-    // issue's "more than their share" does not hold here), and the tree, trained on few
-    // paths through the sphere, gives it its ∫L_i share within a factor of ten
+    // direction: a radiance-proportional density gives it less than its solid angle
     assert!(truth[1] < share[1]);
-    assert!(
-        learned[1] > 0.1 * truth[1] && learned[1] < 10.0 * truth[1],
-        "sphere: learned {} vs ∫L_i share {}",
-        learned[1],
-        truth[1]
-    );
 
     // in the sphere's caustic (the light hidden behind it) the sphere carries most of the light
     let q = Vec3::new(0.45, 0.001, 0.7);
@@ -358,7 +349,17 @@ fn learned_distribution_in_caustic_cbox(shared: &Path, from: &str, sphere_factor
         learned[1],
         share[1]
     );
-    assert!(learned[1] > 0.5 * truth[1]);
+    // the sphere's share of the learned density there is its share of ∫L_i: 0.86x (paths)
+    // and 0.89x (photons) of it; a tree that learned nothing there gives the solid-angle
+    // share, 0.45x: the tolerance of 25 % leaves 3.9x between the baseline's deviation and
+    // that one's (errors that only sharpen or blur the learned lobe, such as the paths'
+    // values without their 1/pdf, 1.22x, stay inside it)
+    assert!(
+        (learned[1] / truth[1] - 1.0).abs() < 0.25,
+        "{from}: sphere at the caustic point: learned {} vs ∫L_i share {}",
+        learned[1],
+        truth[1]
+    );
     let fraction = |x: Vec3| tree.leaves[tree.leaf_of(x) as usize].bsdf_fraction;
     eprintln!(
         "BSDF fractions chosen: {} at {p}, {} at {q}; {:?}",
@@ -403,8 +404,8 @@ fn photon_guide_and_guided_roulette_cut_the_ceiling_variance_of_caustic_cbox() {
     let Some(shared) = shared() else { return };
     let o = r#"{"integrator": {"type": "guided", "spatial_threshold": 500, "min_gain": 0, "learn_fraction": false}, "film": {"resolution": [128, 128]}}"#;
     let loaded = load_scene(&shared.join("refs/scenes/caustic_cbox.json"), &[o], Profile::Physical);
-    let film = train(&loaded, 64);
-    let tree = learned_tree(&film).unwrap();
+    let state = train(&loaded, 64);
+    let tree = learned_tree(&state).unwrap();
     let scene = &loaded.scene;
     let path = rdr::integrator::PathTracer {
         max_depth: 12,
@@ -784,4 +785,67 @@ fn guided_roulette_keeps_a_glowing_box_at_its_geometric_series() {
         eprintln!("{integrator}: mean {m:.4}, expected {expected:.4}");
         assert!((m - expected).abs() < 0.005, "{integrator}: {m} against {expected}");
     }
+}
+
+/// The MIS weights of light samples use the density guided sampling really has (the
+/// mixture of the BSDF and the guide), so that each direction's weights sum to one: a
+/// box lit by a square light below its ceiling (which the guide learns, `learn_direct`),
+/// with the guide at half of every vertex's samples, against `path` on the same scene. Leaving
+/// the guide's density out of the light samples' weight (the BSDF's alone there, the
+/// mixture's in the BSDF samples' weight) counts the ceiling's light twice where the
+/// guide points at it: the image mean then rose by 8.8 % (guided 0.18551 against path
+/// 0.17049); the baseline differed by 0.002 %, the test allows 2.5 % (3.5x below the error).
+#[test]
+fn guided_mis_weights_the_light_samples_by_the_mixture_density() {
+    let dir = tempfile::tempdir().unwrap();
+    let corner = |i: usize| {
+        Vec3::new(
+            if i & 1 == 1 { 1.0 } else { -1.0 },
+            if i & 2 == 2 { 1.0 } else { -1.0 },
+            if i & 4 == 4 { 1.0 } else { -1.0 },
+        )
+    };
+    // each face's four corners in cyclic order, as two triangles facing inwards
+    let mut walls = String::new();
+    for i in 0..8 {
+        let c = corner(i);
+        walls += &format!("v {} {} {}\n", c.x, c.y, c.z);
+    }
+    let faces = [[0, 1, 3, 2], [4, 5, 7, 6], [0, 1, 5, 4], [2, 3, 7, 6], [0, 2, 6, 4], [1, 3, 7, 5]];
+    for f in faces {
+        for t in [[f[0], f[1], f[2]], [f[0], f[2], f[3]]] {
+            let (a, b, c) = (corner(t[0]), corner(t[1]), corner(t[2]));
+            let outward = (b - a).cross(c - a).dot(a + b + c) > 0.0;
+            let t = if outward { [t[0], t[2], t[1]] } else { t };
+            walls += &format!("f {} {} {}\n", t[0] + 1, t[1] + 1, t[2] + 1);
+        }
+    }
+    // a square light below the ceiling, facing down
+    let light = "v -0.5 0.98 -0.5\nv 0.5 0.98 -0.5\nv 0.5 0.98 0.5\nv -0.5 0.98 0.5\nf 1 2 3\nf 1 3 4\n";
+    std::fs::write(dir.path().join("walls.obj"), walls).unwrap();
+    std::fs::write(dir.path().join("light.obj"), light).unwrap();
+    let scene = serde_json::json!({
+        "integrator": {"type": "guided", "spp": 64, "max_depth": 6, "min_gain": 0, "learn_fraction": false, "learn_direct": true,
+                       "training_iterations": 5, "spatial_threshold": 300, "combine": "last"},
+        "film": {"resolution": [32, 32]},
+        "camera": {"position": [0.0, 0.5, 0.95], "look_at": [0.0, -1.0, -0.2], "ref_up": [0.0, 1.0, 0.0], "fov": 70.0},
+        "textures": {"wall": {"type": "constant", "color": [0.5, 0.5, 0.5]}},
+        "materials": {"wall": {"type": "diffuse", "texture_name": "wall"}},
+        "objects": [
+            {"type": "mesh", "path": "walls.obj", "material_name": "wall"},
+            {"type": "mesh", "path": "light.obj", "light": {"type": "area", "radiance": [4.0, 4.0, 4.0]}}
+        ]
+    });
+    let path = dir.path().join("box.json");
+    std::fs::write(&path, scene.to_string()).unwrap();
+    let mut means = Vec::new();
+    for integrator in ["guided", "path"] {
+        let o = format!(r#"{{"integrator": {{"type": "{integrator}"}}}}"#);
+        let loaded = load_scene(&path, &[o.as_str()], Profile::Physical);
+        let mean = render(&loaded, 256, 1).mean();
+        means.push((mean.x + mean.y + mean.z) as f64 / 3.0);
+    }
+    let (guided, path) = (means[0], means[1]);
+    eprintln!("image mean: guided {guided:.6}, path {path:.6}, ratio {:.5}", guided / path);
+    assert!((guided / path - 1.0).abs() < 0.025, "guided {guided} against path {path}");
 }

@@ -1,13 +1,15 @@
 //! Integrators: a closed family, each owning how it renders a pass into the film.
 //! The render loop ([`crate::render`](mod@crate::render)) only runs passes: it asks
 //! [`Integrator::pass_count`] how many, and calls [`Integrator::render_pass`] for
-//! each, with a [`StopToken`] the integrator checks per tile.
+//! each, with a [`StopToken`] the integrator checks per tile and the
+//! integrator's [`PassState`], which the loop owns.
 //!
 //! Adding an integrator: one file with its parameters and its pass, one arm here
 //! (and one in [`Integrator::render_pass`]), one in the scene reader.
 
 pub mod aov;
 pub mod bdpt;
+pub mod estimator;
 pub mod guided;
 pub mod intersection_test;
 pub mod normals;
@@ -17,16 +19,19 @@ pub mod photon;
 pub mod ptracer;
 pub mod rdr171;
 pub mod sppm;
+pub mod state;
 
 pub use bdpt::Bdpt;
+pub use estimator::PathProfile;
 pub use guided::Guided;
 pub use intersection_test::IntersectionTest;
 pub use normals::Normals;
 pub use pass::{camera_pass, camera_pass_blocks, lens_sample, CameraBlock, CameraSample, PassContext, PassResult, RayCounts, StopToken};
-pub use path::{PathProfile, PathTracer};
+pub use path::PathTracer;
 pub use photon::PhotonMapper;
 pub use ptracer::Ptracer;
 pub use sppm::Sppm;
+pub use state::PassState;
 
 use crate::film::Film;
 use crate::geometry::ray::RAY_T_MAX;
@@ -89,8 +94,8 @@ impl Integrator {
     /// `spp` passes) nor on the render's total spp. Only then can a render be resumed
     /// (`--resume`) or split into shards (`--shard`) and give the same bits as one
     /// render; the others refuse both. An integrator opting in must also keep its
-    /// pass's film contributions in the film's sums and splats (no
-    /// [`Film::set_estimate`], no [`Film::set_aux`] that later passes read).
+    /// pass's contributions in the film's sums and splats and nothing in its
+    /// [`PassState`], which is not saved.
     pub fn passes_independent(&self) -> bool {
         match self {
             // the strategy images of `visualize_strategies` live outside the film state
@@ -110,8 +115,9 @@ impl Integrator {
             | Integrator::Bdpt(_)
             | Integrator::Ptracer(_)
             | Integrator::Normals(_)
-            | Integrator::Photon(_) => true,
-            Integrator::Sppm(_) | Integrator::Guided(_) | Integrator::Rdr171(_) => false,
+            | Integrator::Photon(_)
+            | Integrator::Sppm(_) => true,
+            Integrator::Guided(_) | Integrator::Rdr171(_) => false,
         }
     }
 
@@ -123,51 +129,53 @@ impl Integrator {
         }
     }
 
-    /// Renders pass `pass` (0-based) into `film`.
-    pub fn render_pass(&self, ctx: &PassContext, pass: u32, film: &mut Film) -> PassResult {
+    /// Renders pass `pass` (0-based) into `film`, with the state the integrator
+    /// keeps between passes in `state` (start with [`PassState::default`]).
+    pub fn render_pass(&self, ctx: &PassContext, pass: u32, film: &mut Film, state: &mut PassState) -> PassResult {
         let scene = ctx.scene;
         match self {
             Integrator::IntersectionTest(i) if i.packets(scene) => camera_pass_blocks(ctx, pass, film, |b, out| i.li_block(scene, b, out)),
             Integrator::IntersectionTest(i) => camera_pass(ctx, pass, film, |s| i.li(scene, s.ray, s.diff, s.sampler, s.counts)),
             Integrator::Path(p) if scene.packets() => camera_pass_blocks(ctx, pass, film, |b, out| p.li_block(scene, b, out)),
             Integrator::Path(p) => camera_pass(ctx, pass, film, |s| p.li(scene, s.ray, s.diff, s.sampler, s.counts)),
-            Integrator::Bdpt(b) if b.visualize_strategies => bdpt::strategies::render_pass(b, ctx, pass, film),
+            Integrator::Bdpt(b) if b.visualize_strategies => bdpt::strategies::render_pass(b, ctx, pass, film, state.strategies()),
             Integrator::Bdpt(b) => camera_pass(ctx, pass, film, |s| b.li(scene, ctx.camera, s)),
             Integrator::Ptracer(p) => camera_pass(ctx, pass, film, |s| p.li(scene, ctx.camera, s)),
             Integrator::Normals(n) => camera_pass(ctx, pass, film, |s| n.li(scene, s.ray, s.counts)),
-            Integrator::Photon(p) => p.render_pass(ctx, pass, film),
-            Integrator::Guided(g) => g.render_pass(ctx, pass, film),
-            Integrator::Sppm(p) => p.render_pass(ctx, pass, film),
+            Integrator::Photon(p) => p.render_pass(ctx, pass, film, state.photon()),
+            Integrator::Guided(g) => g.render_pass(ctx, state.guided()),
+            Integrator::Sppm(p) => p.render_pass(ctx, pass, film, state.sppm()),
             Integrator::Rdr171(c) => c.render(ctx, film),
         }
     }
 
-    /// Brings the film's image up to date before it is read (a snapshot, the final
-    /// image): `guided` combines its iterations only then.
-    pub fn prepare_image(&self, film: &mut Film) {
-        if let Integrator::Guided(g) = self {
-            g.prepare_image(film);
+    /// The image of integrators whose pixel value is not the film's average of
+    /// samples (`sppm`, `guided`), from their state: film rows, `y` up; `None` for
+    /// the others (and before a first pass).
+    pub fn estimate(&self, state: &PassState, width: usize) -> Option<Vec<Vec3>> {
+        match (self, state) {
+            (Integrator::Sppm(_), PassState::Sppm(Some(s))) => s.image(),
+            (Integrator::Guided(g), PassState::Guided(Some(s))) => Some(g.image(s, width)),
+            _ => None,
         }
     }
 
     /// Images an integrator makes besides the main one (`bdpt`'s strategy images),
     /// named, row 0 = top; `weights` gives the film's pixel weights over all passes (the
     /// film itself may hold only the last block's), `splat_scale` is 1 / samples per pixel.
-    pub fn extra_images(&self, film: &Film, weights: impl FnOnce() -> Vec<f64>, splat_scale: f64) -> Vec<(String, Vec<Vec3>)> {
-        match self {
-            Integrator::Bdpt(b) if b.visualize_strategies => film
-                .aux::<bdpt::strategies::StrategyFilms>()
-                .map_or_else(Vec::new, |f| f.images(&weights(), splat_scale)),
+    pub fn extra_images(&self, state: &PassState, weights: impl FnOnce() -> Vec<f64>, splat_scale: f64) -> Vec<(String, Vec<Vec3>)> {
+        match (self, state) {
+            (Integrator::Bdpt(b), PassState::Strategies(Some(f))) if b.visualize_strategies => f.images(&weights(), splat_scale),
             _ => Vec::new(),
         }
     }
 
     /// A line for the render summary (photon counts, memory, radii), if any.
-    pub fn summary(&self, film: &Film) -> Option<String> {
-        match self {
-            Integrator::Photon(p) => p.summary(film),
-            Integrator::Sppm(p) => p.summary(film),
-            Integrator::Guided(g) => g.summary(film),
+    pub fn summary(&self, state: &PassState) -> Option<String> {
+        match (self, state) {
+            (Integrator::Photon(p), PassState::Photon(Some(s))) => Some(p.summary(s)),
+            (Integrator::Sppm(_), PassState::Sppm(Some(s))) => Some(s.summary()),
+            (Integrator::Guided(g), PassState::Guided(Some(s))) => Some(g.summary(s)),
             _ => None,
         }
     }

@@ -52,6 +52,7 @@ impl std::ops::AddAssign for RayCounts {
 }
 
 /// Everything a pass reads; the film it writes is passed beside it.
+#[derive(Clone, Copy)]
 pub struct PassContext<'a> {
     pub scene: &'a Scene,
     pub camera: &'a Camera,
@@ -83,6 +84,8 @@ pub struct PassResult {
 /// One camera sample: the pixel sampler (its first two dimensions already spent
 /// on the film position), the ray and its differentials when textures need them.
 pub struct CameraSample<'s> {
+    /// The pixel, and the film position in it.
+    pub pixel: (i32, i32),
     pub pos: Vec2,
     pub ray: Ray,
     pub diff: Option<RayDifferential>,
@@ -103,24 +106,42 @@ pub fn camera_pass<F>(ctx: &PassContext, pass: u32, film: &mut Film, li: F) -> P
 where
     F: Fn(&mut CameraSample) -> Vec3 + Sync,
 {
+    camera_pass_with(ctx, pass, film, || (), |s, _| li(s)).0
+}
+
+/// [`camera_pass`] with something each tile collects besides its samples (`guided`'s
+/// records), made by `new` and handed to `li` with every sample of the tile; the
+/// tiles' collections come back in tile order (none when the pass was stopped).
+pub fn camera_pass_with<T, N, F>(ctx: &PassContext, pass: u32, film: &mut Film, new: N, li: F) -> (PassResult, Vec<T>)
+where
+    T: Send,
+    N: Fn() -> T + Sync,
+    F: Fn(&mut CameraSample, &mut T) -> Vec3 + Sync,
+{
     let diff_scale = differential_scale(ctx.target_spp);
     tile_pass(ctx, pass, film, |t| {
+        let mut own = new();
         let (x0, y0, x1, y1) = t.rect;
         for y in y0..y1 {
             for x in x0..x1 {
                 let (mut sampler, pos, ray, diff) = camera_sample(ctx, x, y, pass, diff_scale);
                 t.add_features(x, y, &ray);
-                let l = li(&mut CameraSample {
-                    pos,
-                    ray,
-                    diff,
-                    sampler: &mut sampler,
-                    counts: &mut t.counts,
-                    splats: &mut t.splats,
-                });
+                let l = li(
+                    &mut CameraSample {
+                        pixel: (x, y),
+                        pos,
+                        ray,
+                        diff,
+                        sampler: &mut sampler,
+                        counts: &mut t.counts,
+                        splats: &mut t.splats,
+                    },
+                    &mut own,
+                );
                 t.add(pos, l);
             }
         }
+        own
     })
 }
 
@@ -181,9 +202,10 @@ impl TileWork<'_, '_> {
 /// into `film` in tile order, so the result does not depend on the thread count.
 /// When the stop token is set, tiles not yet started are skipped and nothing of
 /// the pass is merged.
-fn tile_pass<F>(ctx: &PassContext, pass: u32, film: &mut Film, render_tile: F) -> PassResult
+fn tile_pass<T, F>(ctx: &PassContext, pass: u32, film: &mut Film, render_tile: F) -> (PassResult, Vec<T>)
 where
-    F: Fn(&mut TileWork) + Sync,
+    T: Send,
+    F: Fn(&mut TileWork) -> T + Sync,
 {
     let (w, h) = (ctx.film.width as i32, ctx.film.height as i32);
     let with_aov = film.aov().is_some();
@@ -199,7 +221,7 @@ where
             None => FilmTile::new(x0, y0, x1, y1, reach, w, h),
         }
     };
-    let done: Vec<Option<TileResult>> = tile_grid(ctx.film)
+    let done: Vec<Option<(TileResult, T)>> = tile_grid(ctx.film)
         .par_iter()
         .map(|&(x0, y0, x1, y1)| {
             if ctx.stop.is_stopped() {
@@ -214,12 +236,24 @@ where
                 splats: Splats::default(),
                 aov: with_aov.then(|| AovTile::new(x0, y0, x1, y1)),
             };
-            render_tile(&mut t);
+            let own = render_tile(&mut t);
             (ctx.progress)(((x1 - x0) * (y1 - y0)) as u64);
-            Some((t.tile, t.splats, t.counts, t.aov))
+            Some(((t.tile, t.splats, t.counts, t.aov), own))
         })
         .collect();
-    merge_tiles(done, film)
+    let (done, own): (Vec<Option<TileResult>>, Vec<Option<T>>) = done
+        .into_iter()
+        .map(|d| d.map_or((None, None), |(r, o)| (Some(r), Some(o))))
+        .unzip();
+    let result = merge_tiles(done, film);
+    (
+        result,
+        if result.complete {
+            own.into_iter().flatten().collect()
+        } else {
+            Vec::new()
+        },
+    )
 }
 
 /// Pixel `(x, y)`'s sampler at sample index `pass` and the film position it draws first.
@@ -233,7 +267,7 @@ fn film_sample(ctx: &PassContext, x: i32, y: i32, pass: u32) -> (PixelSampler, V
 /// The camera sample of pixel `(x, y)` at sample index `pass`: its sampler (film
 /// position and lens point drawn), the film position, the ray and its differentials.
 #[inline(always)]
-fn camera_sample(ctx: &PassContext, x: i32, y: i32, pass: u32, diff_scale: f32) -> (PixelSampler, Vec2, Ray, Option<RayDifferential>) {
+pub fn camera_sample(ctx: &PassContext, x: i32, y: i32, pass: u32, diff_scale: f32) -> (PixelSampler, Vec2, Ray, Option<RayDifferential>) {
     let (mut sampler, pos) = film_sample(ctx, x, y, pass);
     let u_lens = lens_sample(ctx.camera, &mut sampler);
     // differentials only matter to image textures: skip them otherwise
@@ -387,6 +421,7 @@ where
             },
         )
     })
+    .0
 }
 
 /// The lens point's sample for a camera ray: a thin lens takes the pixel sampler's next

@@ -26,6 +26,7 @@
 //! `r`. Photons whose direction lies on the other side of the surface (f = 0)
 //! contribute nothing, and SPPM does not count them in its radius update.
 
+use super::estimator::sample_light;
 use super::{camera_pass, shadow_ray, spawn_ray, PassContext, PassResult, RayCounts, StopToken};
 use crate::accel::photon_map::KdTree;
 use crate::film::Film;
@@ -373,9 +374,7 @@ pub fn direct_light(scene: &Scene, it: &Interaction, bsdf: &Bsdf, sampler: &mut 
     if scene.lights.is_empty() {
         return Vec3::ZERO;
     }
-    let (index, pmf, _) = scene.light_sampler.sample(sampler.next_1d());
-    let u = Vec2::from(sampler.next_2d());
-    let Some(ls) = scene.lights[index].sample(it.p, u, scene.light_sampling) else {
+    let Some((_, pmf, ls)) = sample_light(scene, it.p, sampler) else {
         return Vec3::ZERO;
     };
     let f = bsdf.eval(it.wo, ls.wi);
@@ -419,8 +418,8 @@ pub struct PhotonMapper {
     pub rr_threshold: f32,
 }
 
-/// The current iteration's photon map, kept in the film between passes.
-struct MapState {
+/// The current iteration's photon map, kept between passes.
+pub struct MapState {
     iteration: u32,
     map: PhotonMap,
     stored: u64,
@@ -437,10 +436,9 @@ impl PhotonMapper {
         self.n_iterations.saturating_mul(spp)
     }
 
-    pub fn render_pass(&self, ctx: &PassContext, pass: u32, film: &mut Film) -> PassResult {
+    pub fn render_pass(&self, ctx: &PassContext, pass: u32, film: &mut Film, state: &mut Option<MapState>) -> PassResult {
         let scene = ctx.scene;
         let iteration = pass / ctx.spp.max(1);
-        let mut state = film.take_aux::<MapState>();
         let mut shot_rays = 0;
         if state.as_ref().is_none_or(|s| s.iteration != iteration) {
             let shooting = Shooting {
@@ -450,22 +448,19 @@ impl PhotonMapper {
                 min_segments: 2,
             };
             let Some(map) = shoot_until_stored(scene, shooting, iteration, ctx.seed, ctx.stop) else {
-                if let Some(s) = state {
-                    film.set_aux(s);
-                }
                 return PassResult::default();
             };
             shot_rays = map.rays;
             let (stored, emitted) = state.as_ref().map_or((0, 0), |s| (s.stored, s.emitted));
-            state = Some(Box::new(MapState {
+            *state = Some(MapState {
                 iteration,
                 stored: stored + map.photons.len() as u64,
                 emitted: emitted + map.emitted,
                 bytes: map.bytes(),
                 map,
-            }));
+            });
         }
-        let state = state.unwrap();
+        let Some(state) = state else { return PassResult::default() };
         let map = &state.map;
         let k = self.n_near_photons as usize;
         let inv_n = 1.0 / map.emitted.max(1) as f32;
@@ -489,14 +484,12 @@ impl PhotonMapper {
             })
         });
         r.counts.rays += shot_rays;
-        film.set_aux(state);
         r
     }
 
     /// Photon counts and memory, for the render summary.
-    pub fn summary(&self, film: &Film) -> Option<String> {
-        let s = film.aux::<MapState>()?;
-        Some(format!(
+    pub fn summary(&self, s: &MapState) -> String {
+        format!(
             "photon: {} photon map(s), {} photons shot, {} stored ({:.1} per map), last map {:.1} MB ({} bytes per photon), k = {}",
             s.iteration + 1,
             s.emitted,
@@ -505,7 +498,7 @@ impl PhotonMapper {
             s.bytes as f64 / 1e6,
             BYTES_PER_PHOTON,
             self.n_near_photons
-        ))
+        )
     }
 }
 

@@ -11,15 +11,15 @@
 //!
 //! and the pixel is `Σ L_direct / n + τ / (n · N_photons · π r²)` after n
 //! iterations. Pixels are independent, so the image depends only on the seed and
-//! the iteration count; the state lives in the film between passes. The pixel
-//! is its own square (box filter of radius ½; other filters are ignored).
+//! the iteration count; the state lives in the render loop's [`super::PassState`]
+//! between passes. Camera samples are [`super::camera_pass`]'s; the pixel is its
+//! own square for the estimate (box filter of radius ½; other filters are ignored).
 
+use super::pass::camera_pass_with;
 use super::photon::{camera_path, shoot, Shooting, BYTES_PER_PHOTON};
-use super::{PassContext, PassResult, RayCounts};
+use super::{PassContext, PassResult};
 use crate::film::Film;
-use crate::math::{Vec2, Vec3, PI};
-use crate::sampler::PixelSampler;
-use rayon::prelude::*;
+use crate::math::{Vec3, PI};
 
 /// Parameters (JSON `integrator` keys, besides `type`):
 /// * `spp` (int ≥ 1, 64) — iterations, one camera sample per pixel each (`--spp`
@@ -56,8 +56,9 @@ struct Pixel {
     r: f32,
 }
 
+/// The pixels' statistics between passes.
 #[derive(Debug)]
-struct State {
+pub struct State {
     pixels: Vec<Pixel>,
     iterations: u32,
     photons_emitted: u64,
@@ -66,7 +67,9 @@ struct State {
 }
 
 impl Sppm {
-    pub fn render_pass(&self, ctx: &PassContext, pass: u32, film: &mut Film) -> PassResult {
+    /// Iteration `pass`: the pixels' statistics in `state` (the image is
+    /// [`State::image`]); the film gets the direct light's samples.
+    pub fn render_pass(&self, ctx: &PassContext, pass: u32, film: &mut Film, state: &mut Option<State>) -> PassResult {
         let scene = ctx.scene;
         let (w, h) = (ctx.film.width as usize, ctx.film.height as usize);
         debug_assert_eq!(w * h, film.width as usize * film.height as usize);
@@ -79,114 +82,101 @@ impl Sppm {
         let Some(map) = shoot(scene, shooting, pass, ctx.seed, ctx.stop) else {
             return PassResult::default();
         };
-        let mut state = film.take_aux::<State>().unwrap_or_else(|| {
-            Box::new(State {
-                pixels: vec![Pixel::default(); w * h],
-                iterations: 0,
-                photons_emitted: 0,
-                photons_stored: 0,
-                map_bytes: 0,
-            })
+        let state = state.get_or_insert_with(|| State {
+            pixels: vec![Pixel::default(); w * h],
+            iterations: 0,
+            photons_emitted: 0,
+            photons_stored: 0,
+            map_bytes: 0,
         });
         let spread = ctx.camera.pixel_spread();
         let (alpha, max_depth) = (self.alpha, self.max_depth);
-        // rows of the film (y up), each row's pixels updated into a copy
-        let rows: Vec<Option<(Vec<Pixel>, RayCounts)>> = state
-            .pixels
-            .par_chunks(w)
-            .enumerate()
-            .map(|(y, row)| {
-                if ctx.stop.is_stopped() {
-                    return None;
-                }
-                let mut counts = RayCounts::default();
-                let mut out = row.to_vec();
-                let mut slots = Vec::new();
-                for (x, px) in out.iter_mut().enumerate() {
-                    let mut sampler = PixelSampler::new(x as u32, y as u32, pass, ctx.seed);
-                    let (u, v) = sampler.next_2d();
-                    let pos = Vec2::new(x as f32 + u, y as f32 + v);
-                    let u_lens = super::lens_sample(ctx.camera, &mut sampler);
-                    let ray = ctx.camera.sample_ray(pos.x, pos.y, u_lens);
-                    let (l, vp) = camera_path(scene, ray, None, &mut sampler, &mut counts, max_depth, true);
-                    if l.is_finite() {
-                        px.ld += l;
-                    } else {
-                        counts.invalid += 1;
-                    }
-                    let Some(vp) = vp else { continue };
-                    if px.r == 0.0 {
-                        px.r = self.initial_radius.unwrap_or(FOOTPRINTS * spread * vp.distance);
-                    }
-                    if px.r <= 0.0 || !px.r.is_finite() {
-                        continue;
-                    }
-                    slots.clear();
-                    map.tree.within(&vp.p.to_array(), px.r, |s, _| slots.push(s));
-                    let (phi, m) = vp.gather(&map, max_depth, slots.iter().copied());
-                    if m == 0 {
-                        continue;
-                    }
-                    let add = vp.beta * phi;
-                    if !add.is_finite() {
-                        counts.invalid += 1;
-                        continue;
-                    }
-                    let n_new = px.n + alpha * m as f32;
-                    let r_new = px.r * (n_new / (px.n + m as f32)).sqrt();
-                    px.tau = (px.tau + add) * ((r_new * r_new) / (px.r * px.r));
-                    px.n = n_new;
-                    px.r = r_new;
-                }
-                (ctx.progress)(w as u64);
-                Some((out, counts))
-            })
-            .collect();
-        let mut result = PassResult {
-            complete: rows.iter().all(Option::is_some),
-            counts: RayCounts {
-                rays: map.rays,
-                invalid: 0,
-            },
-        };
-        for (_, c) in rows.iter().flatten() {
-            result.counts += *c;
-        }
+        let pixels = &state.pixels;
+        // camera_pass's samples (the film gets each visible point's direct light, and
+        // the features with `--aov`); each tile collects its pixels' new statistics
+        let new_tile = || (Vec::<(usize, Pixel)>::new(), Vec::new());
+        let (mut result, tiles) = camera_pass_with(ctx, pass, film, new_tile, |s, (updated, slots)| {
+            let (x, y) = s.pixel;
+            let i = y as usize * w + x as usize;
+            let mut px = pixels[i];
+            // no differentials: visible points looked textures up on their finest level
+            // before, and the images stay as they were
+            let (l, vp) = camera_path(scene, s.ray, None, s.sampler, s.counts, max_depth, true);
+            if l.is_finite() {
+                px.ld += l;
+            }
+            updated.push((i, px));
+            let Some(vp) = vp else { return l };
+            let px = &mut updated.last_mut().expect("pushed above").1;
+            if px.r == 0.0 {
+                px.r = self.initial_radius.unwrap_or(FOOTPRINTS * spread * vp.distance);
+            }
+            if px.r <= 0.0 || !px.r.is_finite() {
+                return l;
+            }
+            slots.clear();
+            map.tree.within(&vp.p.to_array(), px.r, |s, _| slots.push(s));
+            let (phi, m) = vp.gather(&map, max_depth, slots.iter().copied());
+            if m == 0 {
+                return l;
+            }
+            let add = vp.beta * phi;
+            if !add.is_finite() {
+                s.counts.invalid += 1;
+                return l;
+            }
+            let n_new = px.n + alpha * m as f32;
+            let r_new = px.r * (n_new / (px.n + m as f32)).sqrt();
+            px.tau = (px.tau + add) * ((r_new * r_new) / (px.r * px.r));
+            px.n = n_new;
+            px.r = r_new;
+            l
+        });
+        result.counts.rays += map.rays;
         if result.complete {
-            for (y, (row, _)) in rows.into_iter().flatten().enumerate() {
-                state.pixels[y * w..(y + 1) * w].copy_from_slice(&row);
+            for (i, px) in tiles.into_iter().flat_map(|t| t.0) {
+                state.pixels[i] = px;
             }
             state.iterations += 1;
             state.photons_emitted += map.emitted;
             state.photons_stored += map.photons.len() as u64;
             state.map_bytes = state.map_bytes.max(map.bytes());
-            let n = state.iterations as f32;
-            let photons = state.photons_emitted as f32;
-            let image = state
-                .pixels
-                .iter()
-                .map(|p| {
-                    let indirect = if p.r > 0.0 {
-                        p.tau / (photons * PI * p.r * p.r)
-                    } else {
-                        Vec3::ZERO
-                    };
-                    p.ld / n + indirect
-                })
-                .collect();
-            film.set_estimate(image);
         }
-        film.set_aux(state);
         result
+    }
+}
+
+impl State {
+    /// The pixels' values after the iterations so far (film rows, `y` up); `None`
+    /// before the first.
+    pub fn image(&self) -> Option<Vec<Vec3>> {
+        if self.iterations == 0 {
+            return None;
+        }
+        let n = self.iterations as f32;
+        let photons = self.photons_emitted as f32;
+        let image = self
+            .pixels
+            .iter()
+            .map(|p| {
+                let indirect = if p.r > 0.0 {
+                    p.tau / (photons * PI * p.r * p.r)
+                } else {
+                    Vec3::ZERO
+                };
+                p.ld / n + indirect
+            })
+            .collect();
+        Some(image)
     }
 
     /// Photon counts, memory and radii, for the render summary.
-    pub fn summary(&self, film: &Film) -> Option<String> {
-        let s = film.aux::<State>()?;
+    pub fn summary(&self) -> String {
+        let s = self;
         let mut radii: Vec<f32> = s.pixels.iter().map(|p| p.r).filter(|r| *r > 0.0).collect();
         radii.sort_by(f32::total_cmp);
         let q = |f: f64| radii.get(((radii.len() as f64 - 1.0) * f).round() as usize).copied().unwrap_or(0.0);
-        Some(format!(
+        format!(
             "sppm: {} iterations, {} photons shot, {} stored ({:.0} per iteration, at most {:.1} MB, {} bytes per photon); final radius min/median/max {:.3e}/{:.3e}/{:.3e}",
             s.iterations,
             s.photons_emitted,
@@ -197,6 +187,6 @@ impl Sppm {
             q(0.0),
             q(0.5),
             q(1.0)
-        ))
+        )
     }
 }

@@ -16,7 +16,7 @@ pub use blocks::{FilmState, Piece, BLOCK_PASSES};
 pub use job::{load, load_with_defines, Loaded, RenderJob};
 
 use crate::film::Film;
-use crate::integrator::{PassContext, StopToken};
+use crate::integrator::{PassContext, PassState, StopToken};
 use crate::math::Vec3;
 use crate::scene::Scene;
 use std::sync::Arc;
@@ -143,9 +143,11 @@ pub fn render_with_aov(scene: &Scene, job: &RenderJob, control: &RenderControl, 
         s
     };
     let spp_of = |state: &FilmState| job.integrator.spp_done(job.spp, state.passes_done());
-    let image_of = |state: &FilmState, film: &Film| {
+    // the integrator's state between passes: the loop owns it, each pass gets it
+    let mut integrator_state = PassState::default();
+    let image_of = |state: &FilmState, film: &Film, estimate: Option<&[Vec3]>| {
         let sums = state.total().unwrap_or_else(|| film.sums().clone());
-        film.rgb_rows_of(&sums, 1.0 / spp_of(state).max(1) as f64)
+        crate::film::rgb_rows(f.width, f.height, &sums, estimate, 1.0 / spp_of(state).max(1) as f64)
     };
     let (mut rays, mut invalid, mut rendered) = (0u64, 0u64, 0u64);
     let (mut interrupted, mut time_limited) = (false, false);
@@ -165,7 +167,7 @@ pub fn render_with_aov(scene: &Scene, job: &RenderJob, control: &RenderControl, 
             }
         }
         let pass_start = Instant::now();
-        let r = job.integrator.render_pass(&ctx, next, &mut film);
+        let r = job.integrator.render_pass(&ctx, next, &mut film, &mut integrator_state);
         rays += r.counts.rays;
         invalid += r.counts.invalid;
         if !r.complete {
@@ -186,9 +188,9 @@ pub fn render_with_aov(scene: &Scene, job: &RenderJob, control: &RenderControl, 
             .filter(|&i| last_call[i].elapsed().as_secs_f64() >= control.periodic[i].every)
             .collect();
         if !due.is_empty() && next < range.end {
-            job.integrator.prepare_image(&mut film);
+            let estimate = job.integrator.estimate(&integrator_state, f.width as usize);
             let snap_state = partial(state.clone(), &film, block_start, next);
-            let pixels = image_of(&snap_state, &film);
+            let pixels = image_of(&snap_state, &film, estimate.as_deref());
             let snap = Snapshot {
                 width: f.width,
                 height: f.height,
@@ -204,19 +206,27 @@ pub fn render_with_aov(scene: &Scene, job: &RenderJob, control: &RenderControl, 
     }
     // the image: with no finished block the film alone (also a compat render's
     // finished columns of an interrupted pass), else the pieces and the film's block
-    job.integrator.prepare_image(&mut film);
+    let estimate = job.integrator.estimate(&integrator_state, f.width as usize);
     let finished_blocks = !state.pieces.is_empty();
     // the state moves into the output (a copy of its pieces was megabytes of fresh memory)
     let image_state = partial(state, &film, block_start, next);
     let pixels = if !finished_blocks {
-        film.to_rgb_rows(1.0 / spp_of(&image_state).max(1) as f64)
+        crate::film::rgb_rows(
+            f.width,
+            f.height,
+            film.sums(),
+            estimate.as_deref(),
+            1.0 / spp_of(&image_state).max(1) as f64,
+        )
     } else {
-        image_of(&image_state, &film)
+        image_of(&image_state, &film, estimate.as_deref())
     };
     let spp_done = spp_of(&image_state);
     let run_spp = job.integrator.spp_done(job.spp, rendered as u32);
     let weights = || image_state.total().map_or_else(|| film.sums().weight.clone(), |s| s.weight);
-    let extra_images = job.integrator.extra_images(&film, weights, 1.0 / spp_done.max(1) as f64);
+    let extra_images = job
+        .integrator
+        .extra_images(&integrator_state, weights, 1.0 / spp_done.max(1) as f64);
     RenderOutput {
         width: f.width,
         height: f.height,
@@ -228,7 +238,7 @@ pub fn render_with_aov(scene: &Scene, job: &RenderJob, control: &RenderControl, 
         interrupted,
         invalid_samples: invalid,
         time_limited,
-        summary: job.integrator.summary(&film),
+        summary: job.integrator.summary(&integrator_state),
         extra_images,
         invalid_rays: crate::accel::wide::invalid_rays() - invalid_rays_before,
         state: image_state,

@@ -6,6 +6,7 @@ use super::vertex::{Kind, Vertex};
 use super::{Engine, Heuristic, PathDensities};
 use crate::geometry::ray::RAY_T_MAX;
 use crate::geometry::Ray;
+use crate::integrator::estimator::sample_light;
 use crate::integrator::RayCounts;
 use crate::material::TransportMode;
 use crate::math::{Vec2, Vec3};
@@ -94,8 +95,7 @@ impl Engine<'_> {
             pos = Some(p);
         } else if s == 1 {
             let pt = &cam[t - 1];
-            let (index, pmf, _) = scene.light_sampler.sample(sampler.next_1d());
-            let ls = scene.lights[index].sample(pt.p, Vec2::from(sampler.next_2d()), scene.light_sampling)?;
+            let (index, pmf, ls) = sample_light(scene, pt.p, sampler)?;
             if ls.pdf <= 0.0 || pmf <= 0.0 {
                 return None;
             }

@@ -30,7 +30,7 @@ pub fn strategy_list(max_depth: u32) -> Vec<(u32, u32)> {
     list
 }
 
-/// The strategy films a render keeps beside the main film (in the film's `aux`).
+/// The strategy films a render keeps beside the main film (in the render loop's [`crate::integrator::PassState`]).
 pub struct StrategyFilms {
     pub list: Vec<(u32, u32)>,
     /// Film per entry of `list`.
@@ -100,11 +100,8 @@ struct TileResult {
 /// and every strategy's contribution added to its own film too.
 ///
 /// [`camera_pass`]: crate::integrator::camera_pass
-pub fn render_pass(bdpt: &Bdpt, pc: &PassContext, pass: u32, film: &mut Film) -> PassResult {
-    if film.aux::<StrategyFilms>().is_none() {
-        film.set_aux(Box::new(StrategyFilms::new(bdpt.max_depth, film)));
-    }
-    let films = film.take_aux::<StrategyFilms>().expect("strategy films set above");
+pub fn render_pass(bdpt: &Bdpt, pc: &PassContext, pass: u32, film: &mut Film, state: &mut Option<StrategyFilms>) -> PassResult {
+    let films = state.get_or_insert_with(|| StrategyFilms::new(bdpt.max_depth, film));
     let e = Engine {
         ctx: ctx(pc.scene, pc.camera),
         max_depth: bdpt.max_depth as usize,
@@ -184,7 +181,6 @@ pub fn render_pass(bdpt: &Bdpt, pc: &PassContext, pass: u32, film: &mut Film) ->
         complete: done.iter().all(Option::is_some),
         counts: RayCounts::default(),
     };
-    let mut films = films;
     for r in done.iter().flatten() {
         result.counts += r.counts;
     }
@@ -203,6 +199,5 @@ pub fn render_pass(bdpt: &Bdpt, pc: &PassContext, pass: u32, film: &mut Film) ->
             }
         }
     }
-    film.set_aux(films);
     result
 }

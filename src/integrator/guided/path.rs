@@ -1,20 +1,19 @@
-//! The guided path tracer's samples: the `path` integrator's MIS estimator with
-//! directions drawn from a mixture of the BSDF and the learned distribution at
-//! non-specular vertices, and the radiance each such vertex receives recorded
-//! for the next iteration's distribution.
+//! The guided path tracer's samples: the camera-path estimator
+//! ([`crate::integrator::estimator`], `path`'s) under a policy that draws
+//! directions from a mixture of the BSDF and the learned distribution at
+//! non-specular vertices, judges roulette its own way and records the radiance
+//! each such vertex receives for the next iteration's distribution.
 
 use super::quadtree::{sphere_to_square, square_to_sphere, DTree};
 use super::sdtree::SdTree;
 use crate::geometry::{Ray, RayDifferential};
-use crate::integrator::{shadow_ray, spawn_ray, RayCounts};
+use crate::integrator::estimator::{trace, PathProfile, PathState, Policy};
+use crate::integrator::RayCounts;
+use crate::light::LightSample;
 use crate::material::{Bsdf, BsdfSample};
 use crate::math::{Vec2, Vec3, PI};
 use crate::sampler::PixelSampler;
-use crate::sampling::power_heuristic;
-use crate::scene::Scene;
-
-/// Segment from which Russian roulette may end paths (as `path`).
-const RR_DEPTH: u32 = 5;
+use crate::scene::{Interaction, Scene};
 
 /// Sampling at a vertex: the BSDF alone (`guide` None, or a specular BSDF), or
 /// with probability `bsdf_fraction` the BSDF and otherwise the learned tree.
@@ -208,7 +207,7 @@ impl Guiding<'_> {
     pub fn li(
         &self,
         scene: &Scene,
-        mut ray: Ray,
+        ray: Ray,
         diff: Option<RayDifferential>,
         sampler: &mut PixelSampler,
         counts: &mut RayCounts,
@@ -216,191 +215,205 @@ impl Guiding<'_> {
     ) -> Vec3 {
         let Scratch { records, verts } = scratch;
         verts.clear();
-        let mode = scene.light_sampling;
-        let mut l = Vec3::ZERO;
-        let mut beta = Vec3::ONE;
-        let mut eta_scale = 1.0f32;
-        // roulette's view of the throughput: β as if the guided vertices had
-        // sampled their BSDFs (see `Guiding::li`)
-        let mut rr_scale = 1.0f32;
-        let (mut after_delta, mut mix_pdf, mut prev_p) = (true, 0.0f32, ray.o);
-        let mut segment = 1u32;
-        loop {
-            counts.rays += 1;
-            let Some(hit) = scene.intersect(&ray) else {
-                if let Some((env, sky)) = scene.environment_light() {
-                    // the direction's texture coordinates once, for radiance and pdf
-                    let (uv, sin_theta) = sky.direction_coords(ray.d);
-                    let le = sky.radiance_at(uv);
-                    if le != Vec3::ZERO {
-                        let w = if after_delta {
-                            1.0
-                        } else {
-                            let pl = scene.light_sampler.pmf(env as usize) * sky.pdf_at(uv, sin_theta, mode);
-                            power_heuristic(mix_pdf, pl)
-                        };
-                        add_emission(&mut l, verts, beta * le * w, !after_delta && !self.record_direct);
-                    }
-                }
-                break;
-            };
-            let mut it = scene.interaction(&ray, &hit);
-            if let (1, Some(d)) = (segment, &diff) {
-                it.compute_uv_derivatives(d);
-            }
-            if let Some((index, area)) = scene.area_light_of(&it) {
-                let le = area.emitted(it.ng, it.wo, it.uv);
-                if le != Vec3::ZERO {
-                    let w = if after_delta {
-                        1.0
-                    } else {
-                        let pl = scene.light_sampler.pmf(index as usize)
-                            * scene.lights[index as usize].pdf(prev_p, ray.d, Some((it.p, it.ng)), mode);
-                        power_heuristic(mix_pdf, pl)
-                    };
-                    add_emission(&mut l, verts, beta * le * w, !after_delta && !self.record_direct);
-                }
-            }
-            if segment >= self.max_depth {
-                break;
-            }
-            let Some(material) = scene.material_of(&it) else { break };
-            let bsdf = material.bsdf_at(&it, &scene.textures);
-            let delta = bsdf.is_delta();
-            let leaf = if delta { 0 } else { self.tree.leaf_of(it.p) };
-            let mixture = if delta {
-                Mixture {
-                    guide: None,
-                    bsdf_fraction: 1.0,
-                }
-            } else {
-                // training samples with the guide at `bsdf_fraction` (what it learns
-                // from its own samples sharpens it: trained by BSDF samples alone,
-                // the caustic leaf of caustic_cbox gave the sphere 54 % of its
-                // samples instead of 76 %); the final iteration with the leaf's choice
-                let fraction = if self.learn_fraction && !self.record {
-                    self.tree.leaves[leaf as usize].bsdf_fraction
-                } else {
-                    self.bsdf_fraction
-                };
-                Mixture {
-                    // BSDF sampling alone skips the guide
-                    guide: if fraction >= 1.0 { None } else { self.tree.guide(leaf) },
-                    bsdf_fraction: fraction,
-                }
-            };
-
-            if !delta && !scene.lights.is_empty() {
-                let (index, pmf, _) = scene.light_sampler.sample(sampler.next_1d());
-                let light = &scene.lights[index];
-                if let Some(ls) = light.sample(it.p, Vec2::from(sampler.next_2d()), mode) {
-                    let f = bsdf.eval(it.wo, ls.wi);
-                    let cos = it.ns.dot(ls.wi).abs();
-                    if f != Vec3::ZERO && ls.pdf > 0.0 && ls.radiance != Vec3::ZERO && pmf > 0.0 {
-                        counts.rays += 1;
-                        let tr = scene.transmittance(&shadow_ray(&it, &ls));
-                        if tr > 0.0 {
-                            let light_pdf = pmf * ls.pdf;
-                            let w = if ls.delta {
-                                1.0
-                            } else {
-                                power_heuristic(light_pdf, mixture.pdf(&bsdf, it.wo, ls.wi))
-                            };
-                            l += beta * f * ls.radiance * (cos * w / light_pdf) * tr;
-                            // a point light is no direction a guided sample can find
-                            if self.record && self.record_radiance && self.record_direct && !ls.delta {
-                                records.push(Record {
-                                    leaf,
-                                    cell: self.tree.record_cell(leaf, ls.wi),
-                                    value: mean(ls.radiance) * w / light_pdf * tr,
-                                    counted: false,
-                                    fq: 0.0,
-                                    q: 0.0,
-                                    pb: 0.0,
-                                    p: Vec2::ZERO,
-                                });
-                            }
-                        }
-                    }
-                }
-            }
-
-            let u_choice = sampler.next_1d();
-            let uc = sampler.next_1d();
-            let Some((bs, square)) = mixture.sample_on_square(&bsdf, it.wo, u_choice, Vec2::from(sampler.next_2d()), uc) else {
-                break;
-            };
-            beta *= bs.weight;
-            eta_scale *= bs.eta * bs.eta;
-            if let Some(g) = square {
-                if g.pb > 0.0 {
-                    rr_scale *= bs.pdf / g.pb;
-                }
-            }
-            if beta == Vec3::ZERO || !beta.is_finite() {
-                break;
-            }
-            if self.record && !bs.delta {
-                let p = square.map_or_else(|| sphere_to_square(bs.wi), |g| g.p);
-                verts.push(Vertex {
-                    leaf,
-                    cell: if self.record_radiance {
-                        self.tree.record_cell_at(leaf, p)
-                    } else {
-                        0
-                    },
-                    pdf: bs.pdf,
-                    beta,
-                    weight: bs.weight,
-                    // without the guide the sample is the BSDF's own
-                    pb: square.map_or(bs.pdf, |g| g.pb),
-                    p,
-                    l_before: l,
-                });
-            }
-            after_delta = bs.delta;
-            mix_pdf = bs.pdf;
-            prev_p = it.p;
-            if segment >= RR_DEPTH {
-                let q = if self.rr_threshold > 0.0 {
-                    (beta.max_element() * eta_scale * rr_scale / self.rr_threshold).min(1.0)
-                } else {
-                    1.0
-                };
-                if sampler.next_1d() >= q {
-                    break;
-                }
-                beta /= q;
-            }
-            ray = spawn_ray(&it, bs.wi);
-            segment += 1;
-        }
+        let mut walk = Walk {
+            guiding: self,
+            records,
+            verts,
+            rr_scale: 1.0,
+            square: None,
+            waiting_light: None,
+            vertex_made: false,
+        };
+        let l = trace(&mut walk, scene, PathState::new(ray), 1, diff.as_ref(), sampler, counts);
         if self.record {
-            for v in verts.iter() {
-                let c = l - v.l_before;
-                let arrived = Vec3::new(
-                    if v.beta.x > 0.0 { c.x / v.beta.x } else { 0.0 },
-                    if v.beta.y > 0.0 { c.y / v.beta.y } else { 0.0 },
-                    if v.beta.z > 0.0 { c.z / v.beta.z } else { 0.0 },
-                );
-                records.push(Record {
-                    leaf: v.leaf,
-                    cell: v.cell,
-                    // nothing to deposit (and no deposit to leave out of the fraction
-                    // choice) when the tree learns from elsewhere
-                    value: if self.record_radiance {
-                        mean(arrived).max(0.0) / v.pdf
-                    } else {
-                        0.0
-                    },
-                    counted: true,
-                    fq: mean(arrived * v.weight).max(0.0),
-                    q: v.pdf,
-                    pb: v.pb,
-                    p: v.p,
-                });
-            }
+            walk.record_arrivals(l);
         }
         l
+    }
+}
+
+/// `guided`'s policy along one camera path, with what it records.
+struct Walk<'g, 's> {
+    guiding: &'g Guiding<'g>,
+    records: &'s mut Vec<Record>,
+    verts: &'s mut Vec<Vertex>,
+    /// Roulette's view of the throughput: β as if the guided vertices had sampled
+    /// their BSDFs (see [`Guiding`]).
+    rr_scale: f32,
+    /// The last sample's point on the square and densities, when the guide took part.
+    square: Option<GuidedPoint>,
+    /// A light sample to record should its shadow ray get through: its leaf,
+    /// direction and value before the transmittance.
+    waiting_light: Option<(u32, Vec3, f32)>,
+    /// Whether this vertex made a waiting [`Vertex`] (its own direct light is then
+    /// no light arriving along its sampled direction).
+    vertex_made: bool,
+}
+
+/// A vertex's spatial leaf, sampling mixture and strategy choice.
+#[derive(Clone, Copy)]
+struct Plan<'a> {
+    leaf: u32,
+    mixture: Mixture<'a>,
+    u_choice: f32,
+}
+
+impl<'g> Policy for Walk<'g, '_> {
+    type Plan = Plan<'g>;
+
+    #[inline]
+    fn profile(&self) -> PathProfile {
+        PathProfile::Mis
+    }
+
+    #[inline]
+    fn max_depth(&self) -> u32 {
+        self.guiding.max_depth
+    }
+
+    fn plan(&mut self, it: &Interaction, bsdf: &Bsdf, sampler: &mut PixelSampler) -> Plan<'g> {
+        let g = self.guiding;
+        self.vertex_made = false;
+        let delta = bsdf.is_delta();
+        let leaf = if delta { 0 } else { g.tree.leaf_of(it.p) };
+        let mixture = if delta {
+            Mixture {
+                guide: None,
+                bsdf_fraction: 1.0,
+            }
+        } else {
+            // training samples with the guide at `bsdf_fraction` (what it learns
+            // from its own samples sharpens it: trained by BSDF samples alone,
+            // the caustic leaf of caustic_cbox gave the sphere 54 % of its
+            // samples instead of 76 %); the final iteration with the leaf's choice
+            let fraction = if g.learn_fraction && !g.record {
+                g.tree.leaves[leaf as usize].bsdf_fraction
+            } else {
+                g.bsdf_fraction
+            };
+            Mixture {
+                // BSDF sampling alone skips the guide
+                guide: if fraction >= 1.0 { None } else { g.tree.guide(leaf) },
+                bsdf_fraction: fraction,
+            }
+        };
+        Plan {
+            leaf,
+            mixture,
+            u_choice: sampler.next_1d(),
+        }
+    }
+
+    #[inline]
+    fn pdf(&self, plan: &Plan, bsdf: &Bsdf, wo: Vec3, wi: Vec3) -> f32 {
+        plan.mixture.pdf(bsdf, wo, wi)
+    }
+
+    fn sample(&mut self, plan: &Plan, bsdf: &Bsdf, wo: Vec3, u: Vec2, uc: f32) -> Option<BsdfSample> {
+        let (bs, square) = plan.mixture.sample_on_square(bsdf, wo, plan.u_choice, u, uc)?;
+        if let Some(g) = square {
+            if g.pb > 0.0 {
+                self.rr_scale *= bs.pdf / g.pb;
+            }
+        }
+        self.square = square;
+        Some(bs)
+    }
+
+    /// From the 5th segment on, survive with probability min(1, β'/`rr_threshold`)
+    /// (see [`Guiding`]).
+    #[inline]
+    fn survival(&self, beta: Vec3, eta_scale: f32) -> f32 {
+        let t = self.guiding.rr_threshold;
+        if t > 0.0 {
+            (beta.max_element() * eta_scale * self.rr_scale / t).min(1.0)
+        } else {
+            1.0
+        }
+    }
+
+    #[inline]
+    fn add_emission(&mut self, l: &mut Vec3, c: Vec3, after_delta: bool) {
+        add_emission(l, self.verts, c, !after_delta && !self.guiding.record_direct);
+    }
+
+    fn light_sampled(&mut self, plan: &Plan, ls: &LightSample, w: f32, light_pdf: f32) {
+        let g = self.guiding;
+        // a point light is no direction a guided sample can find
+        self.waiting_light =
+            (g.record && g.record_radiance && g.record_direct && !ls.delta).then(|| (plan.leaf, ls.wi, mean(ls.radiance) * w / light_pdf));
+    }
+
+    fn light_arrived(&mut self, c: Vec3, tr: f32) {
+        if self.vertex_made {
+            // the vertex's own direct light does not arrive along its sampled direction
+            if let Some(v) = self.verts.last_mut() {
+                v.l_before += c;
+            }
+        }
+        if let Some((leaf, wi, value)) = self.waiting_light.take() {
+            self.records.push(Record {
+                leaf,
+                cell: self.guiding.tree.record_cell(leaf, wi),
+                value: value * tr,
+                counted: false,
+                fq: 0.0,
+                q: 0.0,
+                pb: 0.0,
+                p: Vec2::ZERO,
+            });
+        }
+    }
+
+    fn scattered(&mut self, plan: &Plan, bs: &BsdfSample, beta: Vec3, l: Vec3) {
+        let g = self.guiding;
+        if !g.record || bs.delta {
+            return;
+        }
+        let square = self.square;
+        let p = square.map_or_else(|| sphere_to_square(bs.wi), |s| s.p);
+        self.verts.push(Vertex {
+            leaf: plan.leaf,
+            cell: if g.record_radiance {
+                g.tree.record_cell_at(plan.leaf, p)
+            } else {
+                0
+            },
+            pdf: bs.pdf,
+            beta,
+            weight: bs.weight,
+            // without the guide the sample is the BSDF's own
+            pb: square.map_or(bs.pdf, |s| s.pb),
+            p,
+            l_before: l,
+        });
+        self.vertex_made = true;
+    }
+}
+
+impl Walk<'_, '_> {
+    /// Records what arrived at each waiting vertex of a path whose estimate is `l`.
+    fn record_arrivals(&mut self, l: Vec3) {
+        let g = self.guiding;
+        for v in self.verts.iter() {
+            let c = l - v.l_before;
+            let arrived = Vec3::new(
+                if v.beta.x > 0.0 { c.x / v.beta.x } else { 0.0 },
+                if v.beta.y > 0.0 { c.y / v.beta.y } else { 0.0 },
+                if v.beta.z > 0.0 { c.z / v.beta.z } else { 0.0 },
+            );
+            self.records.push(Record {
+                leaf: v.leaf,
+                cell: v.cell,
+                // nothing to deposit (and no deposit to leave out of the fraction
+                // choice) when the tree learns from elsewhere
+                value: if g.record_radiance { mean(arrived).max(0.0) / v.pdf } else { 0.0 },
+                counted: true,
+                fq: mean(arrived * v.weight).max(0.0),
+                q: v.pdf,
+                pb: v.pb,
+                p: v.p,
+            });
+        }
     }
 }

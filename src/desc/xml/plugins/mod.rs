@@ -6,7 +6,7 @@
 //!
 //! Anything else is an error naming the plugin and what is supported. Colours are
 //! `<rgb>`, `<spectrum>` (a constant or wavelength:value pairs, see
-//! [`values::spectrum_to_rgb`]) or numbers.
+//! [`values::spectrum_to_rgb`] and `docs/src/mitsuba/spectra.md`) or numbers.
 //!
 //! Texture coordinates: rdr's images put `v = 0` at the bottom row; Mitsuba's bitmap at
 //! the top and its OBJ reader flips `v` (`flip_tex_coords`), so an OBJ's coordinates

@@ -69,14 +69,15 @@ pub fn scene(root: &Element, file: &Path) -> Result<SceneDesc> {
     if let Some((_, second)) = integrators.get(1) {
         return Err(second.error("more than one <integrator>"));
     }
-    let (integrator, max_depth_note) = match integrators.first() {
-        Some((el, _)) => r.integrator(el)?,
+    let (integrator, max_depth_note, aovs) = match integrators.first() {
+        Some((el, _)) => r.outer_integrator(el)?,
         None => (
             Integrator::Path(PathTracer {
                 max_depth: MAX_DEPTH,
                 profile: PathProfile::Mis,
                 rr_threshold: 0.1,
             }),
+            None,
             None,
         ),
     };
@@ -269,6 +270,7 @@ pub fn scene(root: &Element, file: &Path) -> Result<SceneDesc> {
             point_lights,
             delta_lights,
             light_sampling: crate::light::LightSampling::Importance,
+            aovs,
         },
         film,
         camera,

@@ -18,10 +18,13 @@ fn rdr_aov(mitsuba_type: &str) -> Option<&'static str> {
     }
 }
 
+/// An integrator, a warning about its depth (where, what) and an `--aov` list.
+type Outer<'a> = (Integrator, Option<(&'a Element, String)>, Option<String>);
+
 impl<'a> Reader<'a> {
     /// The scene's integrator: Mitsuba's `aov` (`aovs` = "name:type, …" around the
     /// integrator that renders) gives its nested integrator and an `--aov` list.
-    pub(super) fn outer_integrator(&self, el: &'a Element) -> Result<(Integrator, Option<(&'a Element, String)>, Option<String>)> {
+    pub(super) fn outer_integrator(&self, el: &'a Element) -> Result<Outer<'a>> {
         if el.attr("type") != Some("aov") {
             let (integrator, note) = self.integrator(el)?;
             return Ok((integrator, note, None));

@@ -137,12 +137,16 @@ pub fn render(
         }
     }
     let shard = flow.shard.as_deref().map(parse_shard).transpose()?;
-    let aov = match &flow.aov {
+    if let Some(text) = &flow.aov {
+        rdr::integrator::aov::AovSet::parse(text).map_err(|e| anyhow::anyhow!("--aov '{}': {e}", sanitize(text)))?;
+    }
+    setup_threads(args.threads)?;
+    let (Loaded { scene, mut job }, desc) = load_desc(args, quiet)?;
+    // --aov, else the layers the scene asks for (Mitsuba's `aov` integrator)
+    let aov = match flow.aov.as_ref().or(desc.integrator.aovs.as_ref()) {
         Some(text) => rdr::integrator::aov::AovSet::parse(text).map_err(|e| anyhow::anyhow!("--aov '{}': {e}", sanitize(text)))?,
         None => rdr::integrator::aov::AovSet::default(),
     };
-    setup_threads(args.threads)?;
-    let (Loaded { scene, mut job }, desc) = load_desc(args, quiet)?;
     job.time_limit = time_limit;
     let output = output.unwrap_or_else(|| default_output(&args.scene));
     let is_png = output.extension().is_some_and(|e| e.eq_ignore_ascii_case("png"));

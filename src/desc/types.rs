@@ -146,6 +146,9 @@ pub struct IntegratorDesc {
     /// Spot and directional lights ([`crate::light::Light::Spot`], `Directional`).
     pub delta_lights: Vec<DeltaLightDesc>,
     pub light_sampling: crate::light::LightSampling,
+    /// Feature buffers the scene asks for (Mitsuba's `aov` integrator), as an `--aov`
+    /// list; the command line's `--aov` replaces it.
+    pub aovs: Option<String>,
 }
 
 /// A spot or directional light, as it renders, and where it was given.

@@ -253,6 +253,7 @@ pub(super) fn parse_integrator(p: &Props) -> Result<IntegratorDesc> {
         point_lights,
         delta_lights,
         light_sampling,
+        aovs: None,
     })
 }
 

@@ -18,6 +18,7 @@
 //! </scene>
 //! ```
 
+mod cie_table;
 pub mod dict;
 pub mod document;
 pub mod plugins;

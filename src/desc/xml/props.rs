@@ -4,7 +4,7 @@
 //! and column.
 
 use super::document::Element;
-use super::values::{self, SpectrumValue};
+use super::values::{self, SpectrumRole, SpectrumValue};
 use crate::error::{Result, SceneError};
 use crate::math::{Mat4, Vec3};
 use std::cell::RefCell;
@@ -232,11 +232,13 @@ impl<'a> Plugin<'a> {
             "point" => Value::Point(xyz(0.0)?),
             "vector" => Value::Vector(xyz(0.0)?),
             "rgb" => Value::Rgb(values::numbers(value_attr()?, 3, true).map(|n| values::vec3(&n)).map_err(bad)?),
+            "spectrum" if c.attr("type").is_some() => Value::Spectrum(self.typed_spectrum(c, &name)?),
             "spectrum" => {
                 if c.attr("filename").is_some() {
                     return Err(bad("spectra read from files are not supported (give wavelength:value pairs)".into()));
                 }
-                let s = values::spectrum(value_attr()?).map_err(bad)?;
+                let role = SpectrumRole::of(&name, self.el.tag == "emitter");
+                let s = values::spectrum(value_attr()?, role).map_err(bad)?;
                 if let SpectrumValue::Rgb(_) = s {
                     if !c.legacy {
                         return Err(bad("three values are not a spectrum (use <rgb>, or wavelength:value pairs)".into()));
@@ -253,7 +255,7 @@ impl<'a> Plugin<'a> {
             _ => return Err(c.error(format!("unsupported XML element <{tag}>"))),
         };
         if let Some(e) = c.children.first() {
-            if tag != "transform" {
+            if tag != "transform" && tag != "spectrum" {
                 return Err(e.error(format!("<{}> cannot be a child of a property", e.tag)));
             }
         }
@@ -263,6 +265,38 @@ impl<'a> Plugin<'a> {
         self.value_index.insert(name.clone(), self.values.len());
         self.values.push((name, value, c));
         Ok(())
+    }
+
+    /// `<spectrum type="blackbody" name="…">` with its `temperature` (K) and optional
+    /// `wavelength_min`/`wavelength_max` (nm), converted as a `wavelength:value` list would be.
+    fn typed_spectrum(&self, c: &Element, name: &str) -> Result<SpectrumValue> {
+        let ty = c.attr("type").unwrap_or_default();
+        if ty != "blackbody" {
+            return Err(c.error(format!(
+                "<spectrum type=\"{ty}\" name=\"{name}\">: unsupported spectrum type (rdr reads \"blackbody\")"
+            )));
+        }
+        let (mut kelvin, mut range) = (None, (360.0, 830.0));
+        for p in &c.children {
+            let (Some(n), Some(v)) = (p.attr("name"), p.attr("value")) else {
+                return Err(p.error(format!("<{}> in <spectrum type=\"blackbody\"> needs \"name\" and \"value\"", p.tag)));
+            };
+            let x = values::number(v).map_err(|e| p.error(format!("<{} name=\"{n}\">: {e}", p.tag)))?;
+            match n {
+                "temperature" => kelvin = Some(x),
+                "wavelength_min" => range.0 = x,
+                "wavelength_max" => range.1 = x,
+                _ => return Err(p.error(format!("unknown property \"{n}\" of <spectrum type=\"blackbody\">"))),
+            }
+        }
+        let kelvin = kelvin.ok_or_else(|| c.error(format!("<spectrum type=\"blackbody\" name=\"{name}\">: needs a \"temperature\"")))?;
+        if kelvin <= 0.0 || !(range.0 > 0.0 && range.0 < range.1 && range.1 <= 1e5) {
+            return Err(c.error(format!(
+                "<spectrum type=\"blackbody\" name=\"{name}\">: needs temperature > 0 and 0 < wavelength_min < wavelength_max"
+            )));
+        }
+        let role = SpectrumRole::of(name, self.el.tag == "emitter");
+        Ok(SpectrumValue::Converted(values::blackbody_rgb(kelvin, range, role)))
     }
 
     fn get(&self, name: &str) -> Option<&(String, Value, &'a Element)> {
@@ -482,7 +516,7 @@ fn colour_of(v: &Value) -> Option<Vec3> {
         Value::Float(x) => Some(Vec3::splat(*x as f32)),
         Value::Integer(x) => Some(Vec3::splat(*x as f32)),
         Value::Spectrum(SpectrumValue::Constant(x)) => Some(Vec3::splat(*x)),
-        Value::Spectrum(SpectrumValue::Rgb(c) | SpectrumValue::Sampled(c)) => Some(*c),
+        Value::Spectrum(SpectrumValue::Rgb(c) | SpectrumValue::Converted(c)) => Some(*c),
         _ => None,
     }
 }

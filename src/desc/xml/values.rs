@@ -3,6 +3,7 @@
 //! refraction and conductors, transforms, and the camelCase → snake_case rule of
 //! Mitsuba's upgrade of pre-2.0 files.
 
+use super::cie_table::{CIE_5NM, CIE_Y_NORMALIZATION};
 use crate::math::{Mat4, Vec3, Vec4};
 
 /// Splits a value list at commas and whitespace (Mitsuba accepts either).
@@ -156,18 +157,40 @@ pub fn row_major(m: &Mat4) -> [f32; 16] {
 // Spectra
 // ---------------------------------------------------------------------------
 
-/// CIE 1931 2° colour matching functions, the multi-lobe fit of Wyman, Sloan and
-/// Shirley, "Simple Analytic Approximations to the CIE XYZ Color Matching Functions"
-/// (JCGT 2(2), 2013), within about 1 % of the tabulated curves.
-fn cie_xyz(lambda: f64) -> [f64; 3] {
-    let g = |x: f64, mu: f64, s1: f64, s2: f64| {
-        let t = (x - mu) / if x < mu { s1 } else { s2 };
-        (-0.5 * t * t).exp()
-    };
-    let x = 1.056 * g(lambda, 599.8, 37.9, 31.0) + 0.362 * g(lambda, 442.0, 16.0, 26.7) - 0.065 * g(lambda, 501.1, 20.4, 26.2);
-    let y = 0.821 * g(lambda, 568.8, 46.9, 40.5) + 0.286 * g(lambda, 530.9, 16.3, 31.1);
-    let z = 1.217 * g(lambda, 437.0, 11.8, 36.0) + 0.681 * g(lambda, 459.0, 26.0, 13.8);
-    [x, y, z]
+/// How Mitsuba's RGB variants turn a spectrum into RGB, which depends on where it is
+/// (see `docs/src/mitsuba/spectra.md`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SpectrumRole {
+    /// A reflectance (or any value outside an emitter): weighted by D65, clamped to [0, 1].
+    Reflectance,
+    /// A property of an `<emitter>` itself: equal-energy, unbounded.
+    Emission,
+    /// `eta`, `k`, `int_ior`, `ext_ior`, `sigma_t` outside emitters: weighted by D65, unbounded.
+    Unbounded,
+}
+
+impl SpectrumRole {
+    /// Mitsuba's rule: the property's name and whether its plugin is an emitter decide.
+    pub fn of(name: &str, in_emitter: bool) -> SpectrumRole {
+        let unbounded = matches!(name, "eta" | "k" | "int_ior" | "ext_ior" | "sigma_t");
+        match (in_emitter, unbounded) {
+            (true, false) => SpectrumRole::Emission,
+            (_, true) => SpectrumRole::Unbounded,
+            (false, false) => SpectrumRole::Reflectance,
+        }
+    }
+}
+
+/// The CIE table row (x̄, ȳ, z̄, D65) at `lambda` nm, interpolated linearly (zero outside).
+fn cie_at(lambda: f64) -> [f64; 4] {
+    let t = (lambda - 360.0) / 5.0;
+    let n = CIE_5NM.len();
+    if !(0.0..=(n - 1) as f64).contains(&t) {
+        return [0.0; 4];
+    }
+    let i = (t.floor() as usize).min(n - 2);
+    let f = t - i as f64;
+    std::array::from_fn(|c| CIE_5NM[i][c] * (1.0 - f) + CIE_5NM[i + 1][c] * f)
 }
 
 /// Linear sRGB (Rec. 709 primaries, D65 white) from CIE XYZ.
@@ -179,30 +202,59 @@ fn xyz_to_srgb([x, y, z]: [f64; 3]) -> [f64; 3] {
     ]
 }
 
+/// Equal-energy light of radiance 1 in linear sRGB: a constant emission spectrum.
+pub fn equal_energy_rgb() -> Vec3 {
+    let c = xyz_to_srgb([1.0; 3]);
+    Vec3::new(c[0] as f32, c[1] as f32, c[2] as f32)
+}
+
 /// The RGB of a spectrum given as `(wavelength nm, value)` pairs (increasing
 /// wavelengths), as Mitsuba's RGB variants compute it: the piecewise-linear spectrum
-/// integrated against the colour matching functions over 360–830 nm (zero outside the
-/// given range), normalised so that a constant 1 has Y = 1, converted to linear sRGB,
-/// negative components clamped to 0.
-pub fn spectrum_to_rgb(pairs: &[(f64, f64)]) -> Vec3 {
+/// (zero outside the given range) integrated against the CIE 1931 curves over 360–830 nm
+/// at 1,000 points, weighted by D65 unless it is an emission, normalised so that a
+/// constant 1 has Y = 1, converted to linear sRGB; negative components become 0, and a
+/// reflectance is clamped to at most 1.
+pub fn spectrum_to_rgb(pairs: &[(f64, f64)], role: SpectrumRole) -> Vec3 {
     const STEPS: usize = 1000;
     let (lo, hi) = (360.0, 830.0);
-    let (mut xyz, mut y_norm) = ([0.0f64; 3], 0.0f64);
+    let (first, last) = (pairs[0].0, pairs[pairs.len() - 1].0);
+    let mut xyz = [0.0f64; 3];
     for i in 0..STEPS {
         let w = lo + (hi - lo) * i as f64 / (STEPS - 1) as f64;
-        let cmf = cie_xyz(w);
-        y_norm += cmf[1];
-        let Some(k) = pairs.windows(2).position(|p| p[0].0 <= w && w <= p[1].0) else {
+        if w < first || w > last {
             continue;
-        };
+        }
+        let k = pairs.partition_point(|p| p.0 <= w).clamp(1, pairs.len() - 1) - 1;
         let ((w0, v0), (w1, v1)) = (pairs[k], pairs[k + 1]);
-        let v = if w1 > w0 { v0 + (v1 - v0) * (w - w0) / (w1 - w0) } else { v0 };
+        let v = v0 + (v1 - v0) * (w - w0) / (w1 - w0);
+        let cie = cie_at(w);
+        let weight = if role == SpectrumRole::Emission { 1.0 } else { cie[3] };
         for c in 0..3 {
-            xyz[c] += cmf[c] * v;
+            xyz[c] += cie[c] * v * weight;
         }
     }
-    let rgb = xyz_to_srgb(xyz.map(|c| c / y_norm));
-    Vec3::new(rgb[0].max(0.0) as f32, rgb[1].max(0.0) as f32, rgb[2].max(0.0) as f32)
+    let rgb = xyz_to_srgb(xyz.map(|c| c * CIE_Y_NORMALIZATION * (hi - lo) / STEPS as f64));
+    let top = if role == SpectrumRole::Reflectance { 1.0 } else { f64::INFINITY };
+    Vec3::from_array(rgb.map(|c| c.clamp(0.0, top) as f32))
+}
+
+/// Planck's law: the spectral radiance of a black body at `kelvin`, in W/(m²·sr·nm).
+pub fn planck(lambda_nm: f64, kelvin: f64) -> f64 {
+    const C: f64 = 299_792_458.0;
+    const H: f64 = 6.626_070_15e-34;
+    const K: f64 = 1.380_649e-23;
+    let l = lambda_nm * 1e-9;
+    2.0 * H * C * C / l.powi(5) / ((H * C / (l * K * kelvin)).exp() - 1.0) * 1e-9
+}
+
+/// A `blackbody` spectrum at `kelvin` between two wavelengths, converted as `role` says.
+pub fn blackbody_rgb(kelvin: f64, range: (f64, f64), role: SpectrumRole) -> Vec3 {
+    let n = ((range.1 - range.0).ceil() as usize).max(1);
+    let pairs: Vec<(f64, f64)> = (0..=n)
+        .map(|i| range.0 + (range.1 - range.0) * i as f64 / n as f64)
+        .map(|w| (w, planck(w, kelvin)))
+        .collect();
+    spectrum_to_rgb(&pairs, role)
 }
 
 /// What a `<spectrum value="…">` says.
@@ -212,11 +264,12 @@ pub enum SpectrumValue {
     Constant(f32),
     /// Three numbers, which the 0.6 dialect read as RGB.
     Rgb(Vec3),
-    /// `wavelength:value` pairs, converted to RGB.
-    Sampled(Vec3),
+    /// A spectrum converted to RGB by Mitsuba's rule ([`SpectrumRole`]).
+    Converted(Vec3),
 }
 
-pub fn spectrum(s: &str) -> Result<SpectrumValue, String> {
+/// A `<spectrum value="…">` as Mitsuba's RGB variants read it in `role`.
+pub fn spectrum(s: &str, role: SpectrumRole) -> Result<SpectrumValue, String> {
     let t = tokens(s);
     if t.iter().any(|x| x.contains(':')) {
         let mut pairs = Vec::with_capacity(t.len());
@@ -229,9 +282,10 @@ pub fn spectrum(s: &str) -> Result<SpectrumValue, String> {
         if pairs.len() < 2 || pairs.windows(2).any(|p| p[1].0 <= p[0].0) {
             return Err("a sampled spectrum needs at least two wavelengths in increasing order".into());
         }
-        return Ok(SpectrumValue::Sampled(spectrum_to_rgb(&pairs)));
+        return Ok(SpectrumValue::Converted(spectrum_to_rgb(&pairs, role)));
     }
     match t.len() {
+        1 if role == SpectrumRole::Emission => Ok(SpectrumValue::Converted(number(t[0])? as f32 * equal_energy_rgb())),
         1 => Ok(SpectrumValue::Constant(number(t[0])? as f32)),
         3 => Ok(SpectrumValue::Rgb(vec3(&numbers(s, 3, false)?))),
         n => Err(format!("expected one value or wavelength:value pairs, found {n} values")),
@@ -416,20 +470,27 @@ mod tests {
 
     #[test]
     fn spectra() {
-        assert_eq!(spectrum("0.5").unwrap(), SpectrumValue::Constant(0.5));
-        assert!(matches!(spectrum("0.1, 0.2, 0.3").unwrap(), SpectrumValue::Rgb(_)));
-        // an equal-energy spectrum is nearly white (illuminant E in sRGB is slightly pink)
-        let SpectrumValue::Sampled(e) = spectrum("360:1, 830:1").unwrap() else {
+        use SpectrumRole::*;
+        assert_eq!(spectrum("0.5", Reflectance).unwrap(), SpectrumValue::Constant(0.5));
+        assert!(matches!(spectrum("0.1, 0.2, 0.3", Reflectance).unwrap(), SpectrumValue::Rgb(_)));
+        // a flat reflectance stays grey (D65 is sRGB's white); flat light is pink in sRGB
+        let SpectrumValue::Converted(grey) = spectrum("360:0.5, 830:0.5", Reflectance).unwrap() else {
             panic!()
         };
-        assert!((e - Vec3::ONE).abs().max_element() < 0.25, "{e}");
-        assert!((0.2126 * e.x + 0.7152 * e.y + 0.0722 * e.z - 1.0).abs() < 0.01, "{e}");
+        assert!((grey - Vec3::splat(0.5)).abs().max_element() < 0.005, "{grey}");
+        let SpectrumValue::Converted(e) = spectrum("2", Emission).unwrap() else {
+            panic!()
+        };
+        assert!((e - 2.0 * equal_energy_rgb()).abs().max_element() < 1e-6 && e.x > 1.15 * e.z, "{e}");
         // a red-only spectrum is red
-        let SpectrumValue::Sampled(r) = spectrum("600:0, 620:1, 700:1, 720:0").unwrap() else {
+        let SpectrumValue::Converted(r) = spectrum("600:0, 620:1, 700:1, 720:0", Reflectance).unwrap() else {
             panic!()
         };
         assert!(r.x > 5.0 * r.y && r.z < 0.01, "{r}");
-        assert!(spectrum("500:1, 400:1").is_err());
+        assert!(spectrum("500:1, 400:1", Reflectance).is_err());
+        assert_eq!(SpectrumRole::of("eta", false), Unbounded);
+        assert_eq!(SpectrumRole::of("radiance", true), Emission);
+        assert_eq!(SpectrumRole::of("reflectance", false), Reflectance);
         assert_eq!(ior("bk7").unwrap(), 1.5046);
         assert_eq!(ior("1.33").unwrap(), 1.33);
         assert!(ior("unobtainium").unwrap_err().contains("bk7"));

@@ -7,7 +7,63 @@ use crate::desc::MAX_DEPTH;
 use crate::error::Result;
 use crate::integrator::{bdpt::Heuristic, Bdpt, Integrator, PathProfile, PathTracer, PhotonMapper, Ptracer, Sppm};
 
+/// Mitsuba's AOV types as rdr's `--aov` layers (`None`: rdr does not make that layer).
+fn rdr_aov(mitsuba_type: &str) -> Option<&'static str> {
+    match mitsuba_type {
+        "albedo" => Some("albedo"),
+        "depth" => Some("depth"),
+        "position" => Some("position"),
+        "sh_normal" | "geo_normal" => Some("normal"),
+        _ => None,
+    }
+}
+
+/// An integrator, a warning about its depth (where, what) and an `--aov` list.
+type Outer<'a> = (Integrator, Option<(&'a Element, String)>, Option<String>);
+
 impl<'a> Reader<'a> {
+    /// The scene's integrator: Mitsuba's `aov` (`aovs` = "name:type, …" around the
+    /// integrator that renders) gives its nested integrator and an `--aov` list.
+    pub(super) fn outer_integrator(&self, el: &'a Element) -> Result<Outer<'a>> {
+        if el.attr("type") != Some("aov") {
+            let (integrator, note) = self.integrator(el)?;
+            return Ok((integrator, note, None));
+        }
+        let p = Plugin::new(el, self.ids)?;
+        let list = p.string("aovs", "")?;
+        let mut layers: Vec<&str> = Vec::new();
+        for item in list.split(',').map(str::trim).filter(|s| !s.is_empty()) {
+            let Some((name, ty)) = item.split_once(':') else {
+                return Err(p.value_error("aovs", format!("expected \"name:type\" entries, found \"{item}\"")));
+            };
+            match rdr_aov(ty.trim()) {
+                Some(layer) => {
+                    if ty.trim() == "geo_normal" {
+                        self.ids
+                            .warn(el, format!("AOV \"{item}\": rdr writes the shading normal (layer \"normal\")"));
+                    }
+                    if !layers.contains(&layer) {
+                        layers.push(layer);
+                    }
+                }
+                None => self.ids.warn(
+                    el,
+                    format!(
+                        "AOV \"{item}\" ({}) is not written: rdr makes albedo, normal, depth, position",
+                        name.trim()
+                    ),
+                ),
+            }
+        }
+        let inner = p.objects("integrator");
+        let [(inner, _)] = inner.as_slice() else {
+            return Err(p.error("<integrator type=\"aov\"> needs exactly one nested <integrator> (the one that renders)"));
+        };
+        p.finish(&["integrator"])?;
+        let (integrator, note) = self.integrator(inner)?;
+        Ok((integrator, note, (!layers.is_empty()).then(|| layers.join(","))))
+    }
+
     pub(super) fn integrator(&self, el: &'a Element) -> Result<(Integrator, Option<(&'a Element, String)>)> {
         let p = Plugin::new(el, self.ids)?;
         let mut note = None;

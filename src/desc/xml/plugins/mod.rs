@@ -6,7 +6,7 @@
 //!
 //! Anything else is an error naming the plugin and what is supported. Colours are
 //! `<rgb>`, `<spectrum>` (a constant or wavelength:value pairs, see
-//! [`values::spectrum_to_rgb`]) or numbers.
+//! [`values::spectrum_to_rgb`] and `docs/src/mitsuba/spectra.md`) or numbers.
 //!
 //! Texture coordinates: rdr's images put `v = 0` at the bottom row; Mitsuba's bitmap at
 //! the top and its OBJ reader flips `v` (`flip_tex_coords`), so an OBJ's coordinates
@@ -69,14 +69,15 @@ pub fn scene(root: &Element, file: &Path) -> Result<SceneDesc> {
     if let Some((_, second)) = integrators.get(1) {
         return Err(second.error("more than one <integrator>"));
     }
-    let (integrator, max_depth_note) = match integrators.first() {
-        Some((el, _)) => r.integrator(el)?,
+    let (integrator, max_depth_note, aovs) = match integrators.first() {
+        Some((el, _)) => r.outer_integrator(el)?,
         None => (
             Integrator::Path(PathTracer {
                 max_depth: MAX_DEPTH,
                 profile: PathProfile::Mis,
                 rr_threshold: 0.1,
             }),
+            None,
             None,
         ),
     };
@@ -270,6 +271,7 @@ pub fn scene(root: &Element, file: &Path) -> Result<SceneDesc> {
             point_lights,
             delta_lights,
             light_sampling: crate::light::LightSampling::Importance,
+            aovs,
         },
         film,
         camera,

@@ -504,6 +504,31 @@ fn check_exr_header(bytes: &[u8], name: &Path) -> Result<()> {
         .map_err(|e| anyhow::anyhow!("cannot read {}: {e}", name.display()))?;
     for h in meta.headers.iter() {
         let (w, ht) = (h.layer_size.width() as u64, h.layer_size.height() as u64);
+        // Decompressed, a chunk is at most so many times its stored bytes (deflate's limit
+        // is 1032:1, PIZ's run-length Huffman about 450:1, RLE 64:1, B44A 11:1): a header
+        // claiming more samples than the whole file could expand to lies, and is refused
+        // before the pixels it claims are allocated.
+        let ratio: u64 = if matches!(h.compression, exr::compression::Compression::Uncompressed) {
+            1
+        } else {
+            4096
+        };
+        let samples: u64 = h
+            .channels
+            .list
+            .iter()
+            .map(|c| {
+                let (sx, sy) = (c.sampling.x().max(1) as u64, c.sampling.y().max(1) as u64);
+                ((w / sx).saturating_mul(ht / sy)).saturating_mul(c.sample_type.bytes_per_sample() as u64)
+            })
+            .fold(w.saturating_mul(ht), u64::max);
+        if samples > (bytes.len() as u64).saturating_mul(ratio) {
+            bail!(
+                "cannot read {}: the header claims {w}x{ht} pixels, more than its {} bytes can hold",
+                name.display(),
+                bytes.len()
+            );
+        }
         let table = (h.chunk_count as u64).checked_mul(8);
         if table.is_none_or(|t| t > bytes.len() as u64) {
             bail!(
@@ -666,6 +691,17 @@ pub fn decode_texture_image_as(bytes: &[u8], path: &Path, raw: bool) -> Result<R
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn an_exr_claiming_more_pixels_than_its_bytes_hold_is_refused_before_allocating() {
+        // found by cargo-fuzz: 506 bytes whose second header claims 268 M pixels; decoding
+        // allocated 3.2 GB before failing on the missing data
+        let name = "fuzz/corpus/texture_image/exr-claims-268M-pixels";
+        let bytes = std::fs::read(Path::new(env!("CARGO_MANIFEST_DIR")).join(name)).unwrap();
+        // the fuzz target's first byte picks the format (0: EXR)
+        let e = crate::robustness::run("texture_image", &bytes).unwrap_err();
+        assert!(e.contains("pixels, more than its 505 bytes can hold"), "{e}");
+    }
 
     #[test]
     fn tinyexr_rounding_is_half_away_from_zero() {

@@ -8,7 +8,7 @@ mod common;
 use common::chi2::chi2_test as chi2;
 use common::*;
 use rdr::integrator::guided::{
-    learned_tree, pixel_variances, relative_variances, relative_variances_within, sphere_to_square, square_to_sphere, DTree, Mixture, Part,
+    pixel_variances, relative_variances, relative_variances_within, sphere_to_square, square_to_sphere, DTree, Mixture, Part,
 };
 use rdr::integrator::{Integrator, PassContext, PassState, StopToken};
 use rdr::material::{Bsdf, Material};
@@ -320,7 +320,7 @@ fn learned_distribution_in_caustic_cbox(shared: &Path, from: &str, sphere_factor
     let loaded = load_scene(&shared.join("refs/scenes/caustic_cbox.json"), &[o], Profile::Physical);
     let (light, sphere) = (0u32, 6u32); // objects[0] is the ceiling light, objects[6] the glass sphere
     let state = train(&loaded, 64);
-    let tree = learned_tree(&state).unwrap();
+    let tree = state.learned_tree().unwrap();
     let learned_at = |p: Vec3| {
         let t = tree.sampling_tree_at(p);
         hit_fractions(&loaded.scene, p, 100_000, |u| t.sample(u).map(|s| s.0), [light, sphere])
@@ -405,7 +405,7 @@ fn photon_guide_and_guided_roulette_cut_the_ceiling_variance_of_caustic_cbox() {
     let o = r#"{"integrator": {"type": "guided", "spatial_threshold": 500, "min_gain": 0, "learn_fraction": false}, "film": {"resolution": [128, 128]}}"#;
     let loaded = load_scene(&shared.join("refs/scenes/caustic_cbox.json"), &[o], Profile::Physical);
     let state = train(&loaded, 64);
-    let tree = learned_tree(&state).unwrap();
+    let tree = state.learned_tree().unwrap();
     let scene = &loaded.scene;
     let path = rdr::integrator::PathTracer {
         max_depth: 12,

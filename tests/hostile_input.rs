@@ -584,7 +584,7 @@ fn cases(dir: &Path) -> Vec<Case> {
         err(
             "scene named x.exr rendered without -o",
             os(&[&"render", &self_named]),
-            &[&"selfnamed.exr", &"scene file"],
+            &[&"selfnamed.exr", &"does not read an image as a scene"],
         ),
         err("-o the scene itself", render(&base, &base, &[]), &[&"base.json"]),
         // 5. hangs
@@ -807,7 +807,7 @@ fn cases(dir: &Path) -> Vec<Case> {
         c.push(err(
             "a FIFO as the scene",
             render(&fifo, &o("ff2"), &[]),
-            &[&"fifo.obj", &"not a regular file"],
+            &[&"fifo.obj", &"does not read a mesh as a scene"],
         ));
         c.push(err(
             "a FIFO in compare",

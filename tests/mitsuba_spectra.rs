@@ -82,6 +82,8 @@ fn rdr_colour(where_: &str, prop: &str) -> [f32; 3] {
     let colour = match where_ {
         "constant" => &v["textures"]["environment"]["color"],
         "area" => &v["objects"][0]["light"]["radiance"],
+        // a diffuse colour is written inline (`albedo`), other colours as textures
+        "bsdf" if v["materials"]["bsdf_1"].get("albedo").is_some() => &v["materials"]["bsdf_1"]["albedo"],
         "bsdf" => &v["textures"]["bsdf_1_color"]["color"],
         _ => &v["materials"]["bsdf_1"]["eta"],
     };

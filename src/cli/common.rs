@@ -61,7 +61,11 @@ pub fn load(args: &SceneArgs, quiet: bool) -> Result<Loaded> {
 /// [`load`], also returning the scene's description.
 pub fn load_desc(args: &SceneArgs, quiet: bool) -> Result<(Loaded, rdr::desc::SceneDesc)> {
     let mut desc = rdr::desc::SceneDesc::load_with_defines(&args.scene, &args.overrides, &args.defines).map_err(anyhow::Error::msg)?;
-    refuse_unknown(&desc, args.unknown)?;
+    // the course's format ignores keys it does not know (its own files carry some), and
+    // `--compat rdr171` keeps the course's rules
+    if profile(args) != Profile::Rdr171 {
+        refuse_unknown(&desc, args.unknown)?;
+    }
     if let Some((w, h)) = args.res {
         anyhow::ensure!((w as u64) * (h as u64) <= 1 << 28, "--res {w}x{h}: too large");
         (desc.film.width, desc.film.height) = (w, h);

@@ -24,6 +24,16 @@ pub enum PassState {
     Strategies(Option<StrategyFilms>),
 }
 
+impl PassState {
+    /// The SD-tree `guided` has learned so far (for tests and inspection).
+    pub fn learned_tree(&self) -> Option<&guided::SdTree> {
+        match self {
+            PassState::Guided(Some(s)) => Some(&s.tree),
+            _ => None,
+        }
+    }
+}
+
 /// An accessor of one variant's state, making the variant (empty) if the state
 /// is another's.
 macro_rules! slot {

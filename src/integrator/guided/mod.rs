@@ -337,11 +337,3 @@ impl Guided {
         Some(deposits)
     }
 }
-
-/// The SD-tree a render's state has learned (for tests and inspection).
-pub fn learned_tree(state: &crate::integrator::PassState) -> Option<&SdTree> {
-    match state {
-        crate::integrator::PassState::Guided(Some(s)) => Some(&s.tree),
-        _ => None,
-    }
-}

@@ -730,6 +730,33 @@ fn iteration_variances_from_image_differences_see_stratification() {
     assert!(!((a - 2.0).abs() < 0.2 && (b - 0.125).abs() < 0.04));
 }
 
+/// The cube [-1, 1]³ as an OBJ, each face two triangles facing inwards.
+fn inward_cube_obj() -> String {
+    let corner = |i: usize| {
+        Vec3::new(
+            if i & 1 == 1 { 1.0 } else { -1.0 },
+            if i & 2 == 2 { 1.0 } else { -1.0 },
+            if i & 4 == 4 { 1.0 } else { -1.0 },
+        )
+    };
+    let mut obj = String::new();
+    for i in 0..8 {
+        let c = corner(i);
+        obj += &format!("v {} {} {}\n", c.x, c.y, c.z);
+    }
+    // each face's four corners in cyclic order
+    let faces = [[0, 1, 3, 2], [4, 5, 7, 6], [0, 1, 5, 4], [2, 3, 7, 6], [0, 2, 6, 4], [1, 3, 7, 5]];
+    for f in faces {
+        for t in [[f[0], f[1], f[2]], [f[0], f[2], f[3]]] {
+            let (a, b, c) = (corner(t[0]), corner(t[1]), corner(t[2]));
+            let outward = (b - a).cross(c - a).dot(a + b + c) > 0.0;
+            let t = if outward { [t[0], t[2], t[1]] } else { t };
+            obj += &format!("f {} {} {}\n", t[0] + 1, t[1] + 1, t[2] + 1);
+        }
+    }
+    obj
+}
+
 /// A closed cube whose inside walls emit radiance 1 and reflect diffusely with albedo
 /// ρ = 0.5: every segment of a path finds emission 1 and the throughput falls by ρ
 /// per bounce, so a camera inside sees Σ_{k<D} ρ^k for `max_depth` D = 12, whatever
@@ -741,29 +768,7 @@ fn iteration_variances_from_image_differences_see_stratification() {
 #[test]
 fn guided_roulette_keeps_a_glowing_box_at_its_geometric_series() {
     let dir = tempfile::tempdir().unwrap();
-    let mut obj = String::new();
-    for corner in 0..8 {
-        let c = |bit: u32| if corner >> bit & 1 == 1 { 1.0 } else { -1.0 };
-        obj += &format!("v {} {} {}\n", c(0), c(1), c(2));
-    }
-    let corner = |i: usize| {
-        Vec3::new(
-            if i & 1 == 1 { 1.0 } else { -1.0 },
-            if i & 2 == 2 { 1.0 } else { -1.0 },
-            if i & 4 == 4 { 1.0 } else { -1.0 },
-        )
-    };
-    // each face's four corners in cyclic order, as two triangles facing inwards
-    let faces = [[0, 1, 3, 2], [4, 5, 7, 6], [0, 1, 5, 4], [2, 3, 7, 6], [0, 2, 6, 4], [1, 3, 7, 5]];
-    for f in faces {
-        for t in [[f[0], f[1], f[2]], [f[0], f[2], f[3]]] {
-            let (a, b, c) = (corner(t[0]), corner(t[1]), corner(t[2]));
-            let outward = (b - a).cross(c - a).dot(a + b + c) > 0.0;
-            let t = if outward { [t[0], t[2], t[1]] } else { t };
-            obj += &format!("f {} {} {}\n", t[0] + 1, t[1] + 1, t[2] + 1);
-        }
-    }
-    std::fs::write(dir.path().join("cube.obj"), obj).unwrap();
+    std::fs::write(dir.path().join("cube.obj"), inward_cube_obj()).unwrap();
     let (rho, depth) = (0.5f64, 12);
     let scene = serde_json::json!({
         "integrator": {"type": "guided", "spp": 64, "max_depth": depth, "min_gain": 0, "learn_fraction": false, "training_iterations": 3, "combine": "last"},
@@ -798,31 +803,9 @@ fn guided_roulette_keeps_a_glowing_box_at_its_geometric_series() {
 #[test]
 fn guided_mis_weights_the_light_samples_by_the_mixture_density() {
     let dir = tempfile::tempdir().unwrap();
-    let corner = |i: usize| {
-        Vec3::new(
-            if i & 1 == 1 { 1.0 } else { -1.0 },
-            if i & 2 == 2 { 1.0 } else { -1.0 },
-            if i & 4 == 4 { 1.0 } else { -1.0 },
-        )
-    };
-    // each face's four corners in cyclic order, as two triangles facing inwards
-    let mut walls = String::new();
-    for i in 0..8 {
-        let c = corner(i);
-        walls += &format!("v {} {} {}\n", c.x, c.y, c.z);
-    }
-    let faces = [[0, 1, 3, 2], [4, 5, 7, 6], [0, 1, 5, 4], [2, 3, 7, 6], [0, 2, 6, 4], [1, 3, 7, 5]];
-    for f in faces {
-        for t in [[f[0], f[1], f[2]], [f[0], f[2], f[3]]] {
-            let (a, b, c) = (corner(t[0]), corner(t[1]), corner(t[2]));
-            let outward = (b - a).cross(c - a).dot(a + b + c) > 0.0;
-            let t = if outward { [t[0], t[2], t[1]] } else { t };
-            walls += &format!("f {} {} {}\n", t[0] + 1, t[1] + 1, t[2] + 1);
-        }
-    }
     // a square light below the ceiling, facing down
     let light = "v -0.5 0.98 -0.5\nv 0.5 0.98 -0.5\nv 0.5 0.98 0.5\nv -0.5 0.98 0.5\nf 1 2 3\nf 1 3 4\n";
-    std::fs::write(dir.path().join("walls.obj"), walls).unwrap();
+    std::fs::write(dir.path().join("walls.obj"), inward_cube_obj()).unwrap();
     std::fs::write(dir.path().join("light.obj"), light).unwrap();
     let scene = serde_json::json!({
         "integrator": {"type": "guided", "spp": 64, "max_depth": 6, "min_gain": 0, "learn_fraction": false, "learn_direct": true,

@@ -420,14 +420,10 @@ impl<'a> Props<'a> {
             } else {
                 format!("{}: ", self.path)
             };
-            // the course's spec ignores "anything else", naming photon.json's top-level
-            // `lights` section: that one stays a warning, so the course's scenes load
-            if !(self.path.is_empty() && k == "lights") {
-                self.ctx
-                    .unknown
-                    .borrow_mut()
-                    .push(format!("{}: {at}unknown key '{k}'{hint}", self.ctx.file.display()));
-            }
+            self.ctx
+                .unknown
+                .borrow_mut()
+                .push(format!("{}: {at}unknown key '{k}'{hint}", self.ctx.file.display()));
             self.ctx.warn(&self.path, format!("unknown key '{k}' ignored{hint}"));
         }
     }

@@ -50,71 +50,97 @@ impl Interaction {
     /// `mesh` gives the mesh of a triangle's object (its vertex normals and uvs);
     /// `sphere_uv` the order of a sphere's uv; `uv` whether to compute the texture
     /// coordinates, their tangents and the mesh attributes (false: zero on triangles
-    /// and spheres, for scenes whose materials read none of them). Triangle points
-    /// are the barycentric interpolation `(b0·p0 + b1·p1) + b2·p2` (spec §14.2),
-    /// which is more accurate than `o + t·d`.
+    /// and spheres, for scenes whose materials read none of them).
     #[inline]
     pub fn of_hit<'m>(prim: &Prim, ray: &Ray, hit: &Hit, mesh: impl FnOnce(u32) -> &'m Mesh, sphere_uv: SphereUv, uv: bool) -> Interaction {
         let wo = -ray.d;
         match prim {
-            Prim::Triangle { p, object, index } if !uv => Interaction::on_triangle_plain(p, hit.b, mesh(*object), *index, *object, wo),
-            Prim::Triangle { p, object, index } => Interaction::on_triangle(p, hit.b, mesh(*object), *index, *object, wo),
-            Prim::Sphere { sphere, object } if !uv => Interaction::on_sphere_plain(sphere, ray.at(hit.t), *object, wo),
-            Prim::Sphere { sphere, object } => Interaction::on_sphere(sphere, ray.at(hit.t), sphere_uv, *object, wo),
+            Prim::Triangle { p, object, index } => Interaction::on_triangle(p, hit.b, mesh(*object), *index, *object, wo, uv),
+            Prim::Sphere { sphere, object } => Interaction::on_sphere(sphere, ray.at(hit.t), uv.then_some(sphere_uv), *object, wo),
             Prim::Cylinder { cylinder, object } => Interaction::on_cylinder(cylinder, ray.at(hit.t), *object, wo),
             Prim::Instance { .. } => unreachable!("an instance's hit is resolved in its group (Scene::interaction)"),
         }
     }
 
-    /// The point with barycentrics `b` on triangle `index` of `mesh` (vertices `p`).
-    pub fn on_triangle(p: &[Vec3; 3], b: [f32; 3], mesh: &Mesh, index: u32, object: u32, wo: Vec3) -> Interaction {
+    /// The point with barycentrics `b` on triangle `index` of `mesh` (vertices `p`):
+    /// `(b0·p0 + b1·p1) + b2·p2` (spec §14.2, more accurate than `o + t·d`). With `uv`
+    /// its texture coordinates, tangents and the mesh's colours; without, zero.
+    #[inline]
+    pub fn on_triangle(p: &[Vec3; 3], b: [f32; 3], mesh: &Mesh, index: u32, object: u32, wo: Vec3, uv: bool) -> Interaction {
         let (pos, ng, ns) = triangle_point(p, b, mesh, index);
+        let plain = Interaction::plain(pos, ng, ns, object, wo);
+        if uv {
+            plain.with_triangle_uv(p, b, mesh, index)
+        } else {
+            plain
+        }
+    }
+
+    /// The triangle point `self` (barycentrics `b`) with its texture coordinates,
+    /// tangents and the mesh's colours (out of line: the common point needs none).
+    fn with_triangle_uv(self, p: &[Vec3; 3], b: [f32; 3], mesh: &Mesh, index: u32) -> Interaction {
         let tri = &mesh.triangles[index as usize];
         let uvs = match tri.uv {
             Some(t) => t.map(|i| mesh.uvs[i as usize]),
             None => [Vec2::new(0.0, 0.0), Vec2::new(1.0, 0.0), Vec2::new(1.0, 1.0)],
         };
-        let uv = uvs[0] * b[0] + uvs[1] * b[1] + uvs[2] * b[2];
-        let (dpdu, dpdv) = triangle_dpduv(p, &uvs).unwrap_or_else(|| fallback_dpduv(ng));
+        let (dpdu, dpdv) = triangle_dpduv(p, &uvs).unwrap_or_else(|| fallback_dpduv(self.ng));
         let vertex_color = if mesh.vertex_colors.is_empty() {
             Vec3::ZERO
         } else {
             let c = tri.p.map(|i| mesh.vertex_colors[i as usize]);
             (c[0] * b[0] + c[1] * b[1]) + c[2] * b[2]
         };
-        let face_color = mesh.face_colors.get(index as usize).copied().unwrap_or(Vec3::ZERO);
         Interaction {
-            p: pos,
-            ng,
-            ns,
-            uv,
+            uv: uvs[0] * b[0] + uvs[1] * b[1] + uvs[2] * b[2],
             dpdu,
             dpdv,
-            duvdx: Vec2::ZERO,
-            duvdy: Vec2::ZERO,
-            wo,
-            object,
             vertex_color,
-            face_color,
+            face_color: mesh.face_colors.get(index as usize).copied().unwrap_or(Vec3::ZERO),
+            ..self
         }
     }
 
-    /// [`Interaction::on_triangle`] without texture coordinates, tangents and mesh
-    /// attributes (zero).
+    /// The point of `sphere` nearest `hit_point` (the ray at the hit distance). With
+    /// `uv` (their order) its texture coordinates and tangents; without, zero.
     #[inline]
-    pub fn on_triangle_plain(p: &[Vec3; 3], b: [f32; 3], mesh: &Mesh, index: u32, object: u32, wo: Vec3) -> Interaction {
-        let (pos, ng, ns) = triangle_point(p, b, mesh, index);
-        Interaction::plain(pos, ng, ns, object, wo)
-    }
-
-    /// [`Interaction::on_sphere`] without texture coordinates and tangents (zero).
-    #[inline]
-    pub fn on_sphere_plain(sphere: &Sphere, hit_point: Vec3, object: u32, wo: Vec3) -> Interaction {
+    pub fn on_sphere(sphere: &Sphere, hit_point: Vec3, uv: Option<SphereUv>, object: u32, wo: Vec3) -> Interaction {
         let (pos, n) = sphere.project(hit_point);
-        Interaction::plain(pos, n, n, object, wo)
+        let plain = Interaction::plain(pos, n, n, object, wo);
+        let Some(order) = uv else {
+            return plain;
+        };
+        let (mut uv, (mut dpdu, mut dpdv)) = sphere.uv_and_derivatives(n);
+        if order == SphereUv::ThetaPhi {
+            uv = Vec2::new(uv.y, uv.x);
+            std::mem::swap(&mut dpdu, &mut dpdv);
+        }
+        let c = dpdu.cross(dpdv);
+        if !(c.length_squared() > 0.0 && c.is_finite()) {
+            (dpdu, dpdv) = fallback_dpduv(n);
+        }
+        Interaction { uv, dpdu, dpdv, ..plain }
     }
 
-    #[inline]
+    /// The point of `cylinder` nearest `hit_point`; the normal points outwards (the
+    /// scene flips it for `flip_normals`). Texture coordinates are Mitsuba's
+    /// `(φ/2π, h)` ([`Cylinder::surface`]) in rdr's orientation, `(φ/2π, 1 − h)`: rdr's
+    /// `v` runs the other way from Mitsuba's (an OBJ's coordinates are used as they
+    /// are where Mitsuba flips them, and the XML reader rewrites `to_uv` for that), so
+    /// a texture shows on the cylinder as Mitsuba shows it. Always with them (cheap).
+    pub fn on_cylinder(cylinder: &Cylinder, hit_point: Vec3, object: u32, wo: Vec3) -> Interaction {
+        let (p, n, uv, dpdu, dpdv) = cylinder.surface(hit_point);
+        Interaction {
+            uv: Vec2::new(uv.x, 1.0 - uv.y),
+            dpdu,
+            dpdv: -dpdv,
+            ..Interaction::plain(p, n, n, object, wo)
+        }
+    }
+
+    /// A point without texture coordinates, tangents and mesh attributes (zero): what
+    /// every shape's constructor starts from.
+    #[inline(always)]
     fn plain(p: Vec3, ng: Vec3, ns: Vec3, object: u32, wo: Vec3) -> Interaction {
         Interaction {
             p,
@@ -123,62 +149,6 @@ impl Interaction {
             uv: Vec2::ZERO,
             dpdu: Vec3::ZERO,
             dpdv: Vec3::ZERO,
-            duvdx: Vec2::ZERO,
-            duvdy: Vec2::ZERO,
-            wo,
-            object,
-            vertex_color: Vec3::ZERO,
-            face_color: Vec3::ZERO,
-        }
-    }
-
-    /// The point of `sphere` nearest `hit_point` (the ray at the hit distance).
-    pub fn on_sphere(sphere: &Sphere, hit_point: Vec3, order: SphereUv, object: u32, wo: Vec3) -> Interaction {
-        let (pos, n) = sphere.project(hit_point);
-        let (mut uv, (mut dpdu, mut dpdv)) = sphere.uv_and_derivatives(n);
-        match order {
-            SphereUv::PhiTheta => {}
-            SphereUv::ThetaPhi => {
-                uv = Vec2::new(uv.y, uv.x);
-                std::mem::swap(&mut dpdu, &mut dpdv);
-            }
-        }
-        let c = dpdu.cross(dpdv);
-        if !(c.length_squared() > 0.0 && c.is_finite()) {
-            (dpdu, dpdv) = fallback_dpduv(n);
-        }
-        Interaction {
-            p: pos,
-            ng: n,
-            ns: n,
-            uv,
-            dpdu,
-            dpdv,
-            duvdx: Vec2::ZERO,
-            duvdy: Vec2::ZERO,
-            wo,
-            object,
-            vertex_color: Vec3::ZERO,
-            face_color: Vec3::ZERO,
-        }
-    }
-
-    /// The point of `cylinder` nearest `hit_point`; the normal points outwards (the
-    /// scene flips it for `flip_normals`). Texture coordinates are Mitsuba's
-    /// `(φ/2π, h)` ([`Cylinder::surface`]) in rdr's orientation, `(φ/2π, 1 − h)`: rdr's
-    /// `v` runs the other way from Mitsuba's (an OBJ's coordinates are used as they
-    /// are where Mitsuba flips them, and the XML reader rewrites `to_uv` for that), so
-    /// a texture shows on the cylinder as Mitsuba shows it.
-    pub fn on_cylinder(cylinder: &Cylinder, hit_point: Vec3, object: u32, wo: Vec3) -> Interaction {
-        let (p, n, uv, dpdu, dpdv) = cylinder.surface(hit_point);
-        let (uv, dpdv) = (Vec2::new(uv.x, 1.0 - uv.y), -dpdv);
-        Interaction {
-            p,
-            ng: n,
-            ns: n,
-            uv,
-            dpdu,
-            dpdv,
             duvdx: Vec2::ZERO,
             duvdy: Vec2::ZERO,
             wo,

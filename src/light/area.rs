@@ -133,7 +133,7 @@ impl AreaLight {
                     radius: *radius,
                     uv_frame: *uv_frame,
                 };
-                Interaction::on_sphere(&s, *center + n * *radius, SphereUv::PhiTheta, 0, n).uv
+                Interaction::on_sphere(&s, *center + n * *radius, Some(SphereUv::PhiTheta), 0, n).uv
             }
             Emitter::Cylinder { cylinder, .. } => Interaction::on_cylinder(cylinder, cylinder.at(u).0, 0, n).uv,
         }

@@ -306,7 +306,7 @@ impl Scene {
             // the common case in short: a triangle (of a mesh, so no cylinder's flip)
             // whose texture coordinates nothing reads
             Prim::Triangle { p, object, index } if !self.texture_coords => {
-                return Interaction::on_triangle_plain(p, hit.b, mesh(*object), *index, *object, -ray.d);
+                return Interaction::on_triangle(p, hit.b, mesh(*object), *index, *object, -ray.d, false);
             }
             Prim::Instance { instance, .. } => {
                 // made in the group's frame, then carried to the world

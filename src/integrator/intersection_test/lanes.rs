@@ -179,7 +179,7 @@ impl ShadingPoints {
 /// Lane `hit`'s surface when `surface` would find a diffuse triangle with nothing else
 /// to it: a mesh triangle without an area light, its material diffuse with a constant
 /// texture (the caller checks that the scene reads no texture coordinates and the ray
-/// has no differentials, so its point is `Interaction::on_triangle_plain`). Its
+/// has no differentials, so its point is `Interaction::on_triangle` without uv). Its
 /// vertices, vertex normals (if the mesh has them), albedo and two-sidedness.
 #[inline(always)]
 pub(super) fn plain_diffuse_triangle(scene: &Scene, prim: u32) -> Option<PlainTriangle<'_>> {
@@ -260,7 +260,7 @@ impl PlainHits {
         self.twosided[i] = t.twosided;
     }
 
-    /// `Interaction::on_triangle_plain` and `facing_normal` of the lanes in `mask`,
+    /// `Interaction::on_triangle` without uv and `facing_normal` of the lanes in `mask`,
     /// lane by lane with their operations in their order (`triangle_point`, glam's
     /// `cross`, `dot` and `length`), so the compiler can do the square roots and
     /// divisions of several lanes at once: the point, geometric and facing normal go
@@ -349,7 +349,7 @@ mod tests {
     use crate::geometry::obj::ObjTriangle;
     use crate::sampler::hash_u32;
 
-    /// `PlainHits::shade` against `Interaction::on_triangle_plain` and `facing_normal`,
+    /// `PlainHits::shade` against `Interaction::on_triangle` without uv and `facing_normal`,
     /// bit for bit, on random triangles seen from both sides: one- and two-sided,
     /// with and without vertex normals (some of them vanishing, some too long for a
     /// float), lanes left out.
@@ -392,7 +392,7 @@ mod tests {
                 };
                 let d = v(&mut k).normalize();
                 let twosided = (round + i) % 2 == 0;
-                let it = Interaction::on_triangle_plain(&p, b, &mesh, 0, 0, -d);
+                let it = Interaction::on_triangle(&p, b, &mesh, 0, 0, -d, false);
                 let t = PlainTriangle {
                     p: &p,
                     normals: normals.map(|_| [0, 1, 2]),

@@ -69,6 +69,18 @@ impl Frame {
         let (s, t) = coordinate_system(n);
         Frame { s, t, n }
     }
+    /// The frame around `n` whose first tangent is `tangent` made orthogonal to it
+    /// (Gram–Schmidt), as Mitsuba builds a shading frame from `∂p/∂u`; `t = n × s`.
+    /// [`Frame::from_normal`] where `tangent` is parallel to `n`.
+    pub fn with_tangent(n: Vec3, tangent: Vec3) -> Self {
+        let s = tangent - n * n.dot(tangent);
+        let l2 = s.length_squared();
+        if !(l2 > 0.0 && l2.is_finite()) {
+            return Frame::from_normal(n);
+        }
+        let s = s / l2.sqrt();
+        Frame { s, t: n.cross(s), n }
+    }
     #[inline]
     pub fn to_local(&self, v: Vec3) -> Vec3 {
         Vec3::new(v.dot(self.s), v.dot(self.t), v.dot(self.n))

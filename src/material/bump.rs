@@ -107,22 +107,31 @@ pub struct ShadingGeometry {
     pub wo: Vec3,
 }
 
-/// The shading frame the perturbation is relative to, as Mitsuba builds it: `n = ns`,
-/// the first tangent `∂p/∂u` made orthogonal to it (Gram–Schmidt), `t = n × s`; an
-/// arbitrary frame around `ns` where `∂p/∂u` is parallel to it.
-pub fn shading_frame(ns: Vec3, dpdu: Vec3) -> Frame {
-    let s = dpdu - ns * ns.dot(dpdu);
-    let l2 = s.length_squared();
-    if !(l2 > 0.0 && l2.is_finite()) {
-        return Frame::from_normal(ns);
-    }
-    let s = s / l2.sqrt();
-    Frame { s, t: ns.cross(s), n: ns }
+/// What a bump or normal map perturbs the shading normal with.
+#[derive(Clone, Copy, Debug)]
+pub enum Detail {
+    /// A bump map's height gradient in uv (already times `scale`).
+    Heights(glam::Vec2),
+    /// A normal map's texel (tangent space, `2c − 1` decoded).
+    Normal(Vec3),
+}
+
+/// The perturbed frame the wrapped material is evaluated in at `g`, and the
+/// [`Perturbation`] that goes with it: the perturbed normal relative to Mitsuba's
+/// shading frame at `g` ([`Frame::with_tangent`] of `ns` and `∂p/∂u`), flipped
+/// towards the viewer where `opts` asks for it (module docs).
+pub fn perturb(g: &ShadingGeometry, detail: Detail, opts: PerturbOptions) -> (Frame, Perturbation) {
+    let base = Frame::with_tangent(g.ns, g.dpdu);
+    let n = match detail {
+        Detail::Heights(grad) => bump_normal(g, &base, grad),
+        Detail::Normal(rgb) => decode_normal(rgb),
+    };
+    perturbed_frame(n, &base, base.to_local(g.wo), opts)
 }
 
 /// A bump map's perturbed normal (unnormalised, in `base`'s local coordinates) for the
 /// height gradient `grad` (already times `scale`).
-pub fn bump_normal(g: &ShadingGeometry, base: &Frame, grad: glam::Vec2) -> Vec3 {
+fn bump_normal(g: &ShadingGeometry, base: &Frame, grad: glam::Vec2) -> Vec3 {
     let n = g.ns;
     let dpdu = g.dpdu + n * (grad.x - n.dot(g.dpdu));
     let dpdv = g.dpdv + n * (grad.y - n.dot(g.dpdv));
@@ -135,14 +144,14 @@ pub fn bump_normal(g: &ShadingGeometry, base: &Frame, grad: glam::Vec2) -> Vec3 
 
 /// A normal map's perturbed normal from its texel `rgb`: `2·rgb − 1`.
 #[inline]
-pub fn decode_normal(rgb: Vec3) -> Vec3 {
+fn decode_normal(rgb: Vec3) -> Vec3 {
     rgb * 2.0 - Vec3::ONE
 }
 
 /// The perturbed frame in world space from the perturbed normal `n` (local to `base`,
 /// unnormalised) as seen from `wo_local` (local to `base`), and the
 /// [`Perturbation`] that goes with it.
-pub fn perturbed_frame(n: Vec3, base: &Frame, wo_local: Vec3, opts: PerturbOptions) -> (Frame, Perturbation) {
+fn perturbed_frame(n: Vec3, base: &Frame, wo_local: Vec3, opts: PerturbOptions) -> (Frame, Perturbation) {
     let mut n = n;
     if opts.flip_invalid_normals && wo_local.z * wo_local.dot(n) <= 0.0 {
         n = Vec3::new(-n.x, -n.y, n.z);

@@ -34,7 +34,7 @@ pub use sample::{BsdfSample, TransportMode};
 
 use crate::math::{Frame, Vec2, Vec3};
 use crate::texture::{TexCoord, Texture};
-use bump::{PerturbOptions, ShadingGeometry};
+use bump::{Detail, PerturbOptions, ShadingGeometry};
 use plastic::CoatingTables;
 pub use principled::PrincipledParams;
 pub use principledthin::PrincipledThinParams;
@@ -632,18 +632,14 @@ impl Material {
                 options,
                 ref inner,
             } => {
-                let base = bump::shading_frame(ns, g.dpdu);
-                let n = bump::bump_normal(g, &base, scale * lookup.gradient(height));
-                return perturbed(inner, g, lookup, base, n, options);
+                return perturbed(inner, g, lookup, Detail::Heights(scale * lookup.gradient(height)), options);
             }
             Material::NormalMap {
                 normals,
                 options,
                 ref inner,
             } => {
-                let base = bump::shading_frame(ns, g.dpdu);
-                let n = bump::decode_normal(lookup.eval_unfiltered(normals));
-                return perturbed(inner, g, lookup, base, n, options);
+                return perturbed(inner, g, lookup, Detail::Normal(lookup.eval_unfiltered(normals)), options);
             }
             Material::Mask { ref inner, .. } => return inner.bsdf_with(g, lookup),
             // Mitsuba's frame: the shading normal, whichever side the viewer is on
@@ -665,7 +661,7 @@ impl Material {
         // Mitsuba's tangent (∂p/∂u made orthogonal to the normal) where the lobes need
         // one; isotropic lobes keep the cheaper arbitrary frame (the same BSDF)
         let frame = if kind.is_anisotropic() {
-            bump::shading_frame(n, g.dpdu)
+            Frame::with_tangent(n, g.dpdu)
         } else {
             Frame::from_normal(n)
         };
@@ -677,9 +673,9 @@ impl Material {
     }
 }
 
-/// `inner`'s BSDF in the frame that the perturbed normal `n` (local to `base`) makes.
-fn perturbed<L: TextureLookup>(inner: &Material, g: &ShadingGeometry, lookup: &L, base: Frame, n: Vec3, options: PerturbOptions) -> Bsdf {
-    let (frame, p) = bump::perturbed_frame(n, &base, base.to_local(g.wo), options);
+/// `inner`'s BSDF in the frame a bump or normal map's `detail` makes at `g`.
+fn perturbed<L: TextureLookup>(inner: &Material, g: &ShadingGeometry, lookup: &L, detail: Detail, options: PerturbOptions) -> Bsdf {
+    let (frame, p) = bump::perturb(g, detail, options);
     let mut b = inner.bsdf_with(&ShadingGeometry { ns: frame.n, ..*g }, lookup);
     if b.frame.n == frame.n {
         b.frame = frame; // Mitsuba's tangent, for anisotropic materials

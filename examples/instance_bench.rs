@@ -1,4 +1,4 @@
-//! Build and traversal figures of the two-level BVH (README, "Instancing").
+//! Build and traversal figures of the two-level BVH (`docs/dev/acceleration.md`, "Instancing").
 //!
 //! `cargo run --release --example instance_bench -- MESH.obj [N]`: the mesh as one
 //! plain object, as one instance (the two-level path's overhead), as N instances on a

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# Embree 4 and rdr on identical rays, one thread, in alternating bursts (the README's
-# "Same rays as Embree" tables).
+# Embree 4 and rdr on identical rays, one thread, in alternating bursts (the manual's
+# docs/src/performance.md, "BVH build against Embree" and "Rays against Embree").
 #
 #   scripts/bvh-vs-embree.sh RAYDIR [BURSTS] [[LABEL=]RDR...]
 #

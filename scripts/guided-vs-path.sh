@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Equal-time comparison of `guided` and `path` (the README's guiding tables): for each scene,
+# Equal-time comparison of `guided` and `path` (the manual's docs/src/integrators.md): for each scene,
 # both render side by side, one thread each, for SECS seconds, then `rdr compare` gives the
 # relative MSE against the Mitsuba reference (cbox_path -> cbox, veach_path -> veach).
 #

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# Mitsuba 3 (LLVM) and rdr on the same reference scenes, side by side (the README's "Against
-# Mitsuba 3 (LLVM)" table): per scene and round, scripts/mitsuba_time.py, then `rdr bench`
+# Mitsuba 3 (LLVM) and rdr on the same reference scenes, side by side (the manual's
+# docs/src/performance.md, "Rendering against Mitsuba 3"): per scene and round, scripts/mitsuba_time.py, then `rdr bench`
 # (2 threads) under /usr/bin/time; best of ROUNDS (default 2) for each; ratio = rdr's samples
 # per CPU second over Mitsuba's (above 1: rdr faster). Mitsuba's CPU time is its process's
 # around `mi.render` (scene loaded, JIT warm); rdr's is given both ways: the render alone

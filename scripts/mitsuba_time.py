@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
-"""Mitsuba 3 timed on a reference scene, for side-by-side runs with `rdr bench` (the README's
-"Against Mitsuba 3 (LLVM)" table). An oracle run by hand, never by tests or CI.
+"""Mitsuba 3 timed on a reference scene, for side-by-side runs with `rdr bench` (the manual's
+docs/src/performance.md, "Rendering against Mitsuba 3"). An oracle run by hand, never by tests or CI.
 
 Setup (once): python3 -m venv /work/venv-mi && /work/venv-mi/bin/pip install mitsuba numpy;
 apt-get install libllvm19; export DRJIT_LIBLLVM_PATH=/usr/lib/x86_64-linux-gnu/libLLVM.so.19.1

@@ -6,8 +6,7 @@ cannot take its value from them (no store-to-load forwarding) and waits until th
 cache. With `perf record -e cpu-clock` (this VM has no hardware counters) the waiting load's
 samples land on the instruction after it, so a copy through the stack shows up as a hot
 instruction right after a `vmovups`/`movsd`/... load. This lists those, hottest first, for
-`perf annotate` and `objdump -d -l --start-address=...` to take apart (session 19's changes
-came from this list; see README, "Against Mitsuba 3", session 19).
+`perf annotate` and `objdump -d -l --start-address=...` to take apart.
 
 Usage:
     perf record -e cpu-clock -F 10000 -o perf.data target/release/rdr bench SCENE --spp 16 --threads 1

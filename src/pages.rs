@@ -16,7 +16,7 @@
 //! (a mesh file's bytes, the parsed mesh, the BVH builder's arrays) faults in 2 MiB at a
 //! time too. Embree does the same for its own large blocks (`os_malloc`: `MAP_HUGETLB`,
 //! else `madvise(MADV_HUGEPAGE)`). Where page faults are dear, as in this project's VMs,
-//! that takes a third off loading a large mesh (README, "Speed"). Where the kernel compacts
+//! that takes a third off loading a large mesh (`docs/dev/acceleration.md`). Where the kernel compacts
 //! memory for advised faults (`/sys/kernel/mm/transparent_hugepage/defrag` = `madvise`, the
 //! usual default), a badly fragmented machine may spend time there instead; Embree makes
 //! the same trade.

@@ -165,7 +165,7 @@ fn sppm_bias_shrinks_with_iterations() {
 }
 
 /// The `photon` integrator with course-like settings (100 000 photons per map,
-/// k = 64) on cbox: its bias, stated in the README.
+/// k = 64) on cbox: its bias (the manual calls `photon` biased, `docs/src/integrators.md`).
 #[test]
 fn photon_bias_on_cbox() {
     let Some(shared) = shared() else { return };

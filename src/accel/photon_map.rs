@@ -16,7 +16,7 @@
 //! operations, so the tree is identical for any thread count.
 //!
 //! Why a kd-tree and not a hashed grid: `examples/photon_map_bench.rs` measures
-//! both (numbers in the README). A grid whose cells equal the query radius wins
+//! both (`docs/dev/integrators/photon.md`, "The photon map"). A grid whose cells equal the query radius wins
 //! fixed-radius queries with many hits (16,384 points, r = 0.1: 2.5 µs against
 //! 9.3 µs) but loses with few (10⁶ points, r = 0.01: 3.8 µs against 2.3 µs), needs
 //! one radius for all queries, and has no k-NN; the photon integrators need k-NN

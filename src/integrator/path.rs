@@ -52,7 +52,7 @@ impl PathTracer {
     /// hits, are traced as one packet each (a packet query gives the single-ray
     /// answer; without masks a shadow ray's transmittance is 1 or 0); each path
     /// then goes on alone, as later segments' rays scatter and trace faster one at
-    /// a time (README, "Speed"). Under a sky the block's second segments are still
+    /// a time. Under a sky the block's second segments are still
     /// taken in step (their rays, one at a time, then each path's step), so that the
     /// sky's lookups overlap; stepping every segment so was slower elsewhere. Each
     /// path draws its numbers in `li`'s order and sums its terms in the same order.

@@ -444,6 +444,13 @@ pub fn differential_scale(spp: u32) -> f32 {
     (1.0 / (spp.max(1) as f32).sqrt()).max(0.125)
 }
 
+/// The tile of [`tile_grid`] that holds pixel `(x, y)`.
+pub fn tile_of(film: &FilmSettings, (x, y): (i32, i32)) -> (i32, i32, i32, i32) {
+    let b = film.block_size.max(1) as i32;
+    let (x0, y0) = (x / b * b, y / b * b);
+    (x0, y0, (x0 + b).min(film.width as i32), (y0 + b).min(film.height as i32))
+}
+
 /// Tiles of `block_size`² pixels in row order (film `y` up), clipped to the film.
 pub fn tile_grid(film: &FilmSettings) -> Vec<(i32, i32, i32, i32)> {
     let b = film.block_size.max(1) as i32;

@@ -8,11 +8,9 @@
 //! strategy contributed nothing), set when the images are made.
 
 use super::{ctx, Bdpt, Engine, Select};
-use crate::film::{AovTile, Film, FilmTile, Splats};
-use crate::integrator::pass::{differential_scale, lens_sample, tile_grid, PassContext, PassResult, RayCounts};
-use crate::math::{Vec2, Vec3};
-use crate::sampler::PixelSampler;
-use rayon::prelude::*;
+use crate::film::{Film, FilmTile, Splats};
+use crate::integrator::pass::{camera_pass_with, tile_of, PassContext, PassResult};
+use crate::math::Vec3;
 
 /// The strategies (s, t) of paths of 1 to `max_depth` segments that a `bdpt` image
 /// sums, by path length, then s: (0, 2), (0, 3), (1, 2), (2, 1), (0, 4), …
@@ -83,23 +81,16 @@ pub fn memory_bytes(max_depth: u32, width: u32, height: u32) -> Option<u64> {
     (strategy_list(max_depth).len() as u64).checked_mul(pixels.checked_mul(24 + 8 + 24 + 16)?)
 }
 
-/// What one tile of a pass made: the main film's tile and splats, each strategy's
-/// tile (only where it contributed) and splats.
-struct TileResult {
-    main: FilmTile,
-    splats: Splats,
-    strategy_tiles: Vec<Option<FilmTile>>,
-    strategy_splats: Vec<Splats>,
-    counts: RayCounts,
-    /// Feature sums (`--aov`), as [`camera_pass`](crate::integrator::camera_pass) keeps them.
-    aov: Option<AovTile>,
+/// A tile's share of the strategy images: each strategy's samples (a tile where it
+/// contributed) and splats.
+struct StrategyTiles {
+    tiles: Vec<Option<FilmTile>>,
+    splats: Vec<Splats>,
 }
 
-/// Pass `pass` of a `bdpt` render with `visualize_strategies`: as [`camera_pass`]
+/// Pass `pass` of a `bdpt` render with `visualize_strategies`: [`camera_pass_with`]
 /// with `bdpt`'s sample (the main film gets the same additions in the same order),
 /// and every strategy's contribution added to its own film too.
-///
-/// [`camera_pass`]: crate::integrator::camera_pass
 pub fn render_pass(bdpt: &Bdpt, pc: &PassContext, pass: u32, film: &mut Film, state: &mut Option<StrategyFilms>) -> PassResult {
     let films = state.get_or_insert_with(|| StrategyFilms::new(bdpt.max_depth, film));
     let e = Engine {
@@ -110,93 +101,46 @@ pub fn render_pass(bdpt: &Bdpt, pc: &PassContext, pass: u32, film: &mut Film, st
         roulette: bdpt.connection_roulette,
     };
     let n = films.list.len();
-    let diff_scale = differential_scale(pc.target_spp);
     let (w, h) = (pc.film.width as i32, pc.film.height as i32);
     let filter = &pc.film.filter;
-    let reach = filter.reach();
-    let with_aov = film.aov().is_some();
-    let done: Vec<Option<TileResult>> = tile_grid(pc.film)
-        .par_iter()
-        .map(|&(x0, y0, x1, y1)| {
-            if pc.stop.is_stopped() {
-                return None;
-            }
-            let mut r = TileResult {
-                main: FilmTile::new(x0, y0, x1, y1, reach, w, h),
-                splats: Splats::default(),
-                strategy_tiles: (0..n).map(|_| None).collect(),
-                strategy_splats: vec![Splats::default(); n],
-                counts: RayCounts::default(),
-                aov: with_aov.then(|| AovTile::new(x0, y0, x1, y1)),
-            };
-            for y in y0..y1 {
-                for x in x0..x1 {
-                    let mut sampler = PixelSampler::new(x as u32, y as u32, pass, pc.seed);
-                    let (u, v) = sampler.next_2d();
-                    let pos = Vec2::new(x as f32 + u, y as f32 + v);
-                    let u_lens = lens_sample(pc.camera, &mut sampler);
-                    let (ray, diff) = if pc.scene.uses_footprints {
-                        let (ray, diff) = pc.camera.sample_ray_differential(pos.x, pos.y, u_lens);
-                        (ray, Some(diff.scaled(&ray, diff_scale)))
-                    } else {
-                        (pc.camera.sample_ray(pos.x, pos.y, u_lens), None)
-                    };
-                    if let Some(aov) = &mut r.aov {
-                        let mut aux = crate::integrator::aov::aov_sampler(x as u32, y as u32, pass, pc.seed);
-                        aov.add(x, y, &crate::integrator::aov::features(pc.scene, &ray, &mut aux));
-                    }
-                    let mut l = Vec3::ZERO;
-                    let mut own: Vec<(usize, Vec3)> = Vec::new();
-                    let (splats, strategy_splats) = (&mut r.splats, &mut r.strategy_splats);
-                    e.sample_each(ray, diff, &mut sampler, &mut r.counts, |s, t, c, at| {
-                        let i = films.slot(s, t);
-                        match at {
-                            Some(at) => {
-                                splats.add(at, c);
-                                strategy_splats[i].add(at, c);
-                            }
-                            None => {
-                                l += c;
-                                own.push((i, c));
-                            }
-                        }
-                    });
-                    if l.is_finite() {
-                        r.main.add(pos, l, filter, w, h);
-                        for (i, c) in own {
-                            r.strategy_tiles[i]
-                                .get_or_insert_with(|| FilmTile::new(x0, y0, x1, y1, reach, w, h))
-                                .add(pos, c, filter, w, h);
-                        }
-                    } else {
-                        r.counts.invalid += 1;
-                    }
-                }
-            }
-            (pc.progress)(((x1 - x0) * (y1 - y0)) as u64);
-            Some(r)
-        })
-        .collect();
-    let mut result = PassResult {
-        complete: done.iter().all(Option::is_some),
-        counts: RayCounts::default(),
+    let new_tile = || StrategyTiles {
+        tiles: (0..n).map(|_| None).collect(),
+        splats: vec![Splats::default(); n],
     };
-    for r in done.iter().flatten() {
-        result.counts += r.counts;
-    }
-    if result.complete {
-        for r in done.iter().flatten() {
-            film.merge(&r.main);
-            film.add_splats(&r.splats);
-            if let Some(aov) = &r.aov {
-                film.merge_aov(aov);
-            }
-            for i in 0..n {
-                if let Some(t) = &r.strategy_tiles[i] {
-                    films.films[i].merge(t);
+    let (result, tiles) = camera_pass_with(pc, pass, film, new_tile, |cs, own| {
+        let mut l = Vec3::ZERO;
+        let mut seen: Vec<(usize, Vec3)> = Vec::new();
+        let (splats, strategy_splats) = (&mut *cs.splats, &mut own.splats);
+        e.sample_each(cs.ray, cs.diff, cs.sampler, cs.counts, |s, t, c, at| {
+            let i = films.slot(s, t);
+            match at {
+                Some(at) => {
+                    splats.add(at, c);
+                    strategy_splats[i].add(at, c);
                 }
-                films.films[i].add_splats(&r.strategy_splats[i]);
+                None => {
+                    l += c;
+                    seen.push((i, c));
+                }
             }
+        });
+        // as the main film: only samples whose sum is finite
+        if l.is_finite() {
+            let (x0, y0, x1, y1) = tile_of(pc.film, cs.pixel);
+            for (i, c) in seen {
+                own.tiles[i]
+                    .get_or_insert_with(|| FilmTile::new(x0, y0, x1, y1, filter.reach(), w, h))
+                    .add(cs.pos, c, filter, w, h);
+            }
+        }
+        l
+    });
+    for own in tiles {
+        for (f, (tile, splats)) in films.films.iter_mut().zip(own.tiles.iter().zip(&own.splats)) {
+            if let Some(t) = tile {
+                f.merge(t);
+            }
+            f.add_splats(splats);
         }
     }
     result

@@ -89,19 +89,7 @@ pub type Deposits = (Vec<[f32; 3]>, Vec<Photon>, u64);
 
 /// Shoots `s.count` photons for `iteration`; `None` when the stop token was set.
 pub fn shoot(scene: &Scene, s: Shooting, iteration: u32, seed: u32, stop: &StopToken) -> Option<PhotonMap> {
-    let (pts, photons, rays) = shoot_deposits(scene, s, iteration, seed, stop)?;
-    Some(map_of(pts, photons, s.count as u64, rays))
-}
-
-fn map_of(pts: Vec<[f32; 3]>, photons: Vec<Photon>, emitted: u64, rays: u64) -> PhotonMap {
-    let tree = KdTree::build(pts);
-    let photons = tree.permute(&photons);
-    PhotonMap {
-        tree,
-        photons,
-        emitted,
-        rays,
-    }
+    shoot_rounds(scene, s, iteration, seed, stop, 1)
 }
 
 /// Rounds of [`shoot_until_stored`] at most.
@@ -115,40 +103,43 @@ pub const MAX_ROUNDS: usize = 1024;
 /// [`shoot`]. Stops after a round that stored nothing and after [`MAX_ROUNDS`]. `None`
 /// when the stop token was set.
 pub fn shoot_until_stored(scene: &Scene, s: Shooting, iteration: u32, seed: u32, stop: &StopToken) -> Option<PhotonMap> {
+    shoot_rounds(scene, s, iteration, seed, stop, MAX_ROUNDS)
+}
+
+/// [`shoot_until_stored`] with at most `rounds` rounds.
+fn shoot_rounds(scene: &Scene, s: Shooting, iteration: u32, seed: u32, stop: &StopToken, rounds: usize) -> Option<PhotonMap> {
     let n = s.count as usize;
     let (mut pts, mut photons, mut rays, mut emitted) = (Vec::new(), Vec::new(), 0, 0u64);
-    for r in 0..MAX_ROUNDS {
+    for r in 0..rounds {
         let before = photons.len();
-        for (p, ph, c_rays) in shoot_chunks(scene, s, r * n..(r + 1) * n, iteration, seed, stop)? {
-            pts.extend(p);
-            photons.extend(ph);
-            rays += c_rays;
-        }
+        let (p, ph, r_rays) = shoot_chunks(scene, s, r * n..(r + 1) * n, iteration, seed, stop)?;
+        pts.extend(p);
+        photons.extend(ph);
+        rays += r_rays;
         emitted += n as u64;
         if photons.len() >= n || photons.len() == before {
             break;
         }
     }
-    Some(map_of(pts, photons, emitted, rays))
+    let tree = KdTree::build(pts);
+    let photons = tree.permute(&photons);
+    Some(PhotonMap {
+        tree,
+        photons,
+        emitted,
+        rays,
+    })
 }
 
 /// The deposits of `s.count` photons for `iteration`, positions and payloads in
 /// photon order whatever the thread count, and the rays cast; `None` when the stop
 /// token was set.
 pub fn shoot_deposits(scene: &Scene, s: Shooting, iteration: u32, seed: u32, stop: &StopToken) -> Option<Deposits> {
-    let mut pts = Vec::new();
-    let mut photons = Vec::new();
-    let mut rays = 0;
-    for (p, ph, r) in shoot_chunks(scene, s, 0..s.count as usize, iteration, seed, stop)? {
-        pts.extend(p);
-        photons.extend(ph);
-        rays += r;
-    }
-    Some((pts, photons, rays))
+    shoot_chunks(scene, s, 0..s.count as usize, iteration, seed, stop)
 }
 
-/// The deposits of photons `range`, in chunks of [`CHUNK`] from its start, in photon
-/// order; `None` when the stop token was set.
+/// The deposits of photons `range`, shot in chunks of [`CHUNK`] from its start, in
+/// photon order; `None` when the stop token was set.
 fn shoot_chunks(
     scene: &Scene,
     s: Shooting,
@@ -156,11 +147,11 @@ fn shoot_chunks(
     iteration: u32,
     seed: u32,
     stop: &StopToken,
-) -> Option<Vec<Deposits>> {
+) -> Option<Deposits> {
     if scene.lights.is_empty() || range.is_empty() || s.max_segments < s.min_segments.max(1) {
-        return Some(Vec::new());
+        return Some((Vec::new(), Vec::new(), 0));
     }
-    (0..range.len().div_ceil(CHUNK))
+    let chunks: Vec<Deposits> = (0..range.len().div_ceil(CHUNK))
         .into_par_iter()
         .map(|c| {
             if stop.is_stopped() {
@@ -177,7 +168,14 @@ fn shoot_chunks(
             }
             Some((pts, ph, rays))
         })
-        .collect()
+        .collect::<Option<_>>()?;
+    let (mut pts, mut photons, mut rays) = (Vec::new(), Vec::new(), 0);
+    for (p, ph, r) in chunks {
+        pts.extend(p);
+        photons.extend(ph);
+        rays += r;
+    }
+    Some((pts, photons, rays))
 }
 
 /// The random numbers of photon `i` of `iteration` for `seed`: the (seed, iteration) pair

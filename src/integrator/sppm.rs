@@ -12,8 +12,11 @@
 //! and the pixel is `Σ L_direct / n + τ / (n · N_photons · π r²)` after n
 //! iterations. Pixels are independent, so the image depends only on the seed and
 //! the iteration count; the state lives in the render loop's [`super::PassState`]
-//! between passes. Camera samples are [`super::camera_pass`]'s; the pixel is its
-//! own square for the estimate (box filter of radius ½; other filters are ignored).
+//! between passes. Camera samples are [`super::camera_pass`]'s, ray differentials
+//! included: the camera ray's hit looks its textures up over the ray's footprint, as
+//! `path` and `photon` do (and pbrt-v4's SPPM), so at the same declared spp they see the
+//! same filtered textures. The pixel is its own square for the estimate (box filter of
+//! radius ½; other filters are ignored).
 
 use super::pass::camera_pass_with;
 use super::photon::{camera_path, shoot, Shooting, BYTES_PER_PHOTON};
@@ -99,9 +102,7 @@ impl Sppm {
             let (x, y) = s.pixel;
             let i = y as usize * w + x as usize;
             let mut px = pixels[i];
-            // no differentials: visible points looked textures up on their finest level
-            // before, and the images stay as they were
-            let (l, vp) = camera_path(scene, s.ray, None, s.sampler, s.counts, max_depth, true);
+            let (l, vp) = camera_path(scene, s.ray, s.diff, s.sampler, s.counts, max_depth, true);
             if l.is_finite() {
                 px.ld += l;
             }

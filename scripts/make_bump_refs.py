@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Regenerates the references in tests/refs/bump/ with Mitsuba 3 (tests/bump_mask.rs).
+"""Regenerates the references in tests/refs/bump/ with Mitsuba 3 (tests/bump.rs, tests/masks.rs).
 
 Writes three small textures it computes itself (EXR, linear):
   heights.exr  - a height field 0.5 + 0.5 sin(2π·3s) sin(2π·2t), for `bumpmap`;

@@ -116,6 +116,14 @@ pub fn converges_to_ref(refs: &Path, file: &Path, reference: &str, overrides: &[
     c.rel_mse_corrected.abs() < 5.0 * c.std_error + 2e-4
 }
 
+/// [`converges_to_ref`] of `tests/refs/<dir>/<file>` against the reference beside it
+/// named after the file (`mask.xml`: `mask.exr`, `mask.var.exr`).
+pub fn converges_to_ref_beside(dir: &str, file: &str, overrides: &[&str], spp: u32) -> bool {
+    let refs = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/refs").join(dir);
+    let name = file.split('.').next().unwrap();
+    converges_to_ref(&refs, &refs.join(file), name, overrides, spp)
+}
+
 /// bdpt's MIS self-check on `file`: over 3000 paths the weights of the strategies that
 /// could make each path sum to 1 and the densities the connections assemble equal those
 /// recomputed from the vertices.

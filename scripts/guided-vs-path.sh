@@ -14,7 +14,8 @@
 #                  the whole run: the loaded case (the schedule must not care)
 #   GUIDED='{...}' extra override for `guided` (e.g. '{"integrator": {"mis_compensation": true}}'
 #                  to measure one switch on and off; the default: none)
-#   BASE=RDR2      a second binary whose `guided` renders beside too (before/after in one run)
+#   BASE=RDR2      a second binary whose `guided` renders beside too (before/after in one run);
+#   BASE_GUIDED='{...}' its extra override (BASE=RDR, GUIDED and BASE_GUIDED: a switch on and off)
 #   OUT=DIR        images and logs (default /tmp/guided-vs-path)
 #
 # Prints one line per image (relMSE, spp reached, CPU s) and per scene and seed the ratio
@@ -65,7 +66,7 @@ for sc in "$@"; do
     run guided "$rdr" --override '{"integrator":{"type":"guided"}}' --override "$guided_extra" &
     if [[ -n ${BASE:-} ]]; then
       tags+=(base)
-      run base "$BASE" --override '{"integrator":{"type":"guided"}}' &
+      run base "$BASE" --override '{"integrator":{"type":"guided"}}' --override "${BASE_GUIDED:-{\}}" &
     fi
     wait
     declare -A merit=()
@@ -73,7 +74,7 @@ for sc in "$@"; do
       m=$("$rdr" compare "$out/$name.$i.$seed.exr" "$ref.exr" --variance "$ref.var.exr" | grep '^relMSE' | head -1)
       rel=$(grep -oE '[0-9.]+e[-+]?[0-9]+|[0-9]+\.[0-9]+' <<<"$m" | head -1)
       cpu=$(awk '/^cpu/ {print $2 + $3}' "$out/$name.$i.$seed.time")
-      spp=$(grep -oE 'at [0-9]+ spp|[0-9]+ spp' "$out/$name.$i.$seed.log" | tail -1)
+      spp=$(grep -oE 'at [0-9]+ spp' "$out/$name.$i.$seed.log" | head -1)
       if [[ -n ${SPP:-} ]]; then
         merit[$i]=$(awk -v r="$rel" -v c="$cpu" 'BEGIN {print r * c}')
       else

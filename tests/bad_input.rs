@@ -279,10 +279,6 @@ fn cases() -> Vec<Case> {
             s["integrator"] = json!({"type": "guided", "learn_fraction": 1})
         })
         .err(&["integrator.learn_fraction"]),
-        edit("guided mis_compensation not a bool", |s| {
-            s["integrator"] = json!({"type": "guided", "mis_compensation": 1})
-        })
-        .err(&["integrator.mis_compensation"]),
         edit("guided unknown learn_from", |s| {
             s["integrator"] = json!({"type": "guided", "learn_from": "importons"})
         })

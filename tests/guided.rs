@@ -349,11 +349,11 @@ fn learned_distribution_in_caustic_cbox(shared: &Path, from: &str, sphere_factor
         learned[1],
         share[1]
     );
-    // the sphere's share of the learned density there is its share of ∫L_i: 0.86x (paths)
+    // the sphere's share of the learned density there is its share of ∫L_i: 0.93x (paths)
     // and 0.89x (photons) of it; a tree that learned nothing there gives the solid-angle
-    // share, 0.45x: the tolerance of 25 % leaves 3.9x between the baseline's deviation and
-    // that one's (errors that only sharpen or blur the learned lobe, such as the paths'
-    // values without their 1/pdf, 1.22x, stay inside it)
+    // share, 0.45x: the tolerance of 25 % leaves 5x between the baseline's deviation and
+    // that one's. Errors that only sharpen or blur the learned lobe stay inside it (the
+    // paths' values without their 1/pdf: 1.25x): the records test below catches them
     assert!(
         (learned[1] / truth[1] - 1.0).abs() < 0.25,
         "{from}: sphere at the caustic point: learned {} vs ∫L_i share {}",
@@ -383,8 +383,8 @@ fn mean_and_error(sum: [f64; 2], n: u32) -> (f64, f64) {
 /// other directions that do not see the light (its direct light is left to light
 /// sampling), and compared with the same integrals of `path`'s radiance along
 /// uniform directions; the guide takes half of the vertex's samples, so the
-/// mixture's density is the one to divide by. The deliberate errors the tolerance is
-/// set against are in the assertion's comment.
+/// mixture's density is the one to divide by. The deliberate errors the tolerance of
+/// 15 % is set against are in the assertion's comment.
 #[test]
 fn path_records_estimate_the_radiance_arriving_through_the_glass_and_from_the_walls() {
     let Some(shared) = shared() else { return };
@@ -394,7 +394,8 @@ fn path_records_estimate_the_radiance_arriving_through_the_glass_and_from_the_wa
     let state = train(&loaded, 16);
     let tree = state.learned_tree().unwrap();
     let scene = &loaded.scene;
-    let q = Vec3::new(0.45, 0.0, 0.7);
+    // inside the caustic: the light, focused by the sphere, lands about (0.33, 0, 0.40)
+    let q = Vec3::new(0.38, 0.0, 0.52);
     let object_towards = |d: Vec3| {
         let ray = rdr::geometry::Ray::new(q + Vec3::new(0.0, 1e-3, 0.0), d);
         scene.intersect(&ray).map(|h| scene.interaction(&ray, &h).object)
@@ -406,7 +407,7 @@ fn path_records_estimate_the_radiance_arriving_through_the_glass_and_from_the_wa
         Some(o) if o == light => None,
         _ => Some(1),
     };
-    let n = 100_000u32;
+    let n = 200_000u32;
 
     // the truth: path's radiance along uniform directions of the upper hemisphere
     let pt = rdr::integrator::PathTracer {
@@ -443,14 +444,21 @@ fn path_records_estimate_the_radiance_arriving_through_the_glass_and_from_the_wa
     let ray = rdr::geometry::Ray::new(camera, (q - camera).normalize());
     let hit = scene.intersect(&ray).unwrap();
     let it = scene.interaction(&ray, &hit);
-    assert!(it.object == floor && (it.p - q).length() < 1e-3, "the camera ray reaches {} on object {}", it.p, it.object);
+    assert!(
+        it.object == floor && (it.p - q).length() < 1e-3,
+        "the camera ray reaches {} on object {}",
+        it.p,
+        it.object
+    );
     let mut scratch = rdr::integrator::guided::Scratch::default();
     let mut recorded = [[0.0f64; 2]; 2];
     for i in 0..n {
         scratch.records.clear();
         let mut sampler = rdr::sampler::PixelSampler::new(7, 9, i, 3);
         guiding.li(scene, ray, None, &mut sampler, &mut counts, &mut scratch);
-        let Some(r) = scratch.records.iter().find(|r| r.counted) else { continue };
+        let Some(r) = scratch.records.iter().find(|r| r.counted) else {
+            continue;
+        };
         let Some(k) = part(square_to_sphere(r.p)) else { continue };
         let y = r.value as f64;
         recorded[k][0] += y;
@@ -460,9 +468,11 @@ fn path_records_estimate_the_radiance_arriving_through_the_glass_and_from_the_wa
         let (t, te) = mean_and_error(truth[k], n);
         let (r, re) = mean_and_error(recorded[k], n);
         eprintln!("∫L_i {name}: recorded {r:.4} ± {re:.4}, path {t:.4} ± {te:.4}, ratio {:.3}", r / t);
-        // baseline ratios 0.992 (glass) and 1.003 (rest); values not divided by the
-        // density: _; light through the glass not credited to the vertex: _
-        assert!((r / t - 1.0).abs() < 0.1, "{name}: recorded {r} against {t}");
+        // baseline ratios 0.986 (glass, ± 0.8 %) and 0.951 (rest, ± 3 %): 3.1x inside the
+        // tolerance of 15 %; values not divided by their density: glass 0.524, 3.2x outside
+        // it (9.7x the baseline's deviation); light through the glass not credited to the
+        // vertex (treated as its direct light): glass 0.053
+        assert!((r / t - 1.0).abs() < 0.15, "{name}: recorded {r} against {t}");
     }
 }
 
@@ -612,12 +622,21 @@ fn the_image_depends_on_sample_counts_not_on_threads_or_timing() {
     let quiet = run(1, None, None);
     let slowed = run(2, Some(20.0), Some(std::time::Duration::from_millis(100)));
     for (what, out) in [("quiet, 1 thread", &quiet), ("slowed, 2 threads", &slowed)] {
-        eprintln!("{what}: {} passes in {:.2} s; {}", out.spp_done, out.seconds, out.summary.as_deref().unwrap_or(""));
+        eprintln!(
+            "{what}: {} passes in {:.2} s; {}",
+            out.spp_done,
+            out.seconds,
+            out.summary.as_deref().unwrap_or("")
+        );
     }
     assert!(slowed.spp_done == 32 && !slowed.time_limited, "the slowed render ran out of time");
     assert!(slowed.seconds > 1.5, "not slowed: {} s", slowed.seconds);
     let differ = quiet.pixels.iter().zip(&slowed.pixels).filter(|(a, b)| a != b).count();
-    assert!(differ == 0, "{differ} of {} pixels differ between the quiet and the slowed render", quiet.pixels.len());
+    assert!(
+        differ == 0,
+        "{differ} of {} pixels differ between the quiet and the slowed render",
+        quiet.pixels.len()
+    );
 }
 
 #[test]
@@ -707,21 +726,26 @@ fn an_interrupted_render_is_the_shorter_render_and_time_budgets_are_followed() {
 /// (`learn_direct`) and forced on at half of every vertex's samples, so the light
 /// samples' MIS weights must use the mixture's density (the guide's density
 /// there differs from the BSDF's). Leaving the guide's density out of the light
-/// samples' weights: see the report figures in the assertion's margin below.
+/// samples' weights (the BSDF's alone there) gave 0.960 with the guide forced on,
+/// 13× the tolerance of 3e-3 there (the baseline: 1.00021–1.00058, 5× below it or more).
 #[test]
 fn white_furnace_is_one() {
     let Some(shared) = shared() else { return };
-    // (the mean of 100² pixels at 256 spp has a standard error of 1.6e-4)
-    for extra in [
-        r#"{}"#,
-        r#"{"integrator": {"learn_direct": true, "learn_fraction": false, "bsdf_fraction": 0.5}}"#,
+    // (the mean of 100² pixels at 256 spp has a standard error of 1.6e-4 with the
+    // defaults; half the samples from a guide spread over the sphere raise it)
+    for (extra, tolerance) in [
+        (r#"{}"#, 8e-4),
+        (
+            r#"{"integrator": {"learn_direct": true, "learn_fraction": false, "bsdf_fraction": 0.5}}"#,
+            3e-3,
+        ),
     ] {
         let o = r#"{"integrator": {"type": "guided", "spatial_threshold": 200}, "film": {"resolution": [100, 100]}}"#;
         let s = load_scene(&shared.join("refs/scenes/sphere_furnace.json"), &[o, extra], Profile::Physical);
         let img = render(&s, 256, 3);
         let m = img.mean();
         eprintln!("guided furnace {extra}: mean {m}");
-        assert!((m - Vec3::ONE).abs().max_element() < 8e-4, "{extra}: {m}");
+        assert!((m - Vec3::ONE).abs().max_element() < tolerance, "{extra}: {m}");
     }
 }
 

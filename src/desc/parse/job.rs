@@ -300,9 +300,7 @@ fn parse_guided(p: &Props) -> Result<Guided> {
         "photons" => guided::LearnFrom::Photons,
         other => return Err(p.error("learn_from", format!("unknown learn_from '{other}' (available: paths, photons)"))),
     };
-    let mis_compensation = p.bool_or("mis_compensation", d.mis_compensation)?;
     Ok(Guided {
-        mis_compensation,
         learn_from,
         learn_direct,
         learn_fraction,

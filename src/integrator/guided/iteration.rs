@@ -155,7 +155,9 @@ impl Guided {
         }
         let threshold = self.spatial_threshold as f64 * (s.length as f64).sqrt();
         let choice = std::mem::take(&mut s.choice);
-        let moments = s.tree.end_iteration(threshold, RHO, true, self.learn_fraction.then_some(&choice[..]), self.mis_compensation);
+        let moments = s
+            .tree
+            .end_iteration(threshold, RHO, true, self.learn_fraction.then_some(&choice[..]));
         let build = build_start.elapsed().as_secs_f64();
         let variance = {
             let parts: Vec<Part> = s.finished.iter().map(Finished::part).collect();

@@ -70,10 +70,13 @@ const PHOTON_RR_THRESHOLD: f32 = 0.1;
 /// a few per photon, are held until the pass ends.
 pub const MAX_PHOTONS_PER_PASS: u32 = 1 << 20;
 
-/// Most training iterations the spp budget gives (1 + 2 + … + 64 = 127 spp;
-/// Cycles trains Open PGL's guide for 128 samples by default): the tree keeps
-/// learning only while its splits still pay for the photons and records.
-pub const MAX_TRAINING_ITERATIONS: u32 = 7;
+/// Most training iterations the spp budget gives (1 + 2 + 4 + 8 + 16 = 31 spp):
+/// a training pass costs about 2.5 `path` passes (its photons, records and the
+/// guide's lookups; caustic_cbox under `--time-limit` 30 s: 11 spp with 7 training
+/// iterations against `path`'s 41), so training stops where a minute's render
+/// still has most of its samples ahead (caustic_cbox at 256 spp with 31 of
+/// training: relMSE 2.9e-3, `path` 1.3e-2).
+pub const MAX_TRAINING_ITERATIONS: u32 = 5;
 
 /// Energy share above which a directional cell is split (the paper's ρ).
 pub const RHO: f32 = 0.01;
@@ -139,9 +142,6 @@ pub enum Combine {
 ///   chains (light sampled at later vertices included), leaving the direct light
 ///   to light sampling, which handles it better (cbox, 33 spp: relMSE 1.2e-2 with
 ///   direct light learned, 7.0e-3 without, `path` 5.5e-3);
-/// * `mis_compensation` (bool, false) — MIS compensation of the learned
-///   distributions (Karlík et al. 2019, [`DTree::compensate`]).
-///
 /// ```json
 /// {"type": "guided", "spp": 256, "bsdf_fraction": 0.5, "combine": "inverse_variance"}
 /// ```
@@ -156,7 +156,6 @@ pub struct Guided {
     pub learn_direct: bool,
     pub learn_fraction: bool,
     pub learn_from: LearnFrom,
-    pub mis_compensation: bool,
 }
 
 impl Default for Guided {
@@ -171,7 +170,6 @@ impl Default for Guided {
             learn_direct: false,
             learn_fraction: true,
             learn_from: LearnFrom::Photons,
-            mis_compensation: false,
         }
     }
 }

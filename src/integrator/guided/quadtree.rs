@@ -69,8 +69,6 @@ pub struct DTree {
     nodes: Vec<Node>,
     /// Sum of the root's energies (0: nothing learned, the tree cannot sample).
     total: f32,
-    /// Whether [`DTree::compensate`] made the density.
-    compensated: bool,
 }
 
 impl Default for DTree {
@@ -78,7 +76,6 @@ impl Default for DTree {
         DTree {
             nodes: vec![Node::default()],
             total: 0.0,
-            compensated: false,
         }
     }
 }
@@ -279,44 +276,6 @@ impl DTree {
             }
             n = node.child[c] as usize;
         }
-    }
-
-    /// MIS compensation (Karlík, Šik, Vévoda, Skřivan and Křivánek 2019): the
-    /// density becomes max(0, p − p̄)/norm, p̄ = 1 being its mean over the square,
-    /// so the guide leaves to BSDF sampling, which it is mixed with, the
-    /// directions it would sample no more often than uniformly, and samples where
-    /// its density stands out. A finished tree, once (later calls do nothing); a
-    /// tree without any cell above the mean keeps its density.
-    pub fn compensate(&mut self) {
-        if !self.can_sample() || self.compensated {
-            return;
-        }
-        // the leaf cells' compensated energies area·max(0, p − 1), summed upwards
-        fn sum(t: &DTree, out: &mut [[f32; 4]], n: usize, pdf: f32, area: f32) -> f32 {
-            let node = t.nodes[n];
-            let mut s = 0.0;
-            for c in 0..4 {
-                let (p, a) = (pdf * node.energy[c], 0.25 * area);
-                out[n][c] = match node.child[c] {
-                    0 => a * (p - 1.0).max(0.0),
-                    child => sum(t, out, child as usize, p, a),
-                };
-                s += out[n][c];
-            }
-            s
-        }
-        let mut energies = vec![[0.0f32; 4]; self.nodes.len()];
-        let share = sum(self, &mut energies, 0, 1.0, 1.0);
-        if !(share > 0.0 && share.is_finite()) {
-            return;
-        }
-        for (node, e) in self.nodes.iter_mut().zip(energies) {
-            let s: f32 = e.iter().sum();
-            let k = if s > 0.0 { 4.0 / s } else { 0.0 };
-            node.energy = e.map(|x| x * k);
-        }
-        self.total *= share;
-        self.compensated = true;
     }
 
     /// A direction drawn from the tree, with its solid-angle density.

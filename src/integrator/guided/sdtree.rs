@@ -182,8 +182,7 @@ impl SdTree {
     /// recorded more than `threshold` vertices are split (their children copy the
     /// trees and share the count) until none exceeds it; the recording trees are
     /// refined from the new distributions by energy share `rho`, emptied, and the
-    /// counts reset. With `compensate` the sampling trees are then MIS-compensated
-    /// ([`DTree::compensate`]).
+    /// counts reset.
     ///
     /// With `choice` (some of the iteration's vertices), each leaf with at least
     /// [`MIN_LEAF_SAMPLES`] of them takes the fraction α in [[`MIN_FRACTION`], 1]
@@ -196,7 +195,7 @@ impl SdTree {
     /// its nearest ancestor's vertices choose together, and keeps its own when no
     /// ancestor has enough. Returns the second moments the choice leads to
     /// ([`ChoiceMoments`]; zero without `choice`).
-    pub fn end_iteration(&mut self, threshold: f64, rho: f32, refine: bool, choice: Option<&[ChoiceSample]>, compensate: bool) -> ChoiceMoments {
+    pub fn end_iteration(&mut self, threshold: f64, rho: f32, refine: bool, choice: Option<&[ChoiceSample]>) -> ChoiceMoments {
         let mut totals = ChoiceMoments::default();
         for leaf in &mut self.leaves {
             leaf.building.finish_recording();
@@ -233,9 +232,6 @@ impl SdTree {
         for leaf in &mut self.leaves {
             leaf.building = leaf.sampling.refined(rho);
             leaf.count = 0;
-            if compensate {
-                leaf.sampling.compensate();
-            }
         }
         totals
     }
@@ -364,6 +360,10 @@ fn least_moment(m: &[f64; GRID]) -> (f32, usize) {
     let (l, c, r) = (m[best - 1], m[best], m[best + 1]);
     let curvature = l - 2.0 * c + r;
     let step = grid_fraction(1) - grid_fraction(0);
-    let shift = if curvature > 0.0 { (0.5 * (l - r) / curvature).clamp(-1.0, 1.0) } else { 0.0 };
+    let shift = if curvature > 0.0 {
+        (0.5 * (l - r) / curvature).clamp(-1.0, 1.0)
+    } else {
+        0.0
+    };
     ((a + shift * step).clamp(MIN_FRACTION as f64, 1.0) as f32, best)
 }

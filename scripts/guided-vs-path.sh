@@ -63,12 +63,16 @@ for sc in "$@"; do
     }
     tags=(path guided)
     run path "$rdr" &
+    pids=($!)
     run guided "$rdr" --override '{"integrator":{"type":"guided"}}' --override "$guided_extra" &
+    pids+=($!)
     if [[ -n ${BASE:-} ]]; then
       tags+=(base)
       run base "$BASE" --override '{"integrator":{"type":"guided"}}' --override "${BASE_GUIDED:-{\}}" &
+      pids+=($!)
     fi
-    wait
+    wait "${pids[@]}" # not the load
+
     declare -A merit=()
     for i in "${tags[@]}"; do
       m=$("$rdr" compare "$out/$name.$i.$seed.exr" "$ref.exr" --variance "$ref.var.exr" | grep '^relMSE' | head -1)

@@ -1,29 +1,95 @@
 #!/usr/bin/env bash
-# Equal-time comparison of `guided` and `path` (the manual's docs/src/integrators.md): for each scene,
-# both render side by side, one thread each, for SECS seconds, then `rdr compare` gives the
-# relative MSE against the Mitsuba reference (cbox_path -> cbox, veach_path -> veach).
+# `guided` against `path` (issue 39's protocol; a benchmark, never a test). For each scene and
+# seed both render side by side in one run, one thread each, then `rdr compare` gives each
+# image's relative MSE against the Mitsuba reference (cbox_path -> cbox, veach_path -> veach,
+# a path to an XML/JSON scene -> its directory's reference.exr, if any).
 #
-#   scripts/guided-vs-path.sh RDR SECS SEED SCENE...    e.g. target/release/rdr 60 3 caustic_cbox env_sphere
+#   scripts/guided-vs-path.sh RDR SECS "SEEDS" SCENE...
+#   e.g. scripts/guided-vs-path.sh /tmp/rdr 60 "1 2 3" caustic_cbox env_sphere
 #
-# Copy RDR out of target/ first if tests may rebuild it meanwhile. Images and logs go to
-# ${OUT:-/tmp/guided-vs-path}.
+# Modes (environment):
+#   SPP=N          equal spp instead of equal time: N spp each, no time limit; the figure of
+#                  merit is relMSE x CPU seconds (user + system, from /usr/bin/time)
+#   LOAD=1         a third render (`path` on cbox_path, one thread) runs beside the pair for
+#                  the whole run: the loaded case (the schedule must not care)
+#   GUIDED='{...}' extra override for `guided` (e.g. '{"integrator": {"mis_compensation": true}}'
+#                  to measure one switch on and off; the default: none)
+#   BASE=RDR2      a second binary whose `guided` renders beside too (before/after in one run);
+#   BASE_GUIDED='{...}' its extra override (BASE=RDR, GUIDED and BASE_GUIDED: a switch on and off)
+#   OUT=DIR        images and logs (default /tmp/guided-vs-path)
+#
+# Prints one line per image (relMSE, spp reached, CPU s) and per scene and seed the ratio
+# guided/path of relMSE (equal time) or of relMSE x CPU s (equal spp). Copy RDR out of
+# target/ first if tests may rebuild it meanwhile. Name the CPU (lscpu) with every figure.
 set -euo pipefail
 here=$(cd "$(dirname "$0")/.." && pwd)
 refs=$(realpath -m "${SHARED:-$here/../shared}")/refs
-rdr=$1 secs=$2 seed=$3
+rdr=$1 secs=$2 seeds=$3
 shift 3
 out=${OUT:-/tmp/guided-vs-path}
+guided_extra=${GUIDED:-'{}'}
 mkdir -p "$out"
+lscpu | grep -E '^Model name' || true
+
+if [[ -n ${LOAD:-} ]]; then
+  "$rdr" render "$refs/scenes/cbox_path.json" --spp 1000000 --threads 1 -q -o "$out/load.exr" >/dev/null 2>&1 &
+  load_pid=$!
+  trap 'kill $load_pid 2>/dev/null || true' EXIT
+fi
+
+scene_and_ref() {
+  case $1 in
+    *.xml | *.json) scene=$1 ref=$(dirname "$1")/reference ;;
+    cbox_path) scene=$refs/scenes/$1.json ref=$refs/cbox ;;
+    veach_path) scene=$refs/scenes/$1.json ref=$refs/veach ;;
+    *) scene=$refs/scenes/$1.json ref=$refs/$1 ;;
+  esac
+}
+
 for sc in "$@"; do
-  case $sc in cbox_path) ref=cbox ;; veach_path) ref=veach ;; *) ref=$sc ;; esac
-  common=(--spp 1000000 --time-limit "$secs" --threads 1 --seed "$seed")
-  "$rdr" render "$refs/scenes/$sc.json" "${common[@]}" -o "$out/$sc.path.$seed.exr" >"$out/$sc.path.$seed.log" 2>&1 &
-  "$rdr" render "$refs/scenes/$sc.json" --override '{"integrator":{"type":"guided"}}' "${common[@]}" \
-    -o "$out/$sc.guided.$seed.exr" >"$out/$sc.guided.$seed.log" 2>&1 &
-  wait
-  for i in path guided; do
-    m=$("$rdr" compare "$out/$sc.$i.$seed.exr" "$refs/$ref.exr" --variance "$refs/$ref.var.exr" | grep '^relMSE')
-    spp=$(grep -oE 'at [0-9]+ spp|final [0-9]+ spp' "$out/$sc.$i.$seed.log" | tr '\n' ' ')
-    echo "$sc seed $seed $i: $m | $spp"
+  scene_and_ref "$sc"
+  name=$(basename "${sc%.*}")
+  for seed in $seeds; do
+    if [[ -n ${SPP:-} ]]; then
+      common=(--spp "$SPP" --threads 1 --seed "$seed")
+    else
+      common=(--spp 1000000 --time-limit "$secs" --threads 1 --seed "$seed")
+    fi
+    run() { # tag binary override...
+      local tag=$1 bin=$2
+      shift 2
+      /usr/bin/time -f 'cpu %U %S' -o "$out/$name.$tag.$seed.time" \
+        "$bin" render "$scene" "$@" "${common[@]}" -o "$out/$name.$tag.$seed.exr" >"$out/$name.$tag.$seed.log" 2>&1
+    }
+    tags=(path guided)
+    run path "$rdr" &
+    pids=($!)
+    run guided "$rdr" --override '{"integrator":{"type":"guided"}}' --override "$guided_extra" &
+    pids+=($!)
+    if [[ -n ${BASE:-} ]]; then
+      tags+=(base)
+      run base "$BASE" --override '{"integrator":{"type":"guided"}}' --override "${BASE_GUIDED:-{\}}" &
+      pids+=($!)
+    fi
+    wait "${pids[@]}" # not the load
+
+    declare -A merit=()
+    for i in "${tags[@]}"; do
+      m=$("$rdr" compare "$out/$name.$i.$seed.exr" "$ref.exr" --variance "$ref.var.exr" | grep '^relMSE' | head -1)
+      rel=$(grep -oE '[0-9.]+e[-+]?[0-9]+|[0-9]+\.[0-9]+' <<<"$m" | head -1)
+      cpu=$(awk '/^cpu/ {print $2 + $3}' "$out/$name.$i.$seed.time")
+      spp=$(grep -oE 'at [0-9]+ spp' "$out/$name.$i.$seed.log" | head -1)
+      if [[ -n ${SPP:-} ]]; then
+        merit[$i]=$(awk -v r="$rel" -v c="$cpu" 'BEGIN {print r * c}')
+      else
+        merit[$i]=$rel
+      fi
+      echo "$name seed $seed $i: $m | $spp | cpu ${cpu} s"
+    done
+    for i in "${tags[@]:1}"; do
+      awk -v n="$name" -v s="$seed" -v i="$i" -v g="${merit[$i]}" -v p="${merit[path]}" -v spp="${SPP:-}" \
+        'BEGIN {printf "%s seed %s: %s/path %s %.3f\n", n, s, i, (spp == "" ? "relMSE" : "relMSE x CPU s"), g / p}'
+    done
+    unset merit
   done
 done

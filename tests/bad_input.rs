@@ -279,10 +279,6 @@ fn cases() -> Vec<Case> {
             s["integrator"] = json!({"type": "guided", "learn_fraction": 1})
         })
         .err(&["integrator.learn_fraction"]),
-        edit("guided min_gain of 1", |s| {
-            s["integrator"] = json!({"type": "guided", "min_gain": 1.0})
-        })
-        .err(&["integrator.min_gain", "[0, 1)"]),
         edit("guided unknown learn_from", |s| {
             s["integrator"] = json!({"type": "guided", "learn_from": "importons"})
         })

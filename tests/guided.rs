@@ -314,7 +314,7 @@ fn learned_distribution_in_caustic_cbox_points_at_the_light_and_the_glass_sphere
 
 fn learned_distribution_in_caustic_cbox(shared: &Path, from: &str, sphere_factor: f64) {
     let o = format!(
-        r#"{{"integrator": {{"type": "guided", "learn_direct": true, "learn_from": "{from}", "spatial_threshold": 300, "min_gain": 0}}, "film": {{"resolution": [64, 64]}}}}"#
+        r#"{{"integrator": {{"type": "guided", "learn_direct": true, "learn_from": "{from}", "spatial_threshold": 300}}, "film": {{"resolution": [64, 64]}}}}"#
     );
     let o = o.as_str();
     let loaded = load_scene(&shared.join("refs/scenes/caustic_cbox.json"), &[o], Profile::Physical);
@@ -349,11 +349,11 @@ fn learned_distribution_in_caustic_cbox(shared: &Path, from: &str, sphere_factor
         learned[1],
         share[1]
     );
-    // the sphere's share of the learned density there is its share of ∫L_i: 0.86x (paths)
+    // the sphere's share of the learned density there is its share of ∫L_i: 0.93x (paths)
     // and 0.89x (photons) of it; a tree that learned nothing there gives the solid-angle
-    // share, 0.45x: the tolerance of 25 % leaves 3.9x between the baseline's deviation and
-    // that one's (errors that only sharpen or blur the learned lobe, such as the paths'
-    // values without their 1/pdf, 1.22x, stay inside it)
+    // share, 0.45x: the tolerance of 25 % leaves 5x between the baseline's deviation and
+    // that one's. Errors that only sharpen or blur the learned lobe stay inside it (the
+    // paths' values without their 1/pdf: 1.25x): the records test below catches them
     assert!(
         (learned[1] / truth[1] - 1.0).abs() < 0.25,
         "{from}: sphere at the caustic point: learned {} vs ∫L_i share {}",
@@ -367,6 +367,113 @@ fn learned_distribution_in_caustic_cbox(shared: &Path, from: &str, sphere_factor
         fraction(q),
         tree.stats().fractions
     );
+}
+
+/// Mean and standard error of `n` samples given as (Σx, Σx²).
+fn mean_and_error(sum: [f64; 2], n: u32) -> (f64, f64) {
+    let m = sum[0] / n as f64;
+    (m, ((sum[1] / n as f64 - m * m).max(0.0) / n as f64).sqrt())
+}
+
+/// What training paths record at a vertex is the radiance arriving there divided
+/// by the density its direction was sampled with, so the records of many paths
+/// through one point estimate the integral of the incident radiance there. At a
+/// floor point of `caustic_cbox` in the glass sphere's caustic, the first vertex's
+/// records are summed over the directions through the glass sphere and over the
+/// other directions that do not see the light (its direct light is left to light
+/// sampling), and compared with the same integrals of `path`'s radiance along
+/// uniform directions; the guide takes half of the vertex's samples, so the
+/// mixture's density is the one to divide by. The deliberate errors the tolerance of
+/// 15 % is set against are in the assertion's comment.
+#[test]
+fn path_records_estimate_the_radiance_arriving_through_the_glass_and_from_the_walls() {
+    let Some(shared) = shared() else { return };
+    let o = r#"{"integrator": {"type": "guided", "learn_from": "paths", "spatial_threshold": 300}, "film": {"resolution": [64, 64]}}"#;
+    let loaded = load_scene(&shared.join("refs/scenes/caustic_cbox.json"), &[o], Profile::Physical);
+    let (light, floor, sphere) = (0u32, 3u32, 6u32);
+    let state = train(&loaded, 16);
+    let tree = state.learned_tree().unwrap();
+    let scene = &loaded.scene;
+    // inside the caustic: the light, focused by the sphere, lands about (0.33, 0, 0.40)
+    let q = Vec3::new(0.38, 0.0, 0.52);
+    let object_towards = |d: Vec3| {
+        let ray = rdr::geometry::Ray::new(q + Vec3::new(0.0, 1e-3, 0.0), d);
+        scene.intersect(&ray).map(|h| scene.interaction(&ray, &h).object)
+    };
+    // which integral a direction arriving at q counts in: 0 the glass sphere, 1 the rest
+    // but the light
+    let part = |d: Vec3| match object_towards(d) {
+        Some(o) if o == sphere => Some(0),
+        Some(o) if o == light => None,
+        _ => Some(1),
+    };
+    let n = 200_000u32;
+
+    // the truth: path's radiance along uniform directions of the upper hemisphere
+    let pt = rdr::integrator::PathTracer {
+        max_depth: 11,
+        profile: rdr::integrator::PathProfile::Mis,
+        rr_threshold: 0.1,
+    };
+    let mut counts = rdr::integrator::RayCounts::default();
+    let mut rng = Rng::new(5);
+    let mut truth = [[0.0f64; 2]; 2];
+    for i in 0..n {
+        let d = upper_hemisphere(uniform2(&mut rng));
+        let Some(k) = part(d) else { continue };
+        let ray = rdr::geometry::Ray::new(q + Vec3::new(0.0, 1e-3, 0.0), d);
+        let mut sampler = rdr::sampler::PixelSampler::new(i, 0, 0, 3);
+        let l = pt.li(scene, ray, None, &mut sampler, &mut counts);
+        let y = 2.0 * std::f64::consts::PI * ((l.x + l.y + l.z) / 3.0) as f64;
+        truth[k][0] += y;
+        truth[k][1] += y * y;
+    }
+
+    // the records: camera rays through q, the first vertex's record per path
+    let guiding = rdr::integrator::guided::Guiding {
+        tree,
+        bsdf_fraction: 0.5,
+        record: true,
+        record_radiance: true,
+        max_depth: 12,
+        rr_threshold: 0.1,
+        record_direct: false,
+        learn_fraction: false,
+    };
+    let camera = Vec3::new(0.0, 1.0, 6.8);
+    let ray = rdr::geometry::Ray::new(camera, (q - camera).normalize());
+    let hit = scene.intersect(&ray).unwrap();
+    let it = scene.interaction(&ray, &hit);
+    assert!(
+        it.object == floor && (it.p - q).length() < 1e-3,
+        "the camera ray reaches {} on object {}",
+        it.p,
+        it.object
+    );
+    let mut scratch = rdr::integrator::guided::Scratch::default();
+    let mut recorded = [[0.0f64; 2]; 2];
+    for i in 0..n {
+        scratch.records.clear();
+        let mut sampler = rdr::sampler::PixelSampler::new(7, 9, i, 3);
+        guiding.li(scene, ray, None, &mut sampler, &mut counts, &mut scratch);
+        let Some(r) = scratch.records.iter().find(|r| r.counted) else {
+            continue;
+        };
+        let Some(k) = part(square_to_sphere(r.p)) else { continue };
+        let y = r.value as f64;
+        recorded[k][0] += y;
+        recorded[k][1] += y * y;
+    }
+    for (k, name) in ["through the glass sphere", "from the rest (not the light)"].iter().enumerate() {
+        let (t, te) = mean_and_error(truth[k], n);
+        let (r, re) = mean_and_error(recorded[k], n);
+        eprintln!("∫L_i {name}: recorded {r:.4} ± {re:.4}, path {t:.4} ± {te:.4}, ratio {:.3}", r / t);
+        // baseline ratios 0.986 (glass, ± 0.8 %) and 0.951 (rest, ± 3 %): 3.1x inside the
+        // tolerance of 15 %; values not divided by their density: glass 0.524, 3.2x outside
+        // it (9.7x the baseline's deviation); light through the glass not credited to the
+        // vertex (treated as its direct light): glass 0.053
+        assert!((r / t - 1.0).abs() < 0.15, "{name}: recorded {r} against {t}");
+    }
 }
 
 /// Mean and per-sample relative variance of `n` estimates of the radiance along
@@ -402,7 +509,7 @@ fn ray_estimates(
 #[test]
 fn photon_guide_and_guided_roulette_cut_the_ceiling_variance_of_caustic_cbox() {
     let Some(shared) = shared() else { return };
-    let o = r#"{"integrator": {"type": "guided", "spatial_threshold": 500, "min_gain": 0, "learn_fraction": false}, "film": {"resolution": [128, 128]}}"#;
+    let o = r#"{"integrator": {"type": "guided", "spatial_threshold": 500, "learn_fraction": false}, "film": {"resolution": [128, 128]}}"#;
     let loaded = load_scene(&shared.join("refs/scenes/caustic_cbox.json"), &[o], Profile::Physical);
     let state = train(&loaded, 64);
     let tree = state.learned_tree().unwrap();
@@ -436,9 +543,8 @@ fn photon_guide_and_guided_roulette_cut_the_ceiling_variance_of_caustic_cbox() {
     }
 }
 
-/// Guiding tested as such: training by the schedule alone (`min_gain` 0), so the
-/// final iterations guide wherever the leaves chose to.
-const GUIDED: &str = r#"{"integrator": {"type": "guided", "min_gain": 0}}"#;
+/// Guiding with its defaults: the leaves guide wherever they chose to.
+const GUIDED: &str = r#"{"integrator": {"type": "guided"}}"#;
 
 /// `scene.json` of the references at 1/k resolution: two independent renders.
 fn reduced(shared: &Path, scene: &str, k: u64, spp: u32, extra: &[&str]) -> (Image, Image) {
@@ -485,40 +591,52 @@ fn converges_to_the_path_traced_references() {
     }
 }
 
-/// `min_gain`: where guiding is estimated not to pay (env_sphere: one diffuse sphere
-/// under the sky, whose BSDF samples find the sky well), training stops after the
-/// third iteration and the rest of the budget is one final iteration that guides
-/// nowhere (`path`'s estimator); the image still converges. With `min_gain` 0 the
-/// schedule runs in full.
+/// Every decision of the schedule depends on sample counts only: the same scene,
+/// spp and seed give the same image with 1 thread on a quiet run and with 2 threads,
+/// under a time limit it does not reach, with every tile slowed by a sleep in the
+/// progress callback (a busy machine: 32 passes in about 3 s instead of 0.1 s).
+/// With the former wall-clock rule (a training iteration starts only if predicted
+/// to end within 12 % of the time limit) the slowed render stops training after 3
+/// iterations instead of 4 and the images differ.
 #[test]
-fn training_stops_where_guiding_does_not_pay_and_the_image_converges() {
+fn the_image_depends_on_sample_counts_not_on_threads_or_timing() {
     let Some(shared) = shared() else { return };
-    let path = shared.join("refs/scenes/env_sphere.json");
-    let k = 4;
-    let res = r#"{"film": {"resolution": [64, 64]}}"#;
-    let summary_of = |extra: &str| {
-        let s = load_scene(&path, &[r#"{"integrator": {"type": "guided"}}"#, res, extra], Profile::Physical);
-        let job = rdr::RenderJob { spp: 64, ..s.job.clone() };
-        let out = rdr::render(&s.scene, &job, &RenderControl::default());
-        out.summary.unwrap()
+    let o = r#"{"integrator": {"type": "guided", "spatial_threshold": 100}, "film": {"resolution": [32, 32]}}"#;
+    let loaded = load_scene(&shared.join("refs/scenes/caustic_cbox.json"), &[o], Profile::Physical);
+    let run = |threads: usize, time_limit: Option<f64>, delay: Option<std::time::Duration>| {
+        let job = rdr::RenderJob {
+            spp: 32,
+            target_spp: 32,
+            seed: 3,
+            time_limit,
+            ..loaded.job.clone()
+        };
+        let progress = delay.map(|d| Arc::new(move |_| std::thread::sleep(d)) as Arc<dyn Fn(u64) + Send + Sync>);
+        let control = RenderControl {
+            progress,
+            ..RenderControl::default()
+        };
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        pool.install(|| rdr::render(&loaded.scene, &job, &control))
     };
-    let stopped = summary_of("{}");
-    eprintln!("default: {stopped}");
-    assert!(stopped.contains("training stopped after 3 iterations"), "{stopped}");
-    assert!(stopped.contains("final 57 spp"), "1 + 2 + 4 training spp, then the rest: {stopped}");
-    let scheduled = summary_of(r#"{"integrator": {"min_gain": 0}}"#);
-    eprintln!("min_gain 0: {scheduled}");
+    let quiet = run(1, None, None);
+    let slowed = run(2, Some(20.0), Some(std::time::Duration::from_millis(100)));
+    for (what, out) in [("quiet, 1 thread", &quiet), ("slowed, 2 threads", &slowed)] {
+        eprintln!(
+            "{what}: {} passes in {:.2} s; {}",
+            out.spp_done,
+            out.seconds,
+            out.summary.as_deref().unwrap_or("")
+        );
+    }
+    assert!(slowed.spp_done == 32 && !slowed.time_limited, "the slowed render ran out of time");
+    assert!(slowed.seconds > 1.5, "not slowed: {} s", slowed.seconds);
+    let differ = quiet.pixels.iter().zip(&slowed.pixels).filter(|(a, b)| a != b).count();
     assert!(
-        !scheduled.contains("training stopped") && scheduled.contains("final 33 spp"),
-        "{scheduled}"
+        differ == 0,
+        "{differ} of {} pixels differ between the quiet and the slowed render",
+        quiet.pixels.len()
     );
-
-    let r = read(&shared.join("refs/env_sphere.exr")).block_average(k, false);
-    let vr = read(&shared.join("refs/env_sphere.var.exr")).block_average(k, true);
-    let s = load_scene(&path, &[r#"{"integrator": {"type": "guided"}}"#, res], Profile::Physical);
-    let (a, b) = (render(&s, 32, 1), render(&s, 32, 2));
-    let c = check("guided env_sphere, stopped", (&a, &b), &r, &vr);
-    assert!(converges(&c), "{c:?}");
 }
 
 #[test]
@@ -594,7 +712,7 @@ fn an_interrupted_render_is_the_shorter_render_and_time_budgets_are_followed() {
     let summary = out.summary.unwrap();
     eprintln!("{} passes in {:.2} s; {summary}", out.spp_done, out.seconds);
     assert!(out.time_limited && out.seconds < 3.0, "{} s", out.seconds);
-    assert!(summary.contains("time budget") && summary.contains("final"), "{summary}");
+    assert!(summary.contains("training iterations for 1000000 spp"), "{summary}");
     let reference = read(&shared.join("refs/cbox.exr")).mean();
     let m = Image::new(32, 32, out.pixels).mean();
     assert!(
@@ -603,16 +721,32 @@ fn an_interrupted_render_is_the_shorter_render_and_time_budgets_are_followed() {
     );
 }
 
+/// The white furnace (a white diffuse sphere under a uniform white sky) is 1
+/// everywhere: with the defaults, and with the guide learning the sky's light
+/// (`learn_direct`) and forced on at half of every vertex's samples, so the light
+/// samples' MIS weights must use the mixture's density (the guide's density
+/// there differs from the BSDF's). Leaving the guide's density out of the light
+/// samples' weights (the BSDF's alone there) gave 0.960 with the guide forced on,
+/// 13× the tolerance of 3e-3 there (the baseline: 1.00021–1.00058, 5× below it or more).
 #[test]
 fn white_furnace_is_one() {
     let Some(shared) = shared() else { return };
-    // (the mean of 100² pixels at 256 spp has a standard error of 1.6e-4)
-    let o = r#"{"integrator": {"type": "guided", "spatial_threshold": 200, "min_gain": 0}, "film": {"resolution": [100, 100]}}"#;
-    let s = load_scene(&shared.join("refs/scenes/sphere_furnace.json"), &[o], Profile::Physical);
-    let img = render(&s, 256, 3);
-    let m = img.mean();
-    eprintln!("guided furnace: mean {m}");
-    assert!((m - Vec3::ONE).abs().max_element() < 8e-4, "{m}");
+    // (the mean of 100² pixels at 256 spp has a standard error of 1.6e-4 with the
+    // defaults; half the samples from a guide spread over the sphere raise it)
+    for (extra, tolerance) in [
+        (r#"{}"#, 8e-4),
+        (
+            r#"{"integrator": {"learn_direct": true, "learn_fraction": false, "bsdf_fraction": 0.5}}"#,
+            3e-3,
+        ),
+    ] {
+        let o = r#"{"integrator": {"type": "guided", "spatial_threshold": 200}, "film": {"resolution": [100, 100]}}"#;
+        let s = load_scene(&shared.join("refs/scenes/sphere_furnace.json"), &[o, extra], Profile::Physical);
+        let img = render(&s, 256, 3);
+        let m = img.mean();
+        eprintln!("guided furnace {extra}: mean {m}");
+        assert!((m - Vec3::ONE).abs().max_element() < tolerance, "{extra}: {m}");
+    }
 }
 
 /// Per-pixel moments (Σy, Σy², n) and pixel means of `spp` samples a pixel from a
@@ -771,7 +905,7 @@ fn guided_roulette_keeps_a_glowing_box_at_its_geometric_series() {
     std::fs::write(dir.path().join("cube.obj"), inward_cube_obj()).unwrap();
     let (rho, depth) = (0.5f64, 12);
     let scene = serde_json::json!({
-        "integrator": {"type": "guided", "spp": 64, "max_depth": depth, "min_gain": 0, "learn_fraction": false, "training_iterations": 3, "combine": "last"},
+        "integrator": {"type": "guided", "spp": 64, "max_depth": depth, "learn_fraction": false, "training_iterations": 3, "combine": "last"},
         "film": {"resolution": [16, 16]},
         "camera": {"position": [0.1, 0.2, 0.3], "look_at": [0.0, 0.0, -1.0], "ref_up": [0.0, 1.0, 0.0], "fov": 60.0},
         "textures": {"wall": {"type": "constant", "color": [rho, rho, rho]}},
@@ -808,7 +942,7 @@ fn guided_mis_weights_the_light_samples_by_the_mixture_density() {
     std::fs::write(dir.path().join("walls.obj"), inward_cube_obj()).unwrap();
     std::fs::write(dir.path().join("light.obj"), light).unwrap();
     let scene = serde_json::json!({
-        "integrator": {"type": "guided", "spp": 64, "max_depth": 6, "min_gain": 0, "learn_fraction": false, "learn_direct": true,
+        "integrator": {"type": "guided", "spp": 64, "max_depth": 6, "learn_fraction": false, "learn_direct": true,
                        "training_iterations": 5, "spatial_threshold": 300, "combine": "last"},
         "film": {"resolution": [32, 32]},
         "camera": {"position": [0.0, 0.5, 0.95], "look_at": [0.0, -1.0, -0.2], "ref_up": [0.0, 1.0, 0.0], "fov": 70.0},

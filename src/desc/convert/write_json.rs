@@ -103,8 +103,6 @@ pub fn to_json(desc: &SceneDesc, out: &Path) -> Result<Converted> {
             integ.insert("spatial_threshold".into(), num(g.spatial_threshold));
             integ.insert("learn_direct".into(), g.learn_direct.into());
             integ.insert("learn_fraction".into(), g.learn_fraction.into());
-            integ.insert("training_share".into(), num(g.training_share));
-            integ.insert("min_gain".into(), num(g.min_gain));
             let learn_from = match g.learn_from {
                 crate::integrator::guided::LearnFrom::Paths => "paths",
                 crate::integrator::guided::LearnFrom::Photons => "photons",

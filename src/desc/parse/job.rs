@@ -295,23 +295,13 @@ fn parse_guided(p: &Props) -> Result<Guided> {
     }
     let learn_direct = p.bool_or("learn_direct", d.learn_direct)?;
     let learn_fraction = p.bool_or("learn_fraction", d.learn_fraction)?;
-    let training_share = p.f32_or("training_share", d.training_share)?;
-    if !(training_share > 0.0 && training_share <= 1.0) {
-        return Err(p.error("training_share", "training_share must lie in (0, 1]"));
-    }
     let learn_from = match p.string_or("learn_from", "photons")?.as_str() {
         "paths" => guided::LearnFrom::Paths,
         "photons" => guided::LearnFrom::Photons,
         other => return Err(p.error("learn_from", format!("unknown learn_from '{other}' (available: paths, photons)"))),
     };
-    let min_gain = p.f32_or("min_gain", d.min_gain)?;
-    if !(0.0..1.0).contains(&min_gain) {
-        return Err(p.error("min_gain", "min_gain must lie in [0, 1)"));
-    }
     Ok(Guided {
-        min_gain,
         learn_from,
-        training_share,
         learn_direct,
         learn_fraction,
         max_depth,

@@ -4,7 +4,7 @@
 
 use super::combine::{combine, current_image, pixel_variances, relative_variances, Part};
 use super::sdtree::{self, SdTree, TreeStats};
-use super::{Combine, DTree, Guided, LearnFrom, RHO};
+use super::{Combine, DTree, Guided, LearnFrom, MAX_TRAINING_ITERATIONS, RHO};
 use crate::film::Film;
 use crate::integrator::PassContext;
 use crate::math::Vec3;
@@ -35,16 +35,10 @@ pub struct State {
     pub history: Vec<IterationInfo>,
     /// The schedule, in words.
     pub schedule: String,
-    started: Instant,
-    /// Elapsed seconds when the current iteration began.
-    iteration_start: f64,
     pub(super) length: u32,
     pub(super) last: bool,
     pub(super) passes: u32,
     pub(super) passes_total: u32,
-    stop_training: bool,
-    /// Why training stopped early, for the summary.
-    stop_reason: Option<String>,
     /// The current iteration's samples, and per-pixel moments of the samples'
     /// mean over channels: Σy, Σy², n.
     pub(super) film: Film,
@@ -75,21 +69,27 @@ impl Finished {
 
 impl Guided {
     /// Doubling iterations the spp budget gives when `training_iterations` is absent:
-    /// the most K with 2^(K+1) − 1 ≤ spp (the final one keeps at least 2^K).
+    /// the most K with 2^(K+1) − 1 ≤ spp (the final one keeps at least 2^K), at most
+    /// [`MAX_TRAINING_ITERATIONS`].
     pub fn auto_training_iterations(spp: u32) -> u32 {
         let mut k = 0u32;
-        while k < 30 && (1u64 << (k + 2)) - 1 <= spp as u64 {
+        while k < MAX_TRAINING_ITERATIONS && (1u64 << (k + 2)) - 1 <= spp as u64 {
             k += 1;
         }
         k
     }
 
-    /// Fraction of the leaves that have not chosen one: with `learn_fraction`, 1
-    /// (the guide is off where a leaf's vertices did not show it would help: a
-    /// tree learned from a few samples per pixel, sampled at half the vertices in
-    /// the final iteration, gave `veach_path` ten times `path`'s error), else
-    /// `bsdf_fraction`.
-    fn default_fraction(&self) -> f32 {
+    /// Training iterations of a render of `spp` samples per pixel (under
+    /// `--time-limit`, the most it may reach): a function of sample counts only.
+    pub fn training_iterations_for(&self, spp: u32) -> u32 {
+        self.training_iterations.unwrap_or_else(|| Self::auto_training_iterations(spp))
+    }
+
+    /// Fraction of the leaves before any choice: with `learn_fraction`, 1 (BSDF
+    /// sampling until a leaf's vertices show the guide would help: a tree learned
+    /// from a few samples per pixel, sampled at half the vertices, gave
+    /// `veach_path` ten times `path`'s error), else `bsdf_fraction`.
+    fn initial_fraction(&self) -> f32 {
         if self.learn_fraction {
             1.0
         } else {
@@ -99,23 +99,19 @@ impl Guided {
 
     pub(super) fn new_state(&self, ctx: &PassContext) -> State {
         let n = (ctx.film.width * ctx.film.height) as usize;
-        let schedule = match (ctx.time_limit, self.training_iterations) {
-            (_, Some(k)) => format!("{k} training iterations (given)"),
-            (Some(t), None) => format!("time budget of {t} s (training within {:.0} % of it)", 100.0 * self.training_share),
-            (None, None) => format!("spp budget: {} training iterations", Self::auto_training_iterations(ctx.spp)),
+        let k = self.training_iterations_for(ctx.spp);
+        let schedule = match self.training_iterations {
+            Some(_) => format!("{k} training iterations (given)"),
+            None => format!("{k} training iterations for {} spp", ctx.spp),
         };
         let mut s = State {
-            tree: SdTree::new(ctx.scene.center, ctx.scene.radius, DTree::initial(RHO), self.default_fraction()),
+            tree: SdTree::new(ctx.scene.center, ctx.scene.radius, DTree::initial(RHO), self.initial_fraction()),
             history: Vec::new(),
             schedule,
-            started: Instant::now(),
-            iteration_start: 0.0,
             length: 0,
             last: false,
             passes: 0,
             passes_total: 0,
-            stop_training: false,
-            stop_reason: None,
             film: Film::new(ctx.film.width, ctx.film.height, ctx.film.filter),
             moments: vec![[0.0; 3]; n],
             finished: Vec::new(),
@@ -125,31 +121,23 @@ impl Guided {
         s
     }
 
-    /// Length and kind of the next iteration.
+    /// Length and kind of the next iteration: iteration k takes 2^k passes and
+    /// trains while k is below the training iterations; the last takes what
+    /// remains of the spp budget. Sample counts decide, never the clock: the same
+    /// seed and spp give the same image on a busy machine and a quiet one.
     fn begin_iteration(&self, s: &mut State, ctx: &PassContext) {
         let k = s.history.len() as u32;
         let remaining = ctx.spp.saturating_sub(s.passes_total).max(1);
         let length = 1u32 << k.min(31);
-        let training = match self.training_iterations {
-            Some(n) => k < n,
-            None if ctx.time_limit.is_some() => !s.stop_training,
-            None => !s.stop_training && k < Self::auto_training_iterations(ctx.spp),
-        };
+        let training = k < self.training_iterations_for(ctx.spp);
         s.last = !training || length >= remaining;
         s.length = if s.last { remaining } else { length };
         s.passes = 0;
-        s.iteration_start = s.started.elapsed().as_secs_f64();
         s.history.push(IterationInfo {
             last: s.last,
             tree: s.tree.stats(),
             ..IterationInfo::default()
         });
-    }
-
-    /// Whether training stops after `iterations_done` iterations whose last one's
-    /// fraction choice is estimated to gain `gain` (see `min_gain`).
-    fn stops_unprofitable(&self, iterations_done: usize, gain: f64) -> bool {
-        self.learn_fraction && self.training_iterations.is_none() && iterations_done >= 3 && gain < self.min_gain as f64
     }
 
     /// Keeps the finished training iteration's image, rebuilds the tree and
@@ -167,43 +155,18 @@ impl Guided {
         }
         let threshold = self.spatial_threshold as f64 * (s.length as f64).sqrt();
         let choice = std::mem::take(&mut s.choice);
-        let moments = s.tree.end_iteration(
-            threshold,
-            RHO,
-            true,
-            self.learn_fraction.then_some(&choice[..]),
-            self.default_fraction(),
-        );
+        let moments = s
+            .tree
+            .end_iteration(threshold, RHO, true, self.learn_fraction.then_some(&choice[..]));
         let build = build_start.elapsed().as_secs_f64();
         let variance = {
             let parts: Vec<Part> = s.finished.iter().map(Finished::part).collect();
             relative_variances(&parts).last().copied().unwrap_or(0.0)
         };
-        let iterations_done = s.history.len();
         let info = s.history.last_mut().expect("an iteration is running");
         info.build_seconds = build;
         info.variance = variance;
         info.gain = self.learn_fraction.then(|| moments.gain());
-        let spent = info.seconds + build;
-        if self.stops_unprofitable(iterations_done, moments.gain()) {
-            // the few leaves that chose to guide would slow the final iteration
-            // (cbox: 28 of 366 leaves, 25 % more time per sample) for a gain
-            // estimated too small to pay
-            s.tree.leaves.iter_mut().for_each(|l| l.bsdf_fraction = 1.0);
-            s.stop_training = true;
-            s.stop_reason = Some(format!(
-                "training stopped after {iterations_done} iterations: estimated gain {:.1} % < min_gain {:.1} %",
-                100.0 * moments.gain(),
-                100.0 * self.min_gain
-            ));
-        }
-        if let Some(limit) = ctx.time_limit {
-            // the next iteration, twice as long, must end within the training share
-            let now = s.started.elapsed().as_secs_f64();
-            if now + 2.0 * spent > self.training_share as f64 * limit {
-                s.stop_training = true;
-            }
-        }
         s.film.take_sums(true);
         s.moments.iter_mut().for_each(|x| *x = [0.0; 3]);
         self.begin_iteration(s, ctx);
@@ -253,9 +216,8 @@ impl Guided {
             })
             .collect();
         format!(
-            "guided: schedule {}{}; learned from {}; combine {}; iterations: {}; SD-tree {} spatial leaves, {} directional nodes (depth ≤ {}), {:.1} MB; leaves per BSDF fraction {}",
+            "guided: schedule {}; learned from {}; combine {}; iterations: {}; SD-tree {} spatial leaves, {} directional nodes (depth ≤ {}), {:.1} MB; leaves per BSDF fraction {}",
             s.schedule,
-            s.stop_reason.as_ref().map_or_else(String::new, |r| format!(" ({r})")),
             match self.learn_from {
                 LearnFrom::Photons => "photons (one per pixel and training pass)",
                 LearnFrom::Paths => "camera paths",
@@ -269,10 +231,10 @@ impl Guided {
             stats.directional_nodes,
             stats.max_directional_depth,
             stats.bytes as f64 / 1e6,
-            sdtree::FRACTIONS
+            sdtree::FRACTION_BINS
                 .iter()
                 .zip(stats.fractions)
-                .map(|(f, n)| format!("{f}: {n}"))
+                .map(|(f, n)| if *f >= 1.0 { format!("1: {n}") } else { format!("≥ {f}: {n}") })
                 .collect::<Vec<_>>()
                 .join(", ")
         )

@@ -29,15 +29,15 @@
 //! pixels of the relative variance of the pixel mean, the `rdr compare` metric's
 //! weighting), or shows the last iteration alone (`combine: "last"`).
 //!
-//! Schedule: with an spp budget, iterations double while the rest still holds
-//! at least one more doubling, and the last takes what remains (64 spp: 1, 2, 4,
-//! 8, 16, then 33). Under `--time-limit` a training iteration starts only if it
-//! is predicted to end within `training_share` of the limit (the paper's
-//! variance-times-time balancing trained too long for a minute's render); the
-//! last iteration then renders until the render loop stops it. Either way
-//! training also stops early, with the guide turned off, once the leaves' chosen
-//! fractions are estimated to gain less than `min_gain` over BSDF sampling; a
-//! final iteration that guides nowhere runs `path`'s own code.
+//! Schedule: iterations double while the rest of the spp budget still holds at
+//! least one more doubling, at most [`MAX_TRAINING_ITERATIONS`] of them, and the
+//! last takes what remains (64 spp: 1, 2, 4, 8, 16, then 33). Under
+//! `--time-limit` the budget is the spp cap and the render loop stops the
+//! schedule where the time runs out. Every decision depends on sample counts
+//! only, never on the clock. The leaves choose their BSDF fractions after every
+//! iteration (a leaf with too few vertices takes its nearest ancestor's choice);
+//! there is no global switch. A final iteration in which every leaf chose BSDF
+//! sampling alone runs `path`'s own code.
 //!
 //! Deterministic: records are kept per tile and deposited in tile order after
 //! each pass, so the trees, and with them the image, do not depend on the
@@ -69,6 +69,14 @@ const PHOTON_RR_THRESHOLD: f32 = 0.1;
 /// Most photons a training pass shoots (one per pixel below it): their deposits,
 /// a few per photon, are held until the pass ends.
 pub const MAX_PHOTONS_PER_PASS: u32 = 1 << 20;
+
+/// Most training iterations the spp budget gives (1 + 2 + 4 + 8 + 16 = 31 spp):
+/// a training pass costs about 2.5 `path` passes (its photons, records and the
+/// guide's lookups; caustic_cbox under `--time-limit` 30 s: 11 spp with 7 training
+/// iterations against `path`'s 41), so training stops where a minute's render
+/// still has most of its samples ahead (caustic_cbox at 256 spp with 31 of
+/// training: relMSE 2.9e-3, `path` 1.3e-2).
+pub const MAX_TRAINING_ITERATIONS: u32 = 5;
 
 /// Energy share above which a directional cell is split (the paper's ρ).
 pub const RHO: f32 = 0.01;
@@ -114,15 +122,14 @@ pub enum Combine {
 ///   training: relMSE 2.9e-3 from photons, 5.0e-3 from paths, `path` 1.3e-2);
 /// * `bsdf_fraction` (number in (0, 1], 0.5) — probability of BSDF sampling at a
 ///   guided vertex (1: never guided) when `learn_fraction` is false;
-/// * `learn_fraction` (bool, true) — training iterations sample with
-///   `bsdf_fraction`; for the final one each spatial leaf chooses its BSDF fraction
-///   from 0.1, 0.25, 0.5, 0.75, 1 after every training iteration: the one whose
-///   estimated second moment of the vertex estimator, ∫F²/p, is smallest (1,
-///   BSDF sampling without guide lookups, unless another's is below 0.6 of its),
-///   estimated on the first pass of the last training iteration with the new
-///   tree (leave-one-out); leaves with fewer than 128 vertices there sample the
-///   BSDF alone;
-/// * `training_iterations` (int ≥ 0, absent: chosen by the budget, see the
+/// * `learn_fraction` (bool, true) — each spatial leaf learns its BSDF fraction
+///   after every iteration, a continuous value in [0.1, 1]: the one whose
+///   estimated second moment of the vertex estimator, ∫F²/p, is smallest (1, BSDF
+///   sampling without guide lookups, unless another's is below 0.6 of its),
+///   estimated on the iteration's first pass with the new tree (leave-one-out);
+///   a leaf with fewer than 128 vertices there takes the fraction its nearest
+///   ancestor's vertices choose together;
+/// * `training_iterations` (int ≥ 0, absent: chosen by the spp budget, see the
 ///   module docs) — doubling iterations before the final one;
 /// * `combine` (`"inverse_variance"` | `"last"`, `"inverse_variance"`);
 /// * `spatial_threshold` (number > 0, 2000) — the paper's c: a spatial leaf is
@@ -135,23 +142,6 @@ pub enum Combine {
 ///   chains (light sampled at later vertices included), leaving the direct light
 ///   to light sampling, which handles it better (cbox, 33 spp: relMSE 1.2e-2 with
 ///   direct light learned, 7.0e-3 without, `path` 5.5e-3);
-/// * `training_share` (number in (0, 1], 0.12) — under `--time-limit`, the share of
-///   the time budget training may take: a training iteration starts only when it
-///   is predicted (twice the previous one) to end within it.
-/// * `min_gain` (number in [0, 1), 0.15) — with `learn_fraction` and no
-///   `training_iterations`, training stops after the third iteration (1 + 2 + 4
-///   spp) or any later one when the leaves' chosen fractions are estimated to
-///   reduce the vertex estimator's second moment, summed over the iteration's
-///   vertices, by less than this share against BSDF sampling alone: guiding does
-///   not pay there, and the rest of the budget goes to one final iteration, whose
-///   single stratified sequence is worth more than further training, with the
-///   guide off everywhere (0: train by the schedule alone). The estimate sees one
-///   vertex, not what guiding gains along a whole path: after the third
-///   iteration, photon-trained, it gave 4.6–9.5 % on cbox, 0 on env_sphere, 7.2 %
-///   on veach, where guiding does not pay, and 21–51 % on caustic_cbox, where the
-///   image's error falls by half and more at equal time (0.25, the value before
-///   photons, stopped one of two caustic_cbox runs at 21.2 %).
-///
 /// ```json
 /// {"type": "guided", "spp": 256, "bsdf_fraction": 0.5, "combine": "inverse_variance"}
 /// ```
@@ -164,9 +154,7 @@ pub struct Guided {
     pub combine: Combine,
     pub spatial_threshold: f32,
     pub learn_direct: bool,
-    pub training_share: f32,
     pub learn_fraction: bool,
-    pub min_gain: f32,
     pub learn_from: LearnFrom,
 }
 
@@ -180,9 +168,7 @@ impl Default for Guided {
             combine: Combine::InverseVariance,
             spatial_threshold: 2000.0,
             learn_direct: false,
-            training_share: 0.12,
             learn_fraction: true,
-            min_gain: 0.15,
             learn_from: LearnFrom::Photons,
         }
     }

@@ -282,11 +282,12 @@ impl<'g> Policy for Walk<'g, '_> {
                 bsdf_fraction: 1.0,
             }
         } else {
-            // training samples with the guide at `bsdf_fraction` (what it learns
-            // from its own samples sharpens it: trained by BSDF samples alone,
-            // the caustic leaf of caustic_cbox gave the sphere 54 % of its
-            // samples instead of 76 %); the final iteration with the leaf's choice
-            let fraction = if g.learn_fraction && !g.record {
+            // every iteration samples with the leaf's learned fraction, except that
+            // training from the paths' radiance samples with the guide at
+            // `bsdf_fraction` (what it learns from its own samples sharpens it:
+            // trained by BSDF samples alone, the caustic leaf of caustic_cbox gave
+            // the sphere 54 % of its samples instead of 76 %)
+            let fraction = if g.learn_fraction && !(g.record && g.record_radiance) {
                 g.tree.leaves[leaf as usize].bsdf_fraction
             } else {
                 g.bsdf_fraction

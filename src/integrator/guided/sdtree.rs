@@ -38,15 +38,32 @@ pub struct ChoiceSample {
     pub value: f32,
 }
 
-/// Candidate BSDF-sampling probabilities a leaf chooses from.
-pub const FRACTIONS: [f32; 5] = [0.1, 0.25, 0.5, 0.75, 1.0];
+/// Smallest BSDF-sampling probability a leaf may choose: directions the guide
+/// never learned stay reachable.
+pub const MIN_FRACTION: f32 = 0.1;
 
-/// Vertices a leaf needs to choose its fraction (fewer keep the default).
-const MIN_CHOICE_VERTICES: f64 = 128.0;
+/// The candidate fractions a leaf's second moment is evaluated at: a grid of
+/// step 0.025 from [`MIN_FRACTION`] to 1, refined by a parabola through the
+/// least value and its neighbours (the moment is convex in the fraction).
+const GRID: usize = 37;
+
+fn grid_fraction(i: usize) -> f64 {
+    MIN_FRACTION as f64 + (1.0 - MIN_FRACTION as f64) * i as f64 / (GRID - 1) as f64
+}
+
+/// Bins of the leaves' fractions in the summary: lower bounds, the last one
+/// being BSDF sampling alone (fraction 1).
+pub const FRACTION_BINS: [f32; 5] = [0.1, 0.25, 0.5, 0.75, 1.0];
+
+/// Records (camera vertices and photons) a leaf needs for its own directional
+/// distribution, and vertices it needs to choose its own fraction: with fewer a
+/// leaf keeps the distribution it had (its parent's, when it was just split)
+/// and takes the fraction of its nearest ancestor that has enough.
+pub const MIN_LEAF_SAMPLES: u64 = 128;
 
 /// How much smaller than BSDF sampling's a guided fraction's second moment must
 /// be to be chosen: a guided vertex costs more (the guide's lookups), and the
-/// smallest of five noisy estimates is lower than its truth (with 0.95, cbox
+/// smallest of many noisy estimates is lower than its truth (with 0.95, cbox
 /// chose guiding in 124 of 366 leaves and rendered 57 spp in a minute against 94
 /// of `path`, at a higher error per sample).
 const GUIDE_MARGIN: f64 = 0.6;
@@ -90,8 +107,9 @@ pub struct TreeStats {
     pub directional_nodes: usize,
     pub max_directional_depth: u32,
     pub bytes: usize,
-    /// Leaves sampling with each of the [`FRACTIONS`] (others: the default).
-    pub fractions: [usize; FRACTIONS.len()],
+    /// Leaves per bin of [`FRACTION_BINS`] (a fraction counts in the last bin
+    /// whose bound it reaches).
+    pub fractions: [usize; FRACTION_BINS.len()],
 }
 
 impl SdTree {
@@ -158,83 +176,35 @@ impl SdTree {
         &self.leaves[self.leaf_of(p) as usize].sampling
     }
 
-    /// Ends an iteration: what was recorded becomes the sampling distribution;
-    /// leaves that recorded more than `threshold` vertices are split (their
-    /// children copy the trees and share the count) until none exceeds it; the
-    /// recording trees are refined from the new distributions by energy share
-    /// `rho`, emptied, and the counts reset.
+    /// Ends an iteration: what was recorded becomes the sampling distribution of
+    /// each leaf with at least [`MIN_LEAF_SAMPLES`] records (the others keep theirs:
+    /// a distribution learned from a handful of records is noise); leaves that
+    /// recorded more than `threshold` vertices are split (their children copy the
+    /// trees and share the count) until none exceeds it; the recording trees are
+    /// refined from the new distributions by energy share `rho`, emptied, and the
+    /// counts reset.
     ///
     /// With `choice` (some of the iteration's vertices), each leaf with at least
-    /// 128 of them takes the candidate fraction α whose estimated second moment of
-    /// the vertex estimator, Σ (F/q)²·q / (α·p_bsdf + (1−α)·p_guide), is smallest
-    /// (1, which skips the guide's lookups, unless another is below 0.6 of its), the
-    /// guide's density being the new tree's with the vertex's own deposit left out
-    /// (leave-one-out: the tree was learned from these vertices, and without it
-    /// every vertex would find the guide at its own direction); the others take
-    /// `default_fraction`. Returns the second moments the choice leads to
+    /// [`MIN_LEAF_SAMPLES`] of them takes the fraction α in [[`MIN_FRACTION`], 1]
+    /// whose estimated second moment of the vertex estimator,
+    /// Σ (F/q)²·q / (α·p_bsdf + (1−α)·p_guide), is smallest (1, which skips the
+    /// guide's lookups, unless another is below 0.6 of its), the guide's density
+    /// being the new tree's with the vertex's own deposit left out (leave-one-out:
+    /// the tree was learned from these vertices, and without it every vertex would
+    /// find the guide at its own direction); a leaf with fewer takes the fraction
+    /// its nearest ancestor's vertices choose together, and keeps its own when no
+    /// ancestor has enough. Returns the second moments the choice leads to
     /// ([`ChoiceMoments`]; zero without `choice`).
-    pub fn end_iteration(
-        &mut self,
-        threshold: f64,
-        rho: f32,
-        refine: bool,
-        choice: Option<&[ChoiceSample]>,
-        default_fraction: f32,
-    ) -> ChoiceMoments {
+    pub fn end_iteration(&mut self, threshold: f64, rho: f32, refine: bool, choice: Option<&[ChoiceSample]>) -> ChoiceMoments {
         let mut totals = ChoiceMoments::default();
         for leaf in &mut self.leaves {
             leaf.building.finish_recording();
-            leaf.sampling = std::mem::take(&mut leaf.building);
-            leaf.bsdf_fraction = default_fraction;
+            if leaf.count >= MIN_LEAF_SAMPLES || !leaf.sampling.can_sample() {
+                leaf.sampling = std::mem::take(&mut leaf.building);
+            }
         }
         if let Some(samples) = choice {
-            let mut moments = vec![([0.0f64; FRACTIONS.len()], 0u32); self.leaves.len()];
-            for c in samples {
-                let Some(leaf) = self.leaves.get(c.leaf as usize) else { continue };
-                let t = &leaf.sampling;
-                let usable = c.fq > 0.0 && c.fq.is_finite() && c.q > 0.0;
-                if !usable || !t.can_sample() {
-                    continue;
-                }
-                let (pdf, area) = t.pdf_square_and_area(c.p);
-                let total = t.total() as f64;
-                let e = if c.value > 0.0 && c.value.is_finite() {
-                    c.value as f64
-                } else {
-                    0.0
-                };
-                let pg = if total - e > 0.0 {
-                    ((pdf as f64 * area as f64 * total - e).max(0.0) / ((total - e) * area as f64)) / (4.0 * std::f64::consts::PI)
-                } else {
-                    0.0
-                };
-                let x = c.fq as f64 * c.fq as f64 * c.q as f64;
-                let m = &mut moments[c.leaf as usize];
-                m.1 += 1;
-                for (mi, a) in m.0.iter_mut().zip(FRACTIONS) {
-                    let p = a as f64 * c.pb as f64 + (1.0 - a as f64) * pg;
-                    *mi += if p > 0.0 { x / p } else { f64::INFINITY };
-                }
-            }
-            for (leaf, (m, n)) in self.leaves.iter_mut().zip(moments) {
-                let last = FRACTIONS.len() - 1;
-                if !(m[last] > 0.0 && m[last].is_finite()) {
-                    continue;
-                }
-                totals.bsdf += m[last];
-                if (n as f64) < MIN_CHOICE_VERTICES {
-                    totals.chosen += m[last];
-                    continue;
-                }
-                let mut best = last;
-                for (i, x) in m.iter().enumerate() {
-                    if *x < m[best] && (best != last || *x < GUIDE_MARGIN * m[last]) {
-                        best = i;
-                    }
-                }
-                leaf.bsdf_fraction = FRACTIONS[best];
-                totals.chosen += m[best];
-            }
+            totals = self.choose_fractions(samples);
         }
         if refine {
             let mut n = 0;
@@ -266,6 +236,87 @@ impl SdTree {
         totals
     }
 
+    /// The leaves' fractions from the iteration's vertices (see [`SdTree::end_iteration`]).
+    fn choose_fractions(&mut self, samples: &[ChoiceSample]) -> ChoiceMoments {
+        // per leaf: the second moment at each grid fraction, and the vertices
+        let mut moments = vec![([0.0f64; GRID], 0u64); self.leaves.len()];
+        for c in samples {
+            let Some(leaf) = self.leaves.get(c.leaf as usize) else { continue };
+            let t = &leaf.sampling;
+            let usable = c.fq > 0.0 && c.fq.is_finite() && c.q > 0.0;
+            if !usable || !t.can_sample() {
+                continue;
+            }
+            let (pdf, area) = t.pdf_square_and_area(c.p);
+            let total = t.total() as f64;
+            let e = if c.value > 0.0 && c.value.is_finite() {
+                c.value as f64
+            } else {
+                0.0
+            };
+            let pg = if total - e > 0.0 {
+                ((pdf as f64 * area as f64 * total - e).max(0.0) / ((total - e) * area as f64)) / (4.0 * std::f64::consts::PI)
+            } else {
+                0.0
+            };
+            let x = c.fq as f64 * c.fq as f64 * c.q as f64;
+            let m = &mut moments[c.leaf as usize];
+            m.1 += 1;
+            for (i, mi) in m.0.iter_mut().enumerate() {
+                let a = grid_fraction(i);
+                let p = a * c.pb as f64 + (1.0 - a) * pg;
+                *mi += if p > 0.0 { x / p } else { f64::INFINITY };
+            }
+        }
+        // the same summed over each spatial node's subtree (children follow their
+        // parents in `nodes`, so a reverse sweep sums whole subtrees)
+        let mut subtree = vec![([0.0f64; GRID], 0u64); self.nodes.len()];
+        let mut parent = vec![usize::MAX; self.nodes.len()];
+        for (n, &node) in self.nodes.iter().enumerate() {
+            if node & LEAF != 0 {
+                subtree[n] = moments[(node & !LEAF) as usize];
+            } else {
+                parent[node as usize] = n;
+                parent[node as usize + 1] = n;
+            }
+        }
+        for n in (1..self.nodes.len()).rev() {
+            let (m, count) = subtree[n];
+            let p = &mut subtree[parent[n]];
+            p.1 += count;
+            p.0.iter_mut().zip(m).for_each(|(a, b)| *a += b);
+        }
+        let mut totals = ChoiceMoments::default();
+        for n in 0..self.nodes.len() {
+            let node = self.nodes[n];
+            if node & LEAF == 0 {
+                continue;
+            }
+            let leaf = (node & !LEAF) as usize;
+            let own = &moments[leaf].0;
+            let last = GRID - 1;
+            // the nearest node, the leaf itself first, whose subtree has enough vertices
+            let mut a = n;
+            while subtree[a].1 < MIN_LEAF_SAMPLES && parent[a] != usize::MAX {
+                a = parent[a];
+            }
+            if subtree[a].1 < MIN_LEAF_SAMPLES {
+                if own[last] > 0.0 && own[last].is_finite() {
+                    totals.bsdf += own[last];
+                    totals.chosen += own[last];
+                }
+                continue;
+            }
+            let (fraction, best) = least_moment(&subtree[a].0);
+            self.leaves[leaf].bsdf_fraction = fraction;
+            if own[last] > 0.0 && own[last].is_finite() {
+                totals.bsdf += own[last];
+                totals.chosen += own[best];
+            }
+        }
+        totals
+    }
+
     pub fn stats(&self) -> TreeStats {
         let mut s = TreeStats {
             spatial_leaves: self.leaves.len(),
@@ -276,10 +327,43 @@ impl SdTree {
             s.directional_nodes += l.sampling.node_count() + l.building.node_count();
             s.bytes += l.sampling.bytes() + l.building.bytes();
             s.max_directional_depth = s.max_directional_depth.max(l.sampling.depth());
-            if let Some(i) = FRACTIONS.iter().position(|f| *f == l.bsdf_fraction) {
+            if let Some(i) = FRACTION_BINS.iter().rposition(|f| l.bsdf_fraction >= *f) {
                 s.fractions[i] += 1;
             }
         }
         s
     }
+}
+
+/// The fraction with the least estimated second moment `m` (at the grid's
+/// fractions) and the grid point nearest to it: 1 unless another's is below
+/// [`GUIDE_MARGIN`] of its; else the grid's least, moved to the vertex of the
+/// parabola through it and its neighbours.
+fn least_moment(m: &[f64; GRID]) -> (f32, usize) {
+    let last = GRID - 1;
+    if !(m[last] > 0.0 && m[last].is_finite()) {
+        return (1.0, last);
+    }
+    let mut best = last;
+    for (i, x) in m.iter().enumerate() {
+        if *x < m[best] && (best != last || *x < GUIDE_MARGIN * m[last]) {
+            best = i;
+        }
+    }
+    if best == last {
+        return (1.0, last);
+    }
+    let a = grid_fraction(best);
+    if best == 0 {
+        return (a as f32, best);
+    }
+    let (l, c, r) = (m[best - 1], m[best], m[best + 1]);
+    let curvature = l - 2.0 * c + r;
+    let step = grid_fraction(1) - grid_fraction(0);
+    let shift = if curvature > 0.0 {
+        (0.5 * (l - r) / curvature).clamp(-1.0, 1.0)
+    } else {
+        0.0
+    };
+    ((a + shift * step).clamp(MIN_FRACTION as f64, 1.0) as f32, best)
 }

@@ -218,6 +218,8 @@ impl FilmTile {
 }
 
 /// How camera samples are placed and weighted (`film.sampling` in a scene).
+// the sampler's table (0.5 KB) lives in the film settings, one per render, read by reference
+#[allow(clippy::large_enum_variant)]
 #[derive(Clone, Copy, Debug, PartialEq, Default)]
 pub enum FilmSampling {
     /// Uniform in the pixel, each sample weighted by the filter in every pixel it

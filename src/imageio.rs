@@ -387,6 +387,10 @@ pub fn decode_exr_channels(b: &[u8]) -> std::result::Result<RawExr, String> {
         names.push((name, ptype));
         c = end + 17;
     }
+    // (without channels, the size checks below bound nothing)
+    if names.is_empty() {
+        return Err("the header lists no channels".into());
+    }
     let size_of = |ptype: i32| if ptype == 1 { 2 } else { 4 };
     let line: usize = names.iter().map(|&(_, t)| size_of(t) * w).sum();
     // offsets, then per block its first row, size and data: all must be in the file
@@ -919,6 +923,23 @@ mod tests {
         let n = bad.len();
         bad[n - 40] ^= 0x55;
         assert!(decode_exr_channels(&bad).is_err() || decode_exr_channels(&bad).unwrap().channels != want);
+    }
+
+    /// cargo-fuzz's film_state finding: a header listing no channels and claiming
+    /// 1073741828x18 pixels passed the size checks (no channels, no bytes needed) and a
+    /// buffer of every pixel was reserved anyway (77 GB).
+    #[test]
+    fn an_exr_without_channels_is_refused_before_allocating() {
+        // ZIP, 40 rows: the file holds the offsets of the two blocks 18 rows make
+        let mut b = encode_exr_channels_as(1, 40, &rgb_channels("", &[Vec3::ONE; 40]), &[], ExrCompression::Zip);
+        let key = b"channels\0chlist\0";
+        let at = b.windows(key.len()).position(|x| x == key).unwrap() + key.len() + 4;
+        b[at] = 0; // the list ends before its first channel
+        let key = b"dataWindow\0box2i\0";
+        let at = b.windows(key.len()).position(|x| x == key).unwrap() + key.len() + 4;
+        b[at + 8..at + 12].copy_from_slice(&0x4000_0003i32.to_le_bytes());
+        b[at + 12..at + 16].copy_from_slice(&17i32.to_le_bytes());
+        assert_eq!(decode_exr_channels(&b).unwrap_err(), "the header lists no channels");
     }
 
     #[test]

@@ -215,7 +215,7 @@ impl Tev {
         let (lock, wake) = &*self.shared;
         let deadline = Instant::now() + limit;
         let mut m = lock.lock().unwrap_or_else(|e| e.into_inner());
-        while !m.closed && !(m.idle && m.frame.is_none()) {
+        while !m.closed && (!m.idle || m.frame.is_some()) {
             let left = deadline.saturating_duration_since(Instant::now());
             if left.is_zero() {
                 break;

@@ -189,6 +189,13 @@ impl FilmTile {
         self.splat(px, py, l, 1.0);
     }
 
+    /// Adds radiance `l` with weight `w` to pixel `(x, y)` alone (filter importance
+    /// sampling: the sample's offset was drawn from the filter).
+    #[inline]
+    pub fn add_to_pixel(&mut self, x: i32, y: i32, l: Vec3, w: f32) {
+        self.splat(x, y, l, w);
+    }
+
     #[inline]
     fn splat(&mut self, x: i32, y: i32, l: Vec3, w: f32) {
         let (lx, ly) = (x - self.x0, y - self.y0);
@@ -210,17 +217,121 @@ impl FilmTile {
     }
 }
 
-/// The film of a render job: size in pixels, reconstruction filter, and the tile
-/// size work is split into (no effect on the image).
+/// How camera samples are placed and weighted (`film.sampling` in a scene).
+// the sampler's table (0.5 KB) lives in the film settings, one per render, read by reference
+#[allow(clippy::large_enum_variant)]
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub enum FilmSampling {
+    /// Uniform in the pixel, each sample weighted by the filter in every pixel it
+    /// reaches (neighbouring pixels share samples: their noise is correlated).
+    #[default]
+    Filter,
+    /// Filter importance sampling (pbrt-v4): each sample's offset from its pixel's
+    /// centre is drawn in proportion to |filter|, and the sample counts in its own pixel
+    /// alone, with weight ±1 (the sign of the filter there). Pixels' noise is then
+    /// independent, which a denoiser needs.
+    Importance(FilterSampler),
+}
+
+impl FilmSampling {
+    /// Importance sampling of `filter`; for a box of radius ≤ ½ (each sample in its own
+    /// pixel with weight 1 either way) the plain sampling, so its images stay as they are.
+    pub fn importance(filter: &Filter) -> FilmSampling {
+        if filter.is_own_pixel_box() {
+            FilmSampling::Filter
+        } else {
+            FilmSampling::Importance(FilterSampler::new(filter))
+        }
+    }
+}
+
+/// Bins of [`FilterSampler`]'s table over `[-radius, radius]`.
+const SAMPLER_BINS: usize = 128;
+
+/// Draws offsets in proportion to |filter| on each axis: every filter here is a product
+/// of one function of `dx` and the same function of `dy`, so the two axes are drawn
+/// apart from the same table (piecewise constant, the filter at each bin's centre).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FilterSampler {
+    radius: f32,
+    /// `cdf[i]`: the share of |filter| in bins `[0, i)`; `cdf[BINS] = 1`.
+    cdf: [f32; SAMPLER_BINS + 1],
+    /// Bit `i` set: the filter is negative in bin `i`.
+    negative: u128,
+}
+
+impl FilterSampler {
+    pub fn new(filter: &Filter) -> FilterSampler {
+        let radius = filter.radius();
+        let width = 2.0 * radius / SAMPLER_BINS as f32;
+        let mut cdf = [0.0f32; SAMPLER_BINS + 1];
+        let mut negative = 0u128;
+        let mut total = 0.0f64;
+        for i in 0..SAMPLER_BINS {
+            let g = filter.eval(-radius + (i as f32 + 0.5) * width, 0.0);
+            if g < 0.0 {
+                negative |= 1 << i;
+            }
+            total += g.abs() as f64;
+            cdf[i + 1] = total as f32;
+        }
+        for c in cdf.iter_mut() {
+            *c = if total > 0.0 { (*c as f64 / total) as f32 } else { 0.0 };
+        }
+        cdf[SAMPLER_BINS] = 1.0;
+        FilterSampler { radius, cdf, negative }
+    }
+
+    /// One axis: the offset for `u` in [0, 1) and whether the filter is negative there.
+    fn axis(&self, u: f32) -> (f32, bool) {
+        // the last bin whose start is at most u (bins of zero share are never chosen)
+        let i = self.cdf[1..SAMPLER_BINS].partition_point(|&c| c <= u);
+        let (a, b) = (self.cdf[i], self.cdf[i + 1]);
+        let t = if b > a { ((u - a) / (b - a)).clamp(0.0, 1.0) } else { 0.5 };
+        let width = 2.0 * self.radius / SAMPLER_BINS as f32;
+        (-self.radius + (i as f32 + t) * width, self.negative & (1 << i) != 0)
+    }
+
+    /// The offset from the pixel's centre for the sample `(u, v)` and its weight (±1).
+    pub fn sample(&self, u: f32, v: f32) -> (Vec2, f32) {
+        let ((dx, nx), (dy, ny)) = (self.axis(u), self.axis(v));
+        (Vec2::new(dx, dy), if nx != ny { -1.0 } else { 1.0 })
+    }
+}
+
+/// The film of a render job: size in pixels, reconstruction filter, how samples are
+/// placed, and the tile size work is split into (no effect on the image).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FilmSettings {
     pub width: u32,
     pub height: u32,
     pub filter: Filter,
+    pub sampling: FilmSampling,
     pub block_size: u32,
 }
 
 impl FilmSettings {
+    /// The film position of pixel `(x, y)`'s sample `(u, v)` (in [0, 1)²) and its
+    /// weight: uniform in the pixel with weight 1 (the filter weighs it when it is
+    /// added), or drawn from the filter with weight ±1 (importance sampling).
+    #[inline(always)]
+    pub fn sample_position(&self, x: i32, y: i32, u: f32, v: f32) -> (Vec2, f32) {
+        match &self.sampling {
+            FilmSampling::Filter => (Vec2::new(x as f32 + u, y as f32 + v), 1.0),
+            FilmSampling::Importance(s) => {
+                let (d, w) = s.sample(u, v);
+                (Vec2::new(x as f32 + 0.5 + d.x, y as f32 + 0.5 + d.y), w)
+            }
+        }
+    }
+
+    /// Whether each sample counts in its own pixel alone, with its weight (added with
+    /// [`FilmTile::add_to_pixel`]).
+    #[inline(always)]
+    pub fn importance_sampled(&self) -> bool {
+        matches!(self.sampling, FilmSampling::Importance(_))
+    }
+
     /// Bytes a render of this film allocates at most, or `None` on overflow: the
     /// film's f64 sums, weights and splats, every tile of a pass (with the filter's
     /// reach around it; a pass keeps all its tiles until it is merged), the image and
@@ -667,6 +778,68 @@ mod tests {
         let mut t = FilmTile::new(1, 1, 2, 2, f.reach(), 3, 3);
         t.add(Vec2::new(1.5, 1.5), Vec3::ONE, &f, 3, 3);
         assert_eq!(t.weight.iter().filter(|w| **w > 0.0).count(), 9);
+    }
+
+    /// Filter importance sampling is an estimator of the filtered value: on one axis,
+    /// the mean of weight · h(offset) over stratified samples, times ∫|f|, is ∫ f·h for
+    /// each filter (mitchell's negative lobes included) and a test function h; the 2D
+    /// weight is the product of the axes' signs.
+    #[test]
+    fn importance_sampled_offsets_integrate_the_filter() {
+        let filters = [
+            Filter::gaussian(1.5, 2.0),
+            Filter::Mitchell {
+                radius: 2.0,
+                b: 1.0 / 3.0,
+                c: 1.0 / 3.0,
+            },
+            Filter::Tent { radius: 1.0 },
+            Filter::Box { radius: 1.5 },
+        ];
+        let h = |x: f64| 1.0 + (1.3 * x).cos() + x * x;
+        for f in filters {
+            let FilmSampling::Importance(s) = FilmSampling::importance(&f) else {
+                panic!("{f:?} is sampled by importance")
+            };
+            let g = |x: f64| f.eval(x as f32, 0.0) as f64;
+            // ∫ g·h and ∫|g| by the midpoint rule on a fine grid
+            let (r, n) = (f.radius() as f64, 200_000);
+            let dx = 2.0 * r / n as f64;
+            let (mut gh, mut abs) = (0.0, 0.0);
+            for i in 0..n {
+                let x = -r + (i as f64 + 0.5) * dx;
+                gh += g(x) * h(x) * dx;
+                abs += g(x).abs() * dx;
+            }
+            let m = 200_000;
+            let (mut est, mut negative) = (0.0, 0);
+            for i in 0..m {
+                // v = ½: the offset's y is at the filter's centre, where it is positive
+                let (d, w) = s.sample((i as f32 + 0.5) / m as f32, 0.5);
+                assert!(d.x.abs() <= f.radius() && d.y.abs() < 0.05, "{f:?}: offset {d:?}");
+                est += w as f64 * h(d.x as f64);
+                negative += (w < 0.0) as u32;
+            }
+            est *= abs / m as f64;
+            let err = (est / gh - 1.0).abs();
+            eprintln!("{f:?}: ∫g·h {gh:.6}, estimate {est:.6}, relative error {err:.2e}, {negative} negative weights of {m}");
+            assert!(err < 1e-3, "{f:?}: estimate {est} for ∫g·h = {gh} ({err:.2e} off)");
+            assert_eq!(
+                negative > 0,
+                matches!(f, Filter::Mitchell { .. }),
+                "{f:?}: {negative} negative weights"
+            );
+            if negative > 0 {
+                // a negative lobe on both axes makes a positive weight
+                let u = (0..m)
+                    .map(|i| (i as f32 + 0.5) / m as f32)
+                    .find(|&u| s.sample(u, 0.5).1 < 0.0)
+                    .unwrap();
+                assert_eq!((s.sample(u, u).1, s.sample(0.5, u).1), (1.0, -1.0));
+            }
+        }
+        // a box of radius ½ keeps the plain sampling (the same images as before)
+        assert_eq!(FilmSampling::importance(&Filter::Box { radius: 0.5 }), FilmSampling::Filter);
     }
 }
 

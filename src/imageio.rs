@@ -1,5 +1,5 @@
-//! Image files: EXR (written by hand: uncompressed scanlines, float or half;
-//! read with the `exr` crate) and 8-bit sRGB PNG.
+//! Image files: EXR (written by hand: uncompressed or ZIP scanlines, float, half or
+//! uint; read with the `exr` crate) and 8-bit sRGB PNG.
 
 use crate::math::Vec3;
 use anyhow::{bail, Context, Result};
@@ -136,12 +136,42 @@ impl ExrAttribute {
     }
 }
 
+/// How [`encode_exr_channels_as`] stores the pixels.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ExrCompression {
+    None,
+    /// OpenEXR's ZIP: blocks of 16 rows, lossless (zlib after a byte predictor).
+    Zip,
+}
+
+impl ExrCompression {
+    /// The header's compression byte and the rows per block.
+    fn code_and_rows(self) -> (u8, usize) {
+        match self {
+            ExrCompression::None => (0, 1),
+            ExrCompression::Zip => (3, 16),
+        }
+    }
+}
+
 /// An uncompressed single-part scanline EXR of any float, half and uint channels (sorted
 /// by name as the format requires; `B`, `G`, `R` come before lower-case layer names)
 /// and extra attributes after the required ones. With channels `B`, `G`, `R` and no
 /// attributes it is byte for byte the file [`encode_exr`] writes for float pixels.
 pub fn encode_exr_channels(width: u32, height: u32, channels: &[ExrChannel], attributes: &[ExrAttribute]) -> Vec<u8> {
+    encode_exr_channels_as(width, height, channels, attributes, ExrCompression::None)
+}
+
+/// [`encode_exr_channels`] with the pixels stored as `compression` says.
+pub fn encode_exr_channels_as(
+    width: u32,
+    height: u32,
+    channels: &[ExrChannel],
+    attributes: &[ExrAttribute],
+    compression: ExrCompression,
+) -> Vec<u8> {
     let (w, h) = (width as usize, height as usize);
+    let (code, block_rows) = compression.code_and_rows();
     let mut order: Vec<&ExrChannel> = channels.iter().collect();
     order.sort_by(|a, b| a.name.cmp(&b.name));
     for c in &order {
@@ -170,7 +200,7 @@ pub fn encode_exr_channels(width: u32, height: u32, channels: &[ExrChannel], att
     ch.push(0);
     let window: Vec<u8> = [0i32, 0, w as i32 - 1, h as i32 - 1].iter().flat_map(|v| v.to_le_bytes()).collect();
     attr("channels", "chlist", &ch);
-    attr("compression", "compression", &[0]);
+    attr("compression", "compression", &[code]);
     attr("dataWindow", "box2i", &window);
     attr("displayWindow", "box2i", &window);
     attr("lineOrder", "lineOrder", &[0]);
@@ -183,24 +213,78 @@ pub fn encode_exr_channels(width: u32, height: u32, channels: &[ExrChannel], att
     hd.push(0);
 
     let line_bytes: usize = order.iter().map(|c| c.data.pixel_type().1 * w).sum();
-    let mut out = Vec::with_capacity(hd.len() + 8 * h + h * (8 + line_bytes));
-    out.extend_from_slice(&hd);
-    let first = (hd.len() + 8 * h) as u64;
-    for y in 0..h as u64 {
-        out.extend_from_slice(&(first + y * (8 + line_bytes) as u64).to_le_bytes());
-    }
-    for y in 0..h {
-        out.extend_from_slice(&(y as i32).to_le_bytes());
-        out.extend_from_slice(&(line_bytes as i32).to_le_bytes());
-        for c in &order {
-            match &c.data {
-                ChannelData::F32(v) => v[y * w..(y + 1) * w].iter().for_each(|x| out.extend_from_slice(&x.to_le_bytes())),
-                ChannelData::U32(v) => v[y * w..(y + 1) * w].iter().for_each(|x| out.extend_from_slice(&x.to_le_bytes())),
-                ChannelData::F16(v) => v[y * w..(y + 1) * w].iter().for_each(|x| out.extend_from_slice(&x.to_le_bytes())),
+    let mut blocks = Vec::with_capacity(h.div_ceil(block_rows));
+    for y0 in (0..h).step_by(block_rows) {
+        let mut raw = Vec::with_capacity(line_bytes * block_rows);
+        for y in y0..(y0 + block_rows).min(h) {
+            for c in &order {
+                match &c.data {
+                    ChannelData::F32(v) => v[y * w..(y + 1) * w].iter().for_each(|x| raw.extend_from_slice(&x.to_le_bytes())),
+                    ChannelData::U32(v) => v[y * w..(y + 1) * w].iter().for_each(|x| raw.extend_from_slice(&x.to_le_bytes())),
+                    ChannelData::F16(v) => v[y * w..(y + 1) * w].iter().for_each(|x| raw.extend_from_slice(&x.to_le_bytes())),
+                }
             }
         }
+        blocks.push(match compression {
+            ExrCompression::None => raw,
+            ExrCompression::Zip => zip_block(raw),
+        });
+    }
+    let mut out = Vec::with_capacity(hd.len() + 8 * blocks.len() + blocks.iter().map(|b| 8 + b.len()).sum::<usize>());
+    out.extend_from_slice(&hd);
+    let mut at = (hd.len() + 8 * blocks.len()) as u64;
+    for b in &blocks {
+        out.extend_from_slice(&at.to_le_bytes());
+        at += 8 + b.len() as u64;
+    }
+    for (i, b) in blocks.iter().enumerate() {
+        out.extend_from_slice(&((i * block_rows) as i32).to_le_bytes());
+        out.extend_from_slice(&(b.len() as i32).to_le_bytes());
+        out.extend_from_slice(b);
     }
     out
+}
+
+/// One block as OpenEXR's ZIP stores it: the even-indexed bytes, then the odd ones,
+/// each as its difference to the byte before (+128, mod 256), deflated. A block that
+/// would not shrink is stored as it is (readers tell by its size).
+fn zip_block(raw: Vec<u8>) -> Vec<u8> {
+    let mut t: Vec<u8> = raw.iter().step_by(2).chain(raw.iter().skip(1).step_by(2)).copied().collect();
+    for i in (1..t.len()).rev() {
+        t[i] = t[i].wrapping_sub(t[i - 1]).wrapping_add(128);
+    }
+    let mut z = flate2::write::ZlibEncoder::new(Vec::new(), flate2::Compression::new(6));
+    let packed = z.write_all(&t).and_then(|_| z.finish()).expect("deflate into memory");
+    if packed.len() < raw.len() {
+        packed
+    } else {
+        raw
+    }
+}
+
+/// [`zip_block`] undone: `data` expands to exactly `size` bytes, or it is an error.
+fn unzip_block(data: &[u8], size: usize) -> std::result::Result<Vec<u8>, String> {
+    use std::io::Read;
+    if data.len() == size {
+        return Ok(data.to_vec());
+    }
+    let mut t = Vec::with_capacity(size);
+    flate2::read::ZlibDecoder::new(data)
+        .take(size as u64 + 1)
+        .read_to_end(&mut t)
+        .map_err(|e| format!("a compressed block is corrupt ({e})"))?;
+    if t.len() != size {
+        return Err(format!("a compressed block holds {} bytes, not {size}", t.len()));
+    }
+    for i in 1..t.len() {
+        t[i] = t[i].wrapping_add(t[i - 1]).wrapping_sub(128);
+    }
+    let half = size.div_ceil(2);
+    let mut raw = vec![0u8; size];
+    for (i, r) in raw.iter_mut().enumerate() {
+        *r = if i % 2 == 0 { t[i / 2] } else { t[half + i / 2] };
+    }
+    Ok(raw)
 }
 
 /// The B, G, R float channels of an image (rows top-down).
@@ -241,8 +325,9 @@ impl RawExr {
     }
 }
 
-/// Reads an EXR that [`encode_exr_channels`] wrote (uncompressed single-part
-/// scanlines, float, half and uint channels); anything else is an error naming the file.
+/// Reads an EXR that [`encode_exr_channels_as`] wrote (single-part scanlines,
+/// uncompressed or ZIP, float, half and uint channels); anything else is an error
+/// naming the file.
 pub fn read_exr_channels(path: &Path) -> Result<RawExr> {
     let bytes = read_input(path)?;
     decode_exr_channels(&bytes).map_err(|m| anyhow::anyhow!("{}: {m}", path.display()))
@@ -250,7 +335,7 @@ pub fn read_exr_channels(path: &Path) -> Result<RawExr> {
 
 /// [`read_exr_channels`] on the file's bytes (the error without the file's name).
 pub fn decode_exr_channels(b: &[u8]) -> std::result::Result<RawExr, String> {
-    let bad = || "not an uncompressed single-part EXR as rdr writes it".to_string();
+    let bad = || "not a single-part EXR as rdr writes it (uncompressed or ZIP scanlines)".to_string();
     if b.len() < 8 || b[..4] != [0x76, 0x2f, 0x31, 0x01] || b[4] != 2 || b[5..8] != [0, 0, 0] {
         return Err(bad());
     }
@@ -277,9 +362,12 @@ pub fn decode_exr_channels(b: &[u8]) -> std::result::Result<RawExr, String> {
         attributes.push(ExrAttribute { name, kind, value });
     }
     let get = |n: &str| attributes.iter().find(|a| a.name == n).map(|a| a.value.clone());
-    if get("compression").as_deref() != Some(&[0u8][..]) {
-        return Err(bad());
-    }
+    let compression = match get("compression").as_deref() {
+        Some([0]) => ExrCompression::None,
+        Some([3]) => ExrCompression::Zip,
+        _ => return Err(bad()),
+    };
+    let block_rows = compression.code_and_rows().1;
     let window = get("dataWindow").filter(|v| v.len() == 16).ok_or_else(bad)?;
     let wi = |i: usize| i32::from_le_bytes(window[4 * i..4 * i + 4].try_into().unwrap());
     if wi(0) != 0 || wi(1) != 0 || wi(2) < 0 || wi(3) < 0 {
@@ -299,24 +387,52 @@ pub fn decode_exr_channels(b: &[u8]) -> std::result::Result<RawExr, String> {
         names.push((name, ptype));
         c = end + 17;
     }
+    // (without channels, the size checks below bound nothing)
+    if names.is_empty() {
+        return Err("the header lists no channels".into());
+    }
     let size_of = |ptype: i32| if ptype == 1 { 2 } else { 4 };
     let line: usize = names.iter().map(|&(_, t)| size_of(t) * w).sum();
-    // offsets, then per line its number, size and data: all must be in the file
-    let need = (h as u64) * (8 + 8 + line as u64) + at as u64;
-    if need > b.len() as u64 {
+    // offsets, then per block its first row, size and data: all must be in the file
+    // (compressed data expands at most 1032:1, deflate's limit)
+    let blocks = h.div_ceil(block_rows) as u64;
+    let least = match compression {
+        ExrCompression::None => (h as u64) * (line as u64),
+        ExrCompression::Zip => (h as u64) * (line as u64) / 1032,
+    };
+    if blocks * 16 + least + at as u64 > b.len() as u64 {
         return Err(format!("the header claims {w}x{h} pixels but the file is too short"));
     }
     let mut words: Vec<Vec<u32>> = vec![Vec::with_capacity(w * h); names.len()];
-    for y in 0..h {
-        let off = u64::from_le_bytes(b[at + 8 * y..at + 8 * y + 8].try_into().unwrap()) as usize;
-        let mut part = off.checked_add(8 + line).and_then(|e| b.get(off + 8..e)).ok_or_else(bad)?;
-        for (ws, &(_, ptype)) in words.iter_mut().zip(&names) {
-            let (this, rest) = part.split_at(size_of(ptype) * w);
-            part = rest;
-            if ptype == 1 {
-                ws.extend(this.chunks_exact(2).map(|q| u16::from_le_bytes([q[0], q[1]]) as u32));
-            } else {
-                ws.extend(this.chunks_exact(4).map(|q| u32::from_le_bytes(q.try_into().unwrap())));
+    for k in 0..blocks as usize {
+        let rows = block_rows.min(h - k * block_rows);
+        let size = rows * line;
+        let off = u64::from_le_bytes(b[at + 8 * k..at + 8 * k + 8].try_into().unwrap()) as usize;
+        let head = off.checked_add(8).and_then(|e| b.get(off..e)).ok_or_else(bad)?;
+        let (first, n) = (
+            i32::from_le_bytes(head[..4].try_into().unwrap()),
+            i32::from_le_bytes(head[4..].try_into().unwrap()),
+        );
+        let n = usize::try_from(n).map_err(|_| bad())?;
+        if first as i64 != (k * block_rows) as i64 || n > size {
+            return Err(bad());
+        }
+        let data = (off + 8).checked_add(n).and_then(|e| b.get(off + 8..e)).ok_or_else(bad)?;
+        let block = match compression {
+            ExrCompression::None if n == size => std::borrow::Cow::Borrowed(data),
+            ExrCompression::None => return Err(bad()),
+            ExrCompression::Zip => std::borrow::Cow::Owned(unzip_block(data, size)?),
+        };
+        for row in block.chunks_exact(line.max(1)).take(rows) {
+            let mut part = row;
+            for (ws, &(_, ptype)) in words.iter_mut().zip(&names) {
+                let (this, rest) = part.split_at(size_of(ptype) * w);
+                part = rest;
+                if ptype == 1 {
+                    ws.extend(this.chunks_exact(2).map(|q| u16::from_le_bytes([q[0], q[1]]) as u32));
+                } else {
+                    ws.extend(this.chunks_exact(4).map(|q| u32::from_le_bytes(q.try_into().unwrap())));
+                }
             }
         }
     }
@@ -765,6 +881,65 @@ mod tests {
         // the exr crate reads the RGB of such a file
         let img = decode_exr(&bytes, Path::new("x.exr"), 12).unwrap();
         assert_eq!(img.pixels, px);
+    }
+
+    #[test]
+    fn zip_exr_reads_back_exactly_here_and_in_the_exr_crate() {
+        // 37x41: the last block of 16 rows is short; a smooth ramp compresses, the
+        // hashed channel does not (its blocks are stored as they are)
+        let (w, h) = (37usize, 41usize);
+        let px: Vec<Vec3> = (0..w * h)
+            .map(|i| Vec3::new((i % w) as f32 / 7.0, (i / w) as f32 * 0.25, 0.5))
+            .collect();
+        let noise: Vec<u32> = (0..w * h)
+            .map(|i| (i as u32).wrapping_mul(0x9e37_79b9).rotate_left(13) ^ 0x5bd1_e995)
+            .collect();
+        let mut ch = rgb_channels("", &px);
+        ch.push(ExrChannel {
+            name: "rdr.noise".into(),
+            data: ChannelData::U32(noise.clone()),
+        });
+        ch.push(ExrChannel {
+            name: "half.Y".into(),
+            data: ChannelData::F16(px.iter().map(|p| f32_to_half_tinyexr(p.x)).collect()),
+        });
+        let attrs = [ExrAttribute::text("rdr:seed", "7")];
+        let zip = encode_exr_channels_as(w as u32, h as u32, &ch, &attrs, ExrCompression::Zip);
+        let plain = encode_exr_channels(w as u32, h as u32, &ch, &attrs);
+        assert!(zip.len() < plain.len(), "{} vs {} bytes", zip.len(), plain.len());
+        let raw = decode_exr_channels(&zip).unwrap();
+        assert_eq!(raw.text("rdr:seed").as_deref(), Some("7"));
+        assert_eq!(raw.channel("rdr.noise"), Some(&ChannelData::U32(noise)));
+        let mut want = ch.clone();
+        want.sort_by(|a, b| a.name.cmp(&b.name));
+        assert_eq!(raw.channels, want);
+        // an independent reader: the exr crate's ZIP decoder gives the same pixels
+        let img = decode_exr(&zip, Path::new("x.exr"), 16).unwrap();
+        let differ = img.pixels.iter().zip(&px).filter(|(a, b)| a != b).count();
+        assert!(differ == 0, "the exr crate reads {differ} of {} pixels differently", px.len());
+        // a cut or corrupt file is an error, not a panic
+        assert!(decode_exr_channels(&zip[..zip.len() - 3]).is_err());
+        let mut bad = zip.clone();
+        let n = bad.len();
+        bad[n - 40] ^= 0x55;
+        assert!(decode_exr_channels(&bad).is_err() || decode_exr_channels(&bad).unwrap().channels != want);
+    }
+
+    /// cargo-fuzz's film_state finding: a header listing no channels and claiming
+    /// 1073741828x18 pixels passed the size checks (no channels, no bytes needed) and a
+    /// buffer of every pixel was reserved anyway (77 GB).
+    #[test]
+    fn an_exr_without_channels_is_refused_before_allocating() {
+        // ZIP, 40 rows: the file holds the offsets of the two blocks 18 rows make
+        let mut b = encode_exr_channels_as(1, 40, &rgb_channels("", &[Vec3::ONE; 40]), &[], ExrCompression::Zip);
+        let key = b"channels\0chlist\0";
+        let at = b.windows(key.len()).position(|x| x == key).unwrap() + key.len() + 4;
+        b[at] = 0; // the list ends before its first channel
+        let key = b"dataWindow\0box2i\0";
+        let at = b.windows(key.len()).position(|x| x == key).unwrap() + key.len() + 4;
+        b[at + 8..at + 12].copy_from_slice(&0x4000_0003i32.to_le_bytes());
+        b[at + 12..at + 16].copy_from_slice(&17i32.to_le_bytes());
+        assert_eq!(decode_exr_channels(&b).unwrap_err(), "the header lists no channels");
     }
 
     #[test]

@@ -153,7 +153,7 @@ fn slurm_array_with_preemption_and_animation_merges_to_one_render() {
     assert_eq!(job_state(&task0), "RUNNING", "task 0 after its first checkpoint");
     sh(Command::new("scancel").args(["--signal=TERM", "--batch", &task0]));
     wait_for("task 0 to be requeued", deadline, &out, || job_state(&task0) == "PENDING");
-    let held = rdr::render::statefile::read(&part0)
+    let (_, held) = rdr::render::statefile::read_for(&part0)
         .unwrap()
         .expect("the pre-empted shard saved its passes");
     let saved = held.state.passes_done();

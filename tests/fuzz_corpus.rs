@@ -98,6 +98,7 @@ fn every_corpus_file_goes_through_its_target() {
         ("scene_xml", "syntax_error.xml", "line 3, column 55"),
         ("serialized", "truncated.bin", "truncated"),
         ("film_state", "truncated.exr", "too short"),
+        ("film_state", "no-channels-claims-19G-pixels.exr", "no channels"),
         ("ray_file", "not_unit.rays.f32", "direction of length"),
     ] {
         let data = std::fs::read(Path::new(env!("CARGO_MANIFEST_DIR")).join("fuzz/corpus").join(target).join(file)).unwrap();

@@ -767,6 +767,18 @@ fn cases(dir: &Path) -> Vec<Case> {
             &o("nansky"),
             &["sky.exr: environment map with 2 NaN or infinite and 1 negative texel(s) of 8"],
         ),
+        image(
+            "a material texture with NaN and infinite texels",
+            {
+                let s = edited("nantex", &|v| {
+                    textured(v, "sky.exr");
+                    v["integrator"] = json!({"type": "path", "spp": 4});
+                });
+                render(&s, &o("nantex"), &[]).into_iter().filter(|a| a != "-q").collect()
+            },
+            &o("nantex"),
+            &["sky.exr: image texture with 2 NaN or infinite texel(s) of 8; they are read as black"],
+        ),
         err(
             "serialized mesh with a corrupt zlib stream",
             render(&serialized_scene("corrupt"), &o("corrupt"), &[]),
@@ -915,6 +927,91 @@ fn sigterm_and_sighup_save_the_finished_passes() {
     }
 }
 
+/// Two signals close together (`timeout` signals rdr and then its process group; a
+/// closing terminal sends SIGHUP and SIGTERM): the finished passes are saved all the same.
+/// The film is large enough that its save takes longer than the gap.
+#[test]
+fn a_signal_twice_still_saves_the_finished_passes() {
+    let tmp = common::temp_dir("rdr-hostile-twice");
+    let dir = tmp.path();
+    std::fs::write(dir.join("tri.obj"), TRI_OBJ).unwrap();
+    let s = scene(dir, "twice", |v| v["film"]["resolution"] = json!([512, 512]));
+    for gap_ms in [2, 20, 100] {
+        let out = dir.join(format!("twice{gap_ms}.exr"));
+        let start = Instant::now();
+        let mut c = command(&os(&[&"render", &s, &"-o", &out, &"--spp", &"1000000"]));
+        let child = c.stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().unwrap();
+        std::thread::sleep(Duration::from_millis(1000));
+        for _ in 0..2 {
+            let ok = Command::new("kill").arg("-TERM").arg(child.id().to_string()).status().unwrap();
+            assert!(ok.success());
+            std::thread::sleep(Duration::from_millis(gap_ms));
+        }
+        let r = finish(child, start);
+        assert_eq!(
+            r.code,
+            Some(130),
+            "gap {gap_ms} ms: exit {:?} signal {:?}\n{}",
+            r.code,
+            r.signal,
+            r.stderr
+        );
+        assert!(!r.stderr.contains("not saved"), "gap {gap_ms} ms: {}", r.stderr);
+        let img = rdr::imageio::read_exr(&out).unwrap_or_else(|e| panic!("gap {gap_ms} ms: no image: {e:#}\n{}", r.stderr));
+        assert_eq!((img.width, img.height), (512, 512));
+        let state = rdr::render::statefile::read(&rdr::render::statefile::state_path(&out)).unwrap();
+        assert!(
+            state.is_some_and(|f| f.state.passes_done() > 0),
+            "gap {gap_ms} ms: no passes in the state file"
+        );
+    }
+}
+
+/// A tev viewer that accepts the connection and never reads: the render ends when it
+/// would without the viewer, with a warning, and its image is saved.
+#[test]
+fn a_stalled_tev_viewer_costs_the_render_nothing() {
+    let tmp = common::temp_dir("rdr-hostile-tev");
+    let dir = tmp.path();
+    std::fs::write(dir.join("tri.obj"), TRI_OBJ).unwrap();
+    // 1024x1024: one update (12 MB) is more than the socket buffers hold
+    let s = scene(dir, "tev", |v| v["film"]["resolution"] = json!([1024, 1024]));
+    let listener = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+    let addr = listener.local_addr().unwrap().to_string();
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        if let Ok((stream, _)) = listener.accept() {
+            let _ = tx.send(stream);
+        }
+    });
+    let limit = "2";
+    let time = |extra: &[&str]| {
+        let out = dir.join(format!("tev{}.exr", extra.len()));
+        let mut a = os(&[&"render", &s, &"-o", &out, &"--spp", &"1000000", &"--time-limit", &limit]);
+        a.extend(extra.iter().map(OsString::from));
+        let r = run(&a);
+        assert_eq!(r.code, Some(0), "{extra:?}: exit {:?}, {:.1} s\n{}", r.code, r.seconds, r.stderr);
+        assert!(rdr::imageio::read_exr(&out).is_ok(), "{extra:?}: no image");
+        r
+    };
+    let plain = time(&[]);
+    let stalled = time(&["--tev", &addr]);
+    // held open, never read, until here
+    let viewer = rx.recv_timeout(Duration::from_secs(1));
+    assert!(viewer.is_ok(), "rdr never connected");
+    eprintln!(
+        "time-limited render: {:.2} s alone, {:.2} s with a stalled viewer",
+        plain.seconds, stalled.seconds
+    );
+    assert!(stalled.stderr.contains("warning: --tev:"), "{}", stalled.stderr);
+    assert!(
+        stalled.seconds < plain.seconds + 3.0,
+        "{:.1} s with a stalled viewer, {:.1} s without",
+        stalled.seconds,
+        plain.seconds
+    );
+}
+
 #[test]
 fn closed_stdout_and_full_stderr_end_quietly() {
     let tmp = common::temp_dir("rdr-hostile-pipes");
@@ -1025,17 +1122,26 @@ fn an_image_whose_output_vanished_is_saved_in_the_temp_folder() {
     let lines: Vec<&str> = r.stderr.lines().collect();
     assert_eq!(lines.len(), 1, "{}", r.stderr);
     assert!(
-        lines[0].starts_with("error: ") && lines[0].contains("lost.exr") && lines[0].contains("saved to"),
+        lines[0].starts_with("error: ")
+            && lines[0].contains("lost.exr")
+            && lines[0].contains("lost.state.exr")
+            && lines[0].contains("saved to"),
         "{}",
         r.stderr
     );
-    let saved: Vec<PathBuf> = std::fs::read_dir(&spill)
+    // the image and its state file, each named in the error
+    let mut saved: Vec<PathBuf> = std::fs::read_dir(&spill)
         .unwrap()
         .filter_map(|e| e.ok())
         .map(|e| e.path())
         .collect();
-    assert_eq!(saved.len(), 1, "{saved:?}");
-    assert!(lines[0].contains(&*saved[0].to_string_lossy()));
-    let img = rdr::imageio::read_exr(&saved[0]).unwrap();
-    assert_eq!((img.width, img.height), (64, 64));
+    saved.sort();
+    assert_eq!(saved.len(), 2, "{saved:?}");
+    for s in &saved {
+        assert!(lines[0].contains(&*s.to_string_lossy()), "{} not named: {}", s.display(), lines[0]);
+        let img = rdr::imageio::read_exr(s).unwrap();
+        assert_eq!((img.width, img.height), (64, 64));
+    }
+    let state = saved.iter().filter_map(|s| rdr::render::statefile::read(s).unwrap()).count();
+    assert_eq!(state, 1, "one of them holds the film state");
 }

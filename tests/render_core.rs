@@ -119,6 +119,7 @@ fn splats_merge_identically_for_any_thread_count() {
             alpha: 2.0,
             tail: (-2.0f32 * 1.5 * 1.5).exp(),
         },
+        sampling: rdr::film::FilmSampling::Filter,
         block_size: 8,
     };
     let with_threads = |n: usize| {
@@ -178,5 +179,47 @@ fn cli_images_are_byte_identical_for_one_two_and_three_threads() {
         r#"{"film": {"resolution": [40, 30], "block_side_length": 7, "filter": {"type": "mitchell", "radius": 2}},
             "integrator": {"type": "path", "max_depth": 6}}"#,
         "path, mitchell filter",
+    );
+}
+
+/// Filter importance sampling (`film.sampling: "importance"`) keeps each sample in its
+/// own pixel: the noise of neighbouring pixels is independent, where the filter's
+/// weights spread each sample over its neighbours (a denoiser cannot remove that), and
+/// the image is the same on average.
+#[test]
+fn importance_sampled_films_have_independent_pixel_noise() {
+    let render = |sampling: &str, seed: u32| {
+        let film = format!(
+            r#"{{"film":{{"resolution":[48,48],"filter":{{"type":"gaussian","radius":1.5,"alpha":2}},"sampling":"{sampling}"}},
+                "integrator":{{"type":"path","max_depth":3,"spp":4}}}}"#
+        );
+        let mut loaded = cornell(&[&film]);
+        loaded.job.seed = seed;
+        rdr::render::render(&loaded.scene, &loaded.job, &RenderControl::default()).pixels
+    };
+    let luma = |p: &Vec3| (p.x + p.y + p.z) as f64;
+    // the noise alone: the difference of two seeds
+    let neighbour_correlation = |a: &[Vec3], b: &[Vec3]| {
+        let d: Vec<f64> = a.iter().zip(b).map(|(x, y)| luma(x) - luma(y)).collect();
+        let (mut xy, mut xx) = (0.0, 0.0);
+        for row in d.chunks(48) {
+            for i in 0..47 {
+                xy += row[i] * row[i + 1];
+                xx += row[i] * row[i];
+            }
+        }
+        xy / xx
+    };
+    let (f1, f2) = (render("filter", 1), render("filter", 2));
+    let (i1, i2) = (render("importance", 1), render("importance", 2));
+    let (cf, ci) = (neighbour_correlation(&f1, &f2), neighbour_correlation(&i1, &i2));
+    let mean = |a: &[Vec3], b: &[Vec3]| a.iter().chain(b).map(luma).sum::<f64>() / (2 * a.len()) as f64;
+    let (mf, mi) = (mean(&f1, &f2), mean(&i1, &i2));
+    eprintln!("neighbour noise correlation: filter weights {cf:.3}, importance {ci:.3}; mean {mf:.4} vs {mi:.4}");
+    assert!(cf > 0.3, "the filter's weights should correlate neighbours ({cf:.3})");
+    assert!(ci.abs() < 0.1, "importance-sampled pixels' noise is correlated ({ci:.3})");
+    assert!(
+        (mi / mf - 1.0).abs() < 0.02,
+        "mean {mi:.4} with importance sampling, {mf:.4} with the filter's weights"
     );
 }

@@ -90,6 +90,15 @@ fn refused(o: &Output, what: &str) -> String {
 /// Asserts two outputs are the same file; on failure says how many pixels differ
 /// (and by how much), or that only the saved state does.
 fn assert_same(a: &Path, b: &Path, what: &str) {
+    // the state files beside the images: the same sums, bit for bit
+    let state = rdr::render::statefile::state_path;
+    let (sa, sb) = (std::fs::read(state(a)).unwrap(), std::fs::read(state(b)).unwrap());
+    assert!(
+        sa == sb,
+        "{what}: the state files beside {} and {} differ",
+        a.display(),
+        b.display()
+    );
     let (x, y) = (std::fs::read(a).unwrap(), std::fs::read(b).unwrap());
     if x == y {
         return;
@@ -148,8 +157,11 @@ fn shards_merge_into_the_bits_of_one_render() {
                 ok(&render(case, &p, &["--spp", "72", "--shard", &format!("{k}/{n}")]), "shard");
                 parts.push(p);
             }
-            // given in any order
+            // given in any order; `part_*.exr` also names the state files: each part once
             parts.reverse();
+            if n == 3 {
+                parts.push(rdr::render::statefile::state_path(&parts[0]));
+            }
             let merged = dir.path().join(format!("{}_merged{n}.exr", case.name));
             let mut c = rdr();
             c.arg("merge").args(&parts).arg("-o").arg(&merged).arg("-q");
@@ -268,6 +280,19 @@ fn parts_that_do_not_belong_together_are_refused() {
         assert!(e.contains("rdr171"), "{e}");
     }
     refused(&render(case, &d("x.png"), &["--resume"]), "png resume");
+    // --no-state: no state file, so nothing to resume or merge from, said by name
+    let plain = d("plain.exr");
+    ok(&render(case, &plain, &["--spp", "4", "--no-state"]), "--no-state");
+    assert!(plain.exists() && !d("plain.state.exr").exists());
+    let e = refused(&render(case, &plain, &["--spp", "8", "--resume"]), "resume without a state file");
+    assert!(e.contains("plain.state.exr") && e.contains("--no-state"), "{e}");
+    let e = refused(
+        &render(case, &plain, &["--spp", "8", "--resume", "--no-state"]),
+        "--resume --no-state",
+    );
+    assert!(e.contains("--no-state"), "{e}");
+    let e = refused(&merge(&[&a, &plain], &[]), "merge a part without state");
+    assert!(e.contains("plain.state.exr"), "{e}");
     refused(&render(case, &d("x.exr"), &["--shard", "3/3"]), "bad shard");
 }
 
@@ -309,7 +334,7 @@ fn sigkill_after_a_checkpoint_resumes_to_the_same_bits() {
     // kill it once a checkpoint holds some passes but not all
     let deadline = Instant::now() + Duration::from_secs(30);
     let held = loop {
-        if let Ok(Some(f)) = rdr::render::statefile::read(&out) {
+        if let Ok(Some(f)) = rdr::render::statefile::read(&rdr::render::statefile::state_path(&out)) {
             let n = f.state.passes_done();
             if n > 0 {
                 break n;
@@ -320,7 +345,9 @@ fn sigkill_after_a_checkpoint_resumes_to_the_same_bits() {
     };
     child.kill().unwrap(); // SIGKILL
     child.wait().unwrap();
-    let after = rdr::render::statefile::read(&out).unwrap().expect("a whole checkpoint");
+    let after = rdr::render::statefile::read(&rdr::render::statefile::state_path(&out))
+        .unwrap()
+        .expect("a whole checkpoint");
     assert!(
         after.state.passes_done() < 300,
         "the render finished before the kill ({full_s:.2} s for all passes): make it longer"
@@ -336,14 +363,34 @@ fn header_says_what_made_the_image() {
     let out = dir.path().join("h.exr");
     ok(&render(&CASES[0], &out, &["--spp", "20", "--seed", "3"]), "render");
     let raw = rdr::imageio::read_exr_channels(&out).unwrap();
+    let state_file = rdr::render::statefile::state_path(&out);
+    let state = rdr::imageio::read_exr_channels(&state_file).unwrap();
     for (k, v) in [
         ("rdr:seed", "3"),
         ("rdr:spp", "20"),
         ("rdr:target_spp", "64"),
         ("rdr:passes", "0-20"),
-        ("rdr:state", "0-16,16-20"),
     ] {
         assert_eq!(raw.text(k).as_deref(), Some(v), "{k}");
+        assert_eq!(state.text(k).as_deref(), Some(v), "state file's {k}");
+    }
+    // the image is plain (RGB, compressed); the film state is in the file beside it
+    assert_eq!(raw.text("rdr:state"), None);
+    assert_eq!(raw.channels.iter().map(|c| c.name.as_str()).collect::<Vec<_>>(), ["B", "G", "R"]);
+    assert_eq!(state.text("rdr:state").as_deref(), Some("0-16,16-20"));
+    assert_eq!(state.channels.len(), 3 + 2 * 8, "RGB and two pieces of 4 split sums");
+    let (image_bytes, state_bytes) = (
+        std::fs::metadata(&out).unwrap().len(),
+        std::fs::metadata(&state_file).unwrap().len(),
+    );
+    assert_eq!(
+        raw.attribute("compression").map(|a| a.value.clone()),
+        Some(vec![3]),
+        "the image is not ZIP-compressed"
+    );
+    eprintln!("image {image_bytes} bytes, state file {state_bytes} bytes");
+    for (a, b) in state.channels.iter().filter(|c| c.name.len() == 1).zip(&raw.channels) {
+        assert_eq!(a, b, "the state file's image is the image");
     }
     for k in ["rdr:scene", "rdr:assets"] {
         let v = raw.text(k).unwrap();
@@ -361,6 +408,10 @@ fn header_says_what_made_the_image() {
     let again = dir.path().join("again.exr");
     ok(&render(&CASES[0], &again, &["--spp", "20", "--seed", "3"]), "render again");
     assert_eq!(std::fs::read(&out).unwrap(), std::fs::read(&again).unwrap());
+    assert_eq!(
+        std::fs::read(&state_file).unwrap(),
+        std::fs::read(rdr::render::statefile::state_path(&again)).unwrap()
+    );
     let other = dir.path().join("other.exr");
     ok(
         &render(&CASES[0], &other, &["--spp", "1", "--override", r#"{"camera":{"fov":31}}"#]),

@@ -11,6 +11,7 @@ mod compare;
 mod convert;
 mod merge;
 mod render;
+mod signals;
 
 #[derive(Parser)]
 #[command(
@@ -107,12 +108,17 @@ pub struct UnknownArgs {
 /// Options of `rdr render` for long renders: resume, checkpoints, shards, previews.
 #[derive(clap::Args, Default)]
 pub struct FlowArgs {
-    /// Continue from the passes the output (.exr) already holds, after an interruption
-    /// or to add passes up to a higher --spp; starts afresh when it does not exist yet.
+    /// Continue from the passes the output's state file (OUT.state.exr) holds, after an
+    /// interruption or to add passes up to a higher --spp; starts afresh when there is
+    /// none yet.
     #[arg(long)]
     resume: bool,
-    /// Rewrite the output (atomically) every this many seconds while rendering, so a
-    /// killed render can --resume from it.
+    /// Write no state file beside an .exr output (OUT.state.exr: the film's exact sums,
+    /// what --resume, --shard and `rdr merge` continue from).
+    #[arg(long)]
+    no_state: bool,
+    /// Rewrite the output and its state file (atomically) every this many seconds
+    /// while rendering, so a killed render can --resume from it.
     #[arg(long, value_name = "SECONDS")]
     checkpoint: Option<f64>,
     /// Render only the K-th (0-based) of N disjoint runs of pass blocks; combine the
@@ -168,10 +174,11 @@ pub enum Command {
     /// Merge the parts of a render (`render --shard K/N` outputs) into one image,
     /// identical to rendering it on one machine.
     Merge {
-        /// The parts (.exr files written by `rdr render`).
+        /// The parts (.exr files written by `rdr render --shard`; each part's state is
+        /// read from its PART.state.exr, or from the part itself if it is a state file).
         #[arg(required = true)]
         parts: Vec<PathBuf>,
-        /// The merged image (.exr).
+        /// The merged image (.exr); its state file goes beside it (OUT.state.exr).
         #[arg(short, long)]
         output: PathBuf,
         /// Merge even when passes are missing (says which); the result can be merged

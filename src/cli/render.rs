@@ -1,12 +1,14 @@
 //! `rdr render`: one render, or a part of a long one (resume, checkpoints, shards, previews, tev, AOVs, denoise).
 
 use super::common::{load_desc, profile, refuse_input_as_output, same_file, say, scene_changes, setup_threads};
+use super::signals::{Interrupts, Phase};
 use super::{FlowArgs, SceneArgs};
-use anyhow::{Context, Result};
+use anyhow::Result;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
-use rdr::imageio::{check_output_path, encode_image, save_elsewhere, write_atomically, ExrPixels};
+use rdr::imageio::{check_output_path, encode_image, save_elsewhere, write_atomically, ExrChannel, ExrPixels};
 use rdr::integrator::StopToken;
 use rdr::limits::sanitize;
+use rdr::math::Vec3;
 use rdr::render::identity::RenderIdentity;
 use rdr::render::session::{self, Caller};
 use rdr::render::statefile::{self, StateHeader};
@@ -51,13 +53,18 @@ fn resume_state(
     total: u32,
     range: &std::ops::Range<u32>,
 ) -> Result<Option<FilmState>> {
-    if !output.exists() {
+    let beside = statefile::state_path(output);
+    if !beside.exists() && !output.exists() {
         return Ok(None);
     }
-    let name = output.display();
-    let Some(file) = statefile::read(output)? else {
-        anyhow::bail!("{name}: cannot resume: it holds no rdr film state (written by another program, or with --compat rdr171)");
+    let Some((path, file)) = statefile::read_for(output)? else {
+        anyhow::bail!(
+            "{}: cannot resume: there is no {} beside it, and it holds no rdr film state itself (written by another program, or with --no-state or --compat rdr171)",
+            output.display(),
+            beside.file_name().unwrap_or_default().to_string_lossy()
+        );
     };
+    let name = path.display();
     if let Some(why) = statefile::mismatch(identity, &file.header.identity) {
         anyhow::bail!("{name}: cannot resume: {why}");
     }
@@ -148,6 +155,10 @@ pub fn render(
         None => rdr::integrator::aov::AovSet::default(),
     };
     job.time_limit = time_limit;
+    if flow.denoise {
+        // a denoiser needs each pixel's noise its own: samples drawn from the filter
+        job.film.sampling = rdr::film::FilmSampling::importance(&job.film.filter);
+    }
     let output = output.unwrap_or_else(|| default_output(&args.scene));
     let is_png = output.extension().is_some_and(|e| e.eq_ignore_ascii_case("png"));
     let gain = match exposure {
@@ -187,6 +198,12 @@ pub fn render(
     refuse_input_as_output(&output, &desc.input_files(), "the scene's files")?;
     check_output_path(&output)?;
     let is_exr = output.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr"));
+    let state_path = statefile::state_path(&output);
+    if is_exr && !flow.no_state {
+        let mut inputs = desc.input_files();
+        inputs.push(args.scene.clone());
+        refuse_input_as_output(&state_path, &inputs, "the scene's files")?;
+    }
     let physical = matches!(profile(args), Profile::Physical);
     let asked = |what: &str| {
         (what == "--resume" && flow.resume)
@@ -211,6 +228,11 @@ pub fn render(
             is_exr || what == "--checkpoint",
             "{what}: needs an .exr output ({} cannot hold the film state)",
             output.display()
+        );
+        anyhow::ensure!(
+            !flow.no_state || what == "--checkpoint",
+            "{what}: not with --no-state (the passes continue from the state file {})",
+            state_path.display()
         );
     }
     if flow.denoise {
@@ -266,40 +288,51 @@ pub fn render(
     let passes_left = range.end - start.passes_done().min(range.end - range.start) - range.start;
 
     let stop = Arc::new(StopToken::new());
-    {
-        let stop = stop.clone();
-        ctrlc::set_handler(move || {
-            if stop.stop_again() {
-                std::process::exit(130);
-            }
-            note!("\ninterrupted: saving the finished passes (press Ctrl-C again to quit at once)");
-        })
-        .context("cannot install the Ctrl-C handler")?;
-    }
+    let interrupts = Interrupts::install(stop.clone(), output.display().to_string())?;
     let exr = match profile(args) {
         Profile::Physical => ExrPixels::Float,
         Profile::Rdr171 => ExrPixels::HalfTinyexr,
     };
-    // the bytes of the output file for an image and its state
+    // the files of a render so far, in the order they are written: the state file
+    // (`state_pixels`, its pieces), then the image (`pixels` and the layers)
+    let keep_state = header.is_some() && resumable && !flow.no_state;
     let encode = {
-        let output = output.clone();
-        let header = header.clone();
-        move |w: u32, h: u32, pixels: &[rdr::math::Vec3], state: &FilmState, layers: Vec<rdr::imageio::ExrChannel>| -> Result<Vec<u8>> {
-            match &header {
-                Some(hd) => Ok(statefile::encode(w, h, pixels, state, resumable, hd, layers)),
-                None => encode_image(&output, w, h, &exposed(pixels, if is_png { gain } else { 1.0 }), exr),
-            }
+        let (output, state_path, header) = (output.clone(), state_path.clone(), header.clone());
+        move |w: u32,
+              h: u32,
+              state_pixels: &[Vec3],
+              pixels: &[Vec3],
+              state: &FilmState,
+              layers: Vec<ExrChannel>|
+              -> Result<Vec<(PathBuf, Vec<u8>)>> {
+            Ok(match &header {
+                Some(hd) => {
+                    let mut files = Vec::new();
+                    if keep_state {
+                        files.push((
+                            state_path.clone(),
+                            statefile::encode(w, h, state_pixels, state, true, hd, Vec::new()),
+                        ));
+                    }
+                    files.push((output.clone(), statefile::encode_image(w, h, pixels, state, hd, layers)));
+                    files
+                }
+                None => vec![(
+                    output.clone(),
+                    encode_image(&output, w, h, &exposed(pixels, if is_png { gain } else { 1.0 }), exr)?,
+                )],
+            })
         }
     };
     let encode = Arc::new(encode);
+    let write_all = |files: Vec<(PathBuf, Vec<u8>)>| files.iter().try_for_each(|(path, bytes)| write_atomically(path, bytes));
     let mut periodic = Vec::new();
     if let Some(every) = flow.checkpoint {
-        let (encode, output) = (encode.clone(), output.clone());
+        let encode = encode.clone();
         periodic.push(Periodic {
             every,
             call: Arc::new(move |snap: &Snapshot| {
-                let written =
-                    encode(snap.width, snap.height, snap.pixels, snap.state, Vec::new()).and_then(|b| write_atomically(&output, &b));
+                let written = encode(snap.width, snap.height, snap.pixels, snap.pixels, snap.state, Vec::new()).and_then(write_all);
                 if let Err(e) = written {
                     note!("warning: checkpoint: {e:#}");
                 }
@@ -307,44 +340,38 @@ pub fn render(
         });
     }
     if let Some(every) = flow.preview {
-        let (encode, output) = (encode.clone(), output.clone());
+        let encode = encode.clone();
         let png = preview_path(&output);
         periodic.push(Periodic {
             every,
             call: Arc::new(move |snap: &Snapshot| {
                 let written = rdr::imageio::write_png(&png, snap.width, snap.height, &exposed(snap.pixels, gain))
-                    .and_then(|_| encode(snap.width, snap.height, snap.pixels, snap.state, Vec::new()))
-                    .and_then(|b| write_atomically(&output, &b));
+                    .and_then(|_| encode(snap.width, snap.height, snap.pixels, snap.pixels, snap.state, Vec::new()))
+                    .and_then(write_all);
                 if let Err(e) = written {
                     note!("warning: preview: {e:#}");
                 }
             }),
         });
     }
+    // the viewer gets the image through a sender thread: a stalled tev costs the render nothing
     let tev = match &flow.tev {
         Some(addr) => {
             let name = output.file_name().map_or("rdr".into(), |n| n.to_string_lossy().into_owned());
-            let t = rdr::render::tev::Tev::connect(addr, &name, job.film.width, job.film.height)
+            let on_error = Box::new(|e: String| note!("warning: --tev: {e}; no more updates"));
+            let t = rdr::render::tev::Tev::connect(addr, &name, job.film.width, job.film.height, on_error)
                 .map_err(|e| anyhow::anyhow!("--tev {addr}: cannot connect to tev: {e}"))?;
-            Some(Arc::new(std::sync::Mutex::new(Some(t))))
+            Some(Arc::new(t))
         }
         None => None,
-    };
-    // a failed send ends the stream (tev closed), with one warning
-    let send_tev = |tev: &Arc<std::sync::Mutex<Option<rdr::render::tev::Tev>>>, w: u32, h: u32, px: &[rdr::math::Vec3]| {
-        let mut guard = tev.lock().unwrap_or_else(|e| e.into_inner());
-        if let Some(t) = guard.as_mut() {
-            if let Err(e) = t.update(w, h, px) {
-                note!("warning: --tev: {e}; no more updates");
-                *guard = None;
-            }
-        }
     };
     if let Some(tev) = &tev {
         let tev = tev.clone();
         periodic.push(Periodic {
             every: 0.5,
-            call: Arc::new(move |snap: &Snapshot| send_tev(&tev, snap.width, snap.height, snap.pixels)),
+            call: Arc::new(move |snap: &Snapshot| {
+                tev.update(snap.width, snap.height, snap.pixels);
+            }),
         });
     }
     let samples_left = job.film.width as u64 * job.film.height as u64 * job.integrator.spp_done(job.spp, passes_left) as u64;
@@ -363,7 +390,9 @@ pub fn render(
         periodic,
     };
     let pool = session::thread_pool(args.threads, Caller::Cli).map_err(anyhow::Error::msg)?;
-    let mut out = session::run(&scene, &job, &control, start, aov.any() || flow.denoise, &pool);
+    let out = session::run(&scene, &job, &control, start, aov.any() || flow.denoise, &pool);
+    // the periodic callbacks hold the viewer: let them go
+    drop(control);
     if let Some(b) = bar {
         b.finish_and_clear();
     }
@@ -376,38 +405,49 @@ pub fn render(
             out.invalid_rays
         );
     }
-    if let Some(tev) = &tev {
-        send_tev(tev, out.width, out.height, &out.pixels);
-    }
     if flow.preview.is_some() {
         if let Err(e) = rdr::imageio::write_png(&preview_path(&output), out.width, out.height, &exposed(&out.pixels, gain)) {
             note!("warning: preview: {e:#}");
         }
     }
-    let mut layers = out
+    let layers = out
         .aov
         .as_ref()
         .map_or_else(Vec::new, |sums| rdr::integrator::aov::channels(sums, aov));
-    if flow.denoise {
+    let clean = if flow.denoise {
         let sums = out.aov.as_ref().expect("feature sums for --denoise");
         let (albedo, normal) = (rdr::integrator::aov::layer_rgb(sums, 0), rdr::integrator::aov::layer_rgb(sums, 3));
         let clean = rdr::render::denoise::denoise(out.width, out.height, &out.pixels, &albedo, &normal)
             .map_err(|e| anyhow::anyhow!("--denoise: {e}"))?;
-        // the noisy image stays in the file, beside the film state it is made of
-        if header.is_some() {
-            layers.extend(rdr::imageio::rgb_channels("noisy.", &out.pixels));
+        Some(clean)
+    } else {
+        None
+    };
+    interrupts.set_phase(Phase::Saving);
+    // the image is the denoised one; the state file keeps the noisy image its passes make
+    let image = clean.as_deref().unwrap_or(&out.pixels);
+    let files = encode(out.width, out.height, &out.pixels, image, &out.state, layers)?;
+    let mut lost = Vec::new();
+    for (path, bytes) in &files {
+        if let Err(e) = write_atomically(path, bytes) {
+            // the render is not lost: keep it where it can be written
+            lost.push(match save_elsewhere(path, bytes) {
+                Ok(saved) => format!("{e:#}; it was saved to {} instead", saved.display()),
+                Err(e2) => format!("{e:#}; saving it in the temporary folder failed too ({e2:#}): it is lost"),
+            });
         }
-        out.pixels = clean;
     }
-    let bytes = encode(out.width, out.height, &out.pixels, &out.state, layers)?;
-    if let Err(e) = write_atomically(&output, &bytes) {
-        // the render is not lost: keep it where it can be written
-        match save_elsewhere(&output, &bytes) {
-            Ok(saved) => anyhow::bail!("{e:#}; the image was saved to {} instead", saved.display()),
-            Err(e2) => anyhow::bail!("{e:#}; saving it in the temporary folder failed too ({e2:#}): the image is lost"),
-        }
+    if !lost.is_empty() {
+        anyhow::bail!("{}", lost.join("; "));
     }
+    interrupts.set_phase(Phase::Saved);
     say(output.display())?;
+    // the image is saved: the viewer gets the last one if it takes it within a second
+    if let Some(tev) = tev.and_then(|t| Arc::try_unwrap(t).ok()) {
+        if tev.update(out.width, out.height, image) && !tev.finish(std::time::Duration::from_secs(1)) {
+            note!("warning: --tev: the viewer did not take the last image within 1 s; not waiting for it");
+        }
+    }
     for (name, pixels) in &out.extra_images {
         let path = extra_image_path(&output, name);
         let bytes = encode_image(&path, out.width, out.height, pixels, exr)?;

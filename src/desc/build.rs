@@ -335,7 +335,9 @@ pub fn build(desc: &SceneDesc, opts: BuildOptions) -> Result<Scene> {
                 Texture::Constant(color) => EnvImage::Constant(*color),
                 Texture::Image(img) => {
                     let level = &img.mipmap.levels()[0];
-                    let (not_finite, negative) = crate::light::environment::unusable_texels(&level.texels);
+                    // NaN and infinite texels were made black when the file was read
+                    let (_, negative) = crate::light::environment::unusable_texels(&level.texels);
+                    let not_finite = img.mipmap.non_finite_texels();
                     if not_finite + negative > 0 {
                         let file = match &desc.textures[t as usize].texture {
                             Texture::Image(f) => desc.base_dir.join(&f.path.value).display().to_string(),
@@ -364,6 +366,27 @@ pub fn build(desc: &SceneDesc, opts: BuildOptions) -> Result<Scene> {
             Some(lights.len() as u32 - 1)
         }
     };
+
+    // the other image files with NaN or infinite texels (the environment map's said so above)
+    let env_texture = desc
+        .environment_map
+        .as_ref()
+        .and_then(|e| texture_names.get(e.texture.value.as_str()));
+    let mut told: Vec<std::path::PathBuf> = Vec::new();
+    for (i, (t, file)) in textures.iter().zip(&desc.textures).enumerate() {
+        if let (Texture::Image(img), Texture::Image(f)) = (t, &file.texture) {
+            let path = desc.base_dir.join(&f.path.value);
+            let n = img.mipmap.non_finite_texels();
+            if n > 0 && env_texture != Some(&(i as u32)) && !told.contains(&path) {
+                let all = img.mipmap.levels()[0].texels.len();
+                warnings.push(format!(
+                    "{}: image texture with {n} NaN or infinite texel(s) of {all}; they are read as black",
+                    path.display()
+                ));
+                told.push(path);
+            }
+        }
+    }
 
     let n_top = desc.objects.len();
     // a masked emitter would hide its emission from some rays and not from light sampling

@@ -178,6 +178,9 @@ pub struct FilmDesc {
     pub height: u32,
     pub block_size: u32,
     pub filter: Filter,
+    /// `sampling: "importance"`: camera samples drawn from the filter (each in its own
+    /// pixel, so neighbours' noise is independent); `"filter"` (default) weighs them.
+    pub importance_sampling: bool,
 }
 
 /// `textures.<name>`: `type` = `constant` (`color`, required) | `checkerboard`

@@ -124,7 +124,7 @@ where
         let (x0, y0, x1, y1) = t.rect;
         for y in y0..y1 {
             for x in x0..x1 {
-                let (mut sampler, pos, ray, diff) = camera_sample(ctx, x, y, pass, diff_scale);
+                let (mut sampler, (pos, weight), ray, diff) = camera_sample(ctx, x, y, pass, diff_scale);
                 t.add_features(x, y, &ray);
                 let l = li(
                     &mut CameraSample {
@@ -138,7 +138,7 @@ where
                     },
                     &mut own,
                 );
-                t.add(pos, l);
+                t.add((x, y), pos, weight, l);
             }
         }
         own
@@ -159,12 +159,17 @@ struct TileWork<'c, 'a> {
 }
 
 impl TileWork<'_, '_> {
-    /// Adds a sample's radiance at film position `pos`; a non-finite one is
-    /// dropped and counted, reported at the end.
-    fn add(&mut self, pos: Vec2, l: Vec3) {
+    /// Adds pixel `pixel`'s sample at film position `pos` with weight `weight` (see
+    /// [`FilmSettings::sample_position`]); a non-finite one is dropped and counted,
+    /// reported at the end.
+    fn add(&mut self, pixel: (i32, i32), pos: Vec2, weight: f32, l: Vec3) {
         let film = self.ctx.film;
         if self.finite_or_counted(l) {
-            self.tile.add(pos, l, &film.filter, film.width as i32, film.height as i32);
+            if film.importance_sampled() {
+                self.tile.add_to_pixel(pixel.0, pixel.1, l, weight);
+            } else {
+                self.tile.add(pos, l, &film.filter, film.width as i32, film.height as i32);
+            }
         }
     }
 
@@ -256,19 +261,27 @@ where
     )
 }
 
-/// Pixel `(x, y)`'s sampler at sample index `pass` and the film position it draws first.
+/// Pixel `(x, y)`'s sampler at sample index `pass` and the film position (and
+/// weight) it draws first.
 #[inline(always)]
-fn film_sample(ctx: &PassContext, x: i32, y: i32, pass: u32) -> (PixelSampler, Vec2) {
+fn film_sample(ctx: &PassContext, x: i32, y: i32, pass: u32) -> (PixelSampler, (Vec2, f32)) {
     let mut sampler = PixelSampler::new(x as u32, y as u32, pass, ctx.seed);
     let (u, v) = sampler.next_2d();
-    (sampler, Vec2::new(x as f32 + u, y as f32 + v))
+    (sampler, ctx.film.sample_position(x, y, u, v))
 }
 
 /// The camera sample of pixel `(x, y)` at sample index `pass`: its sampler (film
-/// position and lens point drawn), the film position, the ray and its differentials.
+/// position and lens point drawn), the film position and the sample's weight, the ray
+/// and its differentials.
 #[inline(always)]
-pub fn camera_sample(ctx: &PassContext, x: i32, y: i32, pass: u32, diff_scale: f32) -> (PixelSampler, Vec2, Ray, Option<RayDifferential>) {
-    let (mut sampler, pos) = film_sample(ctx, x, y, pass);
+pub fn camera_sample(
+    ctx: &PassContext,
+    x: i32,
+    y: i32,
+    pass: u32,
+    diff_scale: f32,
+) -> (PixelSampler, (Vec2, f32), Ray, Option<RayDifferential>) {
+    let (mut sampler, (pos, weight)) = film_sample(ctx, x, y, pass);
     let u_lens = lens_sample(ctx.camera, &mut sampler);
     // differentials only matter to image textures: skip them otherwise
     let (ray, diff) = if ctx.scene.uses_footprints {
@@ -277,7 +290,7 @@ pub fn camera_sample(ctx: &PassContext, x: i32, y: i32, pass: u32, diff_scale: f
     } else {
         (ctx.camera.sample_ray(pos.x, pos.y, u_lens), None)
     };
-    (sampler, pos, ray, diff)
+    (sampler, (pos, weight), ray, diff)
 }
 
 /// Merges a pass's tiles (and splats, feature sums) into the film in tile order, if
@@ -347,7 +360,7 @@ where
                 // of radius ≤ ½ puts each sample in its own pixel only, where the order of the
                 // additions cannot matter, so those are added as each block is done
                 let in_order = t.aov.is_some() || !ctx.film.filter.is_own_pixel_box();
-                let mut done_px = vec![(Vec2::ZERO, Vec3::ZERO); if in_order { tw * (y1 - y0) as usize } else { 0 }];
+                let mut done_px = vec![(Vec2::ZERO, 1.0f32, Vec3::ZERO); if in_order { tw * (y1 - y0) as usize } else { 0 }];
                 // each block's samplers written over the last block's (no copies of them)
                 let mut samplers = [PixelSampler::new(0, 0, 0, 0); N];
                 for by in (y0..y1).step_by(BLOCK_H as usize) {
@@ -362,6 +375,7 @@ where
                         }
                         let px = &px[..n];
                         let mut pos = [Vec2::ZERO; N];
+                        let mut weights = [1.0f32; N];
                         let mut rays = [Ray::IDLE; N];
                         let mut diffs = [None; N];
                         if plain_pinhole {
@@ -374,14 +388,14 @@ where
                             let uv = first_2d_lanes(isa, &xs, &ys, pass, ctx.seed, &mut samplers);
                             let (mut fx, mut fy) = ([0.0f32; N], [0.0f32; N]);
                             for (i, &(x, y)) in px.iter().enumerate() {
-                                let p = Vec2::new(x as f32 + uv[i].0, y as f32 + uv[i].1);
-                                (pos[i], fx[i], fy[i]) = (p, p.x, p.y);
+                                let (p, w) = ctx.film.sample_position(x, y, uv[i].0, uv[i].1);
+                                (pos[i], weights[i], fx[i], fy[i]) = (p, w, p.x, p.y);
                             }
                             ctx.camera.pinhole_rays(&fx, &fy, n, &mut rays);
                         } else {
                             for (i, &(x, y)) in px.iter().enumerate() {
-                                let (s, p, r, d) = camera_sample(ctx, x, y, pass, diff_scale);
-                                (pos[i], rays[i], diffs[i], samplers[i]) = (p, r, d, s);
+                                let (s, (p, w), r, d) = camera_sample(ctx, x, y, pass, diff_scale);
+                                (pos[i], weights[i], rays[i], diffs[i], samplers[i]) = (p, w, r, d, s);
                             }
                         }
                         let mut l = [Vec3::ZERO; N];
@@ -398,7 +412,7 @@ where
                         );
                         for (i, &(x, y)) in px.iter().enumerate() {
                             if in_order {
-                                done_px[(y - y0) as usize * tw + (x - x0) as usize] = (pos[i], l[i]);
+                                done_px[(y - y0) as usize * tw + (x - x0) as usize] = (pos[i], weights[i], l[i]);
                             } else {
                                 t.add_own_pixel(pos[i], l[i]);
                             }
@@ -414,8 +428,8 @@ where
                             let ray = camera_sample(ctx, x, y, pass, diff_scale).2;
                             t.add_features(x, y, &ray);
                         }
-                        let (pos, l) = done_px[(y - y0) as usize * tw + (x - x0) as usize];
-                        t.add(pos, l);
+                        let (pos, weight, l) = done_px[(y - y0) as usize * tw + (x - x0) as usize];
+                        t.add((x, y), pos, weight, l);
                     }
                 }
             },

@@ -6,7 +6,7 @@ use crate::camera::{Camera, Projection};
 use crate::compat::Profile;
 use crate::desc::{build, BuildOptions, SceneDesc};
 use crate::error::{Result, SceneError};
-use crate::film::FilmSettings;
+use crate::film::{FilmSampling, FilmSettings};
 use crate::integrator::rdr171::Rdr171Columns;
 use crate::integrator::Integrator;
 use crate::scene::Scene;
@@ -116,6 +116,11 @@ impl RenderJob {
             width: f.width,
             height: f.height,
             filter: f.filter,
+            sampling: if f.importance_sampling {
+                FilmSampling::importance(&f.filter)
+            } else {
+                FilmSampling::Filter
+            },
             block_size: f.block_size,
         };
         crate::limits::check_memory(film.memory_bytes(), || {

@@ -1,8 +1,13 @@
-//! The output EXR with the film state inside: besides the float RGB image, every
-//! piece of [`FilmState`] as uint channels (each f64 sum, weight and splat split
-//! into its high and low 32 bits, so nothing is rounded) and `rdr:` attributes
-//! saying what made it. One file is what users move around, resume and merge; a
-//! state file beside it could be lost, go stale or be paired with the wrong image.
+//! The film state of a render, in a file beside its image: `out.exr` is a plain,
+//! ZIP-compressed RGB EXR (with the `--aov` layers) for viewers, and `out.state.exr`
+//! holds everything `--resume` and `rdr merge` continue from. The state file is an EXR
+//! too: the same float RGB image, so any viewer opens it, plus every piece of
+//! [`FilmState`] as uint channels (each f64 sum, weight and splat split into its high
+//! and low 32 bits, so nothing is rounded), uncompressed, and `rdr:` attributes saying
+//! what made it. It carries its own identity (scene, assets, seed, integrator), so a
+//! state file that went stale or was paired with the wrong image is refused by name,
+//! never silently continued; and the image file no longer carries 20-odd state channels
+//! that viewers show as junk layers.
 //!
 //! Channels of piece `i`: `rdr.state<i>.sum.{R,G,B}.{hi,lo}`, `…weight.{hi,lo}` and,
 //! when the piece has splats, `…splat.{R,G,B}.{hi,lo}`; rows top-down like the image.
@@ -10,8 +15,9 @@
 //! `rdr:version`, `rdr:commit`, `rdr:scene`, `rdr:assets`, `rdr:integrator`,
 //! `rdr:seed`, `rdr:target_spp`, `rdr:spp` (the passes of the whole render),
 //! `rdr:block_passes`, `rdr:passes` (ranges held), `rdr:shard` (`K/N`, for a shard),
-//! `rdr:state` (each piece's pass range, in channel order); and the standard
-//! `chromaticities` (linear sRGB).
+//! `rdr:state` (each piece's pass range, in channel order; in the state file only);
+//! and the standard `chromaticities` (linear sRGB). The image file has the same
+//! attributes but `rdr:state`.
 
 use super::blocks::{format_ranges, parse_ranges, FilmState, Piece, BLOCK_PASSES};
 use super::identity::RenderIdentity;
@@ -47,9 +53,8 @@ fn split(v: f64) -> (u32, u32) {
     ((b >> 32) as u32, b as u32)
 }
 
-/// The bytes of an output EXR: `pixels` (row 0 = top), the film state when the
-/// integrator's passes can be resumed (`None` writes the attributes alone), and extra
-/// channels (AOV layers).
+/// The bytes of a state file: `pixels` (row 0 = top), the film state when the
+/// integrator's passes can be resumed (else the attributes alone), and extra channels.
 pub fn encode(
     width: u32,
     height: u32,
@@ -92,6 +97,12 @@ pub fn encode(
             }
         }
     }
+    let attrs = attributes(state, resumable, header);
+    crate::imageio::encode_exr_channels(width, height, &channels, &attrs)
+}
+
+/// The header attributes of the image and state files (`rdr:state` when `with_state`).
+fn attributes(state: &FilmState, with_state: bool, header: &StateHeader) -> Vec<ExrAttribute> {
     let id = &header.identity;
     let mut attrs = vec![
         ExrAttribute::text("rdr:version", &header.version),
@@ -108,12 +119,36 @@ pub fn encode(
     if let Some((k, n)) = header.shard {
         attrs.push(ExrAttribute::text("rdr:shard", &format!("{k}/{n}")));
     }
-    if resumable {
+    if with_state {
         let pieces: Vec<_> = state.pieces.iter().map(|p| p.passes.clone()).collect();
         attrs.push(ExrAttribute::text("rdr:state", &format_ranges(&pieces)));
     }
     attrs.push(ExrAttribute::chromaticities_srgb());
-    crate::imageio::encode_exr_channels(width, height, &channels, &attrs)
+    attrs
+}
+
+/// The bytes of the image file: `pixels` and the `extra` layers, ZIP-compressed, with
+/// the attributes saying what made it (the state's pass ranges, not its sums).
+pub fn encode_image(width: u32, height: u32, pixels: &[Vec3], state: &FilmState, header: &StateHeader, extra: Vec<ExrChannel>) -> Vec<u8> {
+    let mut channels = rgb_channels("", pixels);
+    channels.extend(extra);
+    let attrs = attributes(state, false, header);
+    crate::imageio::encode_exr_channels_as(width, height, &channels, &attrs, crate::imageio::ExrCompression::Zip)
+}
+
+/// Where the state of the image `output` goes: `out.exr` → `out.state.exr`.
+pub fn state_path(output: &Path) -> std::path::PathBuf {
+    output.with_extension("state.exr")
+}
+
+/// The state that goes with `path`: its state file when there is one, else the state
+/// `path` itself holds (a state file named directly, or an output of an rdr that kept
+/// the state inside the image). Returns the file read and its state; `Ok(None)` when
+/// neither holds one.
+pub fn read_for(path: &Path) -> Result<Option<(std::path::PathBuf, StateFile)>> {
+    let beside = state_path(path);
+    let file = if beside.exists() { beside } else { path.to_path_buf() };
+    Ok(read(&file)?.map(|s| (file, s)))
 }
 
 /// Reads an output EXR with its film state. `Ok(None)` when the file is an image

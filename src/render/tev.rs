@@ -12,7 +12,9 @@
 
 use crate::math::Vec3;
 use std::io::Write;
-use std::net::TcpStream;
+use std::net::{TcpStream, ToSocketAddrs};
+use std::sync::{Arc, Condvar, Mutex};
+use std::time::{Duration, Instant};
 
 pub const CREATE_IMAGE: u8 = 4;
 pub const UPDATE_IMAGE: u8 = 6;
@@ -94,30 +96,162 @@ pub fn update_image(name: &str, width: u32, height: u32, pixels: &[Vec3]) -> Vec
     out
 }
 
-/// A connection to tev showing one image.
+/// How long one write to tev may make no progress before the viewer counts as stalled.
+pub const WRITE_TIMEOUT: Duration = Duration::from_secs(2);
+
+/// One image for the sender: size and pixels.
+struct Frame {
+    width: u32,
+    height: u32,
+    pixels: Vec<Vec3>,
+}
+
+/// The sender's mailbox: at most one frame waits; a newer one replaces it (the
+/// viewer only needs the latest image), and `closed` ends the sender.
+#[derive(Default)]
+struct Mailbox {
+    frame: Option<Frame>,
+    closed: bool,
+    /// The sender has nothing in hand (its last frame is out, or it gave up).
+    idle: bool,
+}
+
+/// A connection to tev showing one image, fed by a sender thread so the render never
+/// waits for the viewer: [`Tev::update`] only leaves the image in a one-frame mailbox
+/// (an update not yet sent is replaced, not queued), and a viewer that stops reading
+/// for [`WRITE_TIMEOUT`] is dropped with one message through `on_error`.
 pub struct Tev {
-    stream: TcpStream,
-    name: String,
+    shared: Arc<(Mutex<Mailbox>, Condvar)>,
+    sender: Option<std::thread::JoinHandle<()>>,
 }
 
 impl Tev {
-    /// Connects to tev at `addr` (`HOST:PORT`) and creates the image `name`.
-    pub fn connect(addr: &str, name: &str, width: u32, height: u32) -> std::io::Result<Tev> {
-        let mut stream = TcpStream::connect(addr)?;
+    /// Connects to tev at `addr` (`HOST:PORT`, within [`WRITE_TIMEOUT`] per address)
+    /// and creates the image `name`. `on_error` gets the reason when the stream ends.
+    pub fn connect(addr: &str, name: &str, width: u32, height: u32, on_error: Box<dyn Fn(String) + Send>) -> std::io::Result<Tev> {
+        let mut last = std::io::Error::new(std::io::ErrorKind::NotFound, "no address");
+        let mut stream = None;
+        for a in addr.to_socket_addrs()? {
+            match TcpStream::connect_timeout(&a, WRITE_TIMEOUT) {
+                Ok(s) => {
+                    stream = Some(s);
+                    break;
+                }
+                Err(e) => last = e,
+            }
+        }
+        let mut stream = stream.ok_or(last)?;
         stream.set_nodelay(true).ok();
-        stream.write_all(&create_image(name, width, height))?;
+        stream.set_write_timeout(Some(WRITE_TIMEOUT))?;
+        stream.write_all(&create_image(name, width, height)).map_err(stalled)?;
+        let shared = Arc::new((
+            Mutex::new(Mailbox {
+                idle: true,
+                ..Mailbox::default()
+            }),
+            Condvar::new(),
+        ));
+        let name = name.to_string();
+        let mail = shared.clone();
+        let sender = std::thread::Builder::new().name("rdr-tev".into()).spawn(move || {
+            let (lock, wake) = &*mail;
+            loop {
+                let frame = {
+                    let mut m = lock.lock().unwrap_or_else(|e| e.into_inner());
+                    loop {
+                        if let Some(f) = m.frame.take() {
+                            m.idle = false;
+                            break f;
+                        }
+                        if m.closed {
+                            return;
+                        }
+                        m = wake.wait(m).unwrap_or_else(|e| e.into_inner());
+                    }
+                };
+                let sent = update_image(&name, frame.width, frame.height, &frame.pixels)
+                    .iter()
+                    .try_for_each(|p| stream.write_all(p))
+                    .and_then(|_| stream.flush());
+                let mut m = lock.lock().unwrap_or_else(|e| e.into_inner());
+                m.idle = true;
+                if let Err(e) = sent {
+                    m.closed = true;
+                    m.frame = None;
+                    wake.notify_all();
+                    drop(m);
+                    on_error(stalled(e).to_string());
+                    return;
+                }
+                wake.notify_all();
+            }
+        })?;
         Ok(Tev {
-            stream,
-            name: name.to_string(),
+            shared,
+            sender: Some(sender),
         })
     }
 
-    /// Sends the whole image.
-    pub fn update(&mut self, width: u32, height: u32, pixels: &[Vec3]) -> std::io::Result<()> {
-        for p in update_image(&self.name, width, height, pixels) {
-            self.stream.write_all(&p)?;
+    /// Hands the image to the sender (a copy) and returns at once; `false` once the
+    /// stream has ended.
+    pub fn update(&self, width: u32, height: u32, pixels: &[Vec3]) -> bool {
+        let (lock, wake) = &*self.shared;
+        let mut m = lock.lock().unwrap_or_else(|e| e.into_inner());
+        if m.closed {
+            return false;
         }
-        self.stream.flush()
+        m.frame = Some(Frame {
+            width,
+            height,
+            pixels: pixels.to_vec(),
+        });
+        wake.notify_all();
+        true
+    }
+
+    /// Waits up to `limit` for the frames handed over to be sent, then closes the
+    /// stream; `true` when everything was sent.
+    pub fn finish(mut self, limit: Duration) -> bool {
+        let (lock, wake) = &*self.shared;
+        let deadline = Instant::now() + limit;
+        let mut m = lock.lock().unwrap_or_else(|e| e.into_inner());
+        while !m.closed && (!m.idle || m.frame.is_some()) {
+            let left = deadline.saturating_duration_since(Instant::now());
+            if left.is_zero() {
+                break;
+            }
+            m = wake.wait_timeout(m, left).unwrap_or_else(|e| e.into_inner()).0;
+        }
+        let done = !m.closed && m.idle && m.frame.is_none();
+        m.closed = true;
+        wake.notify_all();
+        drop(m);
+        // a sender still blocked in a write is left to end with the process
+        if done {
+            if let Some(s) = self.sender.take() {
+                let _ = s.join();
+            }
+        }
+        done
+    }
+}
+
+impl Drop for Tev {
+    fn drop(&mut self) {
+        let (lock, wake) = &*self.shared;
+        lock.lock().unwrap_or_else(|e| e.into_inner()).closed = true;
+        wake.notify_all();
+    }
+}
+
+/// A write that made no progress for [`WRITE_TIMEOUT`] says so.
+fn stalled(e: std::io::Error) -> std::io::Error {
+    match e.kind() {
+        std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut => std::io::Error::new(
+            std::io::ErrorKind::TimedOut,
+            format!("the viewer stopped reading (no progress for {} s)", WRITE_TIMEOUT.as_secs()),
+        ),
+        _ => e,
     }
 }
 

@@ -76,11 +76,20 @@ impl std::fmt::Debug for Level {
 pub struct MipMap {
     levels: Vec<Level>,
     convention: TextureConvention,
+    /// Texels of the image that were NaN or infinite (made black).
+    non_finite: usize,
 }
 
 impl MipMap {
     /// Builds the pyramid of `image` (row 0 = top). With `mipmap == false` only level 0.
-    pub fn new(image: Level, convention: TextureConvention, mipmap: bool) -> MipMap {
+    /// NaN and infinite texels become black first: the pyramid would spread them into
+    /// their neighbours and every lookup near one would be NaN.
+    pub fn new(mut image: Level, convention: TextureConvention, mipmap: bool) -> MipMap {
+        let mut non_finite = 0;
+        for t in image.texels.iter_mut().filter(|t| !t.is_finite()) {
+            *t = Vec3::ZERO;
+            non_finite += 1;
+        }
         let mut levels = Vec::new();
         match convention {
             TextureConvention::Physical => {
@@ -105,11 +114,20 @@ impl MipMap {
                 }
             }
         }
-        MipMap { levels, convention }
+        MipMap {
+            levels,
+            convention,
+            non_finite,
+        }
     }
 
     pub fn levels(&self) -> &[Level] {
         &self.levels
+    }
+
+    /// How many texels of the image were NaN or infinite (they are black here).
+    pub fn non_finite_texels(&self) -> usize {
+        self.non_finite
     }
 
     pub fn convention(&self) -> TextureConvention {

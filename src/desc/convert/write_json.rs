@@ -314,6 +314,9 @@ pub fn to_json(desc: &SceneDesc, out: &Path) -> Result<Converted> {
         "materials": Value::Object(materials),
         "objects": objects,
     });
+    if f.importance_sampling {
+        root["film"]["sampling"] = "importance".into();
+    }
     if !desc.shapegroups.is_empty() {
         let g: Map<String, Value> = desc
             .shapegroups

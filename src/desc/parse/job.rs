@@ -404,12 +404,18 @@ pub(super) fn parse_film(p: &Props) -> Result<FilmDesc> {
             d
         }
     };
+    let importance_sampling = match p.string_or("sampling", "filter")?.as_str() {
+        "filter" => false,
+        "importance" => true,
+        other => return Err(p.error("sampling", format!("unknown sampling '{other}' (available: filter, importance)"))),
+    };
     p.finish();
     Ok(FilmDesc {
         width: w as u32,
         height: h as u32,
         block_size,
         filter,
+        importance_sampling,
     })
 }
 

@@ -26,6 +26,7 @@ impl<'a> Reader<'a> {
                 height: 576,
                 block_size: 16,
                 filter: Filter::gaussian(2.0, 2.0),
+                importance_sampling: false,
             },
         };
         let spp = match p.objects("sampler").first() {
@@ -211,6 +212,7 @@ impl<'a> Reader<'a> {
             height: h as u32,
             block_size: 16,
             filter,
+            importance_sampling: false,
         })
     }
 

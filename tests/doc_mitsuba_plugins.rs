@@ -4,38 +4,19 @@
 //! `RDR_BLESS=1 cargo test --release --test doc_mitsuba_plugins` rewrites the page after
 //! a reader changes.
 
-use std::path::Path;
+mod docs_common;
 
 const PAGE: &str = "docs/src/mitsuba/plugins.md";
 
 #[test]
 fn plugin_table_matches_the_readers() {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join(PAGE);
     let fresh = rdr::desc::xml::plugins::plugin_table_markdown();
-    if std::env::var_os("RDR_BLESS").is_some() {
-        std::fs::write(&path, &fresh).expect("write the plugin page");
-        eprintln!("rewrote {PAGE}");
-        return;
-    }
-    let committed = std::fs::read_to_string(&path).unwrap_or_default();
-    if committed != fresh {
-        let line = committed
-            .lines()
-            .zip(fresh.lines())
-            .position(|(a, b)| a != b)
-            .unwrap_or(committed.lines().count().min(fresh.lines().count()));
-        panic!(
-            "{PAGE} differs from the readers' plugin table (first at line {}); regenerate it with \
-             RDR_BLESS=1 cargo test --release --test doc_mitsuba_plugins",
-            line + 1
-        );
-    }
+    docs_common::check_generated_page(PAGE, &fresh, "the readers' plugin table", "doc_mitsuba_plugins");
 }
 
-/// A reader that reads a parameter its rows do not declare, or defaults it otherwise,
-/// fails the load with an internal error naming both (here: `diffuse` asked for a
-/// property the table lacks is simulated by a scene through the public loader, so the
-/// check itself is exercised: every plugin of a scene that reads many is loaded).
+/// A scene reading many plugins loads: each reader keeps to its rows (a parameter read
+/// that its rows do not declare, or defaulted otherwise, fails the load with an internal
+/// error naming both); the plugins rdr leaves out are named in warnings.
 #[test]
 fn every_reader_keeps_to_its_rows() {
     let dir = tempfile::tempdir().unwrap();

@@ -78,7 +78,7 @@ impl<'a> Reader<'a> {
             )));
         }
         let sum: f32 = weights.iter().sum();
-        if weights.iter().any(|w| !(*w >= 0.0)) || (sum - 1.0).abs() > 1e-3 {
+        if weights.iter().any(|w| w.is_nan() || *w < 0.0) || (sum - 1.0).abs() > 1e-3 {
             return Err(p.value_error("weights", format!("must be at least 0 and sum to 1, found a sum of {sum}")));
         }
         let mut mix = self.material_value(inner[inner.len() - 1].0)?;

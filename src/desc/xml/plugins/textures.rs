@@ -85,6 +85,12 @@ pub(super) const DOCS: &[PluginDoc] = &[
         params: &[read("value", "float or vector", "", "required")],
     },
     not_read("texture", &["volume"], Status::Refused, "not read"),
+    not_read(
+        "texture",
+        &["scale"],
+        Status::Refused,
+        "Mitsuba 0.6's scaled texture (Mitsuba 3 refuses it too)",
+    ),
 ];
 
 impl<'a> Reader<'a> {

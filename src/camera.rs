@@ -20,7 +20,9 @@ use crate::sampling::concentric_disk;
 /// * `orthographic`: `height` (> 0, world units, 2): the film sees a `height` tall
 ///   window perpendicular to the view direction, with parallel rays;
 /// * `near_clip` (≥ 0, 0), `far_clip` (> `near_clip`, unbounded): camera rays see
-///   only what lies between these distances along the view axis.
+///   only what lies between these distances along the view axis;
+/// * `mirrored` (false): the image is mirrored left to right (Mitsuba's sensor with a
+///   negative scale in its `to_world`).
 ///
 /// ```json
 /// "camera": {"type": "thinlens", "position": [0, 1, 6.8], "look_at": [0, 1, 0], "fov": 19.5,
@@ -36,6 +38,7 @@ pub struct CameraParams {
     pub projection: Projection,
     pub near_clip: f32,
     pub far_clip: f32,
+    pub mirrored: bool,
 }
 
 impl Default for CameraParams {
@@ -49,6 +52,7 @@ impl Default for CameraParams {
             projection: Projection::Pinhole,
             near_clip: 0.0,
             far_clip: f32::INFINITY,
+            mirrored: false,
         }
     }
 }
@@ -97,6 +101,8 @@ impl Camera {
         let f = normalize_div(d.look_at - d.position);
         let r = normalize_div(f.cross(d.ref_up));
         let u = r.cross(f);
+        // a mirrored camera's film x runs the other way (its up stays)
+        let r = if d.mirrored { -r } else { r };
         let hy = (((d.fov / 2.0) * PI) / 180.0).tan() * d.focal_length;
         let hx = hy * (width as f32 / height as f32);
         let (half_h, half_w) = match d.projection {

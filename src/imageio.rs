@@ -715,8 +715,9 @@ pub fn srgb_to_linear(v: f32) -> f32 {
 }
 
 /// Reads a texture or environment image as linear RGB, row 0 = top of the file.
-/// EXR (any compression the `exr` crate reads, DWAA included) and Radiance HDR are
-/// linear already; PNG and JPEG are decoded from sRGB. Alpha is dropped.
+/// EXR (any compression the `exr` crate reads, DWAA included), Radiance HDR and PFM
+/// are linear already; PNG, JPEG, BMP, TGA and PPM/PGM are decoded from sRGB (as
+/// Mitsuba's bitmap does for 8- and 16-bit images). Alpha is dropped.
 pub fn read_texture_image(path: &Path) -> Result<RgbImage> {
     decode_texture_image(&read_input(path)?, path)
 }
@@ -747,6 +748,9 @@ pub fn decode_texture_image_as(bytes: &[u8], path: &Path, raw: bool) -> Result<R
     if ext == "exr" {
         return decode_exr(bytes, path, TEXTURE_BYTES_PER_PIXEL);
     }
+    if ext == "pfm" {
+        return decode_pfm(bytes).map_err(|e| anyhow::anyhow!("cannot decode {}: {e}", path.display()));
+    }
     let open = || -> Result<image::ImageReader<std::io::Cursor<&[u8]>>> {
         let mut reader = image::ImageReader::new(std::io::Cursor::new(bytes));
         if let Ok(f) = image::ImageFormat::from_path(path) {
@@ -775,7 +779,13 @@ pub fn decode_texture_image_as(bytes: &[u8], path: &Path, raw: bool) -> Result<R
     let (width, height) = (img.width() as usize, img.height() as usize);
     let pixels: Vec<Vec3> = match format {
         Some(image::ImageFormat::Hdr) => img.into_rgb32f().pixels().map(|p| Vec3::new(p[0], p[1], p[2])).collect(),
-        Some(image::ImageFormat::Png) | Some(image::ImageFormat::Jpeg) => {
+        Some(
+            image::ImageFormat::Png
+            | image::ImageFormat::Jpeg
+            | image::ImageFormat::Bmp
+            | image::ImageFormat::Tga
+            | image::ImageFormat::Pnm,
+        ) => {
             let decode = |v: f32| if raw { v } else { srgb_to_linear(v) };
             let lut: Vec<f32> = (0..=255).map(|i| decode(i as f32 / 255.0)).collect();
             match img {
@@ -795,13 +805,72 @@ pub fn decode_texture_image_as(bytes: &[u8], path: &Path, raw: bool) -> Result<R
             }
         }
         other => anyhow::bail!(
-            "{}: unsupported image format {:?} (use .exr, .hdr, .png or .jpg)",
+            "{}: unsupported image format {:?} (use .exr, .hdr, .pfm, .png, .jpg, .bmp, .tga or .ppm)",
             path.display(),
             other
         ),
     };
     anyhow::ensure!(width > 0 && height > 0, "{}: image is empty", path.display());
     Ok(RgbImage { width, height, pixels })
+}
+
+/// A portable float map (`PF`: RGB, `Pf`: grey; a negative scale is little-endian),
+/// whose rows run from the bottom up: turned to row 0 = top.
+pub fn decode_pfm(bytes: &[u8]) -> std::result::Result<RgbImage, String> {
+    // the header: three whitespace-separated tokens after the magic, then one byte
+    let mut at = 0;
+    let mut token = || -> std::result::Result<String, String> {
+        while bytes.get(at).is_some_and(u8::is_ascii_whitespace) {
+            at += 1;
+        }
+        let start = at;
+        while bytes.get(at).is_some_and(|b| !b.is_ascii_whitespace()) && at - start < 32 {
+            at += 1;
+        }
+        String::from_utf8(bytes[start..at].to_vec()).map_err(|_| "a PFM header that is not text".to_string())
+    };
+    let channels = match token()?.as_str() {
+        "PF" => 3,
+        "Pf" => 1,
+        m => return Err(format!("not a PFM file (magic {m:?}, expected PF or Pf)")),
+    };
+    let mut number = |what: &str| token().and_then(|t| t.parse::<f64>().map_err(|_| format!("a PFM {what} of {t:?}")));
+    let (w, h, scale) = (number("width")?, number("height")?, number("scale")?);
+    if !(w >= 1.0 && h >= 1.0 && w.fract() == 0.0 && h.fract() == 0.0 && w <= 1e6 && h <= 1e6) || scale == 0.0 || !scale.is_finite() {
+        return Err(format!("a PFM header with width {w}, height {h}, scale {scale}"));
+    }
+    let (w, h) = (w as usize, h as usize);
+    let data = bytes.get(at + 1..).unwrap_or_default();
+    let want = w * h * channels * 4;
+    if data.len() < want {
+        return Err(format!("{w}x{h} pixels need {want} bytes, the file has {}", data.len()));
+    }
+    crate::limits::check_memory((w as u64 * h as u64).checked_mul(12 + TEXTURE_BYTES_PER_PIXEL), || {
+        format!("a {w}x{h} PFM")
+    })?;
+    let value = |i: usize| {
+        let b: [u8; 4] = data[4 * i..4 * i + 4].try_into().expect("4 bytes");
+        if scale < 0.0 {
+            f32::from_le_bytes(b)
+        } else {
+            f32::from_be_bytes(b)
+        }
+    };
+    let mut pixels = Vec::with_capacity(w * h);
+    for row in (0..h).rev() {
+        for x in 0..w {
+            let i = (row * w + x) * channels;
+            pixels.push(match channels {
+                3 => Vec3::new(value(i), value(i + 1), value(i + 2)),
+                _ => Vec3::splat(value(i)),
+            });
+        }
+    }
+    Ok(RgbImage {
+        width: w,
+        height: h,
+        pixels,
+    })
 }
 
 #[cfg(test)]

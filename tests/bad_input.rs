@@ -469,7 +469,7 @@ fn cases() -> Vec<Case> {
         obj("OBJ too few numbers", "v 0 0 0\nv 1 0\nv 0 1 0\nf 1 2 3\n").err(&["objects[1].path", "line 2"]),
         obj("OBJ no faces", "v 0 0 0\nv 1 0 0\nv 0 1 0\n").err(&["objects[1].path", "no faces"]),
         obj("OBJ empty", "").err(&["objects[1].path", "no faces"]),
-        obj("OBJ only degenerate", "v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n").err(&["objects[1].path", "degenerate"]),
+        obj("OBJ only degenerate", "v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n").ok(&["1 mesh(es) with only degenerate", "skipped"]),
         // --- command line ----------------------------------------------------------------
         unchanged("override not JSON")
             .with_override("{film:")

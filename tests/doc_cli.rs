@@ -3,7 +3,8 @@
 //! renders it again and compares. `RDR_BLESS=1 cargo test --release --test doc_cli`
 //! rewrites the page after a change to the command line.
 
-use std::path::Path;
+mod docs_common;
+
 use std::process::Command;
 
 const PAGE: &str = "docs/src/reference/cli.md";
@@ -59,24 +60,5 @@ fn render_page() -> String {
 
 #[test]
 fn cli_reference_matches_the_binary() {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join(PAGE);
-    let fresh = render_page();
-    if std::env::var_os("RDR_BLESS").is_some() {
-        std::fs::write(&path, &fresh).expect("write the CLI page");
-        eprintln!("rewrote {PAGE}");
-        return;
-    }
-    let committed = std::fs::read_to_string(&path).unwrap_or_default();
-    if committed != fresh {
-        let line = committed
-            .lines()
-            .zip(fresh.lines())
-            .position(|(a, b)| a != b)
-            .unwrap_or(committed.lines().count().min(fresh.lines().count()));
-        panic!(
-            "{PAGE} differs from `rdr --help` (first at line {}); regenerate it with \
-             RDR_BLESS=1 cargo test --release --test doc_cli",
-            line + 1
-        );
-    }
+    docs_common::check_generated_page(PAGE, &render_page(), "`rdr --help`", "doc_cli");
 }

@@ -275,6 +275,7 @@ fn radiance_shares(loaded: &rdr::Loaded, p: Vec3, n: u32, objects: [u32; 2]) -> 
         max_depth: 11,
         profile: rdr::integrator::PathProfile::Mis,
         rr_threshold: 0.1,
+        hide_emitters: false,
     };
     let mut rng = Rng::new(5);
     let mut counts = rdr::integrator::RayCounts::default();
@@ -518,6 +519,7 @@ fn photon_guide_and_guided_roulette_cut_the_ceiling_variance_of_caustic_cbox() {
         max_depth: 12,
         profile: rdr::integrator::PathProfile::Mis,
         rr_threshold: 0.1,
+        hide_emitters: false,
     };
     let guiding = rdr::integrator::guided::Guiding {
         tree,

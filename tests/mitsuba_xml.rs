@@ -458,7 +458,6 @@ fn bad_xml_gives_one_line_errors_with_file_line_and_column() {
         ("shapegroup without an id", scene(r#"  <shape type="shapegroup"><shape type="sphere"/></shape>"#), "line 6, column 3", "needs an \"id\""),
         ("emitter in a shapegroup", scene(r#"  <shape type="shapegroup" id="g"><shape type="sphere"><emitter type="area"/></shape></shape>"#), "line 6, column 56", "emitters inside a shapegroup"),
         ("nested instancing", scene(r#"  <shape type="shapegroup" id="g"><shape type="instance"><ref id="g"/></shape></shape>"#), "line 6, column 35", "nested instancing"),
-        ("mirrored camera", "<scene version=\"3.0.0\">\n  <sensor type=\"perspective\">\n    <transform name=\"to_world\"><scale x=\"-1\"/></transform>\n  </sensor>\n</scene>\n".into(), "line 3, column 5", "mirroring"),
         ("unknown sensor", "<scene version=\"3.0.0\">\n  <sensor type=\"fisheye\">\n    <float name=\"fov\" value=\"40\"/>\n  </sensor>\n</scene>\n".into(), "line 2, column 3", "unsupported sensor \"fisheye\" (supported: perspective, thinlens, orthographic)"),
         ("thinlens without aperture", "<scene version=\"3.0.0\">\n  <sensor type=\"thinlens\">\n    <float name=\"focus_distance\" value=\"3\"/>\n  </sensor>\n</scene>\n".into(), "line 2, column 3", "needs the property \"aperture_radius\""),
         ("thinlens aperture as a string", "<scene version=\"3.0.0\">\n  <sensor type=\"thinlens\">\n    <string name=\"aperture_radius\" value=\"wide\"/>\n  </sensor>\n</scene>\n".into(), "line 3, column 5", "expected a float, found a string"),

@@ -144,7 +144,9 @@ fn load_mesh(desc: &SceneDesc, file: &MeshFile, opts: BuildOptions) -> Result<(M
                 report.degenerate
             )));
         }
-        return Err(err(format!("mesh '{}' has only degenerate triangles", full.display())));
+        // Mitsuba renders such scenes (meshes of nothing but zero-area triangles come out
+        // of 3D tools): the mesh is left empty, and `build` warns once for all of them
+        warnings.pop();
     }
     Ok((mesh, warnings))
 }
@@ -182,6 +184,7 @@ pub fn build(desc: &SceneDesc, opts: BuildOptions) -> Result<Scene> {
                 mipmap: images.get(&desc.base_dir.join(&file.path.value), file.raw).expect("loaded above"),
                 mapping: file.mapping,
                 filter: file.filter,
+                wrap: file.wrap,
             })
         })?);
     }
@@ -252,9 +255,14 @@ pub fn build(desc: &SceneDesc, opts: BuildOptions) -> Result<Scene> {
             other => other,
         };
     }
+    let mut degenerate: Vec<&str> = Vec::new();
     for (oi, (o, shape)) in all.iter().zip(shapes).enumerate() {
         let (shape, w) = shape?;
         warnings.extend(w);
+        let empty = matches!(&shape, Shape::Mesh(m) if m.triangles.is_empty());
+        if let (true, Shape::Mesh(file)) = (empty, &o.shape) {
+            degenerate.push(&file.path.value);
+        }
         let material = o
             .material
             .as_ref()
@@ -262,6 +270,7 @@ pub fn build(desc: &SceneDesc, opts: BuildOptions) -> Result<Scene> {
             .transpose()?;
         let light = match &o.light {
             None => None,
+            Some(_) if empty => None,
             Some(l) => {
                 let mut a = match &shape {
                     Shape::Mesh(m) => AreaLight::mesh(oi as u32, l.radiance, (0..m.triangles.len()).map(|i| m.vertices(i)).collect()),
@@ -290,7 +299,7 @@ pub fn build(desc: &SceneDesc, opts: BuildOptions) -> Result<Scene> {
                 Some(lights.len() as u32 - 1)
             }
         };
-        if let Some(m) = material {
+        if let (Some(m), false) = (material, empty) {
             // a mesh_attribute texture needs its colours on this object's mesh
             let mut needs = (false, false);
             let _ = materials[m as usize].try_map_textures(|&t| {
@@ -324,6 +333,13 @@ pub fn build(desc: &SceneDesc, opts: BuildOptions) -> Result<Scene> {
             }
         }
         objects.push(Object { shape, material, light });
+    }
+    if let Some(first) = degenerate.first() {
+        warnings.push(format!(
+            "{} mesh(es) with only degenerate (zero-area) triangles skipped, the first '{}'",
+            degenerate.len(),
+            desc.base_dir.join(first).display()
+        ));
     }
 
     let environment = match &desc.environment_map {

@@ -211,6 +211,8 @@ pub struct ImageFile {
     /// `raw` (false): PNG and JPEG values as they are, not decoded from sRGB
     /// (Mitsuba's `raw`; EXR and HDR are linear either way).
     pub raw: bool,
+    /// `wrap_mode`: `"repeat"` (default) | `"clamp"` | `"mirror"`, outside [0, 1]².
+    pub wrap: crate::texture::image::WrapMode,
 }
 
 /// `materials.<name>`: `type` (`"diffuse"`) and per type:

@@ -145,11 +145,9 @@ pub fn parse(bytes: &[u8], index: u32) -> Result<SerializedMesh> {
     }
     let nv = u64::from_le_bytes(read(&mut z, 8)?.try_into().expect("8 bytes"));
     let nt = u64::from_le_bytes(read(&mut z, 8)?.try_into().expect("8 bytes"));
-    let double = match (flags & SINGLE != 0, flags & DOUBLE != 0) {
-        (_, true) => true,
-        (true, false) => false,
-        (false, false) => bail!("mesh {index} declares neither single nor double precision (flags {flags:#x})"),
-    };
+    // Mitsuba 3 reads a mesh as double precision only when the flag says so: files of
+    // format version 3 declare neither
+    let double = flags & DOUBLE != 0;
     // what the counts need from the stream, against the most its bytes can inflate to
     let width: u128 = if double { 8 } else { 4 };
     let floats_per_vertex = [(HAS_NORMALS, 3), (HAS_UVS, 2), (HAS_COLORS, 3)]
@@ -276,6 +274,35 @@ pub fn write(meshes: &[(&str, &ObjData)]) -> Vec<u8> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A version-3 file (no name, 32-bit offsets) whose flags declare no precision, as
+    /// real 0.6-era files do: Mitsuba 3 reads them as single precision.
+    #[test]
+    fn version_3_without_a_precision_flag_is_single() {
+        use std::io::Write;
+        let positions = [[0.0f32, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 2.0, 0.0]];
+        let mut raw = Vec::new();
+        raw.extend_from_slice(&0u32.to_le_bytes()); // flags: neither 0x1000 nor 0x2000
+        raw.extend_from_slice(&3u64.to_le_bytes());
+        raw.extend_from_slice(&1u64.to_le_bytes());
+        for c in positions.iter().flatten() {
+            raw.extend_from_slice(&c.to_le_bytes());
+        }
+        for i in [0u32, 1, 2] {
+            raw.extend_from_slice(&i.to_le_bytes());
+        }
+        let mut z = flate2::write::ZlibEncoder::new(Vec::new(), flate2::Compression::default());
+        z.write_all(&raw).unwrap();
+        let mut bytes = MAGIC.to_le_bytes().to_vec();
+        bytes.extend_from_slice(&3u16.to_le_bytes());
+        bytes.extend_from_slice(&z.finish().unwrap());
+        bytes.extend_from_slice(&0u32.to_le_bytes()); // the offset of mesh 0
+        bytes.extend_from_slice(&1u32.to_le_bytes()); // one mesh
+        let m = parse(&bytes, 0).expect("a version-3 mesh without a precision flag");
+        let want: Vec<Vec3> = positions.iter().map(|p| Vec3::from_array(*p)).collect();
+        assert_eq!(m.data.positions, want);
+        assert_eq!(m.data.triangles[0].p, [0, 1, 2]);
+    }
 
     #[test]
     fn round_trip_and_truncation() {

@@ -56,6 +56,10 @@ pub trait Policy {
     fn profile(&self) -> PathProfile;
     /// Longest path, in segments (the camera ray being the first).
     fn max_depth(&self) -> u32;
+    /// Whether emission the camera ray finds is left out (Mitsuba's `hide_emitters`).
+    fn hide_emitters(&self) -> bool {
+        false
+    }
     /// The plan at a non-emitting vertex with a BSDF, after its light numbers are
     /// drawn and before the direction's (`guided` draws its strategy choice here).
     fn plan(&mut self, it: &Interaction, bsdf: &Bsdf, sampler: &mut PixelSampler) -> Self::Plan;
@@ -289,8 +293,10 @@ impl PathState {
     ) -> bool {
         let (profile, mode, ray) = (policy.profile(), scene.light_sampling, self.ray);
         let Found { hit, segment, diff } = found;
+        // emission the camera ray itself finds, where the policy hides emitters
+        let hidden = segment == 1 && policy.hide_emitters();
         let Some(hit) = hit else {
-            if let Some((env, sky)) = scene.environment_light() {
+            if let (Some((env, sky)), false) = (scene.environment_light(), hidden) {
                 // the direction's texture coordinates once, for radiance and pdf
                 // (a bounce ray's coordinates, and their prefetches, come from its spawn)
                 let (uv, sin_theta) = self.sky_coords.unwrap_or_else(|| sky.direction_coords(ray.d));
@@ -308,7 +314,7 @@ impl PathState {
         if let (1, Some(d)) = (segment, diff) {
             it.compute_uv_derivatives(d);
         }
-        if let Some((index, area)) = scene.area_light_of(&it) {
+        if let (Some((index, area)), false) = (scene.area_light_of(&it), hidden) {
             let le = area.emitted(it.ng, it.wo, it.uv);
             if le != Vec3::ZERO {
                 let w = emitter_weight(profile, self.after_delta, self.bsdf_pdf, || {

@@ -40,6 +40,9 @@ pub struct PathTracer {
     pub max_depth: u32,
     pub profile: PathProfile,
     pub rr_threshold: f32,
+    /// Emitters and the environment seen directly by the camera are black (Mitsuba's
+    /// `hide_emitters`); the light they cast is not hidden.
+    pub hide_emitters: bool,
 }
 
 impl PathTracer {
@@ -254,6 +257,11 @@ impl Policy for PathTracer {
     #[inline(always)]
     fn max_depth(&self) -> u32 {
         self.max_depth
+    }
+
+    #[inline(always)]
+    fn hide_emitters(&self) -> bool {
+        self.hide_emitters
     }
 
     #[inline(always)]

@@ -18,6 +18,68 @@ pub struct ImageTexture {
     pub mipmap: Arc<MipMap>,
     pub mapping: UvMapping,
     pub filter: ImageFilter,
+    pub wrap: WrapMode,
+}
+
+/// What an image texture shows outside [0, 1]² (JSON `wrap_mode`, Mitsuba's `wrap_mode`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum WrapMode {
+    /// The image tiles the plane.
+    #[default]
+    Repeat,
+    /// The edge texels extend outwards.
+    Clamp,
+    /// The image tiles, every other copy mirrored.
+    Mirror,
+}
+
+impl WrapMode {
+    pub const NAMES: &'static str = "repeat, clamp, mirror";
+
+    pub fn parse(s: &str) -> Option<WrapMode> {
+        match s {
+            "repeat" => Some(WrapMode::Repeat),
+            "clamp" => Some(WrapMode::Clamp),
+            "mirror" => Some(WrapMode::Mirror),
+            _ => None,
+        }
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            WrapMode::Repeat => "repeat",
+            WrapMode::Clamp => "clamp",
+            WrapMode::Mirror => "mirror",
+        }
+    }
+
+    /// `st` moved into the image so that the repeating lookups of [`MipMap`] read what
+    /// Mitsuba's clamped or mirrored texel indices read: for a `w`×`h` image, clamping the
+    /// coordinate half a texel inside the edges is clamping the bilinear or nearest
+    /// texel indices, and mirroring the coordinate (a triangle wave of period 2) before
+    /// that is mirroring them. Exact on the full-resolution level (Mitsuba's lookups);
+    /// coarser MIP levels clamp at level 0's half texel.
+    #[inline]
+    pub fn apply(self, st: crate::math::Vec2, w: usize, h: usize) -> crate::math::Vec2 {
+        let inside = |v: f32, n: usize| {
+            let half = 0.5 / n as f32;
+            // NaN stays NaN (the lookups' saturating casts handle it)
+            v.clamp(half, 1.0 - half)
+        };
+        let mirror = |v: f32| {
+            let m = v.rem_euclid(2.0);
+            if m > 1.0 {
+                2.0 - m
+            } else {
+                m
+            }
+        };
+        match self {
+            WrapMode::Repeat => st,
+            WrapMode::Clamp => crate::math::Vec2::new(inside(st.x, w), inside(st.y, h)),
+            WrapMode::Mirror => crate::math::Vec2::new(inside(mirror(st.x), w), inside(mirror(st.y), h)),
+        }
+    }
 }
 
 /// How an image texture is looked up (JSON `filter`, Mitsuba's `filter_type`).
@@ -37,7 +99,11 @@ impl ImageTexture {
     /// derivatives (spec §8).
     #[inline]
     pub fn eval(&self, tc: &TexCoord) -> Vec3 {
-        let st = self.mapping.map(tc.uv);
+        let mut st = self.mapping.map(tc.uv);
+        if self.wrap != WrapMode::Repeat {
+            let l = &self.mipmap.levels()[0];
+            st = self.wrap.apply(st, l.width, l.height);
+        }
         match self.filter {
             ImageFilter::Trilinear => self.mipmap.lookup(st, self.mapping.scale * tc.duvdx, self.mapping.scale * tc.duvdy),
             ImageFilter::Bilinear => self.mipmap.bilinear(0, st),

@@ -77,3 +77,27 @@ pub fn rel(p: &Path) -> String {
 /// Merges a JSON patch into a scene as `--override` does.
 #[allow(unused_imports)] // not every documentation test merges
 pub use rdr::desc::json::merge;
+
+/// A generated page (`page`, relative to the repository) against its fresh text: with
+/// `RDR_BLESS` set it is rewritten, otherwise a difference fails naming the first line
+/// and the command (`RDR_BLESS=1 cargo test --release --test {test}`) that regenerates it.
+pub fn check_generated_page(page: &str, fresh: &str, source: &str, test: &str) {
+    let path = root().join(page);
+    if std::env::var_os("RDR_BLESS").is_some() {
+        std::fs::write(&path, fresh).unwrap_or_else(|e| panic!("write {page}: {e}"));
+        eprintln!("rewrote {page}");
+        return;
+    }
+    let committed = std::fs::read_to_string(&path).unwrap_or_default();
+    if committed != fresh {
+        let line = committed
+            .lines()
+            .zip(fresh.lines())
+            .position(|(a, b)| a != b)
+            .unwrap_or(committed.lines().count().min(fresh.lines().count()));
+        panic!(
+            "{page} differs from {source} (first at line {}); regenerate it with RDR_BLESS=1 cargo test --release --test {test}",
+            line + 1
+        );
+    }
+}

@@ -127,9 +127,8 @@ pub fn obj_text(d: &ObjData) -> String {
     s
 }
 
-/// The description as RDR171 JSON, for the file `out`.
-/// Textured emitters (a spot's `texture`, a projector, an area light's radiance
-/// texture) are not carried yet: an error naming the first, not a silently plain light.
+/// Textured spot lights and projectors are not carried yet: an error naming the first,
+/// not a silently plain light (area lights' radiance textures are carried).
 pub(super) fn refuse_textured_emitters(desc: &SceneDesc) -> Result<()> {
     if let Some(l) = desc.integrator.delta_lights.iter().find(|l| l.texture.is_some()) {
         return Err(SceneError::new(
@@ -137,11 +136,6 @@ pub(super) fn refuse_textured_emitters(desc: &SceneDesc) -> Result<()> {
             Some(&l.key),
             "rdr convert does not carry textured spot lights and projectors yet",
         ));
-    }
-    if let Some(t) = desc.objects.iter().find_map(|o| o.light.as_ref().and_then(|l| l.texture.as_ref())) {
-        return Err(t
-            .source
-            .error(&desc.file, "rdr convert does not carry area lights with a radiance texture yet"));
     }
     Ok(())
 }

@@ -36,6 +36,9 @@ pub fn to_json(desc: &SceneDesc, out: &Path) -> Result<Converted> {
             };
             integ.insert("profile".into(), profile.into());
             integ.insert("rr_threshold".into(), num(p.rr_threshold));
+            if p.hide_emitters {
+                integ.insert("hide_emitters".into(), true.into());
+            }
         }
         Integrator::Bdpt(b) => {
             integ.insert("type".into(), "bdpt".into());
@@ -163,6 +166,9 @@ pub fn to_json(desc: &SceneDesc, out: &Path) -> Result<Converted> {
             camera = json!({"type": "orthographic", "position": vec3(c.position), "look_at": vec3(c.look_at), "ref_up": vec3(c.ref_up), "height": num(height)});
         }
     }
+    if c.mirrored {
+        camera["mirrored"] = json!(true);
+    }
     if c.near_clip != 0.0 {
         camera["near_clip"] = num(c.near_clip);
     }
@@ -191,6 +197,9 @@ pub fn to_json(desc: &SceneDesc, out: &Path) -> Result<Converted> {
                 }
                 if img.raw {
                     v["raw"] = true.into();
+                }
+                if img.wrap != crate::texture::image::WrapMode::Repeat {
+                    v["wrap_mode"] = img.wrap.name().into();
                 }
                 v
             }
@@ -292,7 +301,11 @@ pub fn to_json(desc: &SceneDesc, out: &Path) -> Result<Converted> {
             v["material_name"] = mat.value.clone().into();
         }
         if let Some(l) = &o.light {
-            v["light"] = json!({"type": "area", "radiance": vec3(l.radiance)});
+            let radiance = match &l.texture {
+                Some(t) => t.value.clone().into(),
+                None => vec3(l.radiance),
+            };
+            v["light"] = json!({"type": "area", "radiance": radiance});
         }
         match group {
             None => objects.push(v),

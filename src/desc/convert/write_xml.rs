@@ -260,13 +260,21 @@ pub fn to_xml(desc: &SceneDesc, out: &Path) -> Result<Converted> {
         .materials
         .iter()
         .any(|m| matches!(m.material, Material::Glass { .. } | Material::Refraction { .. }));
+    // rdr's shadow rays pass through masks as Mitsuba's volpath's do (its path's stop there)
+    let has_masks = desc.materials.iter().any(|m| matches!(m.material, Material::Mask { .. }));
     let depth = |d: u32| format!("    <integer name=\"max_depth\" value=\"{d}\"/>\n");
     s += &match desc.integrator.integrator {
         Integrator::Path(p) => {
             if p.profile != PathProfile::Mis {
                 w.push("the path profile (NEE/RW) has no Mitsuba counterpart: written as path (the same converged image)".into());
             }
-            format!("  <integrator type=\"path\">\n{}  </integrator>\n", depth(p.max_depth))
+            let hide = if p.hide_emitters {
+                "    <boolean name=\"hide_emitters\" value=\"true\"/>\n"
+            } else {
+                ""
+            };
+            let ty = if has_masks { "volpath" } else { "path" };
+            format!("  <integrator type=\"{ty}\">\n{}{hide}  </integrator>\n", depth(p.max_depth))
         }
         Integrator::IntersectionTest(t) => {
             if has_glass {
@@ -320,7 +328,13 @@ pub fn to_xml(desc: &SceneDesc, out: &Path) -> Result<Converted> {
     let c = &desc.camera;
     let f = &desc.film;
     let filter = match f.filter {
-        Filter::Box { radius } => format!("<rfilter type=\"box\"><float name=\"radius\" value=\"{radius}\"/></rfilter>"),
+        Filter::Box { radius } => {
+            // Mitsuba 3's box has radius 0.5 and refuses the parameter
+            if radius != 0.5 {
+                w.push(format!("Mitsuba 3's box filter has radius 0.5, not {radius}"));
+            }
+            "<rfilter type=\"box\"/>".to_string()
+        }
         Filter::Tent { radius } => format!("<rfilter type=\"tent\"><float name=\"radius\" value=\"{radius}\"/></rfilter>"),
         Filter::Gaussian { radius, alpha, .. } => {
             let sd = (1.0 / (2.0 * alpha)).sqrt();
@@ -362,6 +376,12 @@ pub fn to_xml(desc: &SceneDesc, out: &Path) -> Result<Converted> {
                 height * f.width as f32 / (2.0 * f.height as f32)
             ),
         ),
+    };
+    // a mirrored camera: Mitsuba's negative scale in x
+    let scale = match (c.mirrored, scale.is_empty()) {
+        (false, _) => scale,
+        (true, true) => "      <scale x=\"-1\"/>\n".to_string(),
+        (true, false) => scale.replacen("<scale x=\"", "<scale x=\"-", 1),
     };
     // rdr's unbounded range is Mitsuba's default (0.01, 10⁴) when left out
     let mut keys = keys;
@@ -469,11 +489,15 @@ pub fn to_xml(desc: &SceneDesc, out: &Path) -> Result<Converted> {
                 let _ = writeln!(
                     s,
                     "  <texture type=\"bitmap\" id=\"{}\">\n    <string name=\"filename\" value=\"{}\"/>\n    \
-                     <string name=\"filter_type\" value=\"{filter}\"/>\n    <boolean name=\"raw\" value=\"{}\"/>\n    {}\n  \
-                     </texture>",
+                     <string name=\"filter_type\" value=\"{filter}\"/>\n    <boolean name=\"raw\" value=\"{}\"/>\n    \
+                     {}{}\n  </texture>",
                     esc(&id),
                     esc(&rebase(desc, &img.path.value, out)),
                     img.raw,
+                    match img.wrap {
+                        crate::texture::image::WrapMode::Repeat => String::new(),
+                        w => format!("<string name=\"wrap_mode\" value=\"{}\"/>\n    ", w.name()),
+                    },
                     to_uv(sm, om)
                 );
                 texture_ids.insert(t.name.clone(), id);
@@ -483,7 +507,8 @@ pub fn to_xml(desc: &SceneDesc, out: &Path) -> Result<Converted> {
     let colour = |name: &str, r: &TextureRef| -> String {
         // parameters Mitsuba reads as colours (and bump heights, whose checkerboard has
         // no gradient); the others as floats (`eval_1`)
-        const COLOURS: [&str; 7] = [
+        const COLOURS: [&str; 8] = [
+            "radiance",
             "reflectance",
             "specular_reflectance",
             "diffuse_reflectance",
@@ -622,11 +647,11 @@ pub fn to_xml(desc: &SceneDesc, out: &Path) -> Result<Converted> {
             }
         }
         if let Some(l) = &o.light {
-            let _ = writeln!(
-                inner,
-                "    <emitter type=\"area\"><rgb name=\"radiance\" value=\"{}\"/></emitter>",
-                v3(l.radiance)
-            );
+            let radiance = match &l.texture {
+                Some(t) => TextureRef::Named(t.clone()),
+                None => TextureRef::Color(l.radiance),
+            };
+            let _ = writeln!(inner, "    <emitter type=\"area\">{}</emitter>", colour("radiance", &radiance));
         }
         let body = head + &inner + "  </shape>\n";
         match group {

@@ -48,6 +48,7 @@ pub(super) fn parse_integrator(p: &Props) -> Result<IntegratorDesc> {
                         max_depth,
                         profile,
                         rr_threshold,
+                        hide_emitters: p.bool_or("hide_emitters", false)?,
                     }),
                     spp,
                 )
@@ -480,6 +481,7 @@ pub(super) fn parse_camera(p: &Props) -> Result<CameraParams> {
         projection,
         near_clip,
         far_clip,
+        mirrored: p.bool_or("mirrored", false)?,
     };
     if !(c.fov > 0.0 && c.fov < 180.0) {
         return Err(p.error("fov", format!("must be between 0 and 180 degrees, found {}", c.fov)));

@@ -50,6 +50,15 @@ pub(super) fn parse_texture(name: &str, p: &Props) -> Result<TextureDesc> {
                 }
             },
             raw: p.bool_or("raw", false)?,
+            wrap: {
+                let w = p.string_or("wrap_mode", "repeat")?;
+                crate::texture::image::WrapMode::parse(&w).ok_or_else(|| {
+                    p.error(
+                        "wrap_mode",
+                        format!("unknown wrap_mode '{w}' (available: {})", crate::texture::image::WrapMode::NAMES),
+                    )
+                })?
+            },
         }),
         "mesh_attribute" => Texture::MeshAttribute {
             face: mesh_attribute_name(p, &p.string("name")?)?,

@@ -4,6 +4,7 @@
 //! and column.
 
 use super::document::Element;
+use super::plugins::table::{self, Families};
 use super::values::{self, SpectrumRole, SpectrumValue};
 use crate::error::{Result, SceneError};
 use crate::math::{Mat4, Vec3};
@@ -35,6 +36,10 @@ pub struct Ids<'a> {
     pub convert_notes: RefCell<Vec<String>>,
     /// The warnings about unknown properties (see `SceneDesc::unknown`).
     pub unknown: RefCell<Vec<String>>,
+    /// The plugin table the readers are held to ([`table`]): a parameter read that it
+    /// does not declare, or defaulted otherwise, is collected in `undeclared`.
+    pub table: Option<&'static Families>,
+    pub undeclared: RefCell<Vec<String>>,
 }
 
 impl<'a> Ids<'a> {
@@ -44,6 +49,8 @@ impl<'a> Ids<'a> {
             warnings: RefCell::new(Vec::new()),
             convert_notes: RefCell::new(Vec::new()),
             unknown: RefCell::new(Vec::new()),
+            table: None,
+            undeclared: RefCell::new(Vec::new()),
         };
         ids.walk(root)?;
         Ok(ids)
@@ -299,9 +306,41 @@ impl<'a> Plugin<'a> {
         Ok(SpectrumValue::Converted(values::blackbody_rgb(kelvin, range, role)))
     }
 
+    /// The table's row of parameter `name`, or `None` (the miss noted) where the
+    /// table covers this element and does not declare it.
+    fn declared(&self, name: &str) -> Option<&'static table::Param> {
+        let families = self.ids.table?;
+        if !table::covers(families, &self.el.tag) {
+            return None;
+        }
+        match table::param(families, &self.el.tag, &self.ty, name) {
+            Ok(p) => Some(p),
+            Err(e) => {
+                self.ids.undeclared.borrow_mut().push(format!("{}: {e}", where_is(self.el)));
+                None
+            }
+        }
+    }
+
+    /// Notes a reader's default that differs from the table's.
+    fn check_default(&self, name: &str, given: impl std::fmt::Display) {
+        let given = given.to_string();
+        if let Some(p) = self.declared(name) {
+            if !table::default_agrees(p.default, &given) {
+                self.ids.undeclared.borrow_mut().push(format!(
+                    "{}: the reader defaults property \"{name}\" of {} to {given}, the plugin table to {}",
+                    where_is(self.el),
+                    self.describe(),
+                    p.default
+                ));
+            }
+        }
+    }
+
     fn get(&self, name: &str) -> Option<&(String, Value, &'a Element)> {
         if !self.asked.borrow().iter().any(|a| a == name) {
             self.asked.borrow_mut().push(name.to_string());
+            self.declared(name);
         }
         let v = &self.values[*self.value_index.get(name)?];
         self.used.borrow_mut().insert(name.to_string());
@@ -328,7 +367,15 @@ impl<'a> Plugin<'a> {
 
     pub fn float_opt(&self, name: &str) -> Result<Option<f32>> {
         match self.get(name) {
-            None => Ok(None),
+            // a texture where rdr reads a number (textured roughness): an error, not the default
+            None => match self.objects.iter().find(|(n, _, _)| n.as_deref() == Some(name)) {
+                Some((_, el, at)) => Err(at.error(format!(
+                    "property \"{name}\" of {} must be a number here, not a <{}> (rdr does not read it as a texture)",
+                    self.describe(),
+                    el.tag
+                ))),
+                None => Ok(None),
+            },
             Some((_, Value::Float(v), _)) => Ok(Some(*v as f32)),
             Some((_, Value::Integer(v), _)) => Ok(Some(*v as f32)),
             Some((n, v, el)) => Err(self.wrong(el, n, "a float", v)),
@@ -336,6 +383,7 @@ impl<'a> Plugin<'a> {
     }
 
     pub fn float(&self, name: &str, default: f32) -> Result<f32> {
+        self.check_default(name, default);
         Ok(self.float_opt(name)?.unwrap_or(default))
     }
 
@@ -348,6 +396,7 @@ impl<'a> Plugin<'a> {
     }
 
     pub fn integer(&self, name: &str, default: i64) -> Result<i64> {
+        self.check_default(name, default);
         Ok(self.integer_opt(name)?.unwrap_or(default))
     }
 
@@ -361,6 +410,7 @@ impl<'a> Plugin<'a> {
     }
 
     pub fn boolean(&self, name: &str, default: bool) -> Result<bool> {
+        self.check_default(name, default);
         match self.get(name) {
             None => Ok(default),
             Some((_, Value::Boolean(b), _)) => Ok(*b),
@@ -377,6 +427,7 @@ impl<'a> Plugin<'a> {
     }
 
     pub fn string(&self, name: &str, default: &str) -> Result<String> {
+        self.check_default(name, default);
         Ok(self.string_opt(name)?.unwrap_or_else(|| default.to_string()))
     }
 
@@ -404,6 +455,7 @@ impl<'a> Plugin<'a> {
 
     /// An index of refraction: a number, or a name from [`values::NAMED_IORS`].
     pub fn ior(&self, name: &str, default: &str) -> Result<f32> {
+        self.check_default(name, default);
         let (v, el) = match self.get(name) {
             None => return values::ior(default).map_err(|e| self.error(e)),
             Some((_, Value::Float(v), el)) => (*v as f32, *el),
@@ -431,6 +483,7 @@ impl<'a> Plugin<'a> {
     }
 
     pub fn rgb(&self, name: &str, default: Vec3) -> Result<Vec3> {
+        self.check_default(name, colour_text(default));
         if let Some((_, el, _)) = self.objects.iter().find(|(n, _, _)| n.as_deref() == Some(name)) {
             return Err(el.error(format!(
                 "property \"{name}\" of {} must be a constant colour here, not a texture",
@@ -442,6 +495,7 @@ impl<'a> Plugin<'a> {
 
     /// A colour that may also be a texture (nested or referenced by `name`).
     pub fn colour(&self, name: &str, default: Vec3) -> Result<Colour<'a>> {
+        self.check_default(name, colour_text(default));
         if let Some((_, el, at)) = self.objects.iter().find(|(n, _, _)| n.as_deref() == Some(name)) {
             self.used.borrow_mut().insert(name.to_string());
             if el.tag != "texture" {
@@ -507,6 +561,15 @@ impl<'a> Plugin<'a> {
             }
         }
         Ok(())
+    }
+}
+
+/// A default colour as the plugin table writes it: one number when grey.
+fn colour_text(c: Vec3) -> String {
+    if c.x == c.y && c.y == c.z {
+        c.x.to_string()
+    } else {
+        format!("{}, {}, {}", c.x, c.y, c.z)
     }
 }
 

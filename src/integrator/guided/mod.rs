@@ -222,6 +222,7 @@ impl Guided {
             max_depth: self.max_depth,
             profile: PathProfile::Mis,
             rr_threshold: self.rr_threshold,
+            hide_emitters: false,
         });
         let scene = ctx.scene;
         let iteration_ctx = PassContext { seed, ..*ctx };

@@ -1,5 +1,6 @@
 //! `<bsdf>`: materials, the wrappers around them (twosided, bumpmap, normalmap, mask) and their helpers.
 
+use super::table::{differs, not_read, noted, read, refused, Param, PluginDoc, Status};
 use super::{source, Reader, BSDFS, MAX_NESTING};
 use crate::desc::xml::document::Element;
 use crate::desc::xml::props::Plugin;
@@ -8,6 +9,237 @@ use crate::desc::{Located, MaterialDesc, Source, TextureRef};
 use crate::error::Result;
 use crate::material::{Distribution, Material};
 use crate::math::Vec3;
+
+const INT_IOR_BK7: Param = read(
+    "int_ior",
+    "float or name",
+    "bk7",
+    "a number or a name from Mitsuba's table; η = int/ext",
+);
+const EXT_IOR: Param = read("ext_ior", "float or name", "air", "");
+const SPECULAR_REFLECTANCE: Param = differs("specular_reflectance", "colour", "1", "a colour (rdr takes no texture here)");
+const SPECULAR_TRANSMITTANCE: Param = differs("specular_transmittance", "colour", "1", "a colour (rdr takes no texture here)");
+const ALPHA: Param = read("alpha", "float", "0.1", "in [0, 10]");
+const ALPHA_U: Param = read("alpha_u", "float", "0.1", "with `alpha_v`, instead of `alpha`");
+const ALPHA_V: Param = read("alpha_v", "float", "0.1", "");
+const DISTRIBUTION: Param = read("distribution", "string", "beckmann", "`beckmann` or `ggx`");
+const SAMPLE_VISIBLE: Param = noted("sample_visible", "boolean", "rdr samples visible normals where it can");
+const MATERIAL: Param = read("material", "string", "none", "a named conductor (`Au`, `Cu`, …) or `none`");
+const ETA: Param = read("eta", "colour", "0", "with `k`, instead of `material`");
+const K: Param = read("k", "colour", "1", "");
+const EXT_ETA: Param = differs("ext_eta", "float", "", "(Mitsuba 0.6) folded into η and k, with a warning");
+const CONDUCTOR_TINT: Param = read("specular_reflectance", "texture", "1", "a colour or a texture");
+const PERTURB: [Param; 2] = [
+    read("flip_invalid_normals", "boolean", "true", ""),
+    read("use_shadowing_function", "boolean", "true", ""),
+];
+
+/// The BSDFs' rows of the plugin table.
+pub(super) const DOCS: &[PluginDoc] = &[
+    PluginDoc {
+        element: "bsdf",
+        names: &["diffuse"],
+        status: Status::Read,
+        note: "",
+        params: &[
+            read("reflectance", "texture", "0.5", "a colour or a texture"),
+            read("diffuse_reflectance", "texture", "0.5", "(Mitsuba 0.6) the same"),
+        ],
+    },
+    PluginDoc {
+        element: "bsdf",
+        names: &["dielectric", "thindielectric"],
+        status: Status::Read,
+        note: "",
+        params: &[INT_IOR_BK7, EXT_IOR, SPECULAR_REFLECTANCE, SPECULAR_TRANSMITTANCE],
+    },
+    PluginDoc {
+        element: "bsdf",
+        names: &["roughdielectric"],
+        status: Status::Read,
+        note: "",
+        params: &[
+            INT_IOR_BK7,
+            EXT_IOR,
+            SPECULAR_REFLECTANCE,
+            SPECULAR_TRANSMITTANCE,
+            ALPHA,
+            ALPHA_U,
+            ALPHA_V,
+            DISTRIBUTION,
+            SAMPLE_VISIBLE,
+        ],
+    },
+    PluginDoc {
+        element: "bsdf",
+        names: &["conductor"],
+        status: Status::Read,
+        note: "The defaults (η 0, k 1) make a perfect mirror.",
+        params: &[MATERIAL, ETA, K, EXT_ETA, CONDUCTOR_TINT],
+    },
+    PluginDoc {
+        element: "bsdf",
+        names: &["roughconductor"],
+        status: Status::Read,
+        note: "Reflects on its front only, as Mitsuba's (a `twosided` makes it two-sided).",
+        params: &[
+            MATERIAL,
+            ETA,
+            K,
+            EXT_ETA,
+            CONDUCTOR_TINT,
+            ALPHA,
+            ALPHA_U,
+            ALPHA_V,
+            DISTRIBUTION,
+            SAMPLE_VISIBLE,
+        ],
+    },
+    PluginDoc {
+        element: "bsdf",
+        names: &["plastic"],
+        status: Status::Read,
+        note: "",
+        params: &[
+            read("diffuse_reflectance", "texture", "0.5", "a colour or a texture"),
+            SPECULAR_REFLECTANCE,
+            read("int_ior", "float or name", "polypropylene", "1.49"),
+            EXT_IOR,
+            read("nonlinear", "boolean", "false", ""),
+        ],
+    },
+    PluginDoc {
+        element: "bsdf",
+        names: &["roughplastic"],
+        status: Status::Read,
+        note: "",
+        params: &[
+            read("diffuse_reflectance", "texture", "0.5", "a colour or a texture"),
+            SPECULAR_REFLECTANCE,
+            read("int_ior", "float or name", "polypropylene", "1.49"),
+            EXT_IOR,
+            read("nonlinear", "boolean", "false", ""),
+            ALPHA,
+            refused("alpha_u", "float", "", "roughplastic is isotropic"),
+            refused("alpha_v", "float", "", "roughplastic is isotropic"),
+            DISTRIBUTION,
+            SAMPLE_VISIBLE,
+        ],
+    },
+    PluginDoc {
+        element: "bsdf",
+        names: &["twosided"],
+        status: Status::Read,
+        note: "One or two nested non-transmitting bsdfs (the second is the back).",
+        params: &[],
+    },
+    PluginDoc {
+        element: "bsdf",
+        names: &["bumpmap"],
+        status: Status::Read,
+        note: "One nested `<texture>` (the heights) and one nested `<bsdf>`.",
+        params: &[read("scale", "float", "1", ""), PERTURB[0], PERTURB[1]],
+    },
+    PluginDoc {
+        element: "bsdf",
+        names: &["normalmap"],
+        status: Status::Read,
+        note: "One nested `<bsdf>`.",
+        params: &[
+            read("normalmap", "texture", "0.5, 0.5, 1", "required: the normals"),
+            PERTURB[0],
+            PERTURB[1],
+        ],
+    },
+    PluginDoc {
+        element: "bsdf",
+        names: &["mask"],
+        status: Status::Read,
+        note: "Around one nested `<bsdf>`; outermost only.",
+        params: &[read("opacity", "float texture", "0.5", "a number or a texture")],
+    },
+    PluginDoc {
+        element: "bsdf",
+        names: &["principled"],
+        status: Status::Read,
+        note: "Each parameter but the rates and `eta`/`specular` a number, colour or texture.",
+        params: &[
+            read("base_color", "texture", "0.5", ""),
+            read("roughness", "float texture", "0.5", ""),
+            read("metallic", "float texture", "0", ""),
+            read("spec_tint", "float texture", "0", ""),
+            read("anisotropic", "float texture", "0", ""),
+            read("sheen", "float texture", "0", ""),
+            read("sheen_tint", "float texture", "0", ""),
+            read("clearcoat", "float texture", "0", ""),
+            read("clearcoat_gloss", "float texture", "0", ""),
+            read("spec_trans", "float texture", "0", ""),
+            read("flatness", "float texture", "0", ""),
+            read("eta", "float", "", "or `specular`, not both"),
+            read("specular", "float", "0.5", ""),
+            read("main_specular_sampling_rate", "float", "1", ""),
+            read("clearcoat_sampling_rate", "float", "1", ""),
+            read("diffuse_reflectance_sampling_rate", "float", "1", ""),
+        ],
+    },
+    PluginDoc {
+        element: "bsdf",
+        names: &["principledthin"],
+        status: Status::Read,
+        note: "Each parameter but the rates a number, colour or texture.",
+        params: &[
+            read("base_color", "texture", "0.5", ""),
+            read("roughness", "float texture", "0.5", ""),
+            read("anisotropic", "float texture", "0", ""),
+            read("spec_trans", "float texture", "0", ""),
+            read("eta", "float texture", "1.5", ""),
+            read("spec_tint", "float texture", "0", ""),
+            read("sheen", "float texture", "0", ""),
+            read("sheen_tint", "float texture", "0", ""),
+            read("flatness", "float texture", "0", ""),
+            read("diff_trans", "float texture", "0", "up to 2"),
+            read("specular_reflectance_sampling_rate", "float", "1", ""),
+            read("specular_transmittance_sampling_rate", "float", "1", ""),
+            read("diffuse_reflectance_sampling_rate", "float", "1", ""),
+            read("diffuse_transmittance_sampling_rate", "float", "1", ""),
+        ],
+    },
+    PluginDoc {
+        element: "bsdf",
+        names: &["blendbsdf"],
+        status: Status::Read,
+        note: "Two nested bsdfs, the first at weight 0.",
+        params: &[read("weight", "float texture", "0.5", "required: a number or a texture")],
+    },
+    not_read(
+        "bsdf",
+        &[
+            "hair",
+            "measured",
+            "pplastic",
+            "polarizer",
+            "retarder",
+            "circular",
+            "measured_polarized",
+            "null",
+        ],
+        Status::Refused,
+        "not read",
+    ),
+    PluginDoc {
+        element: "bsdf",
+        names: &["mixturebsdf"],
+        status: Status::Read,
+        note: "(Mitsuba 0.6; Mitsuba 3 refuses it) as many nested bsdfs as weights, read as nested `blendbsdf`s.",
+        params: &[read(
+            "weights",
+            "string",
+            "",
+            "required: \"w₁, w₂, …\", each at least 0, summing to 1",
+        )],
+    },
+    not_read("bsdf", &["phong"], Status::Refused, "Mitsuba 0.6 (Mitsuba 3 refuses it too)"),
+];
 
 impl<'a> Reader<'a> {
     pub(super) fn default_material(&mut self) -> String {
@@ -207,6 +439,7 @@ impl<'a> Reader<'a> {
             "principled" => self.principled(&p)?,
             "principledthin" => self.principled_thin(&p)?,
             "blendbsdf" => self.blendbsdf(&p)?,
+            "mixturebsdf" => self.mixturebsdf(&p)?,
             other => return Err(p.error(format!("unsupported bsdf \"{other}\" (supported: {BSDFS})"))),
         };
         p.finish(&["bsdf", "texture"])?;

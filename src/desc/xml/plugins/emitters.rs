@@ -1,11 +1,97 @@
 //! `<emitter>` plugins read outside a shape: the environment (`constant`, `envmap`).
 
+use super::table::{differs, not_read, noted, read, PluginDoc, Status};
 use super::{source, Reader};
 use crate::desc::xml::props::Plugin;
 use crate::desc::{EnvMapDesc, ImageFile, Located, TextureDesc};
 use crate::error::Result;
 use crate::math::{Mat4, Vec2, Vec3};
 use crate::texture::{Texture, UvMapping};
+
+/// The emitters' rows of the plugin table (`area` is with the shapes).
+pub(super) const DOCS: &[PluginDoc] = &[
+    PluginDoc {
+        element: "emitter",
+        names: &["point"],
+        status: Status::Read,
+        note: "",
+        params: &[
+            read("position", "point", "0, 0, 0", "or `to_world`'s origin"),
+            read("to_world", "transform", "identity", ""),
+            differs("intensity", "colour", "1", "radiant intensity I, rdr's flux 4πI"),
+        ],
+    },
+    PluginDoc {
+        element: "emitter",
+        names: &["spot"],
+        status: Status::Read,
+        note: "At `to_world`'s origin, along its +z; linear falloff in angle.",
+        params: &[
+            read("to_world", "transform", "identity", ""),
+            read("intensity", "colour", "1", ""),
+            read("cutoff_angle", "float", "20", "degrees"),
+            read("beam_width", "float", "¾ of cutoff_angle", "degrees"),
+            read(
+                "texture",
+                "texture",
+                "",
+                "an image projected over the cone (then `cutoff_angle` < 90°)",
+            ),
+        ],
+    },
+    PluginDoc {
+        element: "emitter",
+        names: &["projector"],
+        status: Status::Read,
+        note: "A pinhole at `to_world`'s origin looking along +z; intensity π·scale·E/cos³θ.",
+        params: &[
+            read("irradiance", "texture", "1", "required: a texture or a colour"),
+            read("scale", "float", "1", ""),
+            read("fov", "float", "", "degrees along `fov_axis`; without it, `focal_length`"),
+            read("fov_axis", "string", "x", ""),
+            read("focal_length", "string", "50mm", "on the diagonal"),
+            read("to_world", "transform", "identity", ""),
+        ],
+    },
+    PluginDoc {
+        element: "emitter",
+        names: &["directional"],
+        status: Status::Read,
+        note: "",
+        params: &[
+            read("direction", "vector", "0, 0, 1", "of travel; or `to_world`'s +z, not both"),
+            read("to_world", "transform", "identity", ""),
+            read("irradiance", "colour", "1", ""),
+        ],
+    },
+    PluginDoc {
+        element: "emitter",
+        names: &["constant"],
+        status: Status::Read,
+        note: "The environment (one per scene).",
+        params: &[read("radiance", "colour", "1", ""), read("to_world", "transform", "identity", "")],
+    },
+    PluginDoc {
+        element: "emitter",
+        names: &["envmap"],
+        status: Status::Read,
+        note: "The environment (one per scene), a latitude-longitude image.",
+        params: &[
+            read("filename", "string", "", "required"),
+            read("scale", "float", "1", ""),
+            read("to_world", "transform", "identity", ""),
+            noted("filter_type", "string", "rdr filters environments trilinearly"),
+            noted("mis_compensation", "boolean", ""),
+        ],
+    },
+    not_read(
+        "emitter",
+        &["sunsky", "timed_sunsky"],
+        Status::Skipped,
+        "Mitsuba 3's sun and sky (Hosek–Wilkie) is not built: warned about and left out (the scene renders without it).",
+    ),
+    not_read("emitter", &["directionalarea"], Status::Refused, "not read"),
+];
 
 impl<'a> Reader<'a> {
     pub(super) fn environment(&mut self, p: &Plugin<'a>) -> Result<EnvMapDesc> {
@@ -36,6 +122,7 @@ impl<'a> Reader<'a> {
                     },
                     filter: crate::texture::image::ImageFilter::Trilinear,
                     raw: false,
+                    wrap: crate::texture::image::WrapMode::Repeat,
                 }),
             });
             for k in ["filter_type", "mis_compensation"] {

@@ -1,11 +1,140 @@
 //! `<integrator>`: the plugins Mitsuba renders with, as rdr's integrators.
 
+use super::table::{differs, not_read, noted, read, PluginDoc, Status};
 use super::{Reader, INTEGRATORS};
 use crate::desc::xml::document::Element;
 use crate::desc::xml::props::Plugin;
 use crate::desc::MAX_DEPTH;
 use crate::error::Result;
 use crate::integrator::{bdpt::Heuristic, Bdpt, Integrator, PathProfile, PathTracer, PhotonMapper, Ptracer, Sppm};
+
+const MAX_DEPTH_DOC: super::table::Param = differs(
+    "max_depth",
+    "integer",
+    "-1",
+    "−1 is unbounded, capped at 1024 (with a warning when asked for more)",
+);
+const RR_DEPTH_DOC: super::table::Param = differs(
+    "rr_depth",
+    "integer",
+    "5",
+    "checked (at least 1), not used: rdr's Russian roulette is its own and unbiased",
+);
+const HIDE_EMITTERS_DOC: super::table::Param = read(
+    "hide_emitters",
+    "boolean",
+    "false",
+    "true: emitters and the environment seen directly by the camera are black",
+);
+const HIDE_EMITTERS_REFUSED: super::table::Param = super::table::refused(
+    "hide_emitters",
+    "boolean",
+    "false",
+    "true is refused (read by path, volpath and direct)",
+);
+
+/// The integrators' rows of the plugin table.
+pub(super) const DOCS: &[PluginDoc] = &[
+    PluginDoc {
+        element: "integrator",
+        names: &["path", "volpath"],
+        status: Status::Differs,
+        note: "rdr's unidirectional path tracer (MIS of BSDF and emitter sampling). `volpath` is `path` in scenes \
+               without media: its rays pass through `mask`s as volpath's shadow rays do. No integrator: `path`.",
+        params: &[MAX_DEPTH_DOC, RR_DEPTH_DOC, HIDE_EMITTERS_DOC],
+    },
+    PluginDoc {
+        element: "integrator",
+        names: &["direct"],
+        status: Status::Differs,
+        note: "`path` with `max_depth` 2: light at the first surface by emitter and BSDF sampling, one of each per pass.",
+        params: &[
+            noted("emitter_samples", "integer", "a value other than 1 is warned about"),
+            noted("bsdf_samples", "integer", "a value other than 1 is warned about"),
+            noted("shading_samples", "integer", "(Mitsuba 0.6) a value other than 1 is warned about"),
+            HIDE_EMITTERS_DOC,
+        ],
+    },
+    PluginDoc {
+        element: "integrator",
+        names: &["ptracer"],
+        status: Status::Read,
+        note: "rdr's particle tracer (light paths splatted to the camera).",
+        params: &[
+            MAX_DEPTH_DOC,
+            RR_DEPTH_DOC,
+            noted("samples_per_pass", "integer", ""),
+            HIDE_EMITTERS_REFUSED,
+        ],
+    },
+    PluginDoc {
+        element: "integrator",
+        names: &["bdpt"],
+        status: Status::Differs,
+        note: "(Mitsuba 0.6) rdr's bidirectional path tracer, power heuristic.",
+        params: &[
+            MAX_DEPTH_DOC,
+            RR_DEPTH_DOC,
+            noted("light_image", "boolean", "rdr always splats light paths that reach the camera"),
+            noted("sample_direct", "boolean", ""),
+            noted("strict_normals", "boolean", ""),
+            HIDE_EMITTERS_REFUSED,
+        ],
+    },
+    PluginDoc {
+        element: "integrator",
+        names: &["photonmapper", "photon"],
+        status: Status::Differs,
+        note: "(Mitsuba 0.6) rdr's `photon`: a global photon map with final gathering.",
+        params: &[
+            MAX_DEPTH_DOC,
+            read("global_photons", "integer", "100000", "photons stored"),
+            read("lookup_size", "integer", "64", "photons per density estimate"),
+            HIDE_EMITTERS_REFUSED,
+        ],
+    },
+    PluginDoc {
+        element: "integrator",
+        names: &["sppm"],
+        status: Status::Read,
+        note: "(Mitsuba 0.6) stochastic progressive photon mapping.",
+        params: &[
+            MAX_DEPTH_DOC,
+            read("photon_count", "integer", "250000", "photons per iteration"),
+            read("initial_radius", "float", "0", "0: chosen from the scene's size"),
+            read("alpha", "float", "0.7", "in (0, 1]"),
+            HIDE_EMITTERS_REFUSED,
+        ],
+    },
+    PluginDoc {
+        element: "integrator",
+        names: &["aov"],
+        status: Status::Differs,
+        note: "around one nested integrator, which renders; its layers are written as `--aov` writes them \
+               (`--aov` on the command line replaces the list).",
+        params: &[differs(
+            "aovs",
+            "string",
+            "",
+            "\"name:type, …\": types `albedo`, `depth`, `position`, `sh_normal` and `geo_normal` (both rdr's shading \
+             normal) become rdr's layers; other types are warned about and not written",
+        )],
+    },
+    not_read(
+        "integrator",
+        &[
+            "volpathmis",
+            "prb",
+            "prb_basic",
+            "prbvolpath",
+            "prb_projective",
+            "direct_projective",
+        ],
+        Status::Refused,
+        "Mitsuba 3's differentiable and spectral-MIS integrators (rdr renders forward only)",
+    ),
+    not_read("integrator", &["moment", "stokes", "depth"], Status::Refused, "not read"),
+];
 
 /// Mitsuba's AOV types as rdr's `--aov` layers (`None`: rdr does not make that layer).
 fn rdr_aov(mitsuba_type: &str) -> Option<&'static str> {
@@ -66,6 +195,7 @@ impl<'a> Reader<'a> {
 
     pub(super) fn integrator(&self, el: &'a Element) -> Result<(Integrator, Option<(&'a Element, String)>)> {
         let p = Plugin::new(el, self.ids)?;
+        let hide_emitters = p.boolean("hide_emitters", false)?;
         let mut note = None;
         let mut depth = |default: i64| -> Result<u32> {
             let d = p.integer("max_depth", default)?;
@@ -93,6 +223,7 @@ impl<'a> Reader<'a> {
                     max_depth,
                     profile: PathProfile::Mis,
                     rr_threshold: 0.1,
+                    hide_emitters,
                 })
             }
             "direct" => {
@@ -108,6 +239,7 @@ impl<'a> Reader<'a> {
                     max_depth: 2,
                     profile: PathProfile::Mis,
                     rr_threshold: 0.1,
+                    hide_emitters,
                 })
             }
             "ptracer" => {
@@ -162,8 +294,8 @@ impl<'a> Reader<'a> {
             }
             other => return Err(p.error(format!("unsupported integrator \"{other}\" (supported: {INTEGRATORS})"))),
         };
-        if p.boolean("hide_emitters", false)? {
-            return Err(p.value_error("hide_emitters", "is not supported (rdr's camera rays always see emitters)"));
+        if hide_emitters && !matches!(integrator, Integrator::Path(_)) {
+            return Err(p.value_error("hide_emitters", format!("is read by path, volpath and direct only, not {}", p.ty)));
         }
         p.finish(&[])?;
         Ok((integrator, note))

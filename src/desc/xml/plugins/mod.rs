@@ -30,13 +30,50 @@ mod integrators;
 mod principled;
 mod sensors;
 mod shapes;
+pub mod table;
 mod textures;
+
+/// The plugin table's families, in the manual page's order ([`table`]).
+pub const FAMILIES: &table::Families = &[
+    ("Integrators", integrators::DOCS),
+    ("Sensors, films, filters and samplers", sensors::DOCS),
+    ("Shapes", shapes::DOCS),
+    ("BSDFs", bsdfs::DOCS),
+    ("Emitters", emitters::DOCS),
+    ("Textures", textures::DOCS),
+    ("Spectra", SPECTRA_DOCS),
+    // media, phase functions and volumes: their families' DOCS join here
+];
+
+/// `<spectrum type="…">` (read by `props`, not as plugins: no parameter is checked).
+const SPECTRA_DOCS: &[table::PluginDoc] = &[
+    table::PluginDoc {
+        element: "spectrum",
+        names: &["blackbody"],
+        status: table::Status::Read,
+        note: "`temperature` (K, required), `wavelength_min` 360, `wavelength_max` 830 (nm), converted as a \
+               `wavelength:value` list is.",
+        params: &[],
+    },
+    table::PluginDoc {
+        element: "spectrum",
+        names: &["regular", "irregular", "uniform", "srgb", "d65"],
+        status: table::Status::Refused,
+        note: "as typed spectra; a constant or `wavelength:value` pairs in `value` are read (see [Colours from spectra](spectra.md))",
+        params: &[],
+    },
+];
+
+/// The manual's page of Mitsuba plugins and parameters, generated from [`FAMILIES`].
+pub fn plugin_table_markdown() -> String {
+    table::markdown(FAMILIES)
+}
 
 pub(super) const SHAPES: &str = "obj, ply, serialized, rectangle, cube, disk, sphere, cylinder, shapegroup, instance";
 pub(super) const BSDFS: &str =
-    "diffuse, dielectric, thindielectric, roughdielectric, conductor, roughconductor, plastic, roughplastic, twosided, bumpmap, normalmap, mask, principled, principledthin, blendbsdf";
+    "diffuse, dielectric, thindielectric, roughdielectric, conductor, roughconductor, plastic, roughplastic, twosided, bumpmap, normalmap, mask, principled, principledthin, blendbsdf, mixturebsdf";
 pub(super) const EMITTERS: &str = "point, spot, directional, projector, constant, envmap (and area inside a <shape>)";
-pub(super) const TEXTURES: &str = "bitmap, checkerboard, mesh_attribute";
+pub(super) const TEXTURES: &str = "bitmap, checkerboard, mesh_attribute, rawconstant";
 pub(super) const INTEGRATORS: &str = "path, volpath (without media), direct, ptracer, bdpt, photonmapper, sppm";
 pub(super) const FILTERS: &str = "box, tent, gaussian, mitchell";
 
@@ -48,7 +85,9 @@ pub fn scene(root: &Element, file: &Path) -> Result<SceneDesc> {
     if root.tag != "scene" {
         return Err(root.error(format!("the root element must be <scene>, found <{}>", root.tag)));
     }
-    let ids = Ids::collect(root)?;
+    let mut ids = Ids::collect(root)?;
+    ids.table = Some(FAMILIES);
+    let ids = ids;
     let base_dir = file
         .parent()
         .filter(|p| !p.as_os_str().is_empty())
@@ -76,6 +115,7 @@ pub fn scene(root: &Element, file: &Path) -> Result<SceneDesc> {
                 max_depth: MAX_DEPTH,
                 profile: PathProfile::Mis,
                 rr_threshold: 0.1,
+                hide_emitters: false,
             }),
             None,
             None,
@@ -136,6 +176,7 @@ pub fn scene(root: &Element, file: &Path) -> Result<SceneDesc> {
                     transform: to_world,
                 });
             }
+            Some("sdfgrid") => ids.warn(el, "shape \"sdfgrid\" is not built in rdr: left out, the scene renders without it"),
             _ => objects.push(r.shape(el)?),
         }
     }
@@ -252,10 +293,21 @@ pub fn scene(root: &Element, file: &Path) -> Result<SceneDesc> {
                 environment_map = Some(r.environment(&p)?);
             }
             "area" => return Err(at.error("an area emitter must be inside a <shape>")),
+            "sunsky" | "timed_sunsky" => ids.warn(
+                el,
+                format!(
+                    "emitter \"{}\" (Mitsuba 3's sun and sky) is not built in rdr: left out, the scene renders without it",
+                    p.ty
+                ),
+            ),
             other => return Err(at.error(format!("unsupported emitter \"{other}\" (supported: {EMITTERS})"))),
         }
     }
     top.finish(&["integrator", "sensor", "bsdf", "texture", "shape", "emitter"])?;
+    if let Some(first) = ids.undeclared.borrow().first() {
+        // a reader and its rows in the plugin table disagree: a bug in rdr, not in the scene
+        return Err(root.error(format!("internal error, please report: {first}")));
+    }
     if let Some((el, msg)) = max_depth_note {
         ids.warn(el, msg);
     }

@@ -59,6 +59,44 @@ impl<'a> Reader<'a> {
         Ok(Material::PrincipledThin(Box::new(params)))
     }
 
+    /// Mitsuba 0.6's `mixturebsdf`: `weights` ("w₁, w₂, …", summing to 1) and as many
+    /// nested `<bsdf>`s, read as nested blends: w₁·b₁ + (1 − w₁)·mixture(the rest, rescaled).
+    pub(super) fn mixturebsdf(&mut self, p: &Plugin<'a>) -> Result<Material<TextureRef>> {
+        let text = p.required_string("weights")?;
+        let weights: Vec<f32> = text
+            .split([',', ' '])
+            .filter(|s| !s.trim().is_empty())
+            .map(|s| s.trim().parse::<f32>())
+            .collect::<std::result::Result<_, _>>()
+            .map_err(|_| p.value_error("weights", format!("expected numbers such as \"0.3, 0.7\", found \"{text}\"")))?;
+        let inner = p.objects("bsdf");
+        if inner.len() != weights.len() || inner.len() < 2 {
+            return Err(p.error(format!(
+                "a mixturebsdf takes as many nested <bsdf>s as weights (at least 2): {} weights, {} bsdfs",
+                weights.len(),
+                inner.len()
+            )));
+        }
+        let sum: f32 = weights.iter().sum();
+        if weights.iter().any(|w| w.is_nan() || *w < 0.0) || (sum - 1.0).abs() > 1e-3 {
+            return Err(p.value_error("weights", format!("must be at least 0 and sum to 1, found a sum of {sum}")));
+        }
+        let mut mix = self.material_value(inner[inner.len() - 1].0)?;
+        let mut rest = weights[weights.len() - 1];
+        for i in (0..inner.len() - 1).rev() {
+            // mix holds components i+1.., whose weights sum to `rest`
+            let total = weights[i] + rest;
+            let weight = if total > 0.0 { rest / total } else { 0.0 };
+            mix = Material::BlendBsdf {
+                weight: TextureRef::Color(Vec3::splat(weight)),
+                first: Box::new(self.material_value(inner[i].0)?),
+                second: Box::new(mix),
+            };
+            rest = total;
+        }
+        Ok(mix)
+    }
+
     /// `blendbsdf`: `weight` (required, a number or a `<texture>`) and two nested `<bsdf>`s.
     pub(super) fn blendbsdf(&mut self, p: &Plugin<'a>) -> Result<Material<TextureRef>> {
         if !p.has("weight") {

@@ -1,5 +1,6 @@
 //! `<sensor>`, its `<film>` and `<rfilter>`: the camera and the film.
 
+use super::table::{differs, not_read, noted, read, refused, PluginDoc, Status};
 use super::{focal_length_fov, Reader, FILTERS};
 use crate::camera::CameraParams;
 use crate::desc::xml::document::Element;
@@ -8,6 +9,131 @@ use crate::desc::{FilmDesc, MAX_FILTER_RADIUS};
 use crate::error::Result;
 use crate::film::Filter;
 use crate::math::{Mat4, Vec3};
+
+/// The sensors', films', filters' and samplers' rows of the plugin table.
+pub(super) const DOCS: &[PluginDoc] = &[
+    PluginDoc {
+        element: "sensor",
+        names: &["perspective", "thinlens", "orthographic"],
+        status: Status::Read,
+        note: "One sensor; more are ignored with a warning. `thinlens` is JSON's camera `thinlens`; `orthographic` is \
+               JSON's `orthographic` whose `height` is 2·s·height/width for `to_world`'s scale s.",
+        params: &[
+            read("fov", "float", "", "degrees along `fov_axis`; without it, `focal_length`"),
+            read(
+                "fov_axis",
+                "string",
+                "x",
+                "`x`, `y`, `diagonal`, `smaller`, `larger`; ignored with `focal_length`",
+            ),
+            read("focal_length", "string", "50mm", "on the 36 × 24 mm film's diagonal"),
+            read(
+                "to_world",
+                "transform",
+                "identity",
+                "rigid, or mirroring (a negative scale: the image is mirrored, as Mitsuba's); `thinlens`: no scale; \
+                 `orthographic`: a scale equal in x and y sizes the window (2s wide)",
+            ),
+            read(
+                "near_clip",
+                "float",
+                "0",
+                "applied only when given (Mitsuba's 0.01 would change every ray's range)",
+            ),
+            read(
+                "far_clip",
+                "float",
+                "unbounded (thinlens: 10⁴ as focus_distance's default)",
+                "applied only when given",
+            ),
+            read("aperture_radius", "float", "", "`thinlens`, required; 0 is a pinhole"),
+            read("focus_distance", "float", "far_clip (10⁴)", "`thinlens`"),
+            refused("principal_point_offset_x", "float", "0", "an off-centre principal point is refused"),
+            refused("principal_point_offset_y", "float", "0", "an off-centre principal point is refused"),
+        ],
+    },
+    not_read(
+        "sensor",
+        &["radiancemeter", "irradiancemeter", "distant", "batch"],
+        Status::Refused,
+        "not read",
+    ),
+    PluginDoc {
+        element: "film",
+        names: &["hdrfilm"],
+        status: Status::Read,
+        note: "The film; its filter is the nested `<rfilter>` (default: `gaussian`).",
+        params: &[
+            read("width", "integer", "768", ""),
+            read("height", "integer", "576", ""),
+            noted("pixel_format", "string", "the output's format follows `-o`"),
+            noted("component_format", "string", ""),
+            noted("file_format", "string", ""),
+            noted("high_quality_edges", "boolean", ""),
+            noted("sample_border", "boolean", ""),
+            noted("compensate", "boolean", ""),
+            noted("banner", "boolean", "(Mitsuba 0.6) warned about: rdr writes no banner"),
+            refused(
+                "crop_offset_x",
+                "integer",
+                "",
+                "cropped films are refused (`--crop` renders a region)",
+            ),
+            refused("crop_offset_y", "integer", "", ""),
+            refused("crop_width", "integer", "", ""),
+            refused("crop_height", "integer", "", ""),
+        ],
+    },
+    not_read("film", &["specfilm"], Status::Refused, "not read"),
+    PluginDoc {
+        element: "rfilter",
+        names: &["box"],
+        status: Status::Read,
+        note: "",
+        params: &[differs(
+            "radius",
+            "float",
+            "0.5",
+            "Mitsuba 3's box is fixed at 0.5 and refuses the parameter (Mitsuba 0.6 read it)",
+        )],
+    },
+    PluginDoc {
+        element: "rfilter",
+        names: &["tent"],
+        status: Status::Read,
+        note: "",
+        params: &[read("radius", "float", "1", "")],
+    },
+    PluginDoc {
+        element: "rfilter",
+        names: &["gaussian"],
+        status: Status::Read,
+        note: "exp(−x²/2σ²), cut off at 4σ as Mitsuba's.",
+        params: &[read("stddev", "float", "0.5", "")],
+    },
+    PluginDoc {
+        element: "rfilter",
+        names: &["mitchell"],
+        status: Status::Read,
+        note: "Radius 2.",
+        params: &[read("B", "float", "0.3333333", ""), read("C", "float", "0.3333333", "")],
+    },
+    not_read("rfilter", &["catmullrom", "lanczos"], Status::Refused, "not read"),
+    PluginDoc {
+        element: "sampler",
+        names: &["*"],
+        status: Status::Differs,
+        note: "Any type (`independent`, `stratified`, `multijitter`, `orthogonal`, `ldsampler`): only its sample \
+               count is read; rdr uses its own Owen-scrambled Sobol sampler (other types are warned about).",
+        params: &[
+            read("sample_count", "integer", "4", "samples per pixel"),
+            noted("seed", "integer", "`--seed` sets rdr's"),
+            noted("jitter", "boolean", ""),
+            noted("scramble", "integer", ""),
+            noted("dimension", "integer", ""),
+        ],
+    },
+];
 
 impl<'a> Reader<'a> {
     pub(super) fn sensor(&self, el: &'a Element) -> Result<(CameraParams, FilmDesc, u32)> {
@@ -108,9 +234,8 @@ impl<'a> Reader<'a> {
         if !(dir.length() > 0.0 && up.cross(dir).length() > 0.0) {
             return Err(p.value_error("to_world", "the camera transform is degenerate"));
         }
-        if left.dot(up.cross(dir)) < 0.0 {
-            return Err(p.value_error("to_world", "a mirroring camera transform (negative scale) is not supported"));
-        }
+        // a negative scale (common in 0.6 scenes exported from 3D tools) mirrors the image
+        let mirrored = left.dot(up.cross(dir)) < 0.0;
         let projection = match p.ty.as_str() {
             "thinlens" => {
                 // Mitsuba: aperture_radius required (0 becomes a tiny one), focus_distance
@@ -165,6 +290,7 @@ impl<'a> Reader<'a> {
             projection,
             near_clip,
             far_clip,
+            mirrored,
         };
         if origin.abs().max_element() > crate::limits::MAX_COORD || !crate::camera::Camera::new(&camera, 1, 1).is_finite() {
             return Err(p.value_error("to_world", "the camera's view basis is not finite"));

@@ -1,5 +1,6 @@
 //! `<shape>`: meshes, generated shapes, spheres, cylinders, shape groups and instances.
 
+use super::table::{differs, not_read, noted, read, PluginDoc, Status};
 use super::{check_point, source, Reader, SHAPES};
 use crate::desc::xml::document::Element;
 use crate::desc::xml::props::Plugin;
@@ -10,6 +11,148 @@ use crate::math::{Mat4, Vec3};
 use crate::scene::Shape;
 use std::collections::HashMap;
 use std::path::PathBuf;
+
+const TO_WORLD: super::table::Param = read("to_world", "transform", "identity", "");
+const FLIP_NORMALS: super::table::Param = read("flip_normals", "boolean", "false", "");
+const FACE_NORMALS: super::table::Param = read(
+    "face_normals",
+    "boolean",
+    "false",
+    "false: the file's normals, or smooth vertex normals when it has none",
+);
+const FILENAME: super::table::Param = read("filename", "string", "", "required; found as Mitsuba's file resolver finds it");
+
+/// The shapes' rows of the plugin table (and the `area` emitter's, read inside a shape).
+pub(super) const DOCS: &[PluginDoc] = &[
+    PluginDoc {
+        element: "shape",
+        names: &["obj"],
+        status: Status::Read,
+        note: "Each shape takes one `<bsdf>` and one `area` `<emitter>`; a shape with neither gets Mitsuba's default, \
+               a diffuse 0.5. Meshes whose triangles are all degenerate are warned about and skipped.",
+        params: &[
+            FILENAME,
+            read("flip_tex_coords", "boolean", "true", ""),
+            FACE_NORMALS,
+            FLIP_NORMALS,
+            TO_WORLD,
+        ],
+    },
+    PluginDoc {
+        element: "shape",
+        names: &["ply"],
+        status: Status::Read,
+        note: "ASCII and binary; vertex colours for `mesh_attribute`.",
+        params: &[
+            FILENAME,
+            read("flip_tex_coords", "boolean", "false", ""),
+            FACE_NORMALS,
+            FLIP_NORMALS,
+            TO_WORLD,
+        ],
+    },
+    PluginDoc {
+        element: "shape",
+        names: &["serialized"],
+        status: Status::Read,
+        note: "Mitsuba's compressed meshes (format versions 3 and 4; a version 3 file without a precision flag is single \
+               precision, as Mitsuba 3 reads it).",
+        params: &[
+            FILENAME,
+            read("shape_index", "integer", "0", ""),
+            FACE_NORMALS,
+            noted("max_smooth_angle", "float", ""),
+            FLIP_NORMALS,
+            TO_WORLD,
+        ],
+    },
+    PluginDoc {
+        element: "shape",
+        names: &["rectangle", "cube"],
+        status: Status::Read,
+        note: "Generated meshes.",
+        params: &[FLIP_NORMALS, TO_WORLD],
+    },
+    PluginDoc {
+        element: "shape",
+        names: &["disk"],
+        status: Status::Differs,
+        note: "Tessellated into triangles (with a warning).",
+        params: &[FLIP_NORMALS, TO_WORLD],
+    },
+    PluginDoc {
+        element: "shape",
+        names: &["sphere"],
+        status: Status::Read,
+        note: "Analytic; Mitsuba's uv (φ/2π, θ/π) about the object frame's z, held by rdr as (φ/2π, 1 − θ/π) like a \
+               mesh's (JSON `uv_frame`).",
+        params: &[
+            read("center", "point", "0, 0, 0", ""),
+            read("radius", "float", "1", ""),
+            read("to_world", "transform", "identity", "a rotation, translation and uniform scale"),
+            differs("flip_normals", "boolean", "false", "true is refused"),
+        ],
+    },
+    PluginDoc {
+        element: "shape",
+        names: &["cylinder"],
+        status: Status::Read,
+        note: "Open, analytic; Mitsuba's uv (φ/2π, height), held by rdr as (φ/2π, 1 − height) like a mesh's.",
+        params: &[
+            read("p0", "point", "0, 0, 0", ""),
+            read("p1", "point", "0, 0, 1", ""),
+            read("radius", "float", "1", ""),
+            FLIP_NORMALS,
+            read(
+                "to_world",
+                "transform",
+                "identity",
+                "a rotation, translation and a scale uniform across the axis",
+            ),
+        ],
+    },
+    PluginDoc {
+        element: "shape",
+        names: &["shapegroup"],
+        status: Status::Read,
+        note: "An `id` and plain shapes inside (no emitters: Mitsuba refuses them too); rendered only through instances \
+               (a two-level BVH, one bottom level per group).",
+        params: &[],
+    },
+    PluginDoc {
+        element: "shape",
+        names: &["instance"],
+        status: Status::Read,
+        note: "A `<ref>` to a shapegroup.",
+        params: &[read("to_world", "transform", "identity", "affine and invertible")],
+    },
+    not_read("shape", &["sdfgrid"], Status::Skipped, "warned about and left out of the scene"),
+    not_read(
+        "shape",
+        &["bsplinecurve", "linearcurve", "ellipsoids", "ellipsoidsmesh", "merge"],
+        Status::Refused,
+        "not read",
+    ),
+    PluginDoc {
+        element: "emitter",
+        names: &["area"],
+        status: Status::Read,
+        note: "Inside a `<shape>` only.",
+        params: &[
+            read(
+                "radiance",
+                "texture",
+                "1",
+                "a colour, or a texture looked up at the emitting point's uv",
+            ),
+            noted(
+                "sampling_weight",
+                "float",
+                "rdr chooses lights by power (a value other than 1 is warned about)",
+            ),
+        ],
+    },
+];
 
 impl<'a> Reader<'a> {
     pub(super) fn shape(&mut self, el: &'a Element) -> Result<ObjectDesc> {

@@ -1,5 +1,6 @@
 //! `<texture>`: bitmaps, checkerboards, mesh attributes, and texture parameters.
 
+use super::table::{differs, not_read, read, Param, PluginDoc, Status};
 use super::{source, Reader, TEXTURES};
 use crate::desc::xml::document::Element;
 use crate::desc::xml::props::{Colour, Plugin};
@@ -8,6 +9,89 @@ use crate::desc::{ImageFile, Located, TextureDesc, TextureRef};
 use crate::error::Result;
 use crate::math::{Mat4, Vec2, Vec3};
 use crate::texture::{Texture, UvMapping};
+
+const TO_UV: [Param; 5] = [
+    differs(
+        "to_uv",
+        "transform",
+        "identity",
+        "a scale and offset of the texture coordinates only",
+    ),
+    read("uoffset", "float", "0", "(Mitsuba 0.6) become `to_uv`"),
+    read("voffset", "float", "0", "(Mitsuba 0.6)"),
+    read("uscale", "float", "1", "(Mitsuba 0.6)"),
+    read("vscale", "float", "1", "(Mitsuba 0.6)"),
+];
+
+/// The textures' rows of the plugin table.
+pub(super) const DOCS: &[PluginDoc] = &[
+    PluginDoc {
+        element: "texture",
+        names: &["bitmap"],
+        status: Status::Read,
+        note: "PNG, JPEG, EXR, HDR, BMP, TGA, PPM/PGM and PFM images.",
+        params: &[
+            read("filename", "string", "", "required"),
+            differs(
+                "filter_type",
+                "string",
+                "bilinear",
+                "`bilinear` (of the full-resolution image: Mitsuba has no MIP maps) or `nearest`",
+            ),
+            read("wrap_mode", "string", "repeat", "`repeat`, `clamp` or `mirror`"),
+            read("raw", "boolean", "false", "true: 8-bit values as they are, not decoded from sRGB"),
+            TO_UV[0],
+            TO_UV[1],
+            TO_UV[2],
+            TO_UV[3],
+            TO_UV[4],
+        ],
+    },
+    PluginDoc {
+        element: "texture",
+        names: &["checkerboard"],
+        status: Status::Read,
+        note: "Read as a float (`eval_1`) it gives `color1` where Mitsuba 3's does.",
+        params: &[
+            read("color0", "colour", "0.4", ""),
+            read("color1", "colour", "0.2", ""),
+            TO_UV[0],
+            TO_UV[1],
+            TO_UV[2],
+            TO_UV[3],
+            TO_UV[4],
+        ],
+    },
+    PluginDoc {
+        element: "texture",
+        names: &["mesh_attribute"],
+        status: Status::Differs,
+        note: "",
+        params: &[
+            differs(
+                "name",
+                "string",
+                "",
+                "required: `vertex_color` or `face_color` (a PLY file's `red green blue`)",
+            ),
+            read("scale", "float", "1", ""),
+        ],
+    },
+    PluginDoc {
+        element: "texture",
+        names: &["rawconstant"],
+        status: Status::Read,
+        note: "A constant used as it is (no conversion from a spectrum).",
+        params: &[read("value", "float or vector", "", "required")],
+    },
+    not_read("texture", &["volume"], Status::Refused, "not read"),
+    not_read(
+        "texture",
+        &["scale"],
+        Status::Refused,
+        "Mitsuba 0.6's scaled texture (Mitsuba 3 refuses it too)",
+    ),
+];
 
 impl<'a> Reader<'a> {
     pub(super) fn texture_ref(&mut self, p: &Plugin<'a>, name: &str, default: Vec3) -> Result<TextureRef> {
@@ -86,9 +170,9 @@ impl<'a> Reader<'a> {
 
     pub(super) fn texture_value(&mut self, el: &'a Element) -> Result<Texture<ImageFile>> {
         let p = Plugin::new(el, self.ids)?;
-        let to_uv = self.to_uv(&p)?;
         let t = match p.ty.as_str() {
             "bitmap" => {
+                let to_uv = self.to_uv(&p)?;
                 let path = self.file(el, &p, "filename")?;
                 // Mitsuba has no MIP maps: its bilinear reads the full-resolution image
                 let filter = match p.string("filter_type", "bilinear")?.as_str() {
@@ -96,11 +180,13 @@ impl<'a> Reader<'a> {
                     "nearest" => crate::texture::image::ImageFilter::Nearest,
                     other => return Err(p.value_error("filter_type", format!("unknown filter_type \"{other}\" (bilinear, nearest)"))),
                 };
-                if let Some(w) = p.string_opt("wrap_mode")? {
-                    if w != "repeat" {
-                        self.ids.warn(el, format!("wrap_mode \"{w}\" noted: rdr repeats images"));
-                    }
-                }
+                let w = p.string("wrap_mode", "repeat")?;
+                let wrap = crate::texture::image::WrapMode::parse(&w).ok_or_else(|| {
+                    p.value_error(
+                        "wrap_mode",
+                        format!("unknown wrap_mode \"{w}\" ({})", crate::texture::image::WrapMode::NAMES),
+                    )
+                })?;
                 let raw = p.boolean("raw", false)?;
                 // Mitsuba's row 0 is v = 0, rdr's is v = 1
                 Texture::Image(ImageFile {
@@ -111,17 +197,33 @@ impl<'a> Reader<'a> {
                     },
                     filter,
                     raw,
+                    wrap,
                 })
             }
-            "checkerboard" => Texture::Checkerboard {
-                color0: p.rgb("color0", Vec3::splat(0.4))?,
-                color1: p.rgb("color1", Vec3::splat(0.2))?,
-                // the same cells as Mitsuba's in its v, which runs the other way
-                mapping: UvMapping {
-                    scale: Vec2::new(to_uv.0.x, -to_uv.0.y),
-                    delta: Vec2::new(to_uv.1.x, to_uv.0.y + to_uv.1.y),
-                },
-            },
+            "checkerboard" => {
+                let to_uv = self.to_uv(&p)?;
+                Texture::Checkerboard {
+                    color0: p.rgb("color0", Vec3::splat(0.4))?,
+                    color1: p.rgb("color1", Vec3::splat(0.2))?,
+                    // the same cells as Mitsuba's in its v, which runs the other way
+                    mapping: UvMapping {
+                        scale: Vec2::new(to_uv.0.x, -to_uv.0.y),
+                        delta: Vec2::new(to_uv.1.x, to_uv.0.y + to_uv.1.y),
+                    },
+                }
+            }
+            "rawconstant" => {
+                // Mitsuba 3: a float or a 3D vector, used as it is (no spectrum conversion)
+                let value = match (p.float_opt("value"), p.point_opt("value")) {
+                    (Ok(Some(v)), _) => Vec3::splat(v),
+                    (_, Ok(Some(v))) => v,
+                    _ => return Err(p.error(format!("{} needs the property \"value\" (a float or a vector)", p.describe()))),
+                };
+                if !(value.min_element() >= 0.0 && value.is_finite()) {
+                    return Err(p.value_error("value", "must be finite and not negative"));
+                }
+                Texture::Constant(value)
+            }
             "mesh_attribute" => {
                 let name = p.required_string("name")?;
                 let face = match name.as_str() {

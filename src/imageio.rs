@@ -736,6 +736,9 @@ pub fn decode_texture_image(bytes: &[u8], path: &Path) -> Result<RgbImage> {
     decode_texture_image_as(bytes, path, false)
 }
 
+/// The most pixels a compressed texture file may claim per byte of the file.
+const MAX_PIXELS_PER_BYTE: u64 = 32_768;
+
 /// [`decode_texture_image`], with PNG and JPEG values taken as they are (`raw`, as
 /// Mitsuba's bitmap `raw`: for data such as normal or roughness maps) rather than
 /// decoded from sRGB.
@@ -763,6 +766,15 @@ pub fn decode_texture_image_as(bytes: &[u8], path: &Path, raw: bool) -> Result<R
     // the size from the header first: decoded pixels (up to 16 bytes each), their
     // conversion and what the texture keeps must fit the memory budget
     if let Ok((w, h)) = open()?.into_dimensions() {
+        // no codec read here expands a byte into more than a few thousand pixels (PNG:
+        // deflate's 1032:1 times 8 one-bit pixels), so a header claiming more lies
+        if w as u64 * h as u64 > (bytes.len() as u64).saturating_mul(MAX_PIXELS_PER_BYTE) {
+            bail!(
+                "cannot read {}: the header claims {w}x{h} pixels, more than its {} bytes can hold",
+                path.display(),
+                bytes.len()
+            );
+        }
         crate::limits::check_memory((w as u64 * h as u64).checked_mul(32 + TEXTURE_BYTES_PER_PIXEL), || {
             format!("{} ({w}x{h} pixels)", path.display())
         })

@@ -14,6 +14,7 @@ pub mod light;
 pub mod limits;
 pub mod material;
 pub mod math;
+pub mod medium;
 pub mod metrics;
 mod pages;
 pub use pages::HugePageAllocator;

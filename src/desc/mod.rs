@@ -31,7 +31,7 @@ pub use checked::{
 pub use parse::integrator_from_value;
 pub use source::{Located, Source};
 pub use types::{
-    AreaLightDesc, DeltaLightDesc, EnvMapDesc, FilmDesc, ImageFile, InstanceDesc, IntegratorDesc, MaterialDesc, MeshFile, MeshFormat,
-    MeshNormals, MeshOptions, ObjectDesc, PointLightDesc, SceneDesc, ShapeGroupDesc, TextureDesc, TextureRef, DISK_SEGMENTS, MAX_DEPTH,
-    MAX_FILTER_RADIUS, MAX_LIGHT_SAMPLES,
+    AreaLightDesc, DeltaLightDesc, EnvMapDesc, FilmDesc, ImageFile, InstanceDesc, IntegratorDesc, MaterialDesc, MediumDesc, MeshFile,
+    MeshFormat, MeshNormals, MeshOptions, ObjectDesc, PointLightDesc, SceneDesc, ShapeGroupDesc, TextureDesc, TextureRef, DISK_SEGMENTS,
+    MAX_DEPTH, MAX_FILTER_RADIUS, MAX_LIGHT_SAMPLES,
 };

@@ -170,10 +170,27 @@ impl Loaded {
 
     /// [`Loaded::build`] with build switches of its own (tests and experiments).
     pub fn build_with(desc: &SceneDesc, profile: Profile, opts: BuildOptions) -> Result<Loaded> {
-        Ok(Loaded {
+        let loaded = Loaded {
             scene: build::build(desc, opts)?,
             job: RenderJob::from_desc(desc, profile)?,
-        })
+        };
+        if loaded.scene.has_media {
+            // media are tracked by the camera-path estimator only (`path`, `guided`);
+            // the others would render null boundaries as black and media as vacuum
+            let refuse = match (profile, &loaded.job.integrator) {
+                (Profile::Rdr171, _) => Some("--compat rdr171"),
+                (_, Integrator::Path(_) | Integrator::Guided(_) | Integrator::Normals(_)) => None,
+                (_, i) => Some(i.name()),
+            };
+            if let Some(who) = refuse {
+                return Err(SceneError::new(
+                    &desc.file,
+                    None,
+                    format!("{who} does not render participating media or null boundaries (this scene has them); use path (volpath in Mitsuba XML)"),
+                ));
+            }
+        }
+        Ok(loaded)
     }
 }
 

@@ -266,7 +266,9 @@ pub fn to_xml(desc: &SceneDesc, out: &Path) -> Result<Converted> {
             if p.profile != PathProfile::Mis {
                 w.push("the path profile (NEE/RW) has no Mitsuba counterpart: written as path (the same converged image)".into());
             }
-            format!("  <integrator type=\"path\">\n{}  </integrator>\n", depth(p.max_depth))
+            // Mitsuba's `path` ignores media: `volpath` renders what rdr's `path` does
+            let ty = if desc.media.is_empty() { "path" } else { "volpath" };
+            format!("  <integrator type=\"{ty}\">\n{}  </integrator>\n", depth(p.max_depth))
         }
         Integrator::IntersectionTest(t) => {
             if has_glass {
@@ -378,14 +380,18 @@ pub fn to_xml(desc: &SceneDesc, out: &Path) -> Result<Converted> {
          <film type=\"hdrfilm\">\n      <integer name=\"width\" value=\"{}\"/>\n      \
          <integer name=\"height\" value=\"{}\"/>\n      <string name=\"pixel_format\" value=\"rgb\"/>\n      \
          {filter}\n    </film>\n    <sampler type=\"independent\">\n      \
-         <integer name=\"sample_count\" value=\"{}\"/>\n    </sampler>\n  </sensor>\n",
+         <integer name=\"sample_count\" value=\"{}\"/>\n    </sampler>\n{}  </sensor>\n",
         v3(c.position),
         v3(c.look_at),
         v3(c.ref_up),
         f.width,
         f.height,
-        desc.integrator.spp
+        desc.integrator.spp,
+        desc.camera_medium
+            .as_ref()
+            .map_or(String::new(), |m| format!("    <ref id=\"{}\"/>\n", esc(&m.value)))
     );
+    s += &super::media::media_xml(&desc.media, esc);
     // ids are shared by textures and materials in XML
     let mut ids: Vec<String> = Vec::new();
     let mut id_for = |name: &str, prefix: &str| -> String {
@@ -619,6 +625,14 @@ pub fn to_xml(desc: &SceneDesc, out: &Path) -> Result<Converted> {
                     let _ = writeln!(inner, "    <ref id=\"{}\"/>", esc(id));
                 }
                 None => return Err(mat.source.error(&desc.file, format!("no material named '{}'", mat.value))),
+            }
+        }
+        if o.null_bsdf {
+            inner += "    <bsdf type=\"null\"/>\n";
+        }
+        for (key, m) in [("interior", &o.interior), ("exterior", &o.exterior)] {
+            if let Some(m) = m {
+                let _ = writeln!(inner, "    <ref name=\"{key}\" id=\"{}\"/>", esc(&m.value));
             }
         }
         if let Some(l) = &o.light {

@@ -27,6 +27,7 @@ use std::path::{Path, PathBuf};
 mod bsdfs;
 mod emitters;
 mod integrators;
+mod media;
 mod principled;
 mod sensors;
 mod shapes;
@@ -37,7 +38,7 @@ pub(super) const BSDFS: &str =
     "diffuse, dielectric, thindielectric, roughdielectric, conductor, roughconductor, plastic, roughplastic, twosided, bumpmap, normalmap, mask, principled, principledthin, blendbsdf";
 pub(super) const EMITTERS: &str = "point, spot, directional, projector, constant, envmap (and area inside a <shape>)";
 pub(super) const TEXTURES: &str = "bitmap, checkerboard, mesh_attribute";
-pub(super) const INTEGRATORS: &str = "path, volpath (without media), direct, ptracer, bdpt, photonmapper, sppm";
+pub(super) const INTEGRATORS: &str = "path, volpath, volpathmis, direct, ptracer, bdpt, photonmapper, sppm";
 pub(super) const FILTERS: &str = "box, tent, gaussian, mitchell";
 
 /// Nesting of materials and textures before a reference is taken to be circular.
@@ -63,6 +64,8 @@ pub fn scene(root: &Element, file: &Path) -> Result<SceneDesc> {
         texture_of: HashMap::new(),
         float_texture_of: HashMap::new(),
         depth: 0,
+        media: Vec::new(),
+        medium_of: HashMap::new(),
     };
     let top = Plugin::new(root, &ids)?;
     let integrators = top.objects("integrator");
@@ -92,7 +95,18 @@ pub fn scene(root: &Element, file: &Path) -> Result<SceneDesc> {
         );
     }
     let (camera, film, spp) = r.sensor(sensor)?;
-    for (el, _) in top.objects("bsdf") {
+    let camera_medium = match Plugin::new(sensor, &ids)?.objects("medium").as_slice() {
+        [] => None,
+        [(m, at)] => Some(Located {
+            value: r.medium(m)?,
+            source: source(at),
+        }),
+        [_, (_, second), ..] => return Err(second.error("a sensor takes one <medium>")),
+    };
+    for (el, _) in top.objects("medium") {
+        r.medium(el)?;
+    }
+    for (el, _) in top.objects("bsdf").into_iter().filter(|(el, _)| el.attr("type") != Some("null")) {
         r.material(el)?;
     }
     for (el, _) in top.objects("texture") {
@@ -255,7 +269,22 @@ pub fn scene(root: &Element, file: &Path) -> Result<SceneDesc> {
             other => return Err(at.error(format!("unsupported emitter \"{other}\" (supported: {EMITTERS})"))),
         }
     }
-    top.finish(&["integrator", "sensor", "bsdf", "texture", "shape", "emitter"])?;
+    top.finish(&["integrator", "sensor", "bsdf", "texture", "shape", "emitter", "medium"])?;
+    let mut objects = objects;
+    let mut camera_medium = camera_medium;
+    // Mitsuba's `path` ignores media: null boundaries pass, media are vacuum
+    let renders_media = integrators.first().is_none_or(|(el, _)| integrator_renders_media(el));
+    if !renders_media && !r.media.is_empty() {
+        ids.warn(
+            integrators[0].0,
+            "the scene's media are vacuum under this integrator (as in Mitsuba): volpath renders them",
+        );
+        camera_medium = None;
+        for o in objects.iter_mut() {
+            (o.interior, o.exterior) = (None, None);
+        }
+        r.media.clear();
+    }
     if let Some((el, msg)) = max_depth_note {
         ids.warn(el, msg);
     }
@@ -281,11 +310,23 @@ pub fn scene(root: &Element, file: &Path) -> Result<SceneDesc> {
         shapegroups,
         instances,
         environment_map,
+        media: r.media,
+        camera_medium,
         warnings,
         unknown,
         included: Vec::new(),
         convert_notes,
     })
+}
+
+/// Whether the integrator element (or the one an `aov` wraps) renders media: `volpath`
+/// and `volpathmis`; Mitsuba's others see vacuum.
+fn integrator_renders_media(el: &Element) -> bool {
+    match el.attr("type") {
+        Some("volpath" | "volpathmis") => true,
+        Some("aov") => el.children.iter().any(|c| c.tag == "integrator" && integrator_renders_media(c)),
+        _ => false,
+    }
 }
 
 fn source(el: &Element) -> Source {
@@ -312,6 +353,8 @@ struct Reader<'a> {
     /// The same for textures read as floats where they differ ([`Reader::float_texture_ref`]).
     float_texture_of: HashMap<*const Element, String>,
     depth: usize,
+    media: Vec<crate::desc::MediumDesc>,
+    medium_of: HashMap<*const Element, String>,
 }
 
 impl<'a> Reader<'a> {

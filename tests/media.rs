@@ -169,11 +169,10 @@ fn thin_slab_single_scattering_matches_the_closed_form() {
     }
 }
 
-#[test]
-fn nested_boundaries_switch_media_as_mitsuba_does() {
-    // an absorbing sphere (interior A, exterior B) inside an absorbing box (interior B),
-    // both null: the sky through 2 units of B and 2 of A
-    let xml = format!(
+/// An absorbing sphere (interior A, exterior B) inside an absorbing box (interior B),
+/// both null, under a uniform sky: seen through 2 units of B and 2 of A.
+fn nested_xml() -> String {
+    format!(
         r#"<scene version="3.0.0">
           <integrator type="volpath"/>
           {}
@@ -185,8 +184,12 @@ fn nested_boundaries_switch_media_as_mitsuba_does() {
             <ref name="exterior" id="b"/></shape>
         </scene>"#,
         camera("0, 0, 10", "0, 0, 0", "0, 1, 0", 0.5, "")
-    );
-    let (mean, err) = render_xml(&xml, 1024);
+    )
+}
+
+#[test]
+fn nested_boundaries_switch_media_as_mitsuba_does() {
+    let (mean, err) = render_xml(&nested_xml(), 1024);
     let exact = (-(0.25f32 * 2.0 + 0.5 * 2.0)).exp();
     eprintln!("nested: {mean} ± {err} vs {exact}");
     for c in 0..3 {
@@ -194,6 +197,57 @@ fn nested_boundaries_switch_media_as_mitsuba_does() {
             (mean[c] - exact).abs() < 4.0 * err[c] + 0.01 * exact,
             "channel {c}: {mean} vs {exact}"
         );
+    }
+}
+
+/// Each medium's σt, albedo and phase function.
+type MediumParams = Vec<(Vec3, Vec3, PhaseFunction)>;
+
+/// What a built scene says about media: each medium's parameters, the camera's medium,
+/// and each object's interface and null flag.
+fn media_of(desc: &SceneDesc) -> (MediumParams, Option<u32>, Vec<String>) {
+    let scene = Loaded::build(desc, Profile::Physical).unwrap_or_else(|e| panic!("{e}")).scene;
+    let media = scene
+        .media
+        .iter()
+        .map(|m| match m {
+            Medium::Homogeneous(h) => (h.sigma_t(), h.albedo(), h.phase),
+        })
+        .collect();
+    let objects = scene.objects.iter().map(|o| format!("{:?} {}", o.media, o.null_bsdf)).collect();
+    (media, scene.camera_medium, objects)
+}
+
+#[test]
+fn convert_carries_media_both_ways() {
+    let dir = temp_dir("rdr-media-convert");
+    let write = |name: &str, text: &str, files: &[(PathBuf, Vec<u8>)]| {
+        for (p, bytes) in files {
+            std::fs::create_dir_all(p.parent().unwrap()).unwrap();
+            std::fs::write(p, bytes).unwrap();
+        }
+        let p = dir.path().join(name);
+        std::fs::write(&p, text).unwrap();
+        SceneDesc::load(&p, &[]).unwrap_or_else(|e| panic!("{e}"))
+    };
+    for (i, xml) in [nested_xml(), furnace_xml()].iter().enumerate() {
+        let original = write(&format!("s{i}.xml"), xml, &[]);
+        let out = rdr::desc::convert::to_json(&original, &dir.path().join(format!("s{i}.json"))).unwrap();
+        let json = write(&format!("s{i}.json"), &out.text, &out.files);
+        let out = rdr::desc::convert::to_xml(&json, &dir.path().join(format!("s{i}_back.xml"))).unwrap();
+        let back = write(&format!("s{i}_back.xml"), &out.text, &out.files);
+        let (a, b, c) = (media_of(&original), media_of(&json), media_of(&back));
+        assert!(!a.0.is_empty());
+        for other in [&b, &c] {
+            assert_eq!((&a.1, &a.2), (&other.1, &other.2), "scene {i}: camera medium or boundaries changed");
+            for (x, y) in a.0.iter().zip(&other.0) {
+                assert!(
+                    (x.0 - y.0).abs().max_element() < 1e-6 && (x.1 - y.1).abs().max_element() < 1e-6 && x.2 == y.2,
+                    "{x:?} vs {y:?}"
+                );
+            }
+            assert_eq!(a.0.len(), other.0.len());
+        }
     }
 }
 
@@ -303,4 +357,19 @@ fn fog_cbox_converges_to_mitsubas_volpath() {
 fn milk_sphere_converges_to_mitsubas_volpathmis() {
     let Some(shared) = shared() else { return };
     assert_converges(&shared, "milk_sphere", 2, 64);
+}
+
+#[test]
+fn mitsubas_path_renders_media_as_vacuum_with_a_warning() {
+    // Mitsuba's `path` ignores media: the null boundaries pass, the sky arrives unattenuated
+    let xml = nested_xml().replace(r#"<integrator type="volpath"/>"#, r#"<integrator type="path"/>"#);
+    let dir = temp_dir("rdr-media-path");
+    let path = dir.path().join("scene.xml");
+    std::fs::write(&path, &xml).unwrap();
+    let s = load_scene(&path, &[], Profile::Physical);
+    let warned: Vec<&String> = s.scene.warnings.iter().filter(|w| w.contains("volpath renders them")).collect();
+    assert_eq!(warned.len(), 1, "{:?}", s.scene.warnings);
+    let (mean, err) = render_xml(&xml, 16);
+    eprintln!("path: {mean} ± {err}");
+    assert!((mean - Vec3::ONE).abs().max_element() < 1e-4, "{mean}");
 }

@@ -95,7 +95,7 @@ pub fn scene(root: &Element, file: &Path) -> Result<SceneDesc> {
         );
     }
     let (camera, film, spp) = r.sensor(sensor)?;
-    let camera_medium = match Plugin::new(sensor, &ids)?.objects("medium").as_slice() {
+    let mut camera_medium = match Plugin::new(sensor, &ids)?.objects("medium").as_slice() {
         [] => None,
         [(m, at)] => Some(Located {
             value: r.medium(m)?,
@@ -270,17 +270,16 @@ pub fn scene(root: &Element, file: &Path) -> Result<SceneDesc> {
         }
     }
     top.finish(&["integrator", "sensor", "bsdf", "texture", "shape", "emitter", "medium"])?;
-    let mut objects = objects;
-    let mut camera_medium = camera_medium;
-    // Mitsuba's `path` ignores media: null boundaries pass, media are vacuum
-    let renders_media = integrators.first().is_none_or(|(el, _)| integrator_renders_media(el));
+    // Mitsuba's `path` (its default too) ignores media: null boundaries pass, media are vacuum
+    let renders_media = integrators.first().is_some_and(|(el, _)| integrator_renders_media(el));
     if !renders_media && !r.media.is_empty() {
+        let at = integrators.first().map_or(root, |(el, _)| *el);
         ids.warn(
-            integrators[0].0,
+            at,
             "the scene's media are vacuum under this integrator (as in Mitsuba): volpath renders them",
         );
         camera_medium = None;
-        for o in objects.iter_mut() {
+        for o in objects.iter_mut().chain(shapegroups.iter_mut().flat_map(|g| g.objects.iter_mut())) {
             (o.interior, o.exterior) = (None, None);
         }
         r.media.clear();

@@ -1,5 +1,5 @@
 //! Mitsuba plugins → the scene description, one file per family (`integrators`,
-//! `sensors`, `shapes`, `bsdfs`, `principled`, `textures`, `emitters`); the scene's
+//! `sensors`, `shapes`, `bsdfs`, `principled`, `textures`, `emitters`, `volume`); the scene's
 //! root element and the reader they share are here. What is read of each plugin,
 //! with Mitsuba's defaults, is the plugin table in the manual:
 //! `docs/src/mitsuba/plugins.md`.
@@ -31,6 +31,8 @@ mod principled;
 mod sensors;
 mod shapes;
 mod textures;
+mod volume;
+pub use volume::volume_property;
 
 pub(super) const SHAPES: &str = "obj, ply, serialized, rectangle, cube, disk, sphere, cylinder, shapegroup, instance";
 pub(super) const BSDFS: &str =
@@ -38,6 +40,7 @@ pub(super) const BSDFS: &str =
 pub(super) const EMITTERS: &str = "point, spot, directional, projector, constant, envmap (and area inside a <shape>)";
 pub(super) const TEXTURES: &str = "bitmap, checkerboard, mesh_attribute";
 pub(super) const INTEGRATORS: &str = "path, volpath (without media), direct, ptracer, bdpt, photonmapper, sppm";
+pub(super) const VOLUMES: &str = "constvolume, gridvolume";
 pub(super) const FILTERS: &str = "box, tent, gaussian, mitchell";
 
 /// Nesting of materials and textures before a reference is taken to be circular.
@@ -49,21 +52,7 @@ pub fn scene(root: &Element, file: &Path) -> Result<SceneDesc> {
         return Err(root.error(format!("the root element must be <scene>, found <{}>", root.tag)));
     }
     let ids = Ids::collect(root)?;
-    let base_dir = file
-        .parent()
-        .filter(|p| !p.as_os_str().is_empty())
-        .unwrap_or(Path::new("."))
-        .to_path_buf();
-    let mut r = Reader {
-        ids: &ids,
-        base_dir,
-        textures: Vec::new(),
-        materials: Vec::new(),
-        material_of: HashMap::new(),
-        texture_of: HashMap::new(),
-        float_texture_of: HashMap::new(),
-        depth: 0,
-    };
+    let mut r = Reader::new(&ids, file);
     let top = Plugin::new(root, &ids)?;
     let integrators = top.objects("integrator");
     if let Some((_, second)) = integrators.get(1) {
@@ -97,6 +86,9 @@ pub fn scene(root: &Element, file: &Path) -> Result<SceneDesc> {
     }
     for (el, _) in top.objects("texture") {
         r.texture(el)?;
+    }
+    for (el, _) in top.objects("volume") {
+        r.volume(el)?;
     }
     let mut objects = Vec::new();
     let mut shapegroups: Vec<ShapeGroupDesc> = Vec::new();
@@ -255,7 +247,7 @@ pub fn scene(root: &Element, file: &Path) -> Result<SceneDesc> {
             other => return Err(at.error(format!("unsupported emitter \"{other}\" (supported: {EMITTERS})"))),
         }
     }
-    top.finish(&["integrator", "sensor", "bsdf", "texture", "shape", "emitter"])?;
+    top.finish(&["integrator", "sensor", "bsdf", "texture", "shape", "emitter", "volume"])?;
     if let Some((el, msg)) = max_depth_note {
         ids.warn(el, msg);
     }
@@ -315,6 +307,24 @@ struct Reader<'a> {
 }
 
 impl<'a> Reader<'a> {
+    fn new(ids: &'a Ids<'a>, file: &Path) -> Reader<'a> {
+        let base_dir = file
+            .parent()
+            .filter(|p| !p.as_os_str().is_empty())
+            .unwrap_or(Path::new("."))
+            .to_path_buf();
+        Reader {
+            ids,
+            base_dir,
+            textures: Vec::new(),
+            materials: Vec::new(),
+            material_of: HashMap::new(),
+            texture_of: HashMap::new(),
+            float_texture_of: HashMap::new(),
+            depth: 0,
+        }
+    }
+
     /// A file named in `el`, found as [`Element::resolve`] does, relative to the
     /// scene's folder when it is there and absolute otherwise.
     fn file(&self, el: &Element, p: &Plugin, name: &str) -> Result<Located<String>> {

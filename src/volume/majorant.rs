@@ -142,7 +142,8 @@ impl MajorantGrid {
             t0 = t0.max(ta);
             t1 = t1.min(tb);
         }
-        if !(t0 < t1) {
+        // NaN bounds give an empty walk too
+        if t0.partial_cmp(&t1) != Some(std::cmp::Ordering::Less) {
             return it;
         }
         let p = o + d * t0;
@@ -181,7 +182,7 @@ impl Iterator for MajorantIter<'_> {
     type Item = MajorantSegment;
 
     fn next(&mut self) -> Option<MajorantSegment> {
-        if !(self.t < self.t_end) {
+        if self.t.partial_cmp(&self.t_end) != Some(std::cmp::Ordering::Less) {
             return None;
         }
         let a = if self.next_t[0] < self.next_t[1] {

@@ -24,6 +24,7 @@ pub mod sampler;
 pub mod sampling;
 pub mod scene;
 pub mod texture;
+pub mod volume;
 
 pub use compat::Profile;
 pub use error::SceneError;

@@ -561,7 +561,7 @@ const LAYERS: &[(&[&str], &[&str])] = &[
             "desc",
         ],
     ),
-    (&["camera", "film", "texture"], &["scene", "desc", "integrator", "render"]),
+    (&["camera", "film", "texture", "volume"], &["scene", "desc", "integrator", "render"]),
     // the world knows neither its description nor who renders it
     (&["scene", "light", "material"], &["desc", "integrator", "render", "compat"]),
     // media are physics: the world places them, integrators track them

@@ -22,6 +22,7 @@ mod parse;
 pub mod principled;
 pub mod source;
 mod types;
+pub mod volume;
 pub mod xml;
 
 pub use build::{build, BuildOptions};
@@ -35,3 +36,4 @@ pub use types::{
     MeshFormat, MeshNormals, MeshOptions, ObjectDesc, PointLightDesc, SceneDesc, ShapeGroupDesc, TextureDesc, TextureRef, DISK_SEGMENTS,
     MAX_DEPTH, MAX_FILTER_RADIUS, MAX_LIGHT_SAMPLES,
 };
+pub use volume::{build_volume, GridFile, VolumeDesc};

@@ -1,5 +1,5 @@
-//! Participating media: a closed family (Mitsuba's `homogeneous`; the grid-based
-//! `heterogeneous` joins it with the volume module), their phase functions
+//! Participating media: a closed family (Mitsuba's `homogeneous` and `heterogeneous`,
+//! the latter over grid volumes, [`crate::volume`]), their phase functions
 //! ([`phase`]) and the tracking that samples distances and estimates
 //! transmittance through them ([`tracking`]).
 //!
@@ -8,10 +8,12 @@
 //! without media change nothing, and the camera's medium is the one the sensor names.
 //! Coefficients are per unit length in scene units, one value per RGB channel.
 
+pub mod heterogeneous;
 pub mod homogeneous;
 pub mod phase;
 pub mod tracking;
 
+pub use heterogeneous::Heterogeneous;
 pub use homogeneous::Homogeneous;
 pub use phase::PhaseFunction;
 pub use tracking::{delta_tracking, ratio_tracking, HeroWeights, MajorantSegment, Tracked};
@@ -20,10 +22,12 @@ use crate::geometry::Ray;
 use crate::math::Vec3;
 
 /// A participating medium.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug)]
 pub enum Medium {
     /// Constant coefficients everywhere (inside the shapes that bound it).
     Homogeneous(Homogeneous),
+    /// Coefficients from volumes, inside the extinction volume's box only.
+    Heterogeneous(Heterogeneous),
 }
 
 /// The coefficients at a point of a medium.
@@ -39,26 +43,29 @@ impl Medium {
     pub fn phase(&self) -> PhaseFunction {
         match self {
             Medium::Homogeneous(h) => h.phase,
+            Medium::Heterogeneous(h) => h.phase,
         }
     }
 
     /// The coefficients at `p`.
     #[inline]
-    pub fn at(&self, _p: Vec3) -> MediumPoint {
+    pub fn at(&self, p: Vec3) -> MediumPoint {
         match self {
             Medium::Homogeneous(h) => MediumPoint {
                 sigma_a: h.sigma_a,
                 sigma_s: h.sigma_s,
             },
+            Medium::Heterogeneous(h) => h.at(p),
         }
     }
 
     /// The majorant segments of `ray` over `[ray.t_min, t_end]`, in order, passed
     /// to `each` until it returns false. A homogeneous medium is one segment whose
-    /// majorant is its extinction.
+    /// majorant is its extinction; a heterogeneous one the cells of its majorant grid.
     #[inline]
     pub fn segments(&self, ray: &Ray, t_end: f32, mut each: impl FnMut(MajorantSegment) -> bool) {
         match self {
+            Medium::Heterogeneous(h) => h.segments(ray, t_end, each),
             Medium::Homogeneous(h) => {
                 if t_end > ray.t_min {
                     each(MajorantSegment {

@@ -20,6 +20,7 @@ use std::path::Path;
 // ---------------------------------------------------------------------------
 
 pub fn to_json(desc: &SceneDesc, out: &Path) -> Result<Converted> {
+    super::media::refuse_grid_media(desc)?;
     refuse_textured_emitters(desc)?;
     let mut warnings = Vec::new();
     let mut files = Vec::new();

@@ -246,6 +246,7 @@ fn matrix(m: &Mat4) -> String {
 
 /// The description as Mitsuba 3 XML, for the file `out`.
 pub fn to_xml(desc: &SceneDesc, out: &Path) -> Result<Converted> {
+    super::media::refuse_grid_media(desc)?;
     refuse_textured_emitters(desc)?;
     let mut w = Vec::new();
     let mut s = String::new();

@@ -1,14 +1,16 @@
 //! `<medium>` and `<phase>`: Mitsuba's participating media (read as in Mitsuba 3:
-//! `homogeneous` with `sigma_t`, `albedo` and `scale`, its defaults 1, 0.75 and 1;
-//! `isotropic` and `hg` phase functions, `g` 0.8 by default).
+//! `homogeneous` and `heterogeneous` with `sigma_t`, `albedo` and `scale`, their defaults
+//! 1, 0.75 and 1, the heterogeneous one's from volumes; `isotropic` and `hg` phase
+//! functions, `g` 0.8 by default). Grid volumes are loaded as they are read.
 
 use super::{source, Reader};
 use crate::desc::xml::document::Element;
 use crate::desc::xml::props::Plugin;
-use crate::desc::MediumDesc;
+use crate::desc::{build_volume, Located, MediumDesc};
 use crate::error::Result;
 use crate::math::Vec3;
-use crate::medium::{Homogeneous, Medium, PhaseFunction};
+use crate::medium::{Heterogeneous, Homogeneous, Medium, PhaseFunction};
+use crate::volume::Volume;
 
 impl<'a> Reader<'a> {
     /// Reads a `<medium>` once, however often it is referenced; returns its name.
@@ -19,8 +21,8 @@ impl<'a> Reader<'a> {
         let p = Plugin::new(el, self.ids)?;
         let medium = match p.ty.as_str() {
             "homogeneous" => {
-                let sigma_t = medium_colour(&p, "sigma_t", Vec3::ONE)?;
-                let albedo = medium_colour(&p, "albedo", Vec3::splat(0.75))?;
+                let sigma_t = self.constant_property(&p, "sigma_t", Vec3::ONE)?;
+                let albedo = self.constant_property(&p, "albedo", Vec3::splat(0.75))?;
                 let scale = p.float("scale", 1.0)?;
                 let phase = phase(&p)?;
                 if !p.boolean("sample_emitters", true)? {
@@ -31,8 +33,23 @@ impl<'a> Reader<'a> {
                 p.boolean("has_spectral_extinction", true)?;
                 Medium::Homogeneous(Homogeneous::new(sigma_t, albedo, scale, phase).map_err(|(k, e)| p.value_error(k, e))?)
             }
-            "heterogeneous" => return Err(p.error("heterogeneous media (grid volumes) are not supported yet")),
-            other => return Err(p.error(format!("unsupported medium \"{other}\" (supported: homogeneous)"))),
+            "heterogeneous" => {
+                let sigma_t = self.volume_property(&p, "sigma_t", Vec3::ONE)?;
+                let albedo = self.volume_property(&p, "albedo", Vec3::splat(0.75))?;
+                let (sigma_t, albedo) = (
+                    build_volume(&sigma_t, &self.file, &self.base_dir)?,
+                    build_volume(&albedo, &self.file, &self.base_dir)?,
+                );
+                let scale = p.float("scale", 1.0)?;
+                let phase = phase(&p)?;
+                if !p.boolean("sample_emitters", true)? {
+                    self.ids
+                        .warn(el, "sample_emitters false noted: rdr samples emitters from every medium vertex");
+                }
+                p.boolean("has_spectral_extinction", true)?;
+                Medium::Heterogeneous(Heterogeneous::new(sigma_t, albedo, scale, phase).map_err(|(k, e)| p.value_error(k, e))?)
+            }
+            other => return Err(p.error(format!("unsupported medium \"{other}\" (supported: homogeneous, heterogeneous)"))),
         };
         p.finish(&["phase", "volume"])?;
         let wanted = el.attr("id").unwrap_or("medium");
@@ -48,28 +65,21 @@ impl<'a> Reader<'a> {
         self.medium_of.insert(el as *const Element, name.clone());
         Ok(name)
     }
-}
 
-/// A medium's colour `name`: a number, `<rgb>`/`<spectrum>`, or a nested or referenced
-/// `<volume type="constvolume">` holding one.
-fn medium_colour(p: &Plugin, name: &str, default: Vec3) -> Result<Vec3> {
-    for (vol, at) in p.objects("volume") {
-        if at.attr("name") != Some(name) {
-            continue;
+    /// A homogeneous medium's property `name`: a constant (a number, a colour or a
+    /// `constvolume`); a grid is refused.
+    fn constant_property(&mut self, p: &Plugin<'a>, name: &str, default: Vec3) -> Result<Vec3> {
+        match self.volume_property(p, name, default)? {
+            Located {
+                value: Volume::Constant(c),
+                ..
+            } => Ok(c.value),
+            Located { source, .. } => Err(source.error(
+                &self.file,
+                format!("property \"{name}\" of {}: a grid needs a heterogeneous medium", p.describe()),
+            )),
         }
-        let vp = Plugin::new(vol, p.ids)?;
-        if vp.ty != "constvolume" {
-            return Err(at.error(format!(
-                "property \"{name}\" of {}: <volume type=\"{}\"> is not supported yet (constvolume is)",
-                p.describe(),
-                vp.ty
-            )));
-        }
-        let v = vp.rgb("value", Vec3::ONE)?;
-        vp.finish(&[])?;
-        return Ok(v);
     }
-    p.rgb(name, default)
 }
 
 /// The medium's `<phase>` (isotropic when absent).

@@ -1,5 +1,5 @@
 //! Mitsuba plugins → the scene description, one file per family (`integrators`,
-//! `sensors`, `shapes`, `bsdfs`, `principled`, `textures`, `emitters`); the scene's
+//! `sensors`, `shapes`, `bsdfs`, `principled`, `textures`, `emitters`, `volume`); the scene's
 //! root element and the reader they share are here. What is read of each plugin,
 //! with Mitsuba's defaults, is the plugin table in the manual:
 //! `docs/src/mitsuba/plugins.md`.
@@ -32,6 +32,8 @@ mod principled;
 mod sensors;
 mod shapes;
 mod textures;
+mod volume;
+pub use volume::volume_property;
 
 pub(super) const SHAPES: &str = "obj, ply, serialized, rectangle, cube, disk, sphere, cylinder, shapegroup, instance";
 pub(super) const BSDFS: &str =
@@ -39,6 +41,7 @@ pub(super) const BSDFS: &str =
 pub(super) const EMITTERS: &str = "point, spot, directional, projector, constant, envmap (and area inside a <shape>)";
 pub(super) const TEXTURES: &str = "bitmap, checkerboard, mesh_attribute";
 pub(super) const INTEGRATORS: &str = "path, volpath, volpathmis, direct, ptracer, bdpt, photonmapper, sppm";
+pub(super) const VOLUMES: &str = "constvolume, gridvolume";
 pub(super) const FILTERS: &str = "box, tent, gaussian, mitchell";
 
 /// Nesting of materials and textures before a reference is taken to be circular.
@@ -50,23 +53,7 @@ pub fn scene(root: &Element, file: &Path) -> Result<SceneDesc> {
         return Err(root.error(format!("the root element must be <scene>, found <{}>", root.tag)));
     }
     let ids = Ids::collect(root)?;
-    let base_dir = file
-        .parent()
-        .filter(|p| !p.as_os_str().is_empty())
-        .unwrap_or(Path::new("."))
-        .to_path_buf();
-    let mut r = Reader {
-        ids: &ids,
-        base_dir,
-        textures: Vec::new(),
-        materials: Vec::new(),
-        material_of: HashMap::new(),
-        texture_of: HashMap::new(),
-        float_texture_of: HashMap::new(),
-        depth: 0,
-        media: Vec::new(),
-        medium_of: HashMap::new(),
-    };
+    let mut r = Reader::new(&ids, file);
     let top = Plugin::new(root, &ids)?;
     let integrators = top.objects("integrator");
     if let Some((_, second)) = integrators.get(1) {
@@ -111,6 +98,9 @@ pub fn scene(root: &Element, file: &Path) -> Result<SceneDesc> {
     }
     for (el, _) in top.objects("texture") {
         r.texture(el)?;
+    }
+    for (el, _) in top.objects("volume") {
+        r.volume(el)?;
     }
     let mut objects = Vec::new();
     let mut shapegroups: Vec<ShapeGroupDesc> = Vec::new();
@@ -269,7 +259,7 @@ pub fn scene(root: &Element, file: &Path) -> Result<SceneDesc> {
             other => return Err(at.error(format!("unsupported emitter \"{other}\" (supported: {EMITTERS})"))),
         }
     }
-    top.finish(&["integrator", "sensor", "bsdf", "texture", "shape", "emitter", "medium"])?;
+    top.finish(&["integrator", "sensor", "bsdf", "texture", "shape", "emitter", "medium", "volume"])?;
     // Mitsuba's `path` (its default too) ignores media: null boundaries pass, media are vacuum
     let renders_media = integrators.first().is_some_and(|(el, _)| integrator_renders_media(el));
     if !renders_media && !r.media.is_empty() {
@@ -354,9 +344,32 @@ struct Reader<'a> {
     depth: usize,
     media: Vec<crate::desc::MediumDesc>,
     medium_of: HashMap<*const Element, String>,
+    /// The scene file (grid volumes' errors name it).
+    file: PathBuf,
 }
 
 impl<'a> Reader<'a> {
+    fn new(ids: &'a Ids<'a>, file: &Path) -> Reader<'a> {
+        let base_dir = file
+            .parent()
+            .filter(|p| !p.as_os_str().is_empty())
+            .unwrap_or(Path::new("."))
+            .to_path_buf();
+        Reader {
+            ids,
+            base_dir,
+            textures: Vec::new(),
+            materials: Vec::new(),
+            material_of: HashMap::new(),
+            texture_of: HashMap::new(),
+            float_texture_of: HashMap::new(),
+            depth: 0,
+            media: Vec::new(),
+            medium_of: HashMap::new(),
+            file: file.to_path_buf(),
+        }
+    }
+
     /// A file named in `el`, found as [`Element::resolve`] does, relative to the
     /// scene's folder when it is there and absolute otherwise.
     fn file(&self, el: &Element, p: &Plugin, name: &str) -> Result<Located<String>> {

@@ -86,7 +86,9 @@ fn grid_medium_tracking_gives_the_transmittance_of_a_constant_volume() {
             to_world: rdr::math::Mat4::from_translation(Vec3::splat(-5.0)) * rdr::math::Mat4::from_scale(Vec3::splat(10.0)),
         })
     };
-    let m = Medium::Heterogeneous(Heterogeneous::new(box_of(sigma_t), box_of(Vec3::splat(0.7)), 1.0, PhaseFunction::Isotropic).unwrap());
+    let m = Medium::Heterogeneous(Box::new(
+        Heterogeneous::new(box_of(sigma_t), box_of(Vec3::splat(0.7)), 1.0, PhaseFunction::Isotropic).unwrap(),
+    ));
     let (d, n) = (0.8, 400_000);
     let delta = tracked_transmittance(&m, d, n);
     let mut rng = rdr::sampling::SplitMix64(5);

@@ -27,7 +27,7 @@ pub enum Medium {
     /// Constant coefficients everywhere (inside the shapes that bound it).
     Homogeneous(Homogeneous),
     /// Coefficients from volumes, inside the extinction volume's box only.
-    Heterogeneous(Heterogeneous),
+    Heterogeneous(Box<Heterogeneous>),
 }
 
 /// The coefficients at a point of a medium.

@@ -19,37 +19,31 @@ impl<'a> Reader<'a> {
             return Ok(n.clone());
         }
         let p = Plugin::new(el, self.ids)?;
-        let medium = match p.ty.as_str() {
-            "homogeneous" => {
-                let sigma_t = self.constant_property(&p, "sigma_t", Vec3::ONE)?;
-                let albedo = self.constant_property(&p, "albedo", Vec3::splat(0.75))?;
-                let scale = p.float("scale", 1.0)?;
-                let phase = phase(&p)?;
-                if !p.boolean("sample_emitters", true)? {
-                    self.ids
-                        .warn(el, "sample_emitters false noted: rdr samples emitters from every medium vertex");
-                }
-                // rdr tracks every channel alike: a grey extinction needs no switch
-                p.boolean("has_spectral_extinction", true)?;
-                Medium::Homogeneous(Homogeneous::new(sigma_t, albedo, scale, phase).map_err(|(k, e)| p.value_error(k, e))?)
-            }
-            "heterogeneous" => {
-                let sigma_t = self.volume_property(&p, "sigma_t", Vec3::ONE)?;
-                let albedo = self.volume_property(&p, "albedo", Vec3::splat(0.75))?;
-                let (sigma_t, albedo) = (
-                    build_volume(&sigma_t, &self.file, &self.base_dir)?,
-                    build_volume(&albedo, &self.file, &self.base_dir)?,
-                );
-                let scale = p.float("scale", 1.0)?;
-                let phase = phase(&p)?;
-                if !p.boolean("sample_emitters", true)? {
-                    self.ids
-                        .warn(el, "sample_emitters false noted: rdr samples emitters from every medium vertex");
-                }
-                p.boolean("has_spectral_extinction", true)?;
-                Medium::Heterogeneous(Heterogeneous::new(sigma_t, albedo, scale, phase).map_err(|(k, e)| p.value_error(k, e))?)
-            }
-            other => return Err(p.error(format!("unsupported medium \"{other}\" (supported: homogeneous, heterogeneous)"))),
+        if !matches!(p.ty.as_str(), "homogeneous" | "heterogeneous") {
+            return Err(p.error(format!("unsupported medium \"{}\" (supported: homogeneous, heterogeneous)", p.ty)));
+        }
+        let scale = p.float("scale", 1.0)?;
+        let phase = phase(&p)?;
+        if !p.boolean("sample_emitters", true)? {
+            self.ids
+                .warn(el, "sample_emitters false noted: rdr samples emitters from every medium vertex");
+        }
+        // rdr tracks every channel alike: a grey extinction needs no switch
+        p.boolean("has_spectral_extinction", true)?;
+        let medium = if p.ty == "homogeneous" {
+            let sigma_t = self.constant_property(&p, "sigma_t", Vec3::ONE)?;
+            let albedo = self.constant_property(&p, "albedo", Vec3::splat(0.75))?;
+            Medium::Homogeneous(Homogeneous::new(sigma_t, albedo, scale, phase).map_err(|(k, e)| p.value_error(k, e))?)
+        } else {
+            let sigma_t = self.volume_property(&p, "sigma_t", Vec3::ONE)?;
+            let albedo = self.volume_property(&p, "albedo", Vec3::splat(0.75))?;
+            let (sigma_t, albedo) = (
+                build_volume(&sigma_t, &self.file, &self.base_dir)?,
+                build_volume(&albedo, &self.file, &self.base_dir)?,
+            );
+            Medium::Heterogeneous(Box::new(
+                Heterogeneous::new(sigma_t, albedo, scale, phase).map_err(|(k, e)| p.value_error(k, e))?,
+            ))
         };
         p.finish(&["phase", "volume"])?;
         let wanted = el.attr("id").unwrap_or("medium");

@@ -14,6 +14,7 @@ pub mod light;
 pub mod limits;
 pub mod material;
 pub mod math;
+pub mod medium;
 pub mod metrics;
 mod pages;
 pub use pages::HugePageAllocator;
@@ -23,6 +24,7 @@ pub mod sampler;
 pub mod sampling;
 pub mod scene;
 pub mod texture;
+pub mod volume;
 
 pub use compat::Profile;
 pub use error::SceneError;

@@ -561,9 +561,11 @@ const LAYERS: &[(&[&str], &[&str])] = &[
             "desc",
         ],
     ),
-    (&["camera", "film", "texture"], &["scene", "desc", "integrator", "render"]),
+    (&["camera", "film", "texture", "volume"], &["scene", "desc", "integrator", "render"]),
     // the world knows neither its description nor who renders it
     (&["scene", "light", "material"], &["desc", "integrator", "render", "compat"]),
+    // media are physics: the world places them, integrators track them
+    (&["medium"], &["scene", "desc", "integrator", "render", "compat"]),
     // integrators read render-ready objects only; their parameters are parsed above them
     (&["integrator"], &["desc", "render"]),
 ];

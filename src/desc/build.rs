@@ -256,6 +256,13 @@ pub fn build(desc: &SceneDesc, opts: BuildOptions) -> Result<Scene> {
         };
     }
     let mut degenerate: Vec<&str> = Vec::new();
+    let medium_names: HashMap<&str, u32> = desc.media.iter().enumerate().map(|(i, m)| (m.name.as_str(), i as u32)).collect();
+    let medium = |m: &Option<super::Located<String>>| {
+        m.as_ref()
+            .map(|m| lookup(&medium_names, &m.value, "medium", desc, &m.source))
+            .transpose()
+    };
+    let camera_medium = medium(&desc.camera_medium)?;
     for (oi, (o, shape)) in all.iter().zip(shapes).enumerate() {
         let (shape, w) = shape?;
         warnings.extend(w);
@@ -332,7 +339,14 @@ pub fn build(desc: &SceneDesc, opts: BuildOptions) -> Result<Scene> {
                 ));
             }
         }
-        objects.push(Object { shape, material, light });
+        let (interior, exterior) = (medium(&o.interior)?, medium(&o.exterior)?);
+        objects.push(Object {
+            shape,
+            material,
+            light,
+            media: (interior.is_some() || exterior.is_some()).then_some(crate::medium::MediumInterface { interior, exterior }),
+            null_bsdf: o.null_bsdf,
+        });
     }
     if let Some(first) = degenerate.first() {
         warnings.push(format!(
@@ -412,6 +426,7 @@ pub fn build(desc: &SceneDesc, opts: BuildOptions) -> Result<Scene> {
         return Err(source.error(&desc.file, "a mask material on an emitting object is not supported"));
     }
     let has_masks = objects.iter().any(masked);
+    let objects_have_media = objects.iter().any(|o| o.media.is_some() || o.null_bsdf);
 
     let mut prims = Vec::new();
     for (oi, o) in objects.iter().enumerate().take(n_top) {
@@ -483,6 +498,9 @@ pub fn build(desc: &SceneDesc, opts: BuildOptions) -> Result<Scene> {
         bvh_seconds,
         texture_convention: opts.textures,
         has_masks,
+        has_media: camera_medium.is_some() || objects_have_media,
+        media: desc.media.iter().map(|m| m.medium.clone()).collect(),
+        camera_medium,
     })
 }
 

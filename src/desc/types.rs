@@ -11,7 +11,7 @@ use crate::texture::{Texture, UvMapping};
 use std::path::PathBuf;
 
 /// The whole scene. Top-level keys: `integrator`, `film`, `camera` (required),
-/// `textures`, `materials`, `objects`, `shapegroups`, `environment_map`.
+/// `textures`, `materials`, `objects`, `shapegroups`, `environment_map`, `media`.
 #[derive(Clone, Debug)]
 pub struct SceneDesc {
     pub file: PathBuf,
@@ -28,6 +28,11 @@ pub struct SceneDesc {
     /// The `instance` entries of `objects` ([`InstanceDesc`]).
     pub instances: Vec<InstanceDesc>,
     pub environment_map: Option<EnvMapDesc>,
+    /// Participating media by name ([`MediumDesc`]), which objects' `interior`/`exterior`
+    /// and the camera's `medium` name.
+    pub media: Vec<MediumDesc>,
+    /// The medium the camera sits in (vacuum when absent); never inferred from geometry.
+    pub camera_medium: Option<Located<String>>,
     pub warnings: Vec<String>,
     /// Keys (JSON) or properties (XML) the reader did not know, one message each with
     /// the closest known name; they are also in `warnings`. The command line refuses
@@ -284,6 +289,27 @@ pub struct ObjectDesc {
     pub shape: Shape<MeshFile>,
     pub material: Option<Located<String>>,
     pub light: Option<AreaLightDesc>,
+    /// The media inside and outside the shape (names in `media`; absent: vacuum).
+    pub interior: Option<Located<String>>,
+    pub exterior: Option<Located<String>>,
+    /// Mitsuba's `null` BSDF: the surface is only a boundary between media, which rays
+    /// cross unchanged (`material_name` "null" in JSON).
+    pub null_bsdf: bool,
+}
+
+/// `media.<name>`: a participating medium (see [`crate::medium`]). `homogeneous`:
+/// `sigma_t` (number or RGB, ≥ 0, 1), `albedo` (number or RGB in [0, 1], 0.75), `scale`
+/// (≥ 0, 1; multiplies `sigma_t`), `phase` (`{"type": "isotropic"}` or
+/// `{"type": "hg", "g": 0.8}`; isotropic when absent) — Mitsuba's names and defaults.
+///
+/// ```json
+/// "media": {"fog": {"type": "homogeneous", "sigma_t": 1.5, "albedo": 0.9, "phase": {"type": "hg", "g": 0.6}}}
+/// ```
+#[derive(Clone, Debug)]
+pub struct MediumDesc {
+    pub name: String,
+    pub source: Source,
+    pub medium: crate::medium::Medium,
 }
 
 /// A `mesh` object's file and placement: `path` (OBJ, relative to the scene file's

@@ -136,7 +136,9 @@ impl Integrator {
         match self {
             Integrator::IntersectionTest(i) if i.packets(scene) => camera_pass_blocks(ctx, pass, film, |b, out| i.li_block(scene, b, out)),
             Integrator::IntersectionTest(i) => camera_pass(ctx, pass, film, |s| i.li(scene, s.ray, s.diff, s.sampler, s.counts)),
-            Integrator::Path(p) if scene.packets() => camera_pass_blocks(ctx, pass, film, |b, out| p.li_block(scene, b, out)),
+            Integrator::Path(p) if scene.packets() && !scene.has_media => {
+                camera_pass_blocks(ctx, pass, film, |b, out| p.li_block(scene, b, out))
+            }
             Integrator::Path(p) => camera_pass(ctx, pass, film, |s| p.li(scene, s.ray, s.diff, s.sampler, s.counts)),
             Integrator::Bdpt(b) if b.visualize_strategies => bdpt::strategies::render_pass(b, ctx, pass, film, state.strategies()),
             Integrator::Bdpt(b) => camera_pass(ctx, pass, film, |s| b.li(scene, ctx.camera, s)),
@@ -197,14 +199,29 @@ pub fn shadow_ray(it: &Interaction, ls: &LightSample) -> Ray {
         ShadowTarget::Infinity => spawn_ray(it, ls.wi),
         ShadowTarget::Point { p, n } => {
             let side = if (p - it.p).dot(it.ng) >= 0.0 { it.ng } else { -it.ng };
-            let o = offset_ray_origin(it.p, side);
-            let target = match n {
-                Some(n) => offset_ray_origin(p, if (it.p - p).dot(n) >= 0.0 { n } else { -n }),
-                None => p,
-            };
-            let v = target - o;
-            let dist = v.length();
-            Ray::with_range(o, v / dist, 0.0, dist * (1.0 - 1e-5))
+            ray_to_light(offset_ray_origin(it.p, side), it.p, p, n)
         }
     }
+}
+
+/// A shadow ray from a point in a medium (no surface to leave) towards a light sample.
+#[inline]
+pub fn shadow_ray_from_point(x: Vec3, ls: &LightSample) -> Ray {
+    match ls.target {
+        ShadowTarget::Infinity => Ray::with_range(x, ls.wi, 0.0, RAY_T_MAX),
+        ShadowTarget::Point { p, n } => ray_to_light(x, x, p, n),
+    }
+}
+
+/// The ray from `o` (pushed off the point `from`) to the light point `p` (pushed off its
+/// surface, of normal `n`, towards `from`), stopping just short of it.
+#[inline(always)]
+fn ray_to_light(o: Vec3, from: Vec3, p: Vec3, n: Option<Vec3>) -> Ray {
+    let target = match n {
+        Some(n) => offset_ray_origin(p, if (from - p).dot(n) >= 0.0 { n } else { -n }),
+        None => p,
+    };
+    let v = target - o;
+    let dist = v.length();
+    Ray::with_range(o, v / dist, 0.0, dist * (1.0 - 1e-5))
 }

@@ -175,10 +175,29 @@ impl Loaded {
 
     /// [`Loaded::build`] with build switches of its own (tests and experiments).
     pub fn build_with(desc: &SceneDesc, profile: Profile, opts: BuildOptions) -> Result<Loaded> {
-        Ok(Loaded {
+        let loaded = Loaded {
             scene: build::build(desc, opts)?,
             job: RenderJob::from_desc(desc, profile)?,
-        })
+        };
+        if loaded.scene.has_media {
+            // media are tracked by the camera-path estimator, which `path` runs; `guided` runs
+            // it too but learns from light paths that do not see media, and its fog_cbox
+            // image was 1.3 % dark: refused until checked; the others would render null
+            // boundaries as black and media as vacuum
+            let refuse = match (profile, &loaded.job.integrator) {
+                (Profile::Rdr171, _) => Some("--compat rdr171"),
+                (_, Integrator::Path(_) | Integrator::Normals(_)) => None,
+                (_, i) => Some(i.name()),
+            };
+            if let Some(who) = refuse {
+                return Err(SceneError::new(
+                    &desc.file,
+                    None,
+                    format!("{who} does not render participating media or null boundaries (this scene has them); use path (volpath in Mitsuba XML)"),
+                ));
+            }
+        }
+        Ok(loaded)
     }
 }
 

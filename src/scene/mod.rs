@@ -5,6 +5,9 @@
 //! [`Material`], [`Texture`], [`Shape`], [`crate::film::Filter`],
 //! [`crate::camera::CameraParams`] and [`crate::texture::UvMapping`].
 
+mod media;
+pub use media::MAX_NULL_CROSSINGS;
+
 use crate::accel::instance::{Group, Instance, TwoLevel};
 use crate::accel::WideBvh;
 use crate::geometry::cylinder::CylinderShape;
@@ -17,6 +20,7 @@ use crate::geometry::Ray;
 use crate::light::Light;
 use crate::material::Material;
 use crate::math::{Vec2, Vec3};
+use crate::medium::{Medium, MediumInterface};
 use crate::texture::{TexCoord, Texture, TextureConvention};
 
 /// An object's geometry, chosen by `objects[i].type`. The mesh is `M`: a file to
@@ -45,6 +49,10 @@ pub struct Object {
     pub material: Option<u32>,
     /// Index into `Scene::lights` of the area light on this object.
     pub light: Option<u32>,
+    /// The media on its two sides, if it declares any (indices into `Scene::media`).
+    pub media: Option<MediumInterface>,
+    /// A `null` BSDF: rays cross the surface unchanged (a boundary between media).
+    pub null_bsdf: bool,
 }
 
 impl Interaction {
@@ -99,6 +107,13 @@ pub struct Scene {
     pub texture_convention: TextureConvention,
     /// Some object's material is a `mask`: hits are then tested for pass-through.
     pub has_masks: bool,
+    /// Participating media (objects' [`MediumInterface`]s index this).
+    pub media: Vec<Medium>,
+    /// The medium the camera is in (vacuum: `None`).
+    pub camera_medium: Option<u32>,
+    /// Some object is a medium boundary or has a `null` BSDF (or the camera is in a
+    /// medium): camera paths then track media ([`crate::integrator::estimator`]).
+    pub has_media: bool,
 }
 
 /// Masked surfaces one ray passes through at most (a stack of cut-outs deeper than

@@ -7,6 +7,7 @@
 //!
 //! [`to_json`] is in `write_json.rs`, [`to_xml`] in `write_xml.rs`; what both use is here.
 
+mod media;
 mod write_json;
 mod write_xml;
 

@@ -20,6 +20,7 @@ use std::path::Path;
 // ---------------------------------------------------------------------------
 
 pub fn to_json(desc: &SceneDesc, out: &Path) -> Result<Converted> {
+    super::media::refuse_grid_media(desc)?;
     refuse_textured_emitters(desc)?;
     let mut warnings = Vec::new();
     let mut files = Vec::new();
@@ -307,6 +308,14 @@ pub fn to_json(desc: &SceneDesc, out: &Path) -> Result<Converted> {
             };
             v["light"] = json!({"type": "area", "radiance": radiance});
         }
+        for (key, m) in [("interior", &o.interior), ("exterior", &o.exterior)] {
+            if let Some(m) = m {
+                v[key] = m.value.clone().into();
+            }
+        }
+        if o.null_bsdf {
+            v["null_bsdf"] = true.into();
+        }
         match group {
             None => objects.push(v),
             Some(g) => groups[g].push(v),
@@ -338,6 +347,12 @@ pub fn to_json(desc: &SceneDesc, out: &Path) -> Result<Converted> {
             .map(|(d, objects)| (d.name.clone(), json!({ "objects": objects })))
             .collect();
         root["shapegroups"] = Value::Object(g);
+    }
+    if !desc.media.is_empty() {
+        root["media"] = super::media::media_json(&desc.media);
+    }
+    if let Some(m) = &desc.camera_medium {
+        root["camera"]["medium"] = m.value.clone().into();
     }
     if let Some(e) = &desc.environment_map {
         let mut env = json!({"texture_name": e.texture.value.clone(), "scale": num(e.scale)});

@@ -246,6 +246,7 @@ fn matrix(m: &Mat4) -> String {
 
 /// The description as Mitsuba 3 XML, for the file `out`.
 pub fn to_xml(desc: &SceneDesc, out: &Path) -> Result<Converted> {
+    super::media::refuse_grid_media(desc)?;
     refuse_textured_emitters(desc)?;
     let mut w = Vec::new();
     let mut s = String::new();
@@ -273,7 +274,8 @@ pub fn to_xml(desc: &SceneDesc, out: &Path) -> Result<Converted> {
             } else {
                 ""
             };
-            let ty = if has_masks { "volpath" } else { "path" };
+            // Mitsuba's `path` ignores media and masks' null BSDFs: `volpath` renders what rdr's `path` does
+            let ty = if has_masks || !desc.media.is_empty() { "volpath" } else { "path" };
             format!("  <integrator type=\"{ty}\">\n{}{hide}  </integrator>\n", depth(p.max_depth))
         }
         Integrator::IntersectionTest(t) => {
@@ -398,14 +400,18 @@ pub fn to_xml(desc: &SceneDesc, out: &Path) -> Result<Converted> {
          <film type=\"hdrfilm\">\n      <integer name=\"width\" value=\"{}\"/>\n      \
          <integer name=\"height\" value=\"{}\"/>\n      <string name=\"pixel_format\" value=\"rgb\"/>\n      \
          {filter}\n    </film>\n    <sampler type=\"independent\">\n      \
-         <integer name=\"sample_count\" value=\"{}\"/>\n    </sampler>\n  </sensor>\n",
+         <integer name=\"sample_count\" value=\"{}\"/>\n    </sampler>\n{}  </sensor>\n",
         v3(c.position),
         v3(c.look_at),
         v3(c.ref_up),
         f.width,
         f.height,
-        desc.integrator.spp
+        desc.integrator.spp,
+        desc.camera_medium
+            .as_ref()
+            .map_or(String::new(), |m| format!("    <ref id=\"{}\"/>\n", esc(&m.value)))
     );
+    s += &super::media::media_xml(&desc.media, esc);
     // ids are shared by textures and materials in XML
     let mut ids: Vec<String> = Vec::new();
     let mut id_for = |name: &str, prefix: &str| -> String {
@@ -644,6 +650,14 @@ pub fn to_xml(desc: &SceneDesc, out: &Path) -> Result<Converted> {
                     let _ = writeln!(inner, "    <ref id=\"{}\"/>", esc(id));
                 }
                 None => return Err(mat.source.error(&desc.file, format!("no material named '{}'", mat.value))),
+            }
+        }
+        if o.null_bsdf {
+            inner += "    <bsdf type=\"null\"/>\n";
+        }
+        for (key, m) in [("interior", &o.interior), ("exterior", &o.exterior)] {
+            if let Some(m) = m {
+                let _ = writeln!(inner, "    <ref name=\"{key}\" id=\"{}\"/>", esc(&m.value));
             }
         }
         if let Some(l) = &o.light {

@@ -423,6 +423,8 @@ pub(super) fn parse_film(p: &Props) -> Result<FilmDesc> {
 pub(super) fn parse_camera(p: &Props) -> Result<CameraParams> {
     use crate::camera::Projection;
     let ty = p.string_or("type", "perspective")?;
+    // the camera's medium, a name resolved with the scene's media
+    p.ignore("medium");
     let positive = |key: &str| -> Result<f32> {
         if !p.contains(key) {
             return Err(p.error(key, format!("is required for a '{ty}' camera")));

@@ -4,6 +4,7 @@
 
 mod job;
 mod materials;
+mod media;
 
 use self::job::{parse_camera, parse_film, parse_integrator};
 use self::materials::{parse_materials, parse_texture};
@@ -94,6 +95,11 @@ impl SceneDesc {
         let integrator = parse_integrator(&root.object_or_empty("integrator")?)?;
         let film = parse_film(&root.object("film")?)?;
         let camera = parse_camera(&root.object("camera")?)?;
+        let camera_medium = {
+            let c = root.object("camera")?;
+            c.string_opt("medium")?.map(|m| c.located("medium", m))
+        };
+        let media = media::parse_media(&root)?;
         let textures = root
             .named_objects("textures")?
             .iter()
@@ -130,6 +136,8 @@ impl SceneDesc {
             shapegroups,
             instances,
             environment_map,
+            media,
+            camera_medium,
             warnings,
             unknown,
             included: Vec::new(),
@@ -368,7 +376,15 @@ fn parse_object(p: &Props) -> Result<ObjectDesc> {
             })
         }
     };
-    if material.is_none() && light.is_none() {
+    let (interior, exterior) = (
+        p.string_opt("interior")?.map(|m| p.located("interior", m)),
+        p.string_opt("exterior")?.map(|m| p.located("exterior", m)),
+    );
+    let null_bsdf = p.bool_or("null_bsdf", false)?;
+    if null_bsdf && material.is_some() {
+        return Err(p.error("null_bsdf", "an object with a null BSDF takes no 'material_name'"));
+    }
+    if material.is_none() && light.is_none() && !null_bsdf {
         return Err(p.ctx().error(&p.path, "an object needs a 'material_name', a 'light', or both"));
     }
     p.finish();
@@ -377,6 +393,9 @@ fn parse_object(p: &Props) -> Result<ObjectDesc> {
         shape,
         material,
         light,
+        interior,
+        exterior,
+        null_bsdf,
     })
 }
 

@@ -510,6 +510,19 @@ impl<'a> Plugin<'a> {
         Ok(Colour::Constant(self.rgb_opt(name)?.unwrap_or(default)))
     }
 
+    /// The child object given for property `name` (nested or referenced), with where
+    /// it was named; marks the property read.
+    pub fn object_named(&self, name: &str) -> Option<(&'a Element, &'a Element)> {
+        let (_, el, at) = self.objects.iter().find(|(n, _, _)| n.as_deref() == Some(name))?;
+        self.used.borrow_mut().insert(name.to_string());
+        Some((*el, *at))
+    }
+
+    /// Where value property `name` was given.
+    pub fn value_source(&self, name: &str) -> Option<crate::desc::Source> {
+        self.value_index.get(name).map(|i| self.values[*i].2.source.clone())
+    }
+
     /// Where a value property is (the plugin itself when absent).
     pub fn value_error(&self, name: &str, msg: impl Into<String>) -> SceneError {
         let el = self.value_index.get(name).map_or(self.el, |i| self.values[*i].2);

@@ -214,9 +214,9 @@ impl<'a> Reader<'a> {
             Ok(d as u32)
         };
         let integrator = match p.ty.as_str() {
-            // rdr has no participating media: `volpath` of a scene without them is `path`
-            // (whose shadow rays pass through masks as volpath's do)
-            "path" | "volpath" => {
+            // one estimator: `volpath` and `volpathmis` are `path`, which tracks media (a
+            // Mitsuba `path` scene's media are removed when it is read, as Mitsuba ignores them)
+            "path" | "volpath" | "volpathmis" => {
                 let max_depth = depth(-1)?;
                 p.integer_in("rr_depth", 5, 1, i32::MAX as i64)?;
                 Integrator::Path(PathTracer {

@@ -1,5 +1,5 @@
 //! Mitsuba plugins → the scene description, one file per family (`integrators`,
-//! `sensors`, `shapes`, `bsdfs`, `principled`, `textures`, `emitters`); the scene's
+//! `sensors`, `shapes`, `bsdfs`, `principled`, `textures`, `emitters`, `volume`); the scene's
 //! root element and the reader they share are here. What is read of each plugin,
 //! with Mitsuba's defaults, is the plugin table in the manual:
 //! `docs/src/mitsuba/plugins.md`.
@@ -27,11 +27,14 @@ use std::path::{Path, PathBuf};
 mod bsdfs;
 mod emitters;
 mod integrators;
+mod media;
 mod principled;
 mod sensors;
 mod shapes;
 pub mod table;
 mod textures;
+mod volume;
+pub use volume::volume_property;
 
 /// The plugin table's families, in the manual page's order ([`table`]).
 pub const FAMILIES: &table::Families = &[
@@ -74,7 +77,8 @@ pub(super) const BSDFS: &str =
     "diffuse, dielectric, thindielectric, roughdielectric, conductor, roughconductor, plastic, roughplastic, twosided, bumpmap, normalmap, mask, principled, principledthin, blendbsdf, mixturebsdf";
 pub(super) const EMITTERS: &str = "point, spot, directional, projector, constant, envmap (and area inside a <shape>)";
 pub(super) const TEXTURES: &str = "bitmap, checkerboard, mesh_attribute, rawconstant";
-pub(super) const INTEGRATORS: &str = "path, volpath (without media), direct, ptracer, bdpt, photonmapper, sppm";
+pub(super) const INTEGRATORS: &str = "path, volpath, volpathmis, direct, ptracer, bdpt, photonmapper, sppm";
+pub(super) const VOLUMES: &str = "constvolume, gridvolume";
 pub(super) const FILTERS: &str = "box, tent, gaussian, mitchell";
 
 /// Nesting of materials and textures before a reference is taken to be circular.
@@ -88,21 +92,7 @@ pub fn scene(root: &Element, file: &Path) -> Result<SceneDesc> {
     let mut ids = Ids::collect(root)?;
     ids.table = Some(FAMILIES);
     let ids = ids;
-    let base_dir = file
-        .parent()
-        .filter(|p| !p.as_os_str().is_empty())
-        .unwrap_or(Path::new("."))
-        .to_path_buf();
-    let mut r = Reader {
-        ids: &ids,
-        base_dir,
-        textures: Vec::new(),
-        materials: Vec::new(),
-        material_of: HashMap::new(),
-        texture_of: HashMap::new(),
-        float_texture_of: HashMap::new(),
-        depth: 0,
-    };
+    let mut r = Reader::new(&ids, file);
     let top = Plugin::new(root, &ids)?;
     let integrators = top.objects("integrator");
     if let Some((_, second)) = integrators.get(1) {
@@ -132,11 +122,25 @@ pub fn scene(root: &Element, file: &Path) -> Result<SceneDesc> {
         );
     }
     let (camera, film, spp) = r.sensor(sensor)?;
-    for (el, _) in top.objects("bsdf") {
+    let mut camera_medium = match Plugin::new(sensor, &ids)?.objects("medium").as_slice() {
+        [] => None,
+        [(m, at)] => Some(Located {
+            value: r.medium(m)?,
+            source: source(at),
+        }),
+        [_, (_, second), ..] => return Err(second.error("a sensor takes one <medium>")),
+    };
+    for (el, _) in top.objects("medium") {
+        r.medium(el)?;
+    }
+    for (el, _) in top.objects("bsdf").into_iter().filter(|(el, _)| el.attr("type") != Some("null")) {
         r.material(el)?;
     }
     for (el, _) in top.objects("texture") {
         r.texture(el)?;
+    }
+    for (el, _) in top.objects("volume") {
+        r.volume(el)?;
     }
     let mut objects = Vec::new();
     let mut shapegroups: Vec<ShapeGroupDesc> = Vec::new();
@@ -303,7 +307,21 @@ pub fn scene(root: &Element, file: &Path) -> Result<SceneDesc> {
             other => return Err(at.error(format!("unsupported emitter \"{other}\" (supported: {EMITTERS})"))),
         }
     }
-    top.finish(&["integrator", "sensor", "bsdf", "texture", "shape", "emitter"])?;
+    top.finish(&["integrator", "sensor", "bsdf", "texture", "shape", "emitter", "medium", "volume"])?;
+    // Mitsuba's `path` (its default too) ignores media: null boundaries pass, media are vacuum
+    let renders_media = integrators.first().is_some_and(|(el, _)| integrator_renders_media(el));
+    if !renders_media && !r.media.is_empty() {
+        let at = integrators.first().map_or(root, |(el, _)| *el);
+        ids.warn(
+            at,
+            "the scene's media are vacuum under this integrator (as in Mitsuba): volpath renders them",
+        );
+        camera_medium = None;
+        for o in objects.iter_mut().chain(shapegroups.iter_mut().flat_map(|g| g.objects.iter_mut())) {
+            (o.interior, o.exterior) = (None, None);
+        }
+        r.media.clear();
+    }
     if let Some(first) = ids.undeclared.borrow().first() {
         // a reader and its rows in the plugin table disagree: a bug in rdr, not in the scene
         return Err(root.error(format!("internal error, please report: {first}")));
@@ -333,11 +351,23 @@ pub fn scene(root: &Element, file: &Path) -> Result<SceneDesc> {
         shapegroups,
         instances,
         environment_map,
+        media: r.media,
+        camera_medium,
         warnings,
         unknown,
         included: Vec::new(),
         convert_notes,
     })
+}
+
+/// Whether the integrator element (or the one an `aov` wraps) renders media: `volpath`
+/// and `volpathmis`; Mitsuba's others see vacuum.
+fn integrator_renders_media(el: &Element) -> bool {
+    match el.attr("type") {
+        Some("volpath" | "volpathmis") => true,
+        Some("aov") => el.children.iter().any(|c| c.tag == "integrator" && integrator_renders_media(c)),
+        _ => false,
+    }
 }
 
 fn source(el: &Element) -> Source {
@@ -364,9 +394,34 @@ struct Reader<'a> {
     /// The same for textures read as floats where they differ ([`Reader::float_texture_ref`]).
     float_texture_of: HashMap<*const Element, String>,
     depth: usize,
+    media: Vec<crate::desc::MediumDesc>,
+    medium_of: HashMap<*const Element, String>,
+    /// The scene file (grid volumes' errors name it).
+    file: PathBuf,
 }
 
 impl<'a> Reader<'a> {
+    fn new(ids: &'a Ids<'a>, file: &Path) -> Reader<'a> {
+        let base_dir = file
+            .parent()
+            .filter(|p| !p.as_os_str().is_empty())
+            .unwrap_or(Path::new("."))
+            .to_path_buf();
+        Reader {
+            ids,
+            base_dir,
+            textures: Vec::new(),
+            materials: Vec::new(),
+            material_of: HashMap::new(),
+            texture_of: HashMap::new(),
+            float_texture_of: HashMap::new(),
+            depth: 0,
+            media: Vec::new(),
+            medium_of: HashMap::new(),
+            file: file.to_path_buf(),
+        }
+    }
+
     /// A file named in `el`, found as [`Element::resolve`] does, relative to the
     /// scene's folder when it is there and absolute otherwise.
     fn file(&self, el: &Element, p: &Plugin, name: &str) -> Result<Located<String>> {

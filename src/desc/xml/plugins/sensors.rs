@@ -295,7 +295,7 @@ impl<'a> Reader<'a> {
         if origin.abs().max_element() > crate::limits::MAX_COORD || !crate::camera::Camera::new(&camera, 1, 1).is_finite() {
             return Err(p.value_error("to_world", "the camera's view basis is not finite"));
         }
-        p.finish(&["film", "sampler"])?;
+        p.finish(&["film", "sampler", "medium"])?;
         Ok((camera, film, spp))
     }
 

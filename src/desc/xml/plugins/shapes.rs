@@ -262,7 +262,12 @@ impl<'a> Reader<'a> {
         if let Some((_, second)) = bsdfs.get(1) {
             return Err(second.error("a shape takes one <bsdf>"));
         }
+        let null_bsdf = bsdfs.first().is_some_and(|(b, _)| b.attr("type") == Some("null"));
         let mut material = match bsdfs.first() {
+            Some((b, _)) if null_bsdf => {
+                Plugin::new(b, self.ids)?.finish(&[])?;
+                None
+            }
             Some((b, at)) => Some(Located {
                 value: self.material(b)?,
                 source: source(at),
@@ -298,19 +303,43 @@ impl<'a> Reader<'a> {
                 })
             }
         };
-        if material.is_none() && light.is_none() {
+        let (mut interior, mut exterior) = (None, None);
+        for (m, at) in p.objects("medium") {
+            let slot = match at.attr("name") {
+                Some("interior") => &mut interior,
+                Some("exterior") => &mut exterior,
+                other => {
+                    return Err(at.error(format!(
+                        "a shape's <medium> must be named \"interior\" or \"exterior\", found {}",
+                        other.map_or("no name".to_string(), |n| format!("\"{n}\""))
+                    )))
+                }
+            };
+            if slot.is_some() {
+                return Err(at.error("a shape takes one interior and one exterior <medium>"));
+            }
+            *slot = Some(Located {
+                value: self.medium(m)?,
+                source: source(at),
+            });
+        }
+        // a shape with a medium but no <bsdf> gets the default diffuse, as in Mitsuba 3
+        if material.is_none() && light.is_none() && !null_bsdf {
             // Mitsuba gives a shape without a BSDF a diffuse of reflectance 0.5
             material = Some(Located {
                 value: self.default_material(),
                 source: source(el),
             });
         }
-        p.finish(&["bsdf", "emitter"])?;
+        p.finish(&["bsdf", "emitter", "medium"])?;
         Ok(ObjectDesc {
             source: source(el),
             shape,
             material,
             light,
+            interior,
+            exterior,
+            null_bsdf,
         })
     }
 

@@ -1,0 +1,66 @@
+//! `heterogeneous` (Mitsuba 3's): extinction and albedo from volumes, the medium
+//! existing only inside its `sigma_t` volume's world box. Distances are tracked against
+//! a coarse majorant grid of `sigma_t` walked by a DDA ([`crate::volume::MajorantGrid`]).
+
+use super::{MajorantSegment, MediumPoint, PhaseFunction};
+use crate::geometry::Ray;
+use crate::math::Vec3;
+use crate::volume::{majorant, MajorantGrid, Volume};
+
+/// Extinction `sigma_t` × `scale` and single-scattering `albedo`, each a volume.
+#[derive(Clone, Debug)]
+pub struct Heterogeneous {
+    pub sigma_t: Volume,
+    pub albedo: Volume,
+    pub scale: f32,
+    pub phase: PhaseFunction,
+    majorants: MajorantGrid,
+}
+
+impl Heterogeneous {
+    /// A one-line reason (naming the key) when a value is out of range.
+    pub fn new(sigma_t: Volume, albedo: Volume, scale: f32, phase: PhaseFunction) -> Result<Heterogeneous, (&'static str, String)> {
+        if !(scale.is_finite() && scale >= 0.0) {
+            return Err(("scale", format!("must be finite and non-negative, found {scale}")));
+        }
+        if albedo.max() > 1.0 {
+            return Err(("albedo", format!("must lie in [0, 1], its largest value is {}", albedo.max())));
+        }
+        let majorants = MajorantGrid::new(&sigma_t, majorant::DEFAULT_RES);
+        Ok(Heterogeneous {
+            sigma_t,
+            albedo,
+            scale,
+            phase,
+            majorants,
+        })
+    }
+
+    /// The coefficients at world point `p`.
+    #[inline]
+    pub fn at(&self, p: Vec3) -> MediumPoint {
+        let sigma_t = Vec3::from_array(self.sigma_t.eval(p)) * self.scale;
+        let sigma_s = sigma_t * Vec3::from_array(self.albedo.eval(p)).clamp(Vec3::ZERO, Vec3::ONE);
+        MediumPoint {
+            sigma_a: sigma_t - sigma_s,
+            sigma_s,
+        }
+    }
+
+    /// The majorant grid's segments of `ray` over `[ray.t_min, t_end]` inside the
+    /// volume's box.
+    #[inline]
+    pub fn segments(&self, ray: &Ray, t_end: f32, mut each: impl FnMut(MajorantSegment) -> bool) {
+        for s in self.majorants.iter(ray.o, ray.d, ray.t_min, t_end) {
+            let go_on = each(MajorantSegment {
+                t0: s.t0,
+                t1: s.t1,
+                sigma_maj: Vec3::splat(s.scale * self.scale),
+                exact: false,
+            });
+            if !go_on {
+                return;
+            }
+        }
+    }
+}

@@ -37,10 +37,12 @@ const HIDE_EMITTERS_REFUSED: super::table::Param = super::table::refused(
 pub(super) const DOCS: &[PluginDoc] = &[
     PluginDoc {
         element: "integrator",
-        names: &["path", "volpath"],
+        names: &["path", "volpath", "volpathmis"],
         status: Status::Differs,
-        note: "rdr's unidirectional path tracer (MIS of BSDF and emitter sampling). `volpath` is `path` in scenes \
-               without media: its rays pass through `mask`s as volpath's shadow rays do. No integrator: `path`.",
+        note: "rdr's unidirectional path tracer (MIS of BSDF and emitter sampling). `volpath` and `volpathmis` \
+               render media (delta tracking with spectral MIS, ratio-tracked shadow rays, see [Media](../media.md)); \
+               without media they are `path`, whose rays pass through `mask`s as volpath's shadow rays do. Mitsuba's \
+               `path` renders media as vacuum, with a warning. No integrator: `path`.",
         params: &[MAX_DEPTH_DOC, RR_DEPTH_DOC, HIDE_EMITTERS_DOC],
     },
     PluginDoc {
@@ -123,7 +125,6 @@ pub(super) const DOCS: &[PluginDoc] = &[
     not_read(
         "integrator",
         &[
-            "volpathmis",
             "prb",
             "prb_basic",
             "prbvolpath",

@@ -48,18 +48,9 @@ fn scene() -> rdr::Loaded {
     load_scene(&path, &[], Profile::Physical)
 }
 
-/// Mean relative variance of one render at `spp` (from two seeds' difference).
+/// Mean relative variance at `spp` (of the mean of seeds 1 and 2).
 fn noise(loaded: &rdr::Loaded, spp: u32) -> f64 {
-    let (a, b) = (render(loaded, spp, 1), render(loaded, spp, 2));
-    let mut acc = 0.0f64;
-    for (p, q) in a.pixels.iter().zip(&b.pixels) {
-        for c in 0..3 {
-            let (x, y) = (p[c] as f64, q[c] as f64);
-            let m = 0.5 * (x + y);
-            acc += 0.5 * (x - y) * (x - y) / (m * m + 0.01);
-        }
-    }
-    acc / (3 * a.pixels.len()) as f64
+    relative_variance_of_mean(&render(loaded, spp, 1), &render(loaded, spp, 2))
 }
 
 /// The mean of `k` renders (seeds 100..) and the variance of that mean, per pixel.

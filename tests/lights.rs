@@ -12,16 +12,7 @@ use std::path::Path;
 
 /// Mean relative variance of a render at `spp` (from two independent halves).
 fn own_variance(scene: &rdr::Loaded, spp: u32) -> f64 {
-    let (a, b) = (render(scene, spp, 11), render(scene, spp, 12));
-    let mut acc = 0.0f64;
-    for (p, q) in a.pixels.iter().zip(&b.pixels) {
-        for c in 0..3 {
-            let (x, y) = (p[c] as f64, q[c] as f64);
-            let m = 0.5 * (x + y);
-            acc += 0.25 * (x - y) * (x - y) / (m * m + 0.01);
-        }
-    }
-    acc / (3 * a.pixels.len()) as f64
+    relative_variance_of_mean(&render(scene, spp, 11), &render(scene, spp, 12))
 }
 
 fn env_scene(shared: &Path, extra: &str) -> rdr::Loaded {

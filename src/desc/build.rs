@@ -12,7 +12,7 @@ use crate::light::environment::EnvImage;
 use crate::light::{AreaLight, EnvironmentLight, Light, LightSampler};
 use crate::math::{Vec2, Vec3};
 use crate::scene::{Object, Prim, Scene, Shape};
-use crate::texture::image::{ImageCache, ImageTexture};
+use crate::texture::image::{ImageCache, ImageFilter, ImageTexture, ImageUse};
 use crate::texture::{Texture, TextureConvention};
 use rayon::prelude::*;
 use std::collections::HashMap;
@@ -155,19 +155,25 @@ pub fn build(desc: &SceneDesc, opts: BuildOptions) -> Result<Scene> {
     let mut warnings = desc.warnings.clone();
 
     let texture_names: HashMap<&str, u32> = desc.textures.iter().enumerate().map(|(i, t)| (t.name.as_str(), i as u32)).collect();
-    // Image files load first (once per distinct file, in parallel).
-    let image_paths: Vec<(std::path::PathBuf, bool, &Source)> = desc
+    // Image files load first (once per distinct file, in parallel); a pyramid only
+    // for files that a trilinear lookup reads (Mitsuba's bitmaps read level 0 only).
+    let image_paths: Vec<(std::path::PathBuf, bool, bool, &Source)> = desc
         .textures
         .iter()
         .filter_map(|t| match &t.texture {
-            Texture::Image(file) => Some((desc.base_dir.join(&file.path.value), file.raw, &file.path.source)),
+            Texture::Image(file) => Some((
+                desc.base_dir.join(&file.path.value),
+                file.raw,
+                file.filter == ImageFilter::Trilinear,
+                &file.path.source,
+            )),
             _ => None,
         })
         .collect();
     let mut images = ImageCache::default();
-    let files: Vec<(std::path::PathBuf, bool)> = image_paths.iter().map(|(p, raw, _)| (p.clone(), *raw)).collect();
+    let files: Vec<ImageUse> = image_paths.iter().map(|(p, raw, pyramid, _)| (p.clone(), *raw, *pyramid)).collect();
     images.load_all(&files, opts.textures, opts.mipmap).map_err(|(i, e)| {
-        let (full, _, source) = &image_paths[i];
+        let (full, _, _, source) = &image_paths[i];
         // the loader's messages name the file already; name it here only when not
         let (e, full) = (format!("{e:#}"), full.display().to_string());
         let msg = if e.contains(&full) {

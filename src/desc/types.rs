@@ -134,7 +134,7 @@ pub struct InstanceDesc {
 ///   "smaller" | "larger" ("x")}`: Mitsuba's `projector`, an image through a pinhole,
 ///   intensity π·scale·E/cos³θ; see [`crate::light::projector`].
 /// * `light_sampling` (`"importance"` | `"uniform"`, `"importance"`) — lights drawn
-///   by their own importance and chosen by power, or uniformly (for comparisons).
+///   by their own importance and chosen half by power, half uniformly, or uniformly (for comparisons).
 ///
 /// ```json
 /// {"type": "path", "profile": "NEE", "spp": 64, "max_depth": 8}

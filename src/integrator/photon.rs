@@ -192,7 +192,7 @@ fn photon_rng(seed: u32, iteration: u32, i: u64) -> SplitMix64 {
 fn trace_photon(scene: &Scene, s: Shooting, rng: &mut SplitMix64, store: &mut impl FnMut(Vec3, Photon)) -> u64 {
     let mut u2 = || Vec2::new(rng.unit_f32(), rng.unit_f32());
     let ul = u2();
-    let (index, pmf, _) = scene.light_sampler.sample(ul.x);
+    let (index, pmf, _) = scene.light_sampler.sample_emission(ul.x);
     let bounds = SceneBounds {
         center: scene.center,
         radius: scene.radius,
@@ -367,7 +367,7 @@ pub fn camera_path(
     }
 }
 
-/// Direct light at a surface by light sampling only (one light chosen by power).
+/// Direct light at a surface by light sampling only (one light chosen as `path` chooses it).
 pub fn direct_light(scene: &Scene, it: &Interaction, bsdf: &Bsdf, sampler: &mut PixelSampler, counts: &mut RayCounts) -> Vec3 {
     if scene.lights.is_empty() {
         return Vec3::ZERO;

@@ -261,21 +261,66 @@ impl Light {
     }
 }
 
-/// Picks one light for next-event estimation: in proportion to power, or uniformly.
+/// Share of next-event light choices made uniformly, the rest in proportion to power:
+/// a defensive mixture (Hesterberg 1995). Power alone starves lights of little power
+/// that matter where they are seen or reflected (the Veach MIS scene's four small
+/// spheres: 0.5 % of the samples each, against 98 % for the large one), uniform
+/// choice alone wastes samples on weak lights; the mixture is within 2x of either
+/// strategy's probability for every light. Measured on the real scenes (relMSE of two
+/// seeds, 64 spp): see the commit that introduced it.
+pub const UNIFORM_SHARE: f32 = 0.5;
+
+/// Picks one light: for next-event estimation (and bdpt's light subpaths, which
+/// connect to the same choice) by [`UNIFORM_SHARE`]'s mixture of power and uniform
+/// choice, or uniformly; for photons leaving the lights, in proportion to power (so
+/// photons carry alike), or uniformly.
 #[derive(Clone, Debug)]
 pub struct LightSampler {
     distribution: Distribution1D,
+    emission: Distribution1D,
 }
 
 impl LightSampler {
     pub fn new(lights: &[Light], scene_radius: f32, mode: LightSampling) -> Self {
-        let weights: Vec<f32> = match mode {
-            LightSampling::Importance => lights.iter().map(|l| l.power(scene_radius).max(0.0)).collect(),
-            LightSampling::Uniform => vec![1.0; lights.len()],
-        };
-        LightSampler {
-            distribution: Distribution1D::new(&weights),
+        match mode {
+            LightSampling::Importance => Self::with_uniform_share(lights, scene_radius, UNIFORM_SHARE),
+            LightSampling::Uniform => {
+                let uniform = Self::mixture(lights, scene_radius, 1.0);
+                LightSampler {
+                    distribution: uniform.clone(),
+                    emission: uniform,
+                }
+            }
         }
+    }
+
+    /// A sampler choosing lights with probability (1 − `uniform_share`)·Φᵢ/ΣΦ +
+    /// `uniform_share`/n for next-event estimation (0: by power, the strategy before
+    /// [`UNIFORM_SHARE`]; for comparisons), and by power for photons.
+    pub fn with_uniform_share(lights: &[Light], scene_radius: f32, uniform_share: f32) -> Self {
+        LightSampler {
+            distribution: Self::mixture(lights, scene_radius, uniform_share),
+            emission: Self::mixture(lights, scene_radius, 0.0),
+        }
+    }
+
+    /// The mixture's distribution; weights scaled by n, so that uniform choice weighs
+    /// each light exactly 1. Lights of no power at all are chosen uniformly.
+    fn mixture(lights: &[Light], scene_radius: f32, uniform_share: f32) -> Distribution1D {
+        let n = lights.len() as f32;
+        let power: Vec<f32> = lights.iter().map(|l| l.power(scene_radius).max(0.0)).collect();
+        let total: f32 = power.iter().sum();
+        let weights: Vec<f32> = if uniform_share >= 1.0 || !(total > 0.0 && total.is_finite()) {
+            vec![1.0; lights.len()]
+        } else if uniform_share <= 0.0 {
+            power
+        } else {
+            power
+                .iter()
+                .map(|p| (1.0 - uniform_share) * n * p / total + uniform_share)
+                .collect()
+        };
+        Distribution1D::new(&weights)
     }
 
     /// A light index, its probability, and `u` re-used.
@@ -287,5 +332,11 @@ impl LightSampler {
     #[inline]
     pub fn pmf(&self, i: usize) -> f32 {
         self.distribution.pmf(i)
+    }
+
+    /// A light for a photon to leave (in proportion to power), its probability, and `u` re-used.
+    #[inline]
+    pub fn sample_emission(&self, u: f32) -> (usize, f32, f32) {
+        self.emission.sample_discrete(u)
     }
 }

@@ -169,6 +169,11 @@ impl CoatingTables {
 fn visible_average(mf: &Microfacet, o: Vec3, g: impl Fn(Vec3) -> f32) -> f64 {
     const NU: usize = 128;
     const NPHI: usize = 40;
+    // the azimuths' cosines and sines once per call, not once per node
+    let azimuths: [(f64, f64); NPHI] = std::array::from_fn(|b| {
+        let phi = std::f64::consts::PI * (b as f64 + 0.5) / NPHI as f64;
+        (phi.cos(), phi.sin())
+    });
     let mut acc = 0.0f64;
     for a in 0..NU {
         // u = 1 − (1 − s)²: grazing facets (u → 1) weigh ~1/√(1 − u) (GGX's long tail)
@@ -179,11 +184,10 @@ fn visible_average(mf: &Microfacet, o: Vec3, g: impl Fn(Vec3) -> f32) -> f64 {
             Distribution::Ggx => u / (1.0 - u),
         };
         let r = r2.sqrt();
-        for b in 0..NPHI {
-            let phi = std::f64::consts::PI * (b as f64 + 0.5) / NPHI as f64;
+        for &(cos_phi, sin_phi) in &azimuths {
             let m = Vec3::new(
-                (r * phi.cos() * mf.alpha_x as f64) as f32,
-                (r * phi.sin() * mf.alpha_y as f64) as f32,
+                (r * cos_phi * mf.alpha_x as f64) as f32,
+                (r * sin_phi * mf.alpha_y as f64) as f32,
                 1.0,
             )
             .normalize();

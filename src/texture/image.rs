@@ -131,6 +131,10 @@ fn file_key(path: &Path) -> PathBuf {
     std::fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf())
 }
 
+/// A file to load for a texture: its path, whether it is read `raw` (see
+/// [`load_mipmap`]), and whether a trilinear lookup reads its pyramid.
+pub type ImageUse = (PathBuf, bool, bool);
+
 /// Pyramids by file, so a file used by several textures is read once.
 #[derive(Default)]
 pub struct ImageCache {
@@ -140,25 +144,24 @@ pub struct ImageCache {
 
 impl ImageCache {
     /// Loads every distinct path (in parallel); the first failure is returned with
-    /// the index of the path that caused it.
-    /// `paths`: each file and whether to read it `raw` (see [`load_mipmap`]).
-    pub fn load_all(
-        &mut self,
-        paths: &[(PathBuf, bool)],
-        convention: TextureConvention,
-        mipmap: bool,
-    ) -> Result<(), (usize, anyhow::Error)> {
+    /// the index of the path that caused it. A file's pyramid is built (with `mipmap`)
+    /// when some use of it is trilinear; level 0 alone otherwise.
+    pub fn load_all(&mut self, paths: &[ImageUse], convention: TextureConvention, mipmap: bool) -> Result<(), (usize, anyhow::Error)> {
         use rayon::prelude::*;
-        let mut todo: Vec<(usize, &PathBuf, (PathBuf, bool))> = Vec::new();
-        for (i, (p, raw)) in paths.iter().enumerate() {
+        let mut todo: Vec<(usize, &PathBuf, (PathBuf, bool), bool)> = Vec::new();
+        for (i, (p, raw, pyramid)) in paths.iter().enumerate() {
             let key = (file_key(p), *raw);
-            if !self.loaded.contains_key(&key) && !todo.iter().any(|(_, _, k)| *k == key) {
-                todo.push((i, p, key));
+            if self.loaded.contains_key(&key) {
+                continue;
+            }
+            match todo.iter_mut().find(|(_, _, k, _)| *k == key) {
+                Some(t) => t.3 |= *pyramid,
+                None => todo.push((i, p, key, *pyramid)),
             }
         }
         let results: Vec<_> = todo
             .par_iter()
-            .map(|(i, p, key)| (*i, key.clone(), load_mipmap(p, convention, mipmap, key.1)))
+            .map(|(i, p, key, pyramid)| (*i, key.clone(), load_mipmap(p, convention, mipmap && *pyramid, key.1)))
             .collect();
         for (i, key, r) in results {
             match r {

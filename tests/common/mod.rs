@@ -95,6 +95,20 @@ pub fn render(loaded: &Loaded, spp: u32, seed: u32) -> Image {
     Image::new(out.width as usize, out.height as usize, out.pixels)
 }
 
+/// Mean relative variance of the mean of two independent renders `a`, `b` of one scene
+/// (from their difference): over pixels and channels, (x − y)²/4 / (m² + 0.01), m their mean.
+pub fn relative_variance_of_mean(a: &Image, b: &Image) -> f64 {
+    let mut acc = 0.0f64;
+    for (p, q) in a.pixels.iter().zip(&b.pixels) {
+        for c in 0..3 {
+            let (x, y) = (p[c] as f64, q[c] as f64);
+            let m = 0.5 * (x + y);
+            acc += 0.25 * (x - y) * (x - y) / (m * m + 0.01);
+        }
+    }
+    acc / (3 * a.pixels.len()) as f64
+}
+
 /// Whether two renders of `file` (with `overrides`, `spp` each, seeds 1 and 2) converge
 /// to the reference `refs/<reference>.exr` (with its `.var.exr`) under the noise-aware
 /// relative MSE: |corrected| below 5σ + 2e-4.

@@ -3,7 +3,7 @@
 //!
 //! Per camera sample, a camera subpath (the pinhole, then up to `max_depth` surface
 //! vertices, or the environment when a ray escapes) and a light subpath (a point on
-//! a light chosen by power, then up to `max_depth − 1` surface vertices) are traced
+//! a light chosen as `path` chooses it, then up to `max_depth − 1` surface vertices) are traced
 //! with the same pixel sampler, and every prefix pair (s light vertices, t camera
 //! vertices) is connected, when the path's s + t − 1 segments are at most
 //! `max_depth` (Mitsuba's convention, as `path`):
@@ -353,7 +353,7 @@ impl Engine<'_> {
         }
     }
 
-    /// A light subpath: a light chosen by power, a ray leaving it, its walk.
+    /// A light subpath: a light chosen as for next-event estimation, a ray leaving it, its walk.
     fn light_subpath(&self, path: &mut Vec<Vertex>, sampler: &mut PixelSampler, counts: &mut RayCounts) {
         let ctx = &self.ctx;
         let scene = ctx.scene;

@@ -292,7 +292,10 @@ impl<'a> Reader<'a> {
                 };
                 if let Some(w) = ep.float_opt("sampling_weight")? {
                     if w != 1.0 {
-                        self.ids.warn(e, format!("sampling_weight {w} noted: rdr chooses lights by power"));
+                        self.ids.warn(
+                            e,
+                            format!("sampling_weight {w} noted: rdr chooses lights half by power, half uniformly"),
+                        );
                     }
                 }
                 ep.finish(&[])?;

@@ -86,7 +86,9 @@ awk '
         e = m " embree-" qs[qi] "/" li[2]
         printf "%s build %s ms vs Embree-%s %s ms: %.2fx its speed\n", w, b[w " build"], qs[qi], b[e " build"], b[e " build"] / b[w " build"]
         for (s in set) { split(s, q, " "); if (q[1] != m) continue
-          printf "%s vs Embree-%s %-28s %6.2f / %6.2f vs %6.2f / %6.2f  ratio %.2f / %.2f\n", w, qs[qi], q[2], c[w " " q[2]], a[w " " q[2]], c[e " " q[2]], a[e " " q[2]], c[w " " q[2]] / c[e " " q[2]], a[w " " q[2]] / a[e " " q[2]] }
+          r = w " " q[2]; t = e " " q[2]
+          printf "%s vs Embree-%s %-28s %6.2f / %6.2f vs %6.2f / %6.2f  ratio %.2f / %.2f\n",
+            w, qs[qi], q[2], c[r], a[r], c[t], a[t], c[r] / c[t], a[r] / a[t] }
       }
     }
   }' quals="$qualities" "$log" | sort

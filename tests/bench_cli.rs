@@ -242,7 +242,7 @@ fn scene_rays_are_recorded_with_the_scene_triangles() {
     assert!(ok, "{out}{err}");
     let bytes = std::fs::read(&rays).unwrap();
     let n = bytes.len() / 24;
-    assert!(n >= 512 && bytes.len() % 24 == 0, "{} bytes", bytes.len());
+    assert!(n >= 512 && bytes.len().is_multiple_of(24), "{} bytes", bytes.len());
     assert!(out.contains(&format!("recorded         {n} closest-hit rays")), "{out}");
     // the first ray is a camera ray: from the camera (moved by its t_min)
     let f: Vec<f32> = bytes.chunks_exact(4).map(|b| f32::from_le_bytes(b.try_into().unwrap())).collect();

@@ -128,7 +128,8 @@ fn split(poly: &[DVec3], b: Aabb, s: usize, scene: &Aabb, emit: &mut impl FnMut(
 /// The coarsest plane of the power-of-two grid over `[s0, s1]` strictly inside `(lo, hi)`.
 fn grid_plane(lo: f32, hi: f32, s0: f32, s1: f32) -> Option<f32> {
     let ext = s1 as f64 - s0 as f64;
-    if !(hi > lo) || !(ext > 0.0) {
+    // (NaN fails both)
+    if hi.partial_cmp(&lo) != Some(std::cmp::Ordering::Greater) || ext.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
         return None;
     }
     for level in 0..=MAX_LEVEL {

@@ -194,3 +194,80 @@ fn ray_files_are_traced_and_checked_against_their_distances() {
     );
     assert_eq!(err.trim().lines().count(), 1, "{err}");
 }
+
+/// `rdr bench SCENE --record-rays`: the closest-hit rays of a render and the scene's
+/// triangles (the sphere tessellated) come out in the formats `--ray-file` and Embree
+/// read. Inside a closed box every ray hits something, so traced again against the
+/// exported triangles every one must hit (a hole in the export lets rays out).
+#[test]
+fn scene_rays_are_recorded_with_the_scene_triangles() {
+    let tmp = common::temp_dir("rdr-bench-cli-record");
+    let dir = tmp.path();
+    // the closed cube [-1, 1]³: per face two triangles (winding does not matter here)
+    let mut obj = String::new();
+    for i in 0..8 {
+        let c = |b: usize| if i >> b & 1 == 1 { 1 } else { -1 };
+        writeln!(obj, "v {} {} {}", c(0), c(1), c(2)).unwrap();
+    }
+    for f in [[0, 1, 3, 2], [4, 5, 7, 6], [0, 1, 5, 4], [2, 3, 7, 6], [0, 2, 6, 4], [1, 3, 7, 5]] {
+        writeln!(
+            obj,
+            "f {} {} {}\nf {} {} {}",
+            f[0] + 1,
+            f[1] + 1,
+            f[2] + 1,
+            f[0] + 1,
+            f[2] + 1,
+            f[3] + 1
+        )
+        .unwrap();
+    }
+    std::fs::write(dir.join("box.obj"), obj).unwrap();
+    let scene = r#"{
+        "integrator": {"type": "path", "spp": 2, "max_depth": 4},
+        "film": {"resolution": [16, 16]},
+        "camera": {"position": [0.1, 0.2, 0.7], "look_at": [0.0, 0.0, -1.0], "ref_up": [0.0, 1.0, 0.0], "fov": 60.0},
+        "textures": {"grey": {"type": "constant", "color": [0.5, 0.5, 0.5]}},
+        "materials": {"grey": {"type": "diffuse", "texture_name": "grey"}},
+        "objects": [
+            {"type": "mesh", "path": "box.obj", "material_name": "grey", "light": {"type": "area", "radiance": [1.0, 1.0, 1.0]}},
+            {"type": "sphere", "center": [0.0, 0.0, -0.3], "radius": 0.4, "material_name": "grey"}
+        ]
+    }"#;
+    let scene_path = dir.join("box.json");
+    std::fs::write(&scene_path, scene).unwrap();
+    let rays = dir.join("rec.rays.f32");
+    let s = scene_path.to_str().unwrap();
+    let (ok, out, err) = bench(&[s, "--threads", "1", "--record-rays", rays.to_str().unwrap()]);
+    assert!(ok, "{out}{err}");
+    let bytes = std::fs::read(&rays).unwrap();
+    let n = bytes.len() / 24;
+    assert!(n >= 512 && bytes.len().is_multiple_of(24), "{} bytes", bytes.len());
+    assert!(out.contains(&format!("recorded         {n} closest-hit rays")), "{out}");
+    // the first ray is a camera ray: from the camera (moved by its t_min)
+    let f: Vec<f32> = bytes.chunks_exact(4).map(|b| f32::from_le_bytes(b.try_into().unwrap())).collect();
+    let o = [f[0] - 0.1, f[1] - 0.2, f[2] - 0.7];
+    assert!(o.iter().map(|x| x * x).sum::<f32>().sqrt() < 1e-3, "first ray from {:?}", &f[..3]);
+    let exported = std::fs::read_to_string(dir.join("rec.obj")).unwrap();
+    let faces = exported.lines().filter(|l| l.starts_with("f ")).count();
+    assert!(
+        exported.lines().filter(|l| l.starts_with("o ")).count() == 2 && faces > 1000,
+        "{faces} faces"
+    );
+    let (ok, out, err) = bench(&[
+        dir.join("rec.obj").to_str().unwrap(),
+        "--threads",
+        "1",
+        "--repeat",
+        "1",
+        "--trace-only",
+        "--ray-file",
+        rays.to_str().unwrap(),
+    ]);
+    assert!(ok, "{out}{err}");
+    assert!(out.contains(&format!("{n} rays, hit 100.0 %")), "{out}");
+    // the output's name is checked before the render
+    let (ok, _, err) = bench(&[s, "--threads", "1", "--record-rays", dir.join("rec.bin").to_str().unwrap()]);
+    assert!(!ok && err.contains("rec.bin") && err.contains(".rays.f32"), "{err}");
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+}

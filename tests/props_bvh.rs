@@ -110,6 +110,7 @@ fn check_queries(label: &str, bvh: &Bvh, prims: &[Prim], rays: &[Ray]) -> usize 
                 false
             })
         },
+        repeats: false,
     };
     check_with(label, &q, prims, rays)
 }
@@ -422,6 +423,85 @@ fn bvh_is_the_same_for_any_thread_count() {
         pool.install(|| WideBvh::build(&prims))
     };
     let one = build(1);
+    for threads in [2, 3] {
+        assert_same_tree(&one, &build(threads));
+    }
+}
+
+/// Rooms: large walls and floors, long thin rails and small clutter, the geometry
+/// pre-splitting is for (`rdr::accel::presplit`).
+fn room(rng: &mut Rng) -> Vec<[Vec3; 3]> {
+    let v = Vec3::new;
+    let mut tris = vec![
+        // floor and two walls of a 4 x 3 x 4 room, two triangles each
+        [v(-2.0, 0.0, -2.0), v(2.0, 0.0, -2.0), v(2.0, 0.0, 2.0)],
+        [v(-2.0, 0.0, -2.0), v(2.0, 0.0, 2.0), v(-2.0, 0.0, 2.0)],
+        [v(-2.0, 0.0, -2.0), v(-2.0, 3.0, -2.0), v(2.0, 3.0, -2.0)],
+        [v(-2.0, 0.0, -2.0), v(2.0, 3.0, -2.0), v(2.0, 0.0, -2.0)],
+        [v(-2.0, 0.0, -2.0), v(-2.0, 3.0, 2.0), v(-2.0, 3.0, -2.0)],
+        [v(-2.0, 0.0, -2.0), v(-2.0, 0.0, 2.0), v(-2.0, 3.0, 2.0)],
+    ];
+    // rails: long thin diagonal triangles across the room
+    for _ in 0..40 {
+        let a = rng.in_cube(2.0) + Vec3::new(0.0, 1.5, 0.0);
+        let b = rng.in_cube(2.0) + Vec3::new(0.0, 1.5, 0.0);
+        let w = rng.in_cube(0.02);
+        tris.push([a, b, a + w]);
+        tris.push([b, b + w, a + w]);
+    }
+    // clutter: many small triangles, so the budget goes to the large ones
+    tris.extend(
+        random_soup(rng, 3000, 1.5, (0.005, 0.05))
+            .into_iter()
+            .map(|t| t.map(|p| p + Vec3::new(0.0, 1.5, 0.0))),
+    );
+    tris
+}
+
+/// Pre-split trees (walls, floors and rails split into pieces) against brute force,
+/// with every instruction set, single rays and packets; and every hit exactly the
+/// unsplit tree's (primitive, distance and barycentric bits), on the same rays.
+#[test]
+fn bvh_presplit_matches_brute_force_and_the_unsplit_tree() {
+    use common::brute::has_split_refs;
+    let mut rng = Rng::new(21);
+    for budget in [rdr::accel::presplit::PAPER_BUDGET, 1.0] {
+        let prims = as_prims(room(&mut rng));
+        let bounds: Vec<Aabb> = prims.iter().map(prim_bounds).collect();
+        let split = WideBvh::build_split(&prims, budget);
+        let plain = WideBvh::build_split(&prims, 0.0);
+        assert!(has_split_refs(&split), "budget {budget}: nothing was split");
+        assert!(!has_split_refs(&plain));
+        let label = format!("room, budget {budget}");
+        check_wide_structure(&split, &bounds);
+        let rays = scene_rays(&mut rng, &prims, 3000);
+        let hits = check_wide_queries(&label, &split, &prims, &rays);
+        assert!(hits > 1000, "{label}: {hits} hits");
+        let key = |h: Option<rdr::scene::Hit>| h.map(|h| (h.prim, h.t.to_bits(), h.b.map(f32::to_bits)));
+        let mut out = vec![None; 16];
+        for (k, chunk) in rays.chunks(16).enumerate() {
+            split.intersect_packet(&prims, chunk, u32::MAX, &mut out);
+            for (i, r) in chunk.iter().enumerate() {
+                let (a, b) = (split.intersect(&prims, r), plain.intersect(&prims, r));
+                assert_eq!(key(a), key(b), "{label}: ray {} hits differently in the split tree", 16 * k + i);
+                assert_eq!(key(out[i]), key(a), "{label}: ray {}: the packet's hit differs", 16 * k + i);
+                assert_eq!(split.occluded(&prims, r), b.is_some(), "{label}: ray {}: any hit", 16 * k + i);
+            }
+        }
+    }
+}
+
+/// A pre-split tree, like any other, does not depend on the number of threads.
+#[test]
+fn bvh_presplit_is_the_same_for_any_thread_count() {
+    let mut rng = Rng::new(22);
+    let prims = as_prims(room(&mut rng));
+    let build = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        pool.install(|| WideBvh::build_split(&prims, 1.0))
+    };
+    let one = build(1);
+    assert!(common::brute::has_split_refs(&one));
     for threads in [2, 3] {
         assert_same_tree(&one, &build(threads));
     }

@@ -52,6 +52,22 @@ const INDEX_TAG: u32 = 0x4000_0000;
 pub(crate) const MAX_REFS: usize = 1 << 29;
 
 impl PrimRef {
+    /// A reference to primitive `index` with box `b` (finite, non-empty), a triangle or not.
+    #[inline]
+    pub(crate) fn new(b: Aabb, index: u32, triangle: bool) -> PrimRef {
+        PrimRef {
+            lo: b.min.extend(f32::from_bits(index | INDEX_TAG)),
+            hi: b.max.extend(if triangle { 0.0 } else { 1.0 }),
+        }
+    }
+    #[inline]
+    pub(crate) fn bounds(&self) -> Aabb {
+        Aabb::new(self.lo.truncate(), self.hi.truncate())
+    }
+    #[inline]
+    pub(crate) fn is_triangle(&self) -> bool {
+        self.hi.w == 0.0
+    }
     #[inline]
     pub(crate) fn index(&self) -> u32 {
         self.lo.w.to_bits() & !INDEX_TAG
@@ -162,10 +178,7 @@ pub(crate) fn make_refs_with(n: usize, prim: impl Fn(usize) -> (Aabb, bool) + Sy
         .with_min_len(8192)
         .filter_map(|i| {
             let (b, triangle) = prim(i);
-            (!b.is_empty() && b.min.is_finite() && b.max.is_finite()).then(|| PrimRef {
-                lo: b.min.extend(f32::from_bits(i as u32 | INDEX_TAG)),
-                hi: b.max.extend(if triangle { 0.0 } else { 1.0 }),
-            })
+            (!b.is_empty() && b.min.is_finite() && b.max.is_finite()).then(|| PrimRef::new(b, i as u32, triangle))
         })
         .collect()
 }

@@ -4,6 +4,8 @@ pub mod build;
 pub mod bvh;
 pub mod instance;
 pub mod photon_map;
+pub mod presplit;
+pub mod record;
 pub mod reference;
 pub mod wide;
 

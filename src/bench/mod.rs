@@ -32,6 +32,7 @@
 //! ([`run`]: the build, check and table); meshes load here, PLY files through
 //! [`crate::geometry::ply`].
 
+pub mod export;
 pub mod ray_file;
 pub mod rays;
 mod report;
@@ -94,6 +95,9 @@ pub struct Options {
     /// Ray files to trace ([`ray_file`]); with any, the generated sets are timed
     /// only when `rays` names them.
     pub ray_files: Vec<std::path::PathBuf>,
+    /// Pre-splitting budget of the tree (extra references per triangle,
+    /// [`crate::accel::presplit`]; default none, as the renderer's).
+    pub split_budget: Option<f32>,
 }
 
 /// The CPU's model name with its family, model and stepping (Linux `/proc/cpuinfo`), or

@@ -40,7 +40,10 @@ pub fn run(path: &Path, opts: &Options) -> Result<Report> {
         for _ in 0..runs {
             let input = prims.clone();
             let (t, b) = timed(pool, || {
-                let bvh = WideBvh::build(&input);
+                let bvh = match opts.split_budget {
+                    Some(budget) => WideBvh::build_split(&input, budget),
+                    None => WideBvh::build(&input),
+                };
                 (input, bvh)
             });
             best = best.min(t);
@@ -67,6 +70,15 @@ pub fn run(path: &Path, opts: &Options) -> Result<Report> {
         bvh.blocks.len(),
         std::mem::size_of::<TriBlock>(),
         bvh.stack_need(),
+    )?;
+    // the same triangles without pre-splitting: what the split tree's hits must equal
+    let unsplit = WideBvh::build_split(&ordered, 0.0);
+    let refs: usize = bvh.children().map(|(_, _, c)| bvh.leaf_prims(c).len()).sum();
+    writeln!(
+        out,
+        "quality       SAH cost {:.2} ({:.2} without pre-splitting), {refs} leaf references for {n} triangles",
+        bvh.sah_cost(),
+        unsplit.sah_cost()
     )?;
 
     let isa = opts.isa.unwrap_or_else(Isa::detect);
@@ -128,8 +140,63 @@ pub fn run(path: &Path, opts: &Options) -> Result<Report> {
     let mut all_ok = true;
     for file in &opts.ray_files {
         all_ok &= ray_file_line(&mut out, file, &pools, &tracer, opts.repeat)?;
+        let unsplit = Wide {
+            prims: &ordered,
+            bvh: &unsplit,
+        };
+        all_ok &= visits_line(&mut out, file, &tracer, &unsplit)?;
     }
     Ok(Report { text: out, agrees: all_ok })
+}
+
+/// One line for a ray file: inner nodes visited and primitives tested per closest-hit
+/// ray in the tree and in the tree without pre-splitting (portable traversal, a sample
+/// of 100,000 rays), and whether both trees give every ray the same hit (primitive,
+/// distance and barycentric bits). False when they do not.
+fn visits_line(out: &mut String, file: &Path, tracer: &Wide, unsplit: &Wide) -> Result<bool> {
+    let rays = read_rays(file)?;
+    let step = (rays.len() / 100_000).max(1);
+    let visits = |w: &Wide| {
+        let (mut nodes, mut tests) = (0usize, 0usize);
+        for r in rays.iter().step_by(step) {
+            w.bvh.traverse_counted(
+                r,
+                |p, t_max| {
+                    tests += 1;
+                    if let Some((t, _)) = w.prims[p as usize].intersect(r, *t_max) {
+                        *t_max = t;
+                    }
+                    false
+                },
+                &mut nodes,
+            );
+        }
+        let k = rays.len().div_ceil(step) as f64;
+        (nodes as f64 / k, tests as f64 / k)
+    };
+    let ((n1, t1), (n0, t0)) = (visits(tracer), visits(unsplit));
+    let key = |h: Option<Hit>| h.map(|h| (h.prim, h.t.to_bits(), h.b.map(f32::to_bits)));
+    let differ: Vec<usize> = (0..rays.len())
+        .into_par_iter()
+        .filter(|&i| key(tracer.closest(&rays[i])) != key(unsplit.closest(&rays[i])))
+        .collect();
+    write!(
+        out,
+        "  per ray: {n1:.1} nodes, {t1:.1} triangle tests ({n0:.1} and {t0:.1} without pre-splitting); \
+         hits differing from the unsplit tree's: {}",
+        differ.len()
+    )?;
+    if let Some(&i) = differ.first() {
+        let show = |h: Option<Hit>| h.map_or("none".to_string(), |h| format!("triangle {} at t {:e}", h.prim, h.t));
+        write!(
+            out,
+            " (ray {i}: {} split, {} unsplit)",
+            show(tracer.closest(&rays[i])),
+            show(unsplit.closest(&rays[i]))
+        )?;
+    }
+    writeln!(out)?;
+    Ok(differ.is_empty())
 }
 
 /// The benchmark's output.

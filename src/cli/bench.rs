@@ -2,7 +2,7 @@
 
 use super::common::{check_threads, load, say, setup_threads};
 use super::SceneArgs;
-use anyhow::Result;
+use anyhow::{Context, Result};
 use rdr::{Loaded, RenderControl};
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -27,7 +27,11 @@ pub fn bench_mesh(
     rays: Vec<String>,
     trace_only: bool,
     ray_files: Vec<PathBuf>,
+    split_budget: Option<f32>,
 ) -> Result<ExitCode> {
+    if let Some(b) = split_budget {
+        anyhow::ensure!((0.0..=4.0).contains(&b), "--split-budget {b}: must be between 0 and 4");
+    }
     let all = args
         .threads
         .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
@@ -45,20 +49,38 @@ pub fn bench_mesh(
         rays,
         trace_only,
         ray_files,
+        split_budget,
     };
     let report = rdr::bench::run(&args.scene, &opts)?;
     say(report.text.trim_end_matches('\n'))?;
     anyhow::ensure!(
         report.agrees,
-        "closest-hit distances disagree with a distances file beyond the tolerance (see above)"
+        "closest-hit distances disagree with a distances file beyond the tolerance, or hits with the unsplit tree's (see above)"
     );
     Ok(ExitCode::SUCCESS)
 }
 
 /// `rdr bench SCENE.json`: load, build and render without writing.
-pub fn bench_scene(args: &SceneArgs, isa: Option<&str>, packet: Option<usize>) -> Result<ExitCode> {
+pub fn bench_scene(args: &SceneArgs, isa: Option<&str>, packet: Option<usize>, record: Option<(PathBuf, usize)>) -> Result<ExitCode> {
     setup_threads(args.threads)?;
     let isa = parse_isa(isa)?;
+    // the outputs' names, checked before the render
+    let record = match record {
+        Some((rays, cap)) => {
+            let name = rays.file_name().and_then(|n| n.to_str()).unwrap_or("");
+            let Some(stem) = name.strip_suffix(".rays.f32").filter(|s| !s.is_empty()) else {
+                anyhow::bail!("--record-rays '{}': the file name must end in .rays.f32", rays.display());
+            };
+            let obj = rays.with_file_name(format!("{stem}.obj"));
+            anyhow::ensure!(
+                obj != args.scene && rays != args.scene,
+                "--record-rays '{}' would overwrite the scene",
+                rays.display()
+            );
+            Some((rays, obj, std::sync::Arc::new(rdr::accel::record::RayLog::new(cap))))
+        }
+        None => None,
+    };
     let t0 = Instant::now();
     let Loaded { mut scene, job } = load(args, true)?;
     let load_s = t0.elapsed().as_secs_f64();
@@ -70,6 +92,13 @@ pub fn bench_scene(args: &SceneArgs, isa: Option<&str>, packet: Option<usize>) -
         if let Some(w) = packet {
             anyhow::ensure!(bvh.set_packet_width(w), "--packet {w}: 8, 16 or 0");
         }
+    }
+    if let Some((_, _, log)) = &record {
+        anyhow::ensure!(
+            scene.instances.is_empty(),
+            "--record-rays: the scene uses instances (flat scenes only)"
+        );
+        scene.bvh.log = Some(log.clone());
     }
     let cpu0 = rdr::bench::process_cpu_seconds();
     let out = rdr::render(&scene, &job, &RenderControl::default());
@@ -111,6 +140,21 @@ pub fn bench_scene(args: &SceneArgs, isa: Option<&str>, packet: Option<usize>) -
             "rays/s           {:.3e} ({:.2} rays per sample)",
             out.rays as f64 / out.seconds,
             out.rays as f64 / out.samples as f64
+        );
+    }
+    if let Some((rays_path, obj_path, log)) = record {
+        scene.bvh.log = None;
+        let rays = log.take();
+        let obj = rdr::bench::export::scene_obj(&scene.prims)?;
+        std::fs::write(&obj_path, obj).with_context(|| format!("cannot write '{}'", obj_path.display()))?;
+        std::fs::write(&rays_path, rdr::bench::export::ray_bytes(&rays))
+            .with_context(|| format!("cannot write '{}'", rays_path.display()))?;
+        let _ = writeln!(
+            t,
+            "recorded         {} closest-hit rays to {}, triangles to {}",
+            rays.len(),
+            rays_path.display(),
+            obj_path.display()
         );
     }
     say(t.trim_end_matches('\n'))?;

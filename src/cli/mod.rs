@@ -250,6 +250,20 @@ pub enum Command {
         /// repeatable. The generated sets are then timed only if --rays names them.
         #[arg(long, value_name = "FILE")]
         ray_file: Vec<PathBuf>,
+        /// Mesh benchmark: pre-split large triangles (Karras and Aila 2013) within this
+        /// many extra references per triangle (the paper's 0.3; default 0, as the renderer),
+        /// and compare every hit with the unsplit tree's.
+        #[arg(long)]
+        split_budget: Option<f32>,
+        /// Scene benchmark: record the closest-hit rays the render traces (up to
+        /// --record-max) into FILE (NAME.rays.f32, the --ray-file format, each from its
+        /// t_min on), and the scene's triangles into NAME.obj beside it (spheres and
+        /// cylinders tessellated), for `rdr bench NAME.obj --ray-file FILE` and Embree.
+        #[arg(long, value_name = "FILE")]
+        record_rays: Option<PathBuf>,
+        /// Scene benchmark: most rays --record-rays keeps (the first traced).
+        #[arg(long, default_value_t = 4_000_000)]
+        record_max: usize,
     },
 }
 
@@ -292,12 +306,15 @@ pub fn run(command: Command) -> Result<ExitCode> {
             rays,
             trace_only,
             ray_file,
+            split_budget,
+            record_rays,
+            record_max,
         } => {
             let ext = args.scene.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
             if ext == "obj" || ext == "ply" {
-                bench::bench_mesh(&args, repeat, isa.as_deref(), rays, trace_only, ray_file)
+                bench::bench_mesh(&args, repeat, isa.as_deref(), rays, trace_only, ray_file, split_budget)
             } else {
-                bench::bench_scene(&args, isa.as_deref(), packet)
+                bench::bench_scene(&args, isa.as_deref(), packet, record_rays.map(|f| (f, record_max)))
             }
         }
     }

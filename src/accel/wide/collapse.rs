@@ -51,10 +51,20 @@ impl<'a> Collapser<'a> {
     }
 
     fn leaf_cand(&self, n: &'a TmpNode, start: u32, count: u32) -> Cand<'a> {
-        let items = &self.order[start as usize..(start + count) as usize];
+        let mut items: std::borrow::Cow<'a, [u32]> = self.order[start as usize..(start + count) as usize].into();
+        // pieces of one pre-split triangle in one leaf: tested once
+        if (1..items.len()).any(|k| items[..k].contains(&items[k])) {
+            let mut unique = Vec::with_capacity(items.len());
+            for &i in items.iter() {
+                if !unique.contains(&i) {
+                    unique.push(i);
+                }
+            }
+            items = unique.into();
+        }
         let first = self.is_tri(items[0]);
         if items.iter().all(|&i| self.is_tri(i) == first) {
-            return Cand::Leaf(n.bounds, items.into());
+            return Cand::Leaf(n.bounds, items);
         }
         let (tris, other): (Vec<u32>, Vec<u32>) = items.iter().partition(|&&i| self.is_tri(i));
         Cand::Mixed(n.bounds, tris, other)

@@ -35,6 +35,7 @@ pub use node::{ChildRef, TriBlock, WideNode, LANES, WIDTH};
 pub use packet::{PacketHits, PACKET};
 
 use crate::accel::build::{self, PrimRef};
+use crate::accel::presplit;
 use crate::geometry::prim::{Hit, Prim};
 use crate::geometry::{Aabb, Ray};
 use node::{decode, EMPTY};
@@ -163,6 +164,8 @@ pub struct WideBvh {
     /// Rays a packet traversal takes at once (8 or 16; 0: packet calls trace ray by
     /// ray), where set; else the instruction set's own ([`Isa::packet_width`]).
     packet_width: Option<usize>,
+    /// Where closest-hit queries are recorded (`rdr bench --record-rays`), if anywhere.
+    pub log: Option<std::sync::Arc<crate::accel::record::RayLog>>,
 }
 
 /// A clone keeps the node and block arrays on huge pages (`pages`).
@@ -178,6 +181,7 @@ impl Clone for WideBvh {
             stack_need: self.stack_need,
             large_stack: self.large_stack,
             packet_width: self.packet_width,
+            log: self.log.clone(),
         }
     }
 }
@@ -194,6 +198,7 @@ impl Default for WideBvh {
             stack_need: 1,
             large_stack: false,
             packet_width: None,
+            log: None,
         }
     }
 }
@@ -320,10 +325,25 @@ impl WideBvh {
     /// Builds over `prims` (indices refer to this slice); primitives with
     /// unusable bounds (empty, NaN, infinite) are left out. A tree of at most
     /// [`SMALL_TREE`] primitives gets leaves of at most [`SMALL_TREE_LEAF`].
+    /// Triangles are not pre-split: with leaves of eight-triangle blocks a few large
+    /// triangles already cost one block test in a leaf near the root, and splitting
+    /// them scattered their pieces through the tree (more nodes per ray on every scene
+    /// measured; see [`presplit`] and `rdr bench MESH --split-budget`).
     pub fn build(prims: &[Prim]) -> WideBvh {
-        let mut refs = build::make_refs_with(prims.len(), |i| {
+        Self::build_split(prims, 0.0)
+    }
+
+    /// [`WideBvh::build`] with triangles pre-split ([`presplit`]) within `budget` extra
+    /// references per triangle (0: none, the tree [`WideBvh::build`] gives).
+    pub fn build_split(prims: &[Prim], budget: f32) -> WideBvh {
+        let refs = build::make_refs_with(prims.len(), |i| {
             let p = &prims[i];
             (p.bounds(), p.is_triangle())
+        });
+        let usable = refs.len();
+        let mut refs = presplit::presplit(refs, budget, |i| match &prims[i as usize] {
+            Prim::Triangle { p, .. } => Some(*p),
+            _ => None,
         });
         let max_leaf = if prims.len() <= SMALL_TREE {
             SMALL_TREE_LEAF
@@ -333,7 +353,9 @@ impl WideBvh {
         let tree = build::build_tree(&mut refs, max_leaf);
         let order: Vec<u32> = refs.iter().map(PrimRef::index).collect();
         drop(refs);
-        collapse::collapse(tree.as_ref(), &order, prims)
+        let mut bvh = collapse::collapse(tree.as_ref(), &order, prims);
+        bvh.prim_count = usable;
+        bvh
     }
 
     /// Bounds of all primitives in the tree (empty for an empty tree).
@@ -386,6 +408,15 @@ impl WideBvh {
     /// (triangle blocks are tested as always): the top level of a two-level
     /// structure, whose generic leaves are instances.
     pub fn intersect_with<L: Leaves + ?Sized>(&self, leaves: &L, ray: &Ray) -> Option<Hit> {
+        if let Some(log) = &self.log {
+            log.push(ray);
+        }
+        self.closest_one(leaves, ray)
+    }
+
+    /// [`WideBvh::intersect_with`], not recorded.
+    #[inline(always)]
+    fn closest_one<L: Leaves + ?Sized>(&self, leaves: &L, ray: &Ray) -> Option<Hit> {
         if self.nodes.is_empty() || !usable(ray) {
             return None;
         }
@@ -449,10 +480,13 @@ impl WideBvh {
         let n = rays.len().min(PACKET);
         let active = active & ((1u32 << n) - 1);
         out.found = 0;
+        if let Some(log) = &self.log {
+            (0..n).filter(|i| active >> i & 1 != 0).for_each(|i| log.push(&rays[i]));
+        }
         let w = self.packet_width();
         if w == 0 || self.nodes.is_empty() {
             for i in (0..n).filter(|i| active >> i & 1 != 0) {
-                out.set(i, self.intersect_with(leaves, &rays[i]));
+                out.set(i, self.closest_one(leaves, &rays[i]));
             }
             return;
         }
@@ -475,7 +509,7 @@ impl WideBvh {
         if flagged != 0 {
             PACKET_RETRACED.fetch_add(flagged.count_ones() as u64, Ordering::Relaxed);
             for i in (0..n).filter(|i| flagged >> i & 1 != 0) {
-                out.set(i, self.intersect_with(leaves, &rays[i]));
+                out.set(i, self.closest_one(leaves, &rays[i]));
             }
         }
     }
@@ -518,6 +552,34 @@ impl WideBvh {
                 .filter(|(_, &c)| c != EMPTY)
                 .map(move |(s, &c)| (i, s, decode(c)))
         })
+    }
+
+    /// The tree's SAH cost: by surface area relative to the root's box, the expected
+    /// number of inner nodes a ray through the root visits plus the triangle blocks and
+    /// other primitives it tests (one unit each, as the builder's cost model).
+    pub fn sah_cost(&self) -> f64 {
+        let area = |b: &Aabb| {
+            let e = (b.max - b.min).as_dvec3();
+            e.x * e.y + e.y * e.z + e.z * e.x
+        };
+        let root = area(&self.root_bounds);
+        if self.nodes.is_empty() || root <= 0.0 {
+            return 0.0;
+        }
+        let mut cost = 1.0;
+        for (node, slot, child) in self.children() {
+            let p = &self.nodes[node].planes;
+            let b = Aabb::new(
+                crate::math::Vec3::new(p[0][slot], p[2][slot], p[4][slot]),
+                crate::math::Vec3::new(p[1][slot], p[3][slot], p[5][slot]),
+            );
+            let units = match child {
+                ChildRef::Node(_) => 1,
+                ChildRef::Triangles { count, .. } | ChildRef::Generic { count, .. } => count,
+            };
+            cost += units as f64 * area(&b) / root;
+        }
+        cost
     }
 
     /// Primitive indices of a leaf reference (padding lanes left out).

@@ -63,7 +63,13 @@ impl WideBvh {
     /// child first, each primitive at most once per leaf. `visit` gets a
     /// primitive index and the current `t_max`, which it may shrink; returning
     /// `true` stops the traversal. Portable code (used by `--compat`).
-    pub fn traverse(&self, ray: &Ray, mut visit: impl FnMut(u32, &mut f32) -> bool) {
+    pub fn traverse(&self, ray: &Ray, visit: impl FnMut(u32, &mut f32) -> bool) {
+        self.traverse_counted(ray, visit, &mut 0);
+    }
+
+    /// [`WideBvh::traverse`] that adds the number of inner nodes it visits to `nodes`
+    /// (the benchmark's nodes per ray).
+    pub fn traverse_counted(&self, ray: &Ray, mut visit: impl FnMut(u32, &mut f32) -> bool, nodes: &mut usize) {
         if self.nodes.is_empty() {
             return;
         }
@@ -76,6 +82,7 @@ impl WideBvh {
         let mut cur = 0u32;
         loop {
             if cur & LEAF == 0 {
+                *nodes += 1;
                 let node = &self.nodes[cur as usize];
                 let (mut mask, d) = node_portable(node, &r, t_max);
                 let base = stack.len();

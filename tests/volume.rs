@@ -197,15 +197,18 @@ fn bad_vol_files_are_refused_in_one_line() {
         assert!(e.contains(expect) && !e.contains('\n'), "{what}: {e}");
     }
     // the reader names the file through the scene's build step
+    refused_in_scene("lying.vol", &with(8, &1000i32.to_le_bytes()), "claims");
+}
+
+/// A grid file `name` holding `bytes`, read through a scene: the error names the file,
+/// the key and says `expect`.
+fn refused_in_scene(name: &str, bytes: &[u8], expect: &str) {
     let dir = tempfile::tempdir().unwrap();
-    std::fs::write(dir.path().join("lying.vol"), with(8, &1000i32.to_le_bytes())).unwrap();
-    let e = build_from_xml(
-        dir.path(),
-        r#"<volume type="gridvolume"><string name="filename" value="lying.vol"/></volume>"#,
-    )
-    .unwrap_err();
+    std::fs::write(dir.path().join(name), bytes).unwrap();
+    let xml = format!(r#"<volume type="gridvolume"><string name="filename" value="{name}"/></volume>"#);
+    let e = build_from_xml(dir.path(), &xml).unwrap_err();
     println!("{e}");
-    assert!(e.contains("lying.vol") && e.contains("filename") && e.contains("claims"), "{e}");
+    assert!(e.contains(name) && e.contains("filename") && e.contains(expect), "{e}");
 }
 
 /// A `<volume>` read from XML in `dir` (as `dir/scene.xml`) and built.
@@ -517,15 +520,8 @@ fn bad_vdb_files_are_refused_in_one_line() {
         assert!(e.contains(expect) && !e.contains('\n'), "{what}: {e}");
     }
     // through a scene: the file and the key are named
+    refused_in_scene("b.vdb", &std::fs::read(vdb_dir().join("small_blosc.vdb")).unwrap(), "Blosc");
     let dir = tempfile::tempdir().unwrap();
-    std::fs::copy(vdb_dir().join("small_blosc.vdb"), dir.path().join("b.vdb")).unwrap();
-    let e = build_from_xml(
-        dir.path(),
-        r#"<volume type="gridvolume"><string name="filename" value="b.vdb"/></volume>"#,
-    )
-    .unwrap_err();
-    println!("{e}");
-    assert!(e.contains("b.vdb") && e.contains("filename") && e.contains("Blosc"), "{e}");
     std::fs::copy(vdb_dir().join("small_zip.vdb"), dir.path().join("z.vdb")).unwrap();
     let v = build_from_xml(
         dir.path(),

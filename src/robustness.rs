@@ -10,7 +10,7 @@ use crate::texture::TextureConvention;
 use std::path::Path;
 
 /// The corpus folders and fuzz targets, by name.
-pub const TARGETS: [&str; 8] = [
+pub const TARGETS: [&str; 10] = [
     "scene_json",
     "scene_xml",
     "obj",
@@ -19,6 +19,8 @@ pub const TARGETS: [&str; 8] = [
     "texture_image",
     "film_state",
     "ray_file",
+    "vol_grid",
+    "vdb_grid",
 ];
 
 /// Runs target `name` on `data`; `Ok` when the input was accepted.
@@ -32,6 +34,8 @@ pub fn run(name: &str, data: &[u8]) -> Result<(), String> {
         "texture_image" => texture_image(data),
         "film_state" => film_state(data),
         "ray_file" => ray_file(data),
+        "vol_grid" => vol_grid(data),
+        "vdb_grid" => vdb_grid(data),
         other => Err(format!("unknown fuzz target '{other}'")),
     }
 }
@@ -117,5 +121,38 @@ pub fn film_state(data: &[u8]) -> Result<(), String> {
 /// The `rdr bench --ray-file` reader.
 pub fn ray_file(data: &[u8]) -> Result<(), String> {
     crate::bench::ray_file::parse_rays(data, Path::new("fuzz.rays.f32")).map_err(|e| format!("{e:#}"))?;
+    Ok(())
+}
+
+/// Mitsuba's `.vol` grid reader, then the grid's lookups and majorant grid.
+pub fn vol_grid(data: &[u8]) -> Result<(), String> {
+    grid_lookups(crate::volume::vol_file::parse(data)?, crate::math::Mat4::IDENTITY)
+}
+
+/// The OpenVDB reader on grid `density` (made dense within a budget of at most 64 MB
+/// here, so the fuzzer's memory limit is not what stops a file that lies), then the
+/// grid's lookups and majorant grid.
+pub fn vdb_grid(data: &[u8]) -> Result<(), String> {
+    crate::limits::set_memory_budget(crate::limits::memory_budget().min(64 << 20));
+    let g = crate::volume::vdb::parse(data, "density")?;
+    grid_lookups(g.data, g.to_world)
+}
+
+fn grid_lookups(data: crate::volume::GridData, to_world: Mat4) -> Result<(), String> {
+    use crate::volume::{grid::GridOptions, GridFilter, GridVolume, MajorantGrid, Volume, WrapMode};
+    for (filter, wrap) in [(GridFilter::Trilinear, WrapMode::Clamp), (GridFilter::Nearest, WrapMode::Mirror)] {
+        let opts = GridOptions {
+            filter,
+            wrap,
+            to_world,
+            ..GridOptions::default()
+        };
+        let v = Volume::Grid(GridVolume::new(data.clone(), opts)?);
+        let m = MajorantGrid::new(&v, [4, 4, 4]);
+        let b = v.world_bounds();
+        for s in m.iter(b.min - (b.max - b.min), b.max - b.min, 0.0, 3.0) {
+            let _ = v.eval(b.min + 0.5 * (s.t0 + s.t1) * (b.max - b.min) - (b.max - b.min));
+        }
+    }
     Ok(())
 }

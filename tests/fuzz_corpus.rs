@@ -81,6 +81,10 @@ fn every_corpus_file_goes_through_its_target() {
         ("film_state", "bdpt_splats_2x2.exr"),
         ("film_state", "shard_2x1.exr"),
         ("ray_file", "three.rays.f32"),
+        ("vol_grid", "grid_4x3x2.vol"),
+        ("vol_grid", "rgb_2x2x2.vol"),
+        ("vdb_grid", "small_zip.vdb"),
+        ("vdb_grid", "small_raw.vdb"),
     ] {
         let data = std::fs::read(Path::new(env!("CARGO_MANIFEST_DIR")).join("fuzz/corpus").join(target).join(file)).unwrap();
         if let Err(e) = rdr::robustness::run(target, &data) {
@@ -100,6 +104,7 @@ fn every_corpus_file_goes_through_its_target() {
         ("film_state", "truncated.exr", "too short"),
         ("film_state", "no-channels-claims-19G-pixels.exr", "no channels"),
         ("ray_file", "not_unit.rays.f32", "direction of length"),
+        ("vol_grid", "lying.vol", "claims"),
     ] {
         let data = std::fs::read(Path::new(env!("CARGO_MANIFEST_DIR")).join("fuzz/corpus").join(target).join(file)).unwrap();
         let e = rdr::robustness::run(target, &data).unwrap_err();

@@ -10,7 +10,7 @@ use rdr::desc::xml::document::{read_str, Element, Params};
 use rdr::geometry::Aabb;
 use rdr::math::{Mat4, Vec3};
 use rdr::volume::grid::GridOptions;
-use rdr::volume::{vol_file, GridData, GridFilter, GridVolume, MajorantGrid, Volume, WrapMode};
+use rdr::volume::{vdb, vol_file, GridData, GridFilter, GridVolume, MajorantGrid, Volume, WrapMode};
 use std::path::Path;
 
 fn unit_box() -> Aabb {
@@ -197,15 +197,18 @@ fn bad_vol_files_are_refused_in_one_line() {
         assert!(e.contains(expect) && !e.contains('\n'), "{what}: {e}");
     }
     // the reader names the file through the scene's build step
+    refused_in_scene("lying.vol", &with(8, &1000i32.to_le_bytes()), "claims");
+}
+
+/// A grid file `name` holding `bytes`, read through a scene: the error names the file,
+/// the key and says `expect`.
+fn refused_in_scene(name: &str, bytes: &[u8], expect: &str) {
     let dir = tempfile::tempdir().unwrap();
-    std::fs::write(dir.path().join("lying.vol"), with(8, &1000i32.to_le_bytes())).unwrap();
-    let e = build_from_xml(
-        dir.path(),
-        r#"<volume type="gridvolume"><string name="filename" value="lying.vol"/></volume>"#,
-    )
-    .unwrap_err();
+    std::fs::write(dir.path().join(name), bytes).unwrap();
+    let xml = format!(r#"<volume type="gridvolume"><string name="filename" value="{name}"/></volume>"#);
+    let e = build_from_xml(dir.path(), &xml).unwrap_err();
     println!("{e}");
-    assert!(e.contains("lying.vol") && e.contains("filename") && e.contains("claims"), "{e}");
+    assert!(e.contains(name) && e.contains("filename") && e.contains(expect), "{e}");
 }
 
 /// A `<volume>` read from XML in `dir` (as `dir/scene.xml`) and built.
@@ -430,4 +433,100 @@ fn shared_smoke_grid_reads_and_bounds() {
     let worst = check_majorant(&mut Rng::new(64), &volume, &majorant, 3000);
     println!("smoke.vol: largest eval/bound {worst:.6}");
     assert!(worst <= 1.0 + 1e-5, "{worst}");
+}
+
+fn vdb_dir() -> std::path::PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/vdb")
+}
+
+/// `(grid, world point, OpenVDB's value)` from `tests/data/vdb/expected.txt`.
+fn openvdb_values() -> Vec<(String, Vec3, f32)> {
+    let text = std::fs::read_to_string(vdb_dir().join("expected.txt")).unwrap();
+    text.lines()
+        .filter(|l| !l.starts_with('#'))
+        .map(|l| {
+            let f: Vec<&str> = l.split_whitespace().collect();
+            let n: Vec<f32> = f[1..].iter().map(|s| s.parse().unwrap()).collect();
+            (f[0].to_string(), Vec3::new(n[0], n[1], n[2]), n[3])
+        })
+        .collect()
+}
+
+#[test]
+fn openvdb_files_read_as_openvdb_reads_them() {
+    let expected = openvdb_values();
+    let shift = Mat4::from_translation(Vec3::new(1.0, 2.0, 3.0));
+    for file in ["small_zip.vdb", "small_raw.vdb"] {
+        for name in ["density", "temperature"] {
+            let g = vdb::read(&vdb_dir().join(file), name).unwrap_or_else(|e| panic!("{file} {name}: {e}"));
+            let (mut inside, mut outside, mut worst) = (0, 0, 0.0f32);
+            for filter in [GridFilter::Nearest, GridFilter::Trilinear] {
+                let opts = GridOptions {
+                    filter,
+                    to_world: shift * g.to_world,
+                    ..GridOptions::default()
+                };
+                let v = Volume::Grid(GridVolume::new(g.data.clone(), opts).unwrap());
+                let b = v.world_bounds();
+                for (_, p, want) in expected.iter().filter(|(n, _, _)| n == name) {
+                    let p = shift.transform_point3(*p);
+                    if p.cmpgt(b.min + 1e-3).all() && p.cmplt(b.max - 1e-3).all() {
+                        inside += 1;
+                        worst = worst.max((v.eval(p)[0] - want).abs() / want.abs().max(1.0));
+                    } else {
+                        // nothing lost outside the box: OpenVDB's background there
+                        outside += 1;
+                        assert_eq!(*want, 0.0, "{file} {name}: {p} outside the box holds {want}");
+                    }
+                }
+            }
+            println!("{file} {name}: {inside} voxel centres inside, {outside} outside, largest relative difference {worst}");
+            assert!(inside > 50 && worst < 1e-5, "{file} {name}: {worst}");
+        }
+    }
+}
+
+#[test]
+fn bad_vdb_files_are_refused_in_one_line() {
+    let raw = std::fs::read(vdb_dir().join("small_raw.vdb")).unwrap();
+    let patch = |find: f32, put: f32| {
+        let at = raw.windows(4).position(|w| w == find.to_le_bytes()).expect("value in the file");
+        let mut b = raw.clone();
+        b[at..at + 4].copy_from_slice(&put.to_le_bytes());
+        b
+    };
+    // the first root child of "density" moved 2^30 voxels away: a dense box of 2^90 voxels
+    let mut far = raw.clone();
+    let t = far.windows(24).position(|w| w == b"UniformScaleTranslateMap").unwrap() + 24 + 18 * 8;
+    far[t + 16..t + 20].copy_from_slice(&(1i32 << 30).to_le_bytes());
+    let cases: Vec<(&str, Vec<u8>, &str, &str)> = vec![
+        (
+            "blosc",
+            std::fs::read(vdb_dir().join("small_blosc.vdb")).unwrap(),
+            "density",
+            "Blosc",
+        ),
+        ("vec3s grid", raw.clone(), "velocity", "float grids"),
+        ("missing grid", raw.clone(), "smoke", "\"density\", \"temperature\", \"velocity\""),
+        ("truncated", raw[..raw.len() / 2].to_vec(), "density", "past the end of the file"),
+        ("not vdb", b"VOL\x03 and more bytes".to_vec(), "density", "not an OpenVDB file"),
+        ("NaN", patch(4.5, f32::NAN), "density", "voxel (20, 3, -5) holds NaN"),
+        ("negative", patch(4.5, -4.5), "density", "not negative"),
+        ("far apart", far, "density", "memory"),
+    ];
+    for (what, bytes, grid, expect) in cases {
+        let e = vdb::parse(&bytes, grid).expect_err(what);
+        println!("{what}: {e}");
+        assert!(e.contains(expect) && !e.contains('\n'), "{what}: {e}");
+    }
+    // through a scene: the file and the key are named
+    refused_in_scene("b.vdb", &std::fs::read(vdb_dir().join("small_blosc.vdb")).unwrap(), "Blosc");
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::copy(vdb_dir().join("small_zip.vdb"), dir.path().join("z.vdb")).unwrap();
+    let v = build_from_xml(
+        dir.path(),
+        r#"<volume type="gridvolume"><string name="filename" value="z.vdb"/><string name="grid" value="temperature"/></volume>"#,
+    )
+    .unwrap();
+    assert_eq!(v.max(), 9.5);
 }

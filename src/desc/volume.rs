@@ -6,7 +6,7 @@
 use crate::desc::{Located, Source};
 use crate::error::Result;
 use crate::volume::grid::GridOptions;
-use crate::volume::{vol_file, GridVolume, Volume};
+use crate::volume::{vdb, vol_file, GridVolume, Volume};
 use std::path::Path;
 
 /// A volume as described: where it came from, and the volume with its grid unread.
@@ -36,11 +36,16 @@ pub fn build_volume(desc: &VolumeDesc, scene: &Path, base_dir: &Path) -> Result<
     };
     let full = base_dir.join(&file.path.value);
     let named = |e: String| file.path.source.error(scene, format!("filename \"{}\": {e}", full.display()));
-    let data = match &file.grid {
-        Some(_) => return Err(named("OpenVDB files are not read yet".into())),
-        None => vol_file::read(&full).map_err(named)?,
+    let (data, options) = match &file.grid {
+        None => (vol_file::read(&full).map_err(named)?, file.options),
+        // the grid's own index-to-world map places it, then `to_world`
+        Some(grid) => {
+            let g = vdb::read(&full, grid).map_err(named)?;
+            let to_world = file.options.to_world * g.to_world;
+            (g.data, GridOptions { to_world, ..file.options })
+        }
     };
-    GridVolume::new(data, file.options).map(Volume::Grid).map_err(|e| {
+    GridVolume::new(data, options).map(Volume::Grid).map_err(|e| {
         let source = match (&file.max_value_source, e.starts_with("max_value")) {
             (Some(s), true) => s,
             _ => &desc.source,

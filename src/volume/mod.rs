@@ -16,6 +16,7 @@
 
 pub mod grid;
 pub mod majorant;
+pub mod vdb;
 pub mod vol_file;
 
 use crate::geometry::Aabb;

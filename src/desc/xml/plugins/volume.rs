@@ -67,6 +67,10 @@ impl<'a> Reader<'a> {
                     (false, None) => None,
                     (false, Some(_)) => return Err(p.value_error("grid", "names a grid of an OpenVDB (.vdb) file; this file is a .vol")),
                 };
+                let use_grid_bbox = p.boolean("use_grid_bbox", false)?;
+                if vdb && use_grid_bbox {
+                    return Err(p.value_error("use_grid_bbox", "is for .vol grids; a .vdb grid is placed by its own transform"));
+                }
                 let filter = match p.string("filter_type", "trilinear")?.as_str() {
                     "trilinear" => GridFilter::Trilinear,
                     "nearest" => GridFilter::Nearest,
@@ -93,7 +97,7 @@ impl<'a> Reader<'a> {
                         wrap,
                         max_value,
                         to_world,
-                        use_grid_bbox: p.boolean("use_grid_bbox", false)?,
+                        use_grid_bbox,
                     },
                     max_value_source,
                 })

@@ -124,13 +124,7 @@ pub(super) const DOCS: &[PluginDoc] = &[
     },
     not_read(
         "integrator",
-        &[
-            "prb",
-            "prb_basic",
-            "prbvolpath",
-            "prb_projective",
-            "direct_projective",
-        ],
+        &["prb", "prb_basic", "prbvolpath", "prb_projective", "direct_projective"],
         Status::Refused,
         "Mitsuba 3's differentiable and spectral-MIS integrators (rdr renders forward only)",
     ),

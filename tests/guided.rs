@@ -415,6 +415,7 @@ fn path_records_estimate_the_radiance_arriving_through_the_glass_and_from_the_wa
         max_depth: 11,
         profile: rdr::integrator::PathProfile::Mis,
         rr_threshold: 0.1,
+        hide_emitters: false,
     };
     let mut counts = rdr::integrator::RayCounts::default();
     let mut rng = Rng::new(5);

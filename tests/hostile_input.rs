@@ -524,7 +524,7 @@ fn cases(dir: &Path) -> Vec<Case> {
         err(
             "PNG texture claiming 23170x23170",
             render(&edited("pngtex", &|v| textured(v, "lying.png")), &o("x2"), &[]),
-            &[&"lying.png", &"textures.img.path", &"23170x23170", &"memory"],
+            &[&"lying.png", &"textures.img.path", &"23170x23170", &"more than its"],
         ),
         err(
             "PLY vertex count 4e9 without properties",

@@ -216,7 +216,7 @@ fn importance_sampled_films_have_independent_pixel_noise() {
     let mean = |a: &[Vec3], b: &[Vec3]| a.iter().chain(b).map(luma).sum::<f64>() / (2 * a.len()) as f64;
     let (mf, mi) = (mean(&f1, &f2), mean(&i1, &i2));
     eprintln!("neighbour noise correlation: filter weights {cf:.3}, importance {ci:.3}; mean {mf:.4} vs {mi:.4}");
-    assert!(cf > 0.3, "the filter's weights should correlate neighbours ({cf:.3})");
+    assert!(cf > 0.15, "the filter's weights should correlate neighbours ({cf:.3})");
     assert!(ci.abs() < 0.1, "importance-sampled pixels' noise is correlated ({ci:.3})");
     assert!(
         (mi / mf - 1.0).abs() < 0.02,

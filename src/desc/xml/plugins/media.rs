@@ -3,6 +3,7 @@
 //! 1, 0.75 and 1, the heterogeneous one's from volumes; `isotropic` and `hg` phase
 //! functions, `g` 0.8 by default). Grid volumes are loaded as they are read.
 
+use super::table::{noted, read, Param, PluginDoc, Status};
 use super::{source, Reader};
 use crate::desc::xml::document::Element;
 use crate::desc::xml::props::Plugin;
@@ -94,3 +95,58 @@ fn phase(p: &Plugin) -> Result<PhaseFunction> {
     pp.finish(&[])?;
     Ok(phase)
 }
+
+const MEDIUM_PARAMS: &[Param] = &[
+    read("sigma_t", "colour or volume", "1", "extinction per unit length (before `scale`)"),
+    read(
+        "albedo",
+        "colour or volume",
+        "0.75",
+        "single-scattering albedo, each channel in [0, 1]",
+    ),
+    read("scale", "float", "1", "multiplies `sigma_t`"),
+    noted(
+        "sample_emitters",
+        "boolean",
+        "false is warned about: rdr samples emitters from every medium vertex",
+    ),
+    noted(
+        "has_spectral_extinction",
+        "boolean",
+        "read and not needed: every channel is tracked alike",
+    ),
+];
+
+/// The media's and phase functions' rows of the plugin table.
+pub(super) const DOCS: &[PluginDoc] = &[
+    PluginDoc {
+        element: "medium",
+        names: &["homogeneous"],
+        status: Status::Read,
+        note: "Constant `sigma_t` and `albedo` (numbers, colours or `constvolume`s); rendered by `volpath` and \
+               `volpathmis` (see [Media](../media.md)).",
+        params: MEDIUM_PARAMS,
+    },
+    PluginDoc {
+        element: "medium",
+        names: &["heterogeneous"],
+        status: Status::Read,
+        note: "`sigma_t` and `albedo` from grid volumes; the medium exists only inside the world box of its \
+               `sigma_t` grid.",
+        params: MEDIUM_PARAMS,
+    },
+    PluginDoc {
+        element: "phase",
+        names: &["isotropic"],
+        status: Status::Read,
+        note: "The default of a medium without `<phase>`.",
+        params: &[],
+    },
+    PluginDoc {
+        element: "phase",
+        names: &["hg"],
+        status: Status::Read,
+        note: "Henyey-Greenstein.",
+        params: &[read("g", "float", "0.8", "in (−1, 1)")],
+    },
+];

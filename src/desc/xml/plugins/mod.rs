@@ -45,7 +45,8 @@ pub const FAMILIES: &table::Families = &[
     ("Emitters", emitters::DOCS),
     ("Textures", textures::DOCS),
     ("Spectra", SPECTRA_DOCS),
-    // media, phase functions and volumes: their families' DOCS join here
+    ("Media and phase functions", media::DOCS),
+    ("Volumes", volume::DOCS),
 ];
 
 /// `<spectrum type="…">` (read by `props`, not as plugins: no parameter is checked).

@@ -117,8 +117,7 @@ pub const fn not_read(element: &'static str, names: &'static [&'static str], sta
 /// Plugin families in the page's order: (heading, their rows).
 pub type Families = [(&'static str, &'static [PluginDoc])];
 
-/// Whether the table has rows for `element` (`medium`, `phase` and `volume` are not
-/// checked until their family has rows).
+/// Whether the table has rows for `element` (an element without rows is not checked).
 pub fn covers(families: &Families, element: &str) -> bool {
     families.iter().any(|(_, docs)| docs.iter().any(|d| d.element == element))
 }

@@ -2,6 +2,7 @@
 //! medium (`sigma_t`, `albedo`, `radiance`): a number, `<rgb>` or `<spectrum>` there is
 //! a `constvolume`, as in Mitsuba 3.
 
+use super::table::{noted, read, Param, PluginDoc, Status};
 use super::{source, Reader, VOLUMES};
 use crate::desc::xml::document::Element;
 use crate::desc::xml::props::{Ids, Plugin};
@@ -115,3 +116,48 @@ fn check_constant(v: Vec3) -> std::result::Result<(), String> {
     }
     Ok(())
 }
+
+/// The volumes' rows of the plugin table.
+pub(super) const DOCS: &[PluginDoc] = &[
+    PluginDoc {
+        element: "volume",
+        names: &["constvolume"],
+        status: Status::Read,
+        note: "A number, `<rgb>` or `<spectrum>` where a volume is expected is a `constvolume` too.",
+        params: &[read("value", "colour", "1", "finite, not negative"), TO_WORLD],
+    },
+    PluginDoc {
+        element: "volume",
+        names: &["gridvolume"],
+        status: Status::Differs,
+        note: "Mitsuba's binary `.vol` (float32, 1 or 3 channels), and OpenVDB `.vdb` files (uncompressed or zlib \
+               float and half grids, placed by the grid's own transform, then `to_world`), which Mitsuba 3 does not read.",
+        params: &[
+            read("filename", "string", "", "required: a `.vol` or `.vdb` file"),
+            read("grid", "string", "", "a `.vdb` file's grid by name (`density` when absent)"),
+            read(
+                "filter_type",
+                "string",
+                "trilinear",
+                "`trilinear` or `nearest`; values at voxel centres",
+            ),
+            read("wrap_mode", "string", "clamp", "`clamp`, `repeat` or `mirror`"),
+            read(
+                "use_grid_bbox",
+                "boolean",
+                "false",
+                "the `.vol` file's box mapped to the unit cube first",
+            ),
+            read(
+                "max_value",
+                "float",
+                "",
+                "the majorant's bound: may raise the grid's maximum, never lower it",
+            ),
+            noted("raw", "boolean", "ignored: rdr renders RGB, nothing to upsample"),
+            TO_WORLD,
+        ],
+    },
+];
+
+const TO_WORLD: Param = read("to_world", "transform", "", "maps the unit cube");

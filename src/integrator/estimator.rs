@@ -223,11 +223,7 @@ fn trace_media<P: Policy>(
         if let Some(s) = shadow {
             let from = scene.medium_after(&it, s.ray.d, medium);
             let tr = scene.transmittance_through_media(&s.ray, from, || sampler.next_1d());
-            if tr != Vec3::ZERO {
-                let c = s.term * tr;
-                path.l += c;
-                policy.light_arrived(c, (tr.x + tr.y + tr.z) / 3.0);
-            }
+            path.add_transmitted(policy, &s, tr, (tr.x + tr.y + tr.z) / 3.0);
         }
         if !goes_on {
             return path.l;
@@ -375,10 +371,17 @@ impl PathState {
     /// A light term times the transmittance of its shadow ray.
     #[inline]
     pub fn add_unoccluded<P: Policy>(&mut self, policy: &mut P, s: &Shadow, tr: f32) {
-        if tr > 0.0 {
+        self.add_transmitted(policy, s, Vec3::splat(tr), tr);
+    }
+
+    /// [`PathState::add_unoccluded`] with a transmittance per channel (through media);
+    /// `tr_mean` is the scalar the policy's records take.
+    #[inline(always)]
+    pub fn add_transmitted<P: Policy>(&mut self, policy: &mut P, s: &Shadow, tr: Vec3, tr_mean: f32) {
+        if tr.cmpgt(Vec3::ZERO).any() {
             let c = s.term * tr;
             self.l += c;
-            policy.light_arrived(c, tr);
+            policy.light_arrived(c, tr_mean);
         }
     }
 

@@ -101,6 +101,11 @@ fn every_corpus_file_goes_through_its_target() {
         ("texture_image", "oom-png-header-claims-2g-pixels", "more than its 65 bytes"),
         ("ply", "huge_count.ply", "no properties"),
         ("scene_xml", "syntax_error.xml", "line 3, column 55"),
+        (
+            "scene_xml",
+            "attrs101.xml",
+            "line 2, column 1: <shape> has more than 100 attributes",
+        ),
         ("serialized", "truncated.bin", "truncated"),
         ("film_state", "truncated.exr", "too short"),
         ("film_state", "no-channels-claims-19G-pixels.exr", "no channels"),

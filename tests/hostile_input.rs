@@ -392,6 +392,15 @@ fn cases(dir: &Path) -> Vec<Case> {
         .collect();
     let group = r#"<shape type="shapegroup" id="g"><shape type="sphere"><float name="radius" value="0.2"/></shape></shape>"#;
     std::fs::write(d("instances.xml"), mitsuba(&format!("{group}\n{instances}"))).unwrap();
+    // issue 42, found auditing it: 300,000 attributes on one element (the XML parser's
+    // duplicate check is quadratic: minutes), and scenes whose parsed form outgrows the
+    // budget (an XML element takes some 1.2 kB, a JSON zero 48 bytes: the 1/8-of-the-
+    // budget file size cap let a scene file take several times the budget)
+    let attrs: String = (0..300_000).map(|i| format!(" a{i}=\"{i}\"")).collect();
+    std::fs::write(d("attrs.xml"), mitsuba(&format!("<shape type=\"sphere\"{attrs}/>\n"))).unwrap();
+    let mut zeros: Value = serde_json::from_str(BASE).unwrap();
+    zeros["integrator"]["lights"] = json!(vec![0; 3_000_000]);
+    std::fs::write(d("zeros.json"), serde_json::to_string(&zeros).unwrap()).unwrap();
     let mut sky = vec![rdr::math::Vec3::ONE; 8];
     sky[1].x = f32::NAN;
     sky[2].y = f32::INFINITY;
@@ -778,6 +787,21 @@ fn cases(dir: &Path) -> Vec<Case> {
             },
             &o("nantex"),
             &["sky.exr: image texture with 2 NaN or infinite texel(s) of 8; they are read as black"],
+        ),
+        err(
+            "an XML element with 300,000 attributes (3.5 MB)",
+            render(&d("attrs.xml"), &o("attrs"), &[]),
+            &[&"attrs.xml", &"line 4, column 1", &"<shape> has more than 100 attributes"],
+        ),
+        err(
+            "XML with 150,000 <float> elements under a 64 MB budget",
+            render(&d("floats.xml"), &o("floats64"), &["--max-memory", "64M"]),
+            &[&"floats.xml", &"150011 elements", &"more than the 67 MB allowed", &"--max-memory"],
+        ),
+        err(
+            "a JSON scene with 3,000,000 numbers (6 MB) under a 64 MB budget",
+            render(&d("zeros.json"), &o("zeros"), &["--max-memory", "64M"]),
+            &[&"zeros.json", &"reading its JSON", &"more than the 67 MB allowed"],
         ),
         err(
             "serialized mesh with a corrupt zlib stream",

@@ -960,3 +960,31 @@ fn inline_albedo_renders_and_round_trips() {
         v["materials"]
     );
 }
+
+/// Every material with a `texture_name` also takes an inline colour there, rendering as
+/// a constant texture of that colour would (issue 42: each colour needed its own entry).
+#[test]
+fn inline_colours_in_textured_materials_render_as_constant_textures() {
+    let dir = common::temp_dir("rdr-dayone-inline");
+    let d = dir.path();
+    let first = |s: &serde_json::Value| s["materials"].as_object().unwrap().keys().next().unwrap().clone();
+    let args = ["render", "-q", "--threads", "2", "--spp", "2", "--res", "16x16"];
+    for ty in ["diffuse", "plastic", "roughplastic", "conductor", "roughconductor"] {
+        let inline = scene_copy("cornell.json", d, &format!("{ty}_inline.json"), |s| {
+            let m = first(s);
+            s["materials"][&m] = serde_json::json!({"type": ty, "texture_name": [0.8, 0.2, 0.2]});
+        });
+        let named = scene_copy("cornell.json", d, &format!("{ty}_named.json"), |s| {
+            let m = first(s);
+            s["textures"]["inline_red"] = serde_json::json!({"type": "constant", "color": [0.8, 0.2, 0.2]});
+            s["materials"][&m] = serde_json::json!({"type": ty, "texture_name": "inline_red"});
+        });
+        let (a, b) = (d.join(format!("{ty}_a.exr")), d.join(format!("{ty}_b.exr")));
+        ok(&rdr_with(&args, Some(&inline), Some(&a)), &format!("{ty}: inline colour"));
+        ok(&rdr_with(&args, Some(&named), Some(&b)), &format!("{ty}: named constant"));
+        assert!(
+            same_pixels(&a, &b),
+            "{ty}: an inline colour renders differently from its constant texture"
+        );
+    }
+}

@@ -99,7 +99,17 @@ fn texture_ref(p: &Props, legacy: &str, inline: Option<&str>) -> Result<TextureR
     if let (Some(key), false) = (inline, p.contains("texture_name")) {
         return Err(p.error(key, "give a colour such as [0.8, 0.2, 0.2], or a 'texture_name'"));
     }
-    Ok(TextureRef::Named(p.located("texture_name", p.string("texture_name")?)))
+    texture_name(p)?.ok_or_else(|| p.error("texture_name", "required key is missing"))
+}
+
+/// `texture_name`: the name of a texture, or a colour given inline (`[0.8, 0.2, 0.2]`,
+/// a constant texture without an entry of its own); `None` when absent.
+fn texture_name(p: &Props) -> Result<Option<TextureRef>> {
+    if let Some(Value::Array(_)) = p.raw("texture_name") {
+        return Ok(Some(TextureRef::Color(colour(p, "texture_name", Vec3::ONE)?)));
+    }
+    Ok(p.string_opt("texture_name")?
+        .map(|t| TextureRef::Named(p.located("texture_name", t))))
 }
 
 /// Every material type, as the error for an unknown one lists them.
@@ -280,13 +290,10 @@ fn distribution(p: &Props) -> Result<Distribution> {
     }
 }
 
-/// `texture_name` when given, else the constant `default` (the optional textures
+/// `texture_name` (a name or an inline colour) when given, else the constant `default` (the optional textures
 /// of the Mitsuba materials).
 fn texture_or(p: &Props, default: Vec3) -> Result<TextureRef> {
-    match p.string_opt("texture_name")? {
-        Some(t) => Ok(TextureRef::Named(p.located("texture_name", t))),
-        None => Ok(TextureRef::Color(default)),
-    }
+    Ok(texture_name(p)?.unwrap_or(TextureRef::Color(default)))
 }
 
 /// One material of type `ty` (see [`MaterialDesc`] and [`Material`] for the keys).

@@ -27,6 +27,17 @@ pub const MAX_INCLUDE_DEPTH: usize = 15;
 /// XML parser, this reader and what interprets its tree all recurse once per level,
 /// so a file nested some 10,000 deep would overflow the stack instead of being refused.
 pub const MAX_ELEMENT_DEPTH: usize = 100;
+/// Most attributes on one element. Mitsuba's elements carry at most a few; the XML
+/// parser compares each attribute with the element's earlier ones (for duplicates), so
+/// an element with 300,000 of them took minutes.
+pub const MAX_ATTRIBUTES: usize = 100;
+/// Bytes of memory one element and one attribute take at most while a scene is read
+/// (the parser's tree, this reader's, the plugins' properties): the text's counts are
+/// checked against the budget with them before it is parsed. Measured peaks: 1.19 kB
+/// per `<float name=".." value=".."/>`, 380 bytes per bare `<a/>`, 900 bytes per element
+/// of 200,000 instances (BVH included).
+const MEMORY_PER_ELEMENT: u64 = 1024;
+const MEMORY_PER_ATTRIBUTE: u64 = 256;
 
 /// One XML element.
 #[derive(Clone, Debug)]
@@ -80,6 +91,9 @@ pub struct Params {
     used: std::cell::RefCell<Vec<String>>,
     /// The files `<include>`s read, in order.
     pub included: Vec<PathBuf>,
+    /// Memory the files read so far take at most, by [`MEMORY_PER_ELEMENT`] and
+    /// [`MEMORY_PER_ATTRIBUTE`] (includes add up: a file may be included many times).
+    memory: u64,
 }
 
 impl Params {
@@ -233,10 +247,27 @@ fn read_text(
     depth: usize,
 ) -> Result<Element> {
     let positions = Positions::new(text);
-    if let Some((at, tag)) = too_deep(text, depth) {
+    let counts = scan(text, depth).map_err(|(at, msg)| {
         let (l, c) = positions.line_column(at);
-        return Err(position(file, l, c).error(Path::new(""), format!("<{tag}> is nested deeper than {MAX_ELEMENT_DEPTH} elements")));
-    }
+        position(file, l, c).error(Path::new(""), msg)
+    })?;
+    let memory = (counts.elements.saturating_mul(MEMORY_PER_ELEMENT))
+        .saturating_add(counts.attributes.saturating_mul(MEMORY_PER_ATTRIBUTE))
+        .saturating_add(text.len() as u64);
+    params.memory = params.memory.saturating_add(memory);
+    crate::limits::check_memory(Some(params.memory), || {
+        format!(
+            "reading its {} elements and {} attributes{}",
+            counts.elements,
+            counts.attributes,
+            if params.included.is_empty() {
+                ""
+            } else {
+                " (with the files included so far)"
+            }
+        )
+    })
+    .map_err(|msg| SceneError::new(file, None, msg))?;
     let doc = roxmltree::Document::parse_with_options(
         text,
         roxmltree::ParsingOptions {
@@ -404,18 +435,30 @@ impl Reader<'_> {
     }
 }
 
-/// The byte offset and name of the first start tag in `text` that stands deeper than
-/// `MAX_ELEMENT_DEPTH` when the root stands at `root_depth`, found without recursion
-/// before the (recursive) XML parser sees the text. Comments, CDATA sections,
-/// processing instructions and quoted attribute values are skipped, so the depth is
-/// exact for well-formed XML; malformed XML is refused by the parser after this.
-fn too_deep(text: &str, root_depth: usize) -> Option<(usize, String)> {
+/// Elements and attributes of a text, counted by [`scan`].
+struct Counts {
+    elements: u64,
+    attributes: u64,
+}
+
+/// Counts the start tags of `text` and their attributes without recursion, before the
+/// (recursive) XML parser sees the text; refuses, with the byte offset of the tag and
+/// a message, the first start tag that stands deeper than `MAX_ELEMENT_DEPTH` when the
+/// root stands at `root_depth`, or carries more than `MAX_ATTRIBUTES` attributes.
+/// Comments, CDATA sections, processing instructions and quoted attribute values are
+/// skipped, so the counts are exact for well-formed XML; malformed XML is refused by
+/// the parser after this.
+fn scan(text: &str, root_depth: usize) -> std::result::Result<Counts, (usize, String)> {
     let b = text.as_bytes();
     let skip_to = |from: usize, end: &[u8]| {
         b[from.min(b.len())..]
             .windows(end.len())
             .position(|w| w == end)
             .map_or(b.len(), |p| from + p + end.len())
+    };
+    let mut counts = Counts {
+        elements: 0,
+        attributes: 0,
     };
     let mut depth = root_depth - 1;
     let mut i = 0;
@@ -435,24 +478,34 @@ fn too_deep(text: &str, root_depth: usize) -> Option<(usize, String)> {
             at + 2
         } else {
             let mut quote = None;
+            let mut attributes = 0;
             let mut j = at + 1;
             while j < b.len() {
                 match (quote, b[j]) {
                     (Some(q), c) if c == q => quote = None,
                     (None, c @ (b'"' | b'\'')) => quote = Some(c),
+                    (None, b'=') => attributes += 1,
                     (None, b'>') => break,
                     _ => {}
                 }
                 j += 1;
             }
-            depth += 1;
-            if depth > MAX_ELEMENT_DEPTH {
+            let name = || {
                 let name = text[at + 1..j.min(b.len())]
                     .split(|c: char| c.is_whitespace() || c == '/' || c == '>')
                     .next()
                     .unwrap_or("");
-                return Some((at, name.chars().take(40).collect()));
+                name.chars().take(40).collect::<String>()
+            };
+            depth += 1;
+            if depth > MAX_ELEMENT_DEPTH {
+                return Err((at, format!("<{}> is nested deeper than {MAX_ELEMENT_DEPTH} elements", name())));
             }
+            if attributes > MAX_ATTRIBUTES {
+                return Err((at, format!("<{}> has more than {MAX_ATTRIBUTES} attributes", name())));
+            }
+            counts.elements += 1;
+            counts.attributes += attributes as u64;
             if b[j - 1] == b'/' {
                 depth -= 1;
             }
@@ -462,7 +515,7 @@ fn too_deep(text: &str, root_depth: usize) -> Option<(usize, String)> {
             break;
         }
     }
-    None
+    Ok(counts)
 }
 
 fn strip_position(s: &str) -> String {
@@ -490,13 +543,18 @@ mod tests {
         let nest = |n: usize, inner: &str| format!("{}{inner}{}", "<a x='/>'>".repeat(n), "</a>".repeat(n));
         let max = MAX_ELEMENT_DEPTH;
         // `max` deep is fine, and nothing inside comments, CDATA or PIs counts
+        let too_deep = |text: &str, root: usize| scan(text, root).err();
         assert_eq!(too_deep(&nest(max, "<!-- > <c> --><![CDATA[ > <d>]]><?pi > <e> ?>"), 1), None);
-        assert_eq!(too_deep(&nest(max - 1, "<b/>"), 2).map(|(_, t)| t), Some("b".into()));
+        let b = format!("<b> is nested deeper than {max} elements");
+        assert_eq!(too_deep(&nest(max - 1, "<b/>"), 2).map(|(_, t)| t), Some(b));
         let deep = nest(max + 1, "");
-        assert_eq!(too_deep(&deep, 1), Some((max * 10, "a".into())));
+        assert_eq!(too_deep(&deep, 1).map(|(at, _)| at), Some(max * 10));
         // through an include: the included root stands where the <include> was
         assert_eq!(too_deep(&nest(10, ""), max - 9), None);
         assert!(too_deep(&nest(10, ""), max - 8).is_some());
+        // elements and attributes (not those in comments or quotes) are counted
+        let c = scan(&nest(7, "<!-- <c d='1'> --><b y='=' z=\"2\"/>"), 1).unwrap();
+        assert_eq!((c.elements, c.attributes), (8, 9));
         // the whole file is read (no recursion) and refused before the parser sees it
         let dir = std::env::temp_dir().join(format!("rdr-deep-{}", std::process::id()));
         let e = read_str(
@@ -507,6 +565,14 @@ mod tests {
         .unwrap_err()
         .to_string();
         assert!(e.contains("line 1, column") && e.contains("nested deeper than"), "{e}");
+    }
+
+    #[test]
+    fn elements_with_too_many_attributes_are_refused_before_parsing() {
+        let tag = |n: usize| format!("<b {}/>", (0..n).map(|i| format!("a{i}='{i}'")).collect::<Vec<_>>().join(" "));
+        assert!(scan(&format!("<a>{}</a>", tag(MAX_ATTRIBUTES)), 1).is_ok());
+        let (at, msg) = scan(&format!("<a>{}</a>", tag(MAX_ATTRIBUTES + 1)), 1).err().unwrap();
+        assert_eq!((at, msg.as_str()), (3, "<b> has more than 100 attributes"));
     }
 
     #[test]

@@ -40,9 +40,21 @@ def value(text, v):
     return int(v)
 
 
-def prepared(scene, out):
-    with open(scene) as f:
+def inlined(path):
+    """The file's text with its <include>s' contents in place (their <scene> tags dropped), so
+    a film declared in an included fragment (Mitsuba's cbox-rgb.xml) is found and edited."""
+    with open(path) as f:
         text = f.read()
+
+    def one(m):
+        inner = inlined(os.path.join(os.path.dirname(path), m.group(1)))
+        return re.sub(r"<\?xml[^>]*>|<scene[^>]*>|</scene>", "", inner)
+
+    return re.sub(r'<include filename="([^"]+)"\s*/>', one, text)
+
+
+def prepared(scene, out):
+    text = inlined(scene)
     w = re.search(r'(<integer name="width" value=")([^"]+)(")', text)
     h = re.search(r'(<integer name="height" value=")([^"]+)(")', text)
     W, H = value(text, w.group(2)), value(text, h.group(2))

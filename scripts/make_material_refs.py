@@ -132,6 +132,25 @@ LARGE = {
         {"w": checker_json(0.1, 0.9)},
     ),
 }
+# textured roughness (64×64, rendered by tests/materials_render.rs from the XML, which is
+# what it checks: Mitsuba's float textures on roughconductor and roughdielectric; no JSON twin)
+RAMP_XML = ('<texture type="bitmap" name="{key}"><string name="filename" value="../bump/ramp.exr"/>'
+            '<boolean name="raw" value="true"/></texture>')
+XML_ONLY = {
+    # anisotropic: alpha_u a checkerboard, alpha_v a bitmap (a ramp 0 → 1 along u)
+    "rough_textured_conductor": (
+        '<bsdf type="roughconductor"><string name="distribution" value="ggx"/>'
+        + CHECKER_XML.format(key="alpha_u", a=0.03, b=0.4) + RAMP_XML.format(key="alpha_v")
+        + f'<rgb name="eta" value="{CU_ETA[0]}, {CU_ETA[1]}, {CU_ETA[2]}"/>'
+        f'<rgb name="k" value="{CU_K[0]}, {CU_K[1]}, {CU_K[2]}"/></bsdf>'
+    ),
+    # isotropic: alpha a checkerboard
+    "rough_textured_dielectric": (
+        '<bsdf type="roughdielectric"><string name="distribution" value="beckmann"/>'
+        + CHECKER_XML.format(key="alpha", a=0.02, b=0.5)
+        + '<float name="int_ior" value="1.5"/><float name="ext_ior" value="1.0"/></bsdf>'
+    ),
+}
 BLEND_PARTS = {
     "plastic": {"type": "roughplastic", "distribution": "ggx", "alpha": 0.2, "texture_name": "red", "eta": 1.5},
     "metal": {"type": "principled", "base_color": [0.9, 0.7, 0.3], "metallic": 1, "roughness": 0.3},
@@ -238,6 +257,14 @@ def main():
     mi = mitsuba(args.variant)
     with open(os.path.join(HERE, "quad.obj"), "w") as f:
         f.write(QUAD_OBJ)
+    for name, bsdf in XML_ONLY.items():
+        if args.names and name not in args.names:
+            continue
+        shapes = f'  <shape type="sphere"><point name="center" x="0" y="0" z="0"/><float name="radius" value="1"/>{bsdf}</shape>'
+        xml_path = os.path.join(HERE, f"{name}.xml")
+        with open(xml_path, "w") as f:
+            f.write(scene_xml(name, shapes, RES_LARGE).replace(f"; twin: {name}.json", "; no JSON twin"))
+        render_reference(mi, mi.load_file(xml_path), HERE, name, args.passes, args.spp)
     for name, xml, js in scenes():
         if args.names and name not in args.names:
             continue

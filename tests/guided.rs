@@ -144,6 +144,7 @@ fn test_bsdfs() -> Vec<(&'static str, Bsdf)> {
         k: Vec3::new(3.9, 2.45, 2.14),
         alpha_x: 0.3,
         alpha_y: 0.3,
+        alpha_textures: None,
         distribution: rdr::material::Distribution::Beckmann,
         twosided: true,
     }

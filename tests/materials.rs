@@ -49,6 +49,7 @@ fn rough_dielectric(distribution: Distribution, ax: f32, ay: f32, eta: f32) -> M
         eta,
         alpha_x: ax,
         alpha_y: ay,
+        alpha_textures: None,
         distribution,
     }
 }

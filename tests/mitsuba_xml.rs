@@ -1579,3 +1579,65 @@ fn sensor_clipping_is_applied_and_converted() {
     assert_eq!(xml_desc(&back, &[]).camera.near_clip, 2.6);
     assert_eq!(SceneDesc::load(&json, &[]).unwrap().camera.near_clip, 2.6);
 }
+
+/// Mitsuba 3's top-level area emitters: one with an `id` that a shape refers to lights
+/// that shape (Mitsuba's own `cbox` files), one nobody refers to is left out with a
+/// warning, one two shapes refer to is refused (Mitsuba attaches an emitter to one shape);
+/// and every scene file of `../shared/scenes/real/` loads.
+#[test]
+fn top_level_area_emitters_attach_to_the_shape_that_refers_to_them() {
+    let dir = temp_dir("rdr-xml-area");
+    let emitter = r#"<emitter type="area" id="glow"><rgb name="radiance" value="2, 3, 4"/></emitter>"#;
+    let load = |name: &str, body: &str| {
+        let p = dir.path().join(name);
+        std::fs::write(&p, scene(body)).unwrap();
+        SceneDesc::load_with_defines(&p, &[], &[])
+    };
+    let lit = |d: &SceneDesc| d.objects.iter().filter_map(|o| o.light.as_ref()).count();
+    // referred to before it is declared, as cbox-rgb.xml's include does
+    let d = load(
+        "ref.xml",
+        &format!(
+            r#"<shape type="sphere"><ref id="glow"/></shape><shape type="sphere"><point name="center" x="3" y="0" z="0"/></shape>{emitter}"#
+        ),
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(lit(&d), 1, "the shape that refers to the emitter emits");
+    let light = d.objects[0].light.as_ref().expect("the first sphere emits");
+    assert_eq!(light.radiance, rdr::math::Vec3::new(2.0, 3.0, 4.0));
+    let d = load("unreferenced.xml", &format!(r#"<shape type="sphere"/>{emitter}"#)).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(lit(&d), 0);
+    assert!(d.warnings.iter().any(|w| w.contains("no shape refers to")), "{:?}", d.warnings);
+    let e = load(
+        "twice.xml",
+        &format!(r#"{emitter}<shape type="sphere"><ref id="glow"/></shape><shape type="sphere"><ref id="glow"/></shape>"#),
+    )
+    .expect_err("two shapes on one emitter");
+    let msg = e.to_string();
+    assert!(
+        msg.contains("twice.xml: line 6") && msg.contains("already attached") && !msg.contains('\n'),
+        "{msg}"
+    );
+
+    let Some(shared) = shared() else { return };
+    let mut files: Vec<PathBuf> = std::fs::read_dir(shared.join("scenes/real"))
+        .unwrap()
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.is_dir())
+        .flat_map(|d| std::fs::read_dir(d).unwrap().filter_map(|e| e.ok().map(|e| e.path())))
+        .filter(|p| p.extension().is_some_and(|e| e == "xml"))
+        .collect();
+    files.sort();
+    assert!(files.len() >= 12, "{files:?}");
+    for f in &files {
+        let d = xml_desc(f, &[]);
+        let name = f.strip_prefix(&shared).unwrap().display().to_string();
+        assert!(
+            lit(&d) + d.integrator.delta_lights.len() + d.environment_map.iter().count() > 0,
+            "{name}: no light"
+        );
+        eprintln!("{name}: loaded, {} objects", d.objects.len());
+    }
+    let cbox = xml_desc(&shared.join("scenes/real/mitsuba-cbox/cbox-rgb.xml"), &[]);
+    assert_eq!(lit(&cbox), 1, "cbox-rgb.xml: the luminaire alone emits");
+}

@@ -327,6 +327,7 @@ fn conductor(kind: rdr::material::Distribution, ax: f32, ay: f32, wo: Vec3) -> r
         k: Vec3::new(3.9, 2.45, 2.14),
         alpha_x: ax,
         alpha_y: ay,
+        alpha_textures: None,
         distribution: kind,
         twosided: true,
     };

@@ -74,6 +74,8 @@ pub enum Material<T = u32> {
     /// specifies; false is Mitsuba's bare `roughconductor`, black from behind, which
     /// the XML reader gives unless a `twosided` wraps it). Example:
     /// `{"type": "roughconductor", "texture_name": "gold", "alpha_x": 0.2, "alpha_y": 0.2, "twosided": false}`.
+    /// `alpha_x` and `alpha_y` may name textures instead (their values at the point;
+    /// Mitsuba's textured `alpha_u`, `alpha_v`): see `alpha_textures`.
     RoughConductor {
         texture: T,
         eta_i: Vec3,
@@ -81,6 +83,9 @@ pub enum Material<T = u32> {
         k: Vec3,
         alpha_x: f32,
         alpha_y: f32,
+        /// When either roughness is a texture: both, as textures (a constant one as a
+        /// constant texture), read as floats at the point in place of `alpha_x`, `alpha_y`.
+        alpha_textures: Option<[T; 2]>,
         distribution: Distribution,
         twosided: bool,
     },
@@ -99,12 +104,15 @@ pub enum Material<T = u32> {
     /// (vec3, (1,1,1)), `eta` (1.5; `int_ior`/`ext_ior`), `alpha_x`, `alpha_y` (≥ 0,
     /// 0.1 each; Mitsuba's `alpha_u`, `alpha_v`, or its `alpha` for both), `distribution`
     /// (`"beckmann"` | `"ggx"`, `"beckmann"`). Index `eta` below the shading normal.
+    /// The roughnesses may be textures, as in `roughconductor`.
     RoughDielectric {
         reflect: Vec3,
         transmit: Vec3,
         eta: f32,
         alpha_x: f32,
         alpha_y: f32,
+        /// As in `roughconductor`.
+        alpha_textures: Option<[T; 2]>,
         distribution: Distribution,
     },
     /// `plastic` (Mitsuba `plastic`): diffuse base under a smooth coating, one-sided.
@@ -250,7 +258,18 @@ impl<T> Material<T> {
         match self {
             Material::BumpMap { .. } | Material::NormalMap { .. } => true,
             Material::Principled(_) | Material::PrincipledThin(_) => true,
-            Material::RoughConductor { alpha_x, alpha_y, .. } | Material::RoughDielectric { alpha_x, alpha_y, .. } => alpha_x != alpha_y,
+            Material::RoughConductor {
+                alpha_x,
+                alpha_y,
+                alpha_textures,
+                ..
+            }
+            | Material::RoughDielectric {
+                alpha_x,
+                alpha_y,
+                alpha_textures,
+                ..
+            } => alpha_x != alpha_y || alpha_textures.is_some(),
             Material::TwoSided { front, back } => front.needs_tangents() || back.as_ref().is_some_and(|b| b.needs_tangents()),
             Material::Mask { inner, .. } => inner.needs_tangents(),
             Material::BlendBsdf { first, second, .. } => first.needs_tangents() || second.needs_tangents(),
@@ -292,6 +311,7 @@ impl<T> Material<T> {
                 k,
                 alpha_x,
                 alpha_y,
+                alpha_textures,
                 distribution,
                 twosided,
             } => Material::RoughConductor {
@@ -301,6 +321,7 @@ impl<T> Material<T> {
                 k: *k,
                 alpha_x: *alpha_x,
                 alpha_y: *alpha_y,
+                alpha_textures: map_pair(alpha_textures, f)?,
                 distribution: *distribution,
                 twosided: *twosided,
             },
@@ -320,6 +341,7 @@ impl<T> Material<T> {
                 eta,
                 alpha_x,
                 alpha_y,
+                alpha_textures,
                 distribution,
             } => Material::RoughDielectric {
                 reflect: *reflect,
@@ -327,6 +349,7 @@ impl<T> Material<T> {
                 eta: *eta,
                 alpha_x: *alpha_x,
                 alpha_y: *alpha_y,
+                alpha_textures: map_pair(alpha_textures, f)?,
                 distribution: *distribution,
             },
             Material::Plastic {
@@ -530,6 +553,7 @@ impl Material {
                 k,
                 alpha_x,
                 alpha_y,
+                alpha_textures,
                 distribution,
                 twosided,
             } => (
@@ -538,7 +562,7 @@ impl Material {
                     tint: tint(texture),
                     eta: eta_t / eta_i,
                     k: k / eta_i,
-                    mf: microfacet::Microfacet::new(distribution, alpha_x, alpha_y),
+                    mf: microfacet_at(distribution, alpha_x, alpha_y, alpha_textures, tint),
                 },
             ),
             Material::Conductor { texture, eta, k } => (
@@ -563,6 +587,7 @@ impl Material {
                 eta,
                 alpha_x,
                 alpha_y,
+                alpha_textures,
                 distribution,
             } => (
                 ns,
@@ -570,7 +595,7 @@ impl Material {
                     r: reflect,
                     t: transmit,
                     eta,
-                    mf: microfacet::Microfacet::new(distribution, alpha_x, alpha_y),
+                    mf: microfacet_at(distribution, alpha_x, alpha_y, alpha_textures, tint),
                 }),
             ),
             Material::Plastic {
@@ -671,6 +696,29 @@ impl Material {
             perturbed: None,
         }
     }
+}
+
+/// A rough lobe's distribution at a point: its constant roughnesses, or its roughness
+/// textures' values there (read as floats, as Mitsuba's `eval_1`).
+fn microfacet_at(
+    kind: Distribution,
+    alpha_x: f32,
+    alpha_y: f32,
+    textures: Option<[u32; 2]>,
+    tint: &impl Fn(u32) -> Vec3,
+) -> microfacet::Microfacet {
+    match textures {
+        None => microfacet::Microfacet::new(kind, alpha_x, alpha_y),
+        Some([tx, ty]) => microfacet::Microfacet::new(kind, principled::scalar(tint(tx)), principled::scalar(tint(ty))),
+    }
+}
+
+/// Both textures of a pair mapped by `f` ([`Material::try_map_textures`]).
+fn map_pair<T, U, E>(pair: &Option<[T; 2]>, f: &mut impl FnMut(&T) -> Result<U, E>) -> Result<Option<[U; 2]>, E> {
+    Ok(match pair {
+        None => None,
+        Some([a, b]) => Some([f(a)?, f(b)?]),
+    })
 }
 
 /// `inner`'s BSDF in the frame a bump or normal map's `detail` makes at `g`.

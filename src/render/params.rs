@@ -59,21 +59,30 @@ fn fields<'a>(m: &'a mut Material<TextureRef>, prefix: &str, out: &mut Vec<(Stri
             out.push((name("T"), Field::Colour(transmit)));
         }
         Material::RoughConductor {
-            texture, alpha_x, alpha_y, ..
+            texture,
+            alpha_x,
+            alpha_y,
+            alpha_textures,
+            ..
         } => {
             colour("color", texture, out);
-            anisotropic(prefix, alpha_x, alpha_y, out);
+            if alpha_textures.is_none() {
+                anisotropic(prefix, alpha_x, alpha_y, out);
+            }
         }
         Material::RoughDielectric {
             reflect,
             transmit,
             alpha_x,
             alpha_y,
+            alpha_textures,
             ..
         } => {
             out.push((name("R"), Field::Colour(reflect)));
             out.push((name("T"), Field::Colour(transmit)));
-            anisotropic(prefix, alpha_x, alpha_y, out);
+            if alpha_textures.is_none() {
+                anisotropic(prefix, alpha_x, alpha_y, out);
+            }
         }
         Material::Plastic { texture, specular, .. } => {
             colour("color", texture, out);

@@ -404,14 +404,16 @@ fn material_json(
             k,
             alpha_x,
             alpha_y,
+            alpha_textures,
             distribution,
             twosided,
         } => {
+            let [ax, ay] = rough_json(*alpha_x, *alpha_y, alpha_textures);
             let mut v = json!({
                 "type": "roughconductor",
                 "texture_name": texture_name(texture, name, textures),
                 "etaI": vec3(*eta_i), "etaT": vec3(*eta_t), "k": vec3(*k),
-                "alpha_x": num(*alpha_x), "alpha_y": num(*alpha_y),
+                "alpha_x": ax, "alpha_y": ay,
                 "distribution": distribution_name(*distribution),
             });
             if !twosided {
@@ -431,11 +433,15 @@ fn material_json(
             eta,
             alpha_x,
             alpha_y,
+            alpha_textures,
             distribution,
-        } => json!({
-            "type": "roughdielectric", "R": vec3(*reflect), "T": vec3(*transmit), "eta": num(*eta),
-            "alpha_x": num(*alpha_x), "alpha_y": num(*alpha_y), "distribution": distribution_name(*distribution),
-        }),
+        } => {
+            let [ax, ay] = rough_json(*alpha_x, *alpha_y, alpha_textures);
+            json!({
+                "type": "roughdielectric", "R": vec3(*reflect), "T": vec3(*transmit), "eta": num(*eta),
+                "alpha_x": ax, "alpha_y": ay, "distribution": distribution_name(*distribution),
+            })
+        }
         Material::Plastic {
             texture,
             specular,
@@ -540,5 +546,17 @@ fn perturb_json(v: &mut Value, o: &crate::material::bump::PerturbOptions) {
     }
     if !o.use_shadowing_function {
         v["use_shadowing_function"] = false.into();
+    }
+}
+
+/// `alpha_x` and `alpha_y` as JSON: numbers, or texture names where they are textures.
+fn rough_json(alpha_x: f32, alpha_y: f32, textures: &Option<[TextureRef; 2]>) -> [Value; 2] {
+    let one = |t: &TextureRef| match t {
+        TextureRef::Named(n) => Value::String(n.value.clone()),
+        TextureRef::Color(c) => num(c.x),
+    };
+    match textures {
+        Some([tx, ty]) => [one(tx), one(ty)],
+        None => [num(alpha_x), num(alpha_y)],
     }
 }

@@ -36,11 +36,13 @@ fn material_xml(
         }
     };
     let iors = |eta: f32| format!("<float name=\"int_ior\" value=\"{eta}\"/><float name=\"ext_ior\" value=\"1\"/>");
-    let alphas = |ax: f32, ay: f32, d: Distribution| {
-        let a = if ax == ay {
-            format!("<float name=\"alpha\" value=\"{ax}\"/>")
-        } else {
-            format!("<float name=\"alpha_u\" value=\"{ax}\"/><float name=\"alpha_v\" value=\"{ay}\"/>")
+    let alphas = |ax: f32, ay: f32, textures: &Option<[TextureRef; 2]>, d: Distribution| {
+        let property = |key: &str, t: &TextureRef| crate::desc::principled::xml_property(key, t, false, colour);
+        let a = match textures {
+            Some([tx, ty]) if same_texture(tx, ty) => property("alpha", tx),
+            Some([tx, ty]) => property("alpha_u", tx) + &property("alpha_v", ty),
+            None if ax == ay => format!("<float name=\"alpha\" value=\"{ax}\"/>"),
+            None => format!("<float name=\"alpha_u\" value=\"{ax}\"/><float name=\"alpha_v\" value=\"{ay}\"/>"),
         };
         format!("{a}<string name=\"distribution\" value=\"{}\"/>", distribution_name(d))
     };
@@ -76,6 +78,7 @@ fn material_xml(
             k,
             alpha_x,
             alpha_y,
+            alpha_textures,
             distribution,
             twosided,
         } => {
@@ -90,7 +93,7 @@ fn material_xml(
                 } else {
                     open("roughconductor")
                 },
-                alphas(*alpha_x, *alpha_y, *distribution),
+                alphas(*alpha_x, *alpha_y, alpha_textures, *distribution),
                 v3(*eta_t / *eta_i),
                 v3(*k / *eta_i),
                 colour("specular_reflectance", texture)
@@ -121,11 +124,12 @@ fn material_xml(
             eta,
             alpha_x,
             alpha_y,
+            alpha_textures,
             distribution,
         } => format!(
             "{}{}{}{}{}</bsdf>",
             open("roughdielectric"),
-            alphas(*alpha_x, *alpha_y, *distribution),
+            alphas(*alpha_x, *alpha_y, alpha_textures, *distribution),
             iors(*eta),
             rgb_unless_one("specular_reflectance", *reflect),
             rgb_unless_one("specular_transmittance", *transmit)
@@ -154,7 +158,7 @@ fn material_xml(
         } => format!(
             "{}{}{}{}{}<boolean name=\"nonlinear\" value=\"{nonlinear}\"/></bsdf>",
             open("roughplastic"),
-            alphas(*alpha, *alpha, *distribution),
+            alphas(*alpha, *alpha, &None, *distribution),
             colour("diffuse_reflectance", texture),
             rgb_unless_one("specular_reflectance", *specular),
             iors(*eta)
@@ -209,6 +213,15 @@ fn material_xml(
             material_xml(first, name, None, colour, w),
             material_xml(second, name, None, colour, w)
         ),
+    }
+}
+
+/// Whether two references are the same constant or name the same texture.
+fn same_texture(a: &TextureRef, b: &TextureRef) -> bool {
+    match (a, b) {
+        (TextureRef::Named(x), TextureRef::Named(y)) => x.value == y.value,
+        (TextureRef::Color(x), TextureRef::Color(y)) => x == y,
+        _ => false,
     }
 }
 

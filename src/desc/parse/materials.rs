@@ -82,6 +82,28 @@ pub(super) fn parse_texture(name: &str, p: &Props) -> Result<TextureDesc> {
 /// `texture_name`, or a colour given inline (`inline`: `albedo` on diffuse), or
 /// (accepted with a warning) the legacy inline colour key that older course scenes
 /// use instead (`color` on diffuse, `R` on conductors).
+/// A roughness key's number (`read`), or 0.1 when the key names a texture instead.
+fn rough_number(p: &Props, key: &str, read: impl Fn(&str) -> Result<f32>) -> Result<f32> {
+    match p.raw(key) {
+        Some(serde_json::Value::String(_)) => Ok(0.1),
+        _ => read(key),
+    }
+}
+
+/// `alpha_x` and `alpha_y` as textures when either names one (a number stays a constant).
+fn rough_textures(p: &Props) -> Result<Option<[TextureRef; 2]>> {
+    if !["alpha_x", "alpha_y"]
+        .iter()
+        .any(|k| matches!(p.raw(k), Some(serde_json::Value::String(_))))
+    {
+        return Ok(None);
+    }
+    Ok(Some([
+        principled::json_texture(p, "alpha_x", 0.1, false)?,
+        principled::json_texture(p, "alpha_y", 0.1, false)?,
+    ]))
+}
+
 fn texture_ref(p: &Props, legacy: &str, inline: Option<&str>) -> Result<TextureRef> {
     if let Some(key) = inline.filter(|k| p.contains(k)) {
         if let Some(other) = ["texture_name", legacy].into_iter().find(|k| p.contains(k)) {
@@ -331,8 +353,9 @@ fn parse_material(name: &str, p: &Props, ty: &str) -> Result<MaterialDesc> {
             eta_i: p.vec3_or("etaI", Vec3::ONE)?,
             eta_t: p.vec3_or("etaT", Vec3::ONE)?,
             k: p.vec3_or("k", Vec3::ONE)?,
-            alpha_x: non_negative(p, "alpha_x", p.f32_or("alpha_x", 0.1)?)?,
-            alpha_y: non_negative(p, "alpha_y", p.f32_or("alpha_y", 0.1)?)?,
+            alpha_x: rough_number(p, "alpha_x", |k| non_negative(p, k, p.f32_or(k, 0.1)?))?,
+            alpha_y: rough_number(p, "alpha_y", |k| non_negative(p, k, p.f32_or(k, 0.1)?))?,
+            alpha_textures: rough_textures(p)?,
             distribution: distribution(p)?,
             twosided: p.bool_or("twosided", true)?,
         },
@@ -350,8 +373,9 @@ fn parse_material(name: &str, p: &Props, ty: &str) -> Result<MaterialDesc> {
             reflect: colour(p, "R", Vec3::ONE)?,
             transmit: colour(p, "T", Vec3::ONE)?,
             eta: positive_eta("eta")?,
-            alpha_x: roughness(p, "alpha_x")?,
-            alpha_y: roughness(p, "alpha_y")?,
+            alpha_x: rough_number(p, "alpha_x", |k| roughness(p, k))?,
+            alpha_y: rough_number(p, "alpha_y", |k| roughness(p, k))?,
+            alpha_textures: rough_textures(p)?,
             distribution: distribution(p)?,
         },
         "plastic" => Material::Plastic {

@@ -3,7 +3,7 @@
 use super::table::{differs, not_read, noted, read, refused, Param, PluginDoc, Status};
 use super::{source, Reader, BSDFS, MAX_NESTING};
 use crate::desc::xml::document::Element;
-use crate::desc::xml::props::Plugin;
+use crate::desc::xml::props::{Colour, Plugin};
 use crate::desc::xml::values;
 use crate::desc::{Located, MaterialDesc, Source, TextureRef};
 use crate::error::Result;
@@ -19,14 +19,24 @@ const INT_IOR_BK7: Param = read(
 const EXT_IOR: Param = read("ext_ior", "float or name", "air", "");
 const SPECULAR_REFLECTANCE: Param = differs("specular_reflectance", "colour", "1", "a colour (rdr takes no texture here)");
 const SPECULAR_TRANSMITTANCE: Param = differs("specular_transmittance", "colour", "1", "a colour (rdr takes no texture here)");
-const ALPHA: Param = read("alpha", "float", "0.1", "in [0, 10]");
-const ALPHA_U: Param = read("alpha_u", "float", "0.1", "with `alpha_v`, instead of `alpha`");
-const ALPHA_V: Param = read("alpha_v", "float", "0.1", "");
+const ALPHA: Param = read(
+    "alpha",
+    "float texture",
+    "0.1",
+    "a number in [0, 10] or a texture (its value at the point)",
+);
+const ALPHA_U: Param = read("alpha_u", "float texture", "0.1", "with `alpha_v`, instead of `alpha`");
+const ALPHA_V: Param = read("alpha_v", "float texture", "0.1", "");
 const DISTRIBUTION: Param = read("distribution", "string", "beckmann", "`beckmann` or `ggx`");
 const SAMPLE_VISIBLE: Param = noted("sample_visible", "boolean", "rdr samples visible normals where it can");
 const MATERIAL: Param = read("material", "string", "none", "a named conductor (`Au`, `Cu`, …) or `none`");
-const ETA: Param = read("eta", "colour", "0", "with `k`, instead of `material`");
-const K: Param = read("k", "colour", "1", "");
+const ETA: Param = differs(
+    "eta",
+    "colour",
+    "0",
+    "with `k`, instead of `material`; a colour (rdr takes no texture here)",
+);
+const K: Param = differs("k", "colour", "1", "a colour (rdr takes no texture here)");
 const EXT_ETA: Param = differs("ext_eta", "float", "", "(Mitsuba 0.6) folded into η and k, with a warning");
 const CONDUCTOR_TINT: Param = read("specular_reflectance", "texture", "1", "a colour or a texture");
 const PERTURB: [Param; 2] = [
@@ -119,7 +129,12 @@ pub(super) const DOCS: &[PluginDoc] = &[
             read("int_ior", "float or name", "polypropylene", "1.49"),
             EXT_IOR,
             read("nonlinear", "boolean", "false", ""),
-            ALPHA,
+            read(
+                "alpha",
+                "float",
+                "0.1",
+                "a number in [0, 10], as in Mitsuba 3 (its coating tables need one roughness)",
+            ),
             refused("alpha_u", "float", "", "roughplastic is isotropic"),
             refused("alpha_v", "float", "", "roughplastic is isotropic"),
             DISTRIBUTION,
@@ -363,7 +378,7 @@ impl<'a> Reader<'a> {
                 eta: ior_ratio(&p, "bk7")?,
             },
             "roughconductor" => {
-                let (alpha_x, alpha_y) = alphas(&p)?;
+                let (alpha_x, alpha_y, alpha_textures) = self.alphas(&p)?;
                 let (eta, k) = self.conductor_eta_k(&p)?;
                 p.ignore("sample_visible");
                 Material::RoughConductor {
@@ -373,6 +388,7 @@ impl<'a> Reader<'a> {
                     k,
                     alpha_x,
                     alpha_y,
+                    alpha_textures,
                     distribution: distribution(&p)?,
                     // Mitsuba's reflects on its front only (a twosided makes it two-sided)
                     twosided: false,
@@ -392,7 +408,7 @@ impl<'a> Reader<'a> {
                 eta: ior_ratio(&p, "bk7")?,
             },
             "roughdielectric" => {
-                let (alpha_x, alpha_y) = alphas(&p)?;
+                let (alpha_x, alpha_y, alpha_textures) = self.alphas(&p)?;
                 p.ignore("sample_visible");
                 Material::RoughDielectric {
                     reflect: colour_of(&p, "specular_reflectance")?,
@@ -400,6 +416,7 @@ impl<'a> Reader<'a> {
                     eta: ior_ratio(&p, "bk7")?,
                     alpha_x,
                     alpha_y,
+                    alpha_textures,
                     distribution: distribution(&p)?,
                 }
             }
@@ -423,13 +440,19 @@ impl<'a> Reader<'a> {
                     if p.has("alpha_u") || p.has("alpha_v") {
                         return Err(p.error("roughplastic is isotropic: give alpha, not alpha_u and alpha_v"));
                     }
+                    if matches!(p.colour("alpha", Vec3::splat(0.1))?, Colour::Texture(_)) {
+                        return Err(p.value_error(
+                            "alpha",
+                            "roughplastic's alpha must be a number (as in Mitsuba 3: its coating tables need one roughness)",
+                        ));
+                    }
                     p.ignore("sample_visible");
                     Material::RoughPlastic {
                         texture,
                         specular,
                         eta,
                         nonlinear,
-                        alpha: alphas(&p)?.0,
+                        alpha: self.alphas(&p)?.0,
                         distribution: distribution(&p)?,
                         specular_sampling_weight: None,
                         tables: None,
@@ -521,6 +544,34 @@ impl<'a> Reader<'a> {
         Ok(m)
     }
 
+    /// `alpha` (0.1), or both `alpha_u` and `alpha_v`: numbers in [0, 10], or textures
+    /// (read as floats); with a texture, both as texture references (the third value).
+    pub(super) fn alphas(&mut self, p: &Plugin<'a>) -> Result<(f32, f32, Option<[TextureRef; 2]>)> {
+        let keys = if p.has("alpha_u") || p.has("alpha_v") {
+            if !(p.has("alpha_u") && p.has("alpha_v")) || p.has("alpha") {
+                return Err(p.error("give either alpha, or both alpha_u and alpha_v"));
+            }
+            ["alpha_u", "alpha_v"]
+        } else {
+            ["alpha", "alpha"]
+        };
+        let refs = [
+            self.float_texture_ref(p, keys[0], Vec3::splat(0.1))?,
+            self.float_texture_ref(p, keys[1], Vec3::splat(0.1))?,
+        ];
+        let mut constants = [0.1; 2];
+        for ((k, r), a) in keys.iter().zip(&refs).zip(&mut constants) {
+            if let TextureRef::Color(c) = r {
+                *a = c.x;
+                if !(0.0..=10.0).contains(a) {
+                    return Err(p.value_error(k, format!("must be between 0 and 10, found {a}")));
+                }
+            }
+        }
+        let textured = refs.iter().any(|r| matches!(r, TextureRef::Named(_)));
+        Ok((constants[0], constants[1], textured.then_some(refs)))
+    }
+
     /// A conductor's η and k: `eta` (0) and `k` (1), or `material` (a name from
     /// [`values::NAMED_CONDUCTORS`], or `none`, the default); the 0.6 `ext_eta` folded in.
     pub(super) fn conductor_eta_k(&self, p: &Plugin) -> Result<(Vec3, Vec3)> {
@@ -569,25 +620,6 @@ pub(super) fn colour_of(p: &Plugin, name: &str) -> Result<Vec3> {
         return Err(p.value_error(name, "must not be negative"));
     }
     Ok(c)
-}
-
-/// `alpha` (0.1), or both `alpha_u` and `alpha_v`; each in [0, 10].
-pub(super) fn alphas(p: &Plugin) -> Result<(f32, f32)> {
-    let (ax, ay) = if p.has("alpha_u") || p.has("alpha_v") {
-        if !(p.has("alpha_u") && p.has("alpha_v")) || p.has("alpha") {
-            return Err(p.error("give either alpha, or both alpha_u and alpha_v"));
-        }
-        (p.float("alpha_u", 0.1)?, p.float("alpha_v", 0.1)?)
-    } else {
-        let a = p.float("alpha", 0.1)?;
-        (a, a)
-    };
-    for (k, a) in [("alpha", ax), ("alpha_v", ay)] {
-        if !(0.0..=10.0).contains(&a) {
-            return Err(p.value_error(k, format!("must be between 0 and 10, found {a}")));
-        }
-    }
-    Ok((ax, ay))
 }
 
 /// `distribution`: `beckmann` (the default) or `ggx`.

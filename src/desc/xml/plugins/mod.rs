@@ -297,7 +297,13 @@ pub fn scene(root: &Element, file: &Path) -> Result<SceneDesc> {
                 }
                 environment_map = Some(r.environment(&p)?);
             }
-            "area" => return Err(at.error("an area emitter must be inside a <shape>")),
+            // Mitsuba 3: a top-level area emitter is attached to the one shape that refers to it
+            // (read there); one nobody refers to is dropped
+            "area" if r.area_owner.contains_key(&(el as *const Element)) => {}
+            "area" => ids.warn(
+                el,
+                "an area emitter outside a <shape> that no shape refers to emits nothing (as in Mitsuba): left out",
+            ),
             "sunsky" | "timed_sunsky" => ids.warn(
                 el,
                 format!(
@@ -397,6 +403,8 @@ struct Reader<'a> {
     depth: usize,
     media: Vec<crate::desc::MediumDesc>,
     medium_of: HashMap<*const Element, String>,
+    /// The shape each area emitter is attached to (Mitsuba attaches one to one shape).
+    area_owner: HashMap<*const Element, String>,
     /// The scene file (grid volumes' errors name it).
     file: PathBuf,
 }
@@ -419,6 +427,7 @@ impl<'a> Reader<'a> {
             depth: 0,
             media: Vec::new(),
             medium_of: HashMap::new(),
+            area_owner: HashMap::new(),
             file: file.to_path_buf(),
         }
     }

@@ -3,7 +3,7 @@
 use super::table::{differs, not_read, noted, read, PluginDoc, Status};
 use super::{check_point, source, Reader, SHAPES};
 use crate::desc::xml::document::Element;
-use crate::desc::xml::props::Plugin;
+use crate::desc::xml::props::{where_is, Plugin};
 use crate::desc::{AreaLightDesc, Located, MeshFile, MeshFormat, MeshNormals, MeshOptions, ObjectDesc, ShapeGroupDesc, TextureRef};
 use crate::error::Result;
 use crate::geometry::sphere::Sphere;
@@ -137,7 +137,8 @@ pub(super) const DOCS: &[PluginDoc] = &[
         element: "emitter",
         names: &["area"],
         status: Status::Read,
-        note: "Inside a `<shape>` only.",
+        note: "Inside a `<shape>`, or at the top level with an `id` that one shape refers to (Mitsuba 3's rule: \
+               one shape per emitter; an unreferenced one is left out with a warning).",
         params: &[
             read(
                 "radiance",
@@ -284,6 +285,11 @@ impl<'a> Reader<'a> {
                 let ep = Plugin::new(e, self.ids)?;
                 if ep.ty != "area" {
                     return Err(at.error(format!("a shape's emitter must be \"area\", found \"{}\"", ep.ty)));
+                }
+                if let Some(first) = self.area_owner.insert(*e as *const Element, where_is(el)) {
+                    return Err(at.error(format!(
+                        "this area emitter is already attached to the shape at {first} (Mitsuba attaches an emitter to one shape)"
+                    )));
                 }
                 // a constant, or a texture looked up at the emitting point's uv
                 let (radiance, texture) = match self.texture_ref(&ep, "radiance", Vec3::ONE)? {

@@ -1,12 +1,13 @@
-//! The light-transport estimator of camera paths, written once for `path` and
-//! `guided`: emission found along the path (weighted by MIS against light
-//! sampling), next-event estimation (light selection, the light sample, its
-//! shadow ray, MIS against the path's own sampling), the environment, and the
-//! path's throughput. What differs between integrators is a [`Policy`]: how the
+//! The light-transport estimator of camera paths, written once for `path`, `guided`,
+//! and `photon`'s and `sppm`'s camera paths to their visible points: emission found
+//! along the path (weighted by MIS against light sampling), next-event estimation
+//! (light selection, the light sample, its shadow ray, MIS against the path's own
+//! sampling), the environment, and the path's throughput. What differs between integrators is a [`Policy`]: how the
 //! next direction is sampled and with what density (the BSDF; or `guided`'s
 //! mixture of the BSDF and the learned distribution), Russian roulette, and what
 //! the path records on the way (`guided`'s training). `path`'s policy is the
-//! BSDF with Mitsuba's roulette; its packet code drives the same steps
+//! BSDF with Mitsuba's roulette (`photon`'s: light sampling alone, no roulette, the
+//! path handed over at its visible point); `path`'s packet code drives the same steps
 //! ([`PathState::begin`], [`Vertex::light_sample`], [`PathState::end`]) lane by lane.
 //!
 //! In a scene with media ([`Scene::has_media`]) the same steps run inside
@@ -74,13 +75,36 @@ pub trait Policy {
     /// drawn and before the direction's (`guided` draws its strategy choice here).
     fn plan(&mut self, it: &Interaction, bsdf: &Bsdf, sampler: &mut PixelSampler) -> Self::Plan;
     /// Solid-angle density of sampling `wi` as [`Policy::sample`] does (light
-    /// samples' MIS weights).
-    fn pdf(&self, plan: &Self::Plan, bsdf: &Bsdf, wo: Vec3, wi: Vec3) -> f32;
-    /// The next direction, its weight f·|cos|/pdf and its density.
-    fn sample(&mut self, plan: &Self::Plan, bsdf: &Bsdf, wo: Vec3, u: Vec2, uc: f32) -> Option<BsdfSample>;
+    /// samples' MIS weights); the BSDF's unless the policy samples otherwise.
+    #[inline(always)]
+    fn pdf(&self, plan: &Self::Plan, bsdf: &Bsdf, wo: Vec3, wi: Vec3) -> f32 {
+        let _ = plan;
+        bsdf.pdf(wo, wi)
+    }
+    /// The next direction, its weight f·|cos|/pdf and its density (the BSDF's sample
+    /// unless the policy samples otherwise).
+    #[inline(always)]
+    fn sample(&mut self, plan: &Self::Plan, bsdf: &Bsdf, wo: Vec3, u: Vec2, uc: f32) -> Option<BsdfSample> {
+        let _ = plan;
+        bsdf.sample(wo, u, uc)
+    }
+    /// Whether paths play Russian roulette from [`RR_DEPTH`] on (without it no number is drawn for it).
+    const ROULETTE: bool = true;
     /// Probability of surviving roulette from [`RR_DEPTH`] on, given the throughput
     /// and the product of η² of the refractions so far (1: always).
-    fn survival(&self, beta: Vec3, eta_scale: f32) -> f32;
+    #[inline(always)]
+    fn survival(&self, beta: Vec3, eta_scale: f32) -> f32 {
+        let _ = (beta, eta_scale);
+        1.0
+    }
+    /// Whether the path ends at this vertex (reached by segment `segment`, throughput `beta`)
+    /// once its light sample is taken, the vertex being the policy's (`photon`'s and `sppm`'s
+    /// visible point, where photons take over).
+    #[inline(always)]
+    fn stops_at(&mut self, it: &Interaction, bsdf: &Bsdf, beta: Vec3, segment: u32) -> bool {
+        let _ = (it, bsdf, beta, segment);
+        false
+    }
     /// Adds emission `c` found along the direction the last vertex sampled
     /// (`after_delta`: a specular one) to the estimate `l`.
     #[inline(always)]
@@ -357,7 +381,7 @@ impl PathState {
         self.bsdf_pdf = pdf;
         self.prev_p = x;
         self.sky_coords = None;
-        if segment >= RR_DEPTH {
+        if P::ROULETTE && segment >= RR_DEPTH {
             let q = policy.survival(self.beta, self.eta_scale);
             if sampler.next_1d() >= q {
                 return false;
@@ -546,6 +570,9 @@ impl PathState {
             }
         }
 
+        if policy.stops_at(it, bsdf, self.beta, segment) {
+            return (shadow, false);
+        }
         let Some(bs) = policy.sample(&v.plan, bsdf, it.wo, u_bsdf, uc) else {
             return (shadow, false);
         };
@@ -559,7 +586,7 @@ impl PathState {
         self.after_delta = bs.delta;
         self.bsdf_pdf = bs.pdf;
         self.prev_p = it.p;
-        if segment >= RR_DEPTH {
+        if P::ROULETTE && segment >= RR_DEPTH {
             let q = policy.survival(self.beta, self.eta_scale);
             if sampler.next_1d() >= q {
                 return (shadow, false);

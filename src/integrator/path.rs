@@ -19,7 +19,7 @@ use crate::accel::wide::{PacketHits, PACKET};
 use crate::geometry::{Ray, RayDifferential};
 use crate::light::environment::EnvironmentLight;
 use crate::light::{LightSample, LightSampling};
-use crate::material::bsdf::{Bsdf, BsdfSample};
+use crate::material::bsdf::Bsdf;
 use crate::math::{Vec2, Vec3};
 use crate::sampler::PixelSampler;
 use crate::scene::{Interaction, Scene};
@@ -266,16 +266,6 @@ impl Policy for PathTracer {
 
     #[inline(always)]
     fn plan(&mut self, _: &Interaction, _: &Bsdf, _: &mut PixelSampler) {}
-
-    #[inline(always)]
-    fn pdf(&self, _: &(), bsdf: &Bsdf, wo: Vec3, wi: Vec3) -> f32 {
-        bsdf.pdf(wo, wi)
-    }
-
-    #[inline(always)]
-    fn sample(&mut self, _: &(), bsdf: &Bsdf, wo: Vec3, u: Vec2, uc: f32) -> Option<BsdfSample> {
-        bsdf.sample(wo, u, uc)
-    }
 
     /// Survive with probability min(0.95, max throughput·η²): η² undoes the
     /// radiance scaling of refraction.

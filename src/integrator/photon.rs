@@ -1,6 +1,6 @@
 //! Photon mapping (the `photon` integrator, Jensen's two passes) and what it
-//! shares with [`super::sppm`]: shooting photons, the camera path to a visible
-//! point, direct light by light sampling.
+//! shares with [`super::sppm`]: shooting photons, and the camera path to a visible
+//! point (the camera-path estimator's steps, direct light by light sampling).
 //!
 //! **Path lengths.** A camera path reaches its visible point after `k` segments
 //! (1 when the surface is seen directly, more through specular bounces); a photon
@@ -26,8 +26,8 @@
 //! `r`. Photons whose direction lies on the other side of the surface (f = 0)
 //! contribute nothing, and SPPM does not count them in its radius update.
 
-use super::estimator::sample_light;
-use super::{camera_pass, shadow_ray, spawn_ray, PassContext, PassResult, RayCounts, StopToken};
+use super::estimator::{trace, PathProfile, PathState, Policy};
+use super::{camera_pass, spawn_ray, PassContext, PassResult, RayCounts, StopToken};
 use crate::accel::photon_map::KdTree;
 use crate::film::Film;
 use crate::geometry::{Ray, RayDifferential};
@@ -295,96 +295,79 @@ fn is_glossy(b: &Bsdf) -> bool {
     matches!(b.kind, BsdfKind::Conductor { .. })
 }
 
-/// Follows a camera ray through specular bounces (and glossy ones when
-/// `through_glossy`, as pbrt-v4's SPPM does, with light sampling at each) to its
-/// visible point. Returns the emission seen and the direct light found on the way,
-/// and the visible point (if the path reaches one where photons may still count).
+/// The camera path of `photon` and `sppm`, a [`Policy`] of the camera-path estimator:
+/// light sampling alone (emission counts where the camera or a specular bounce finds
+/// it), no roulette, BSDF sampling through specular vertices (and glossy ones when
+/// `through_glossy`, as pbrt-v4's SPPM does, with light sampling at each), and the path
+/// stops at its first other vertex, its visible point, after that vertex's light sample.
+struct ToVisiblePoint {
+    max_depth: u32,
+    through_glossy: bool,
+    /// The last vertex (the camera's position first) and the path's length to it.
+    last: Vec3,
+    distance: f32,
+    visible: Option<VisiblePoint>,
+}
+
+impl Policy for ToVisiblePoint {
+    type Plan = ();
+    const ROULETTE: bool = false;
+
+    fn profile(&self) -> PathProfile {
+        PathProfile::NextEvent
+    }
+
+    fn max_depth(&self) -> u32 {
+        self.max_depth
+    }
+
+    fn plan(&mut self, _: &Interaction, _: &Bsdf, _: &mut PixelSampler) {}
+
+    fn stops_at(&mut self, it: &Interaction, bsdf: &Bsdf, beta: Vec3, segment: u32) -> bool {
+        self.distance += (it.p - self.last).length();
+        self.last = it.p;
+        if bsdf.is_delta() {
+            return false;
+        }
+        if self.through_glossy && is_glossy(bsdf) {
+            // a photon path of at least 2 segments must still fit behind the next vertex
+            return segment + 2 > self.max_depth;
+        }
+        if segment + 2 <= self.max_depth {
+            self.visible = Some(VisiblePoint {
+                p: it.p,
+                wo: it.wo,
+                bsdf: bsdf.clone(),
+                beta,
+                segments: segment,
+                distance: self.distance,
+            });
+        }
+        true
+    }
+}
+
+/// Follows a camera ray to its visible point ([`ToVisiblePoint`]). Returns the emission
+/// seen and the direct light found on the way, and the visible point (if the path reaches
+/// one where photons may still count).
 pub fn camera_path(
     scene: &Scene,
-    mut ray: Ray,
+    ray: Ray,
     diff: Option<RayDifferential>,
     sampler: &mut PixelSampler,
     counts: &mut RayCounts,
     max_depth: u32,
     through_glossy: bool,
 ) -> (Vec3, Option<VisiblePoint>) {
-    let mut l = Vec3::ZERO;
-    let mut beta = Vec3::ONE;
-    let mut specular = true;
-    let mut distance = 0.0;
-    let mut segment = 1u32;
-    loop {
-        counts.rays += 1;
-        let Some(hit) = scene.intersect(&ray) else {
-            if specular {
-                l += beta * scene.environment_radiance(ray.d);
-            }
-            return (l, None);
-        };
-        let mut it = scene.interaction(&ray, &hit);
-        distance += hit.t;
-        if let (1, Some(d)) = (segment, &diff) {
-            it.compute_uv_derivatives(d);
-        }
-        if specular {
-            if let Some((_, area)) = scene.area_light_of(&it) {
-                l += beta * area.emitted(it.ng, it.wo, it.uv);
-            }
-        }
-        if segment >= max_depth {
-            return (l, None);
-        }
-        let Some(material) = scene.material_of(&it) else { return (l, None) };
-        let bsdf = material.bsdf_at(&it, &scene.textures);
-        if !bsdf.is_delta() {
-            l += beta * direct_light(scene, &it, &bsdf, sampler, counts);
-            if !(through_glossy && is_glossy(&bsdf)) {
-                let vp = VisiblePoint {
-                    p: it.p,
-                    wo: it.wo,
-                    bsdf,
-                    beta,
-                    segments: segment,
-                    distance,
-                };
-                return (l, (segment + 2 <= max_depth).then_some(vp));
-            }
-            if segment + 2 > max_depth {
-                return (l, None);
-            }
-        }
-        let uc = sampler.next_1d();
-        let Some(bs) = bsdf.sample(it.wo, Vec2::from(sampler.next_2d()), uc) else {
-            return (l, None);
-        };
-        beta *= bs.weight;
-        if beta == Vec3::ZERO || !beta.is_finite() {
-            return (l, None);
-        }
-        specular = bs.delta;
-        ray = spawn_ray(&it, bs.wi);
-        segment += 1;
-    }
-}
-
-/// Direct light at a surface by light sampling only (one light chosen as `path` chooses it).
-pub fn direct_light(scene: &Scene, it: &Interaction, bsdf: &Bsdf, sampler: &mut PixelSampler, counts: &mut RayCounts) -> Vec3 {
-    if scene.lights.is_empty() {
-        return Vec3::ZERO;
-    }
-    let Some((_, pmf, ls)) = sample_light(scene, it.p, sampler) else {
-        return Vec3::ZERO;
+    let mut policy = ToVisiblePoint {
+        max_depth,
+        through_glossy,
+        last: ray.o,
+        distance: 0.0,
+        visible: None,
     };
-    let f = bsdf.eval(it.wo, ls.wi);
-    if f == Vec3::ZERO || ls.pdf <= 0.0 || ls.radiance == Vec3::ZERO || pmf <= 0.0 {
-        return Vec3::ZERO;
-    }
-    counts.rays += 1;
-    let tr = scene.transmittance(&shadow_ray(it, &ls));
-    if tr <= 0.0 {
-        return Vec3::ZERO;
-    }
-    f * ls.radiance * (it.ns.dot(ls.wi).abs() / (pmf * ls.pdf)) * tr
+    let l = trace(&mut policy, scene, PathState::new(ray), 1, diff.as_ref(), sampler, counts);
+    (l, policy.visible)
 }
 
 /// Parameters (JSON `integrator` keys, besides `type`):

@@ -3,8 +3,9 @@
 //! the file into the render-ready [`Volume`]. The Mitsuba reader is
 //! `xml/plugins/volume.rs`.
 
-use crate::desc::{Located, Source};
+use crate::desc::{Located, MediumVolumes, Source};
 use crate::error::Result;
+use crate::medium::{Heterogeneous, Medium, PhaseFunction};
 use crate::volume::grid::GridOptions;
 use crate::volume::{vdb, vol_file, GridVolume, Volume};
 use std::path::Path;
@@ -52,4 +53,21 @@ pub fn build_volume(desc: &VolumeDesc, scene: &Path, base_dir: &Path) -> Result<
         };
         source.error(scene, format!("{e} (grid \"{}\")", full.display()))
     })
+}
+
+/// A heterogeneous medium from its described volumes (grid files read): a loading error
+/// names the scene and the key; a parameter out of range is returned as (key, reason)
+/// for the reader to place.
+pub fn build_heterogeneous(
+    v: &MediumVolumes,
+    scale: f32,
+    phase: PhaseFunction,
+    scene: &Path,
+    base_dir: &Path,
+) -> Result<std::result::Result<Medium, (&'static str, String)>> {
+    let sigma_t = build_volume(&v.sigma_t, scene, base_dir)?;
+    let albedo = build_volume(&v.albedo, scene, base_dir)?;
+    let radiance = build_volume(&v.radiance, scene, base_dir)?;
+    let medium = Heterogeneous::new(sigma_t, albedo, scale, phase).and_then(|m| m.with_radiance(radiance));
+    Ok(medium.map(|m| Medium::Heterogeneous(Box::new(m))))
 }

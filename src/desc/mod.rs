@@ -36,4 +36,4 @@ pub use types::{
     MeshFile, MeshFormat, MeshNormals, MeshOptions, ObjectDesc, PointLightDesc, SceneDesc, ShapeGroupDesc, TextureDesc, TextureRef,
     DISK_SEGMENTS, MAX_DEPTH, MAX_FILTER_RADIUS, MAX_LIGHT_SAMPLES,
 };
-pub use volume::{build_heterogeneous, build_volume, GridFile, VolumeDesc};
+pub use volume::{build_heterogeneous, build_volume, grid_of, GridFile, VolumeDesc};

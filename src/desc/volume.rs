@@ -28,6 +28,25 @@ pub struct GridFile {
     pub max_value_source: Option<Source>,
 }
 
+/// The `grid` of a `gridvolume` reading `filename`: a `.vdb` file's grid by name
+/// (`density` when absent), none for a `.vol` file; an error (the key and why) where
+/// `grid` or `use_grid_bbox` does not fit the file's kind. Both readers' rule.
+pub fn grid_of(
+    filename: &str,
+    grid: Option<String>,
+    use_grid_bbox: bool,
+) -> std::result::Result<Option<String>, (&'static str, &'static str)> {
+    let vdb = filename.to_ascii_lowercase().ends_with(".vdb");
+    if vdb && use_grid_bbox {
+        return Err(("use_grid_bbox", "is for .vol grids; a .vdb grid is placed by its own transform"));
+    }
+    match (vdb, grid) {
+        (true, g) => Ok(Some(g.unwrap_or_else(|| "density".into()))),
+        (false, None) => Ok(None),
+        (false, Some(_)) => Err(("grid", "names a grid of an OpenVDB (.vdb) file; this file is a .vol")),
+    }
+}
+
 /// Loads a described volume: its grid file is read, checked and placed. Errors name
 /// the scene file and the key (`filename` or the option) with the grid file.
 pub fn build_volume(desc: &VolumeDesc, scene: &Path, base_dir: &Path) -> Result<Volume> {

@@ -8,7 +8,7 @@ use super::{num, rebase, row_major};
 use crate::desc::{SceneDesc, VolumeDesc};
 use crate::math::{Mat4, Vec3};
 use crate::medium::{Medium, PhaseFunction};
-use crate::volume::{GridFilter, Volume, WrapMode};
+use crate::volume::Volume;
 use serde_json::{json, Map, Value};
 use std::path::Path;
 
@@ -65,21 +65,6 @@ fn is_zero(v: &VolumeDesc) -> bool {
     matches!(&v.value, Volume::Constant(c) if c.value == Vec3::ZERO)
 }
 
-fn filter_name(f: GridFilter) -> &'static str {
-    match f {
-        GridFilter::Trilinear => "trilinear",
-        GridFilter::Nearest => "nearest",
-    }
-}
-
-fn wrap_name(w: WrapMode) -> &'static str {
-    match w {
-        WrapMode::Clamp => "clamp",
-        WrapMode::Repeat => "repeat",
-        WrapMode::Mirror => "mirror",
-    }
-}
-
 fn colour_json(c: Vec3) -> Value {
     if c.x == c.y && c.y == c.z {
         num(c.x)
@@ -101,8 +86,8 @@ fn volume_json(desc: &SceneDesc, v: &VolumeDesc, out: &Path) -> Value {
             let mut j = json!({
                 "type": "gridvolume",
                 "filename": rebase(desc, &g.path.value, out),
-                "filter_type": filter_name(o.filter),
-                "wrap_mode": wrap_name(o.wrap),
+                "filter_type": o.filter.name(),
+                "wrap_mode": o.wrap.name(),
             });
             if let Some(grid) = &g.grid {
                 j["grid"] = grid.clone().into();
@@ -166,8 +151,8 @@ fn volume_xml(desc: &SceneDesc, name: &str, v: &VolumeDesc, out: &Path, esc: &im
             }
             s += &format!(
                 "      <string name=\"filter_type\" value=\"{}\"/>\n      <string name=\"wrap_mode\" value=\"{}\"/>\n",
-                filter_name(o.filter),
-                wrap_name(o.wrap)
+                o.filter.name(),
+                o.wrap.name()
             );
             if let Some(m) = o.max_value {
                 s += &format!("      <float name=\"max_value\" value=\"{m}\"/>\n");

@@ -2,7 +2,7 @@
 //! of heterogeneous media (Mitsuba's `constvolume` and `gridvolume`, with its names).
 
 use super::super::json::Props;
-use crate::desc::{build_heterogeneous, GridFile, Located, MediumDesc, MediumVolumes, VolumeDesc};
+use crate::desc::{build_heterogeneous, grid_of, GridFile, Located, MediumDesc, MediumVolumes, VolumeDesc};
 use crate::error::Result;
 use crate::math::{Mat4, Vec3};
 use crate::medium::{Homogeneous, Medium, PhaseFunction};
@@ -82,27 +82,10 @@ fn volume(p: &Props, key: &str, default: f32) -> Result<VolumeDesc> {
         }
         "gridvolume" => {
             let filename = q.string("filename")?;
-            let vdb = filename.to_ascii_lowercase().ends_with(".vdb");
-            let grid = match (vdb, q.string_opt("grid")?) {
-                (true, g) => Some(g.unwrap_or_else(|| "density".into())),
-                (false, None) => None,
-                (false, Some(_)) => return Err(q.error("grid", "names a grid of an OpenVDB (.vdb) file; this file is a .vol")),
-            };
             let use_grid_bbox = q.bool_or("use_grid_bbox", false)?;
-            if vdb && use_grid_bbox {
-                return Err(q.error("use_grid_bbox", "is for .vol grids; a .vdb grid is placed by its own transform"));
-            }
-            let filter = match q.string_or("filter_type", "trilinear")?.as_str() {
-                "trilinear" => GridFilter::Trilinear,
-                "nearest" => GridFilter::Nearest,
-                other => return Err(q.error("filter_type", format!("unknown filter_type '{other}' (trilinear, nearest)"))),
-            };
-            let wrap = match q.string_or("wrap_mode", "clamp")?.as_str() {
-                "clamp" => WrapMode::Clamp,
-                "repeat" => WrapMode::Repeat,
-                "mirror" => WrapMode::Mirror,
-                other => return Err(q.error("wrap_mode", format!("unknown wrap_mode '{other}' (clamp, repeat, mirror)"))),
-            };
+            let grid = grid_of(&filename, q.string_opt("grid")?, use_grid_bbox).map_err(|(k, e)| q.error(k, e))?;
+            let filter = GridFilter::from_name(&q.string_or("filter_type", "trilinear")?).map_err(|e| q.error("filter_type", e))?;
+            let wrap = WrapMode::from_name(&q.string_or("wrap_mode", "clamp")?).map_err(|e| q.error("wrap_mode", e))?;
             let max_value = match q.raw("max_value") {
                 None => None,
                 Some(_) => Some(q.f32_or("max_value", 0.0)?),

@@ -830,6 +830,7 @@ fn cases(dir: &Path) -> Vec<Case> {
             &[&"part1.exr", &"one of the parts merged"],
         ),
     ];
+    c.extend(media_cases(dir));
     if have_fifo {
         c.push(err(
             "a FIFO as the mesh",
@@ -857,6 +858,160 @@ fn cases(dir: &Path) -> Vec<Case> {
         ));
     }
     c
+}
+
+/// Issue 38's bad media: grid files that lie about their size or hold NaN or negative
+/// densities, majorants that do not bound, parameters out of range, in XML and JSON.
+fn media_cases(dir: &Path) -> Vec<Case> {
+    let d = |n: &str| dir.join(n);
+    let values: Vec<f32> = (0..64).map(|i| (i % 7) as f32).collect();
+    let bbox = rdr::geometry::Aabb::new(rdr::math::Vec3::ZERO, rdr::math::Vec3::ONE);
+    let good = rdr::volume::vol_file::encode(&rdr::volume::GridData::new([4, 4, 4], 1, bbox, values).unwrap());
+    let with = |at: usize, bytes: &[u8]| {
+        let mut b = good.clone();
+        b[at..at + bytes.len()].copy_from_slice(bytes);
+        b
+    };
+    std::fs::write(d("good.vol"), &good).unwrap();
+    // 1000³ voxels claimed by a 304-byte file
+    let mut lying = with(8, &1000i32.to_le_bytes());
+    lying[12..16].copy_from_slice(&1000i32.to_le_bytes());
+    lying[16..20].copy_from_slice(&1000i32.to_le_bytes());
+    std::fs::write(d("lying.vol"), lying).unwrap();
+    std::fs::write(d("nan.vol"), with(48 + 4 * 9, &f32::NAN.to_le_bytes())).unwrap();
+    std::fs::write(d("negative.vol"), with(48 + 4 * 9, &(-2.0f32).to_le_bytes())).unwrap();
+    // the first root child of "density" moved 2^30 voxels away: a box of 2^90 voxels
+    let mut vdb = std::fs::read(Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/vdb/small_raw.vdb")).unwrap();
+    let t = vdb.windows(24).position(|w| w == b"UniformScaleTranslateMap").unwrap() + 24 + 18 * 8;
+    vdb[t + 16..t + 20].copy_from_slice(&(1i32 << 30).to_le_bytes());
+    std::fs::write(d("lying.vdb"), vdb).unwrap();
+    let xml = |name: &str, medium: &str| {
+        let p = d(&format!("{name}.xml"));
+        let body = format!(
+            r#"<integrator type="volpath"/><shape type="cube"><bsdf type="null"/><medium type="heterogeneous" name="interior">{medium}</medium></shape>"#
+        );
+        std::fs::write(&p, mitsuba(&body)).unwrap();
+        p
+    };
+    let grid = |file: &str, extra: &str| {
+        format!(r#"<volume type="gridvolume" name="sigma_t"><string name="filename" value="{file}"/>{extra}</volume>"#)
+    };
+    let render = |s: PathBuf, out: &str, extra: &[&str]| {
+        let mut a = os(&[&"render", &s, &"-o", &d(&format!("{out}.exr")), &"-q", &"--spp", &"1"]);
+        a.extend(extra.iter().map(OsString::from));
+        a
+    };
+    let base = d("base.json");
+    let json = |out: &str, media: &str| render(base.clone(), out, &["--override", media]);
+    vec![
+        err(
+            "a .vol claiming 1000³ voxels in 304 bytes",
+            render(xml("vol_lying", &grid("lying.vol", "")), "m1", &[]),
+            &[&"vol_lying.xml", &"filename", &"lying.vol"],
+        ),
+        err(
+            "a .vol holding NaN",
+            render(xml("vol_nan", &grid("nan.vol", "")), "m2", &[]),
+            &[&"vol_nan.xml", &"filename", &"nan.vol", &"NaN"],
+        ),
+        err(
+            "a .vol holding a negative density",
+            render(xml("vol_negative", &grid("negative.vol", "")), "m3", &[]),
+            &[&"vol_negative.xml", &"filename", &"negative.vol", &"not negative"],
+        ),
+        err(
+            "a .vdb claiming 2^90 voxels",
+            render(xml("vdb_lying", &grid("lying.vdb", "")), "m4", &[]),
+            &[&"vdb_lying.xml", &"filename", &"lying.vdb", &"memory"],
+        ),
+        err(
+            "max_value 0 under densities up to 6",
+            render(
+                xml("max_zero", &grid("good.vol", r#"<float name="max_value" value="0"/>"#)),
+                "m5",
+                &[],
+            ),
+            &[&"max_zero.xml", &"max_value"],
+        ),
+        err(
+            "max_value NaN",
+            render(
+                xml("max_nan", &grid("good.vol", r#"<float name="max_value" value="nan"/>"#)),
+                "m6",
+                &[],
+            ),
+            &[&"max_nan.xml", &"max_value"],
+        ),
+        err(
+            "hg g = 1",
+            render(xml("g_one", r#"<phase type="hg"><float name="g" value="1"/></phase>"#), "m7", &[]),
+            &[&"g_one.xml", &"\"g\""],
+        ),
+        err(
+            "albedo 1.5",
+            render(xml("albedo_high", r#"<float name="albedo" value="1.5"/>"#), "m8", &[]),
+            &[&"albedo_high.xml", &"\"albedo\""],
+        ),
+        err(
+            "albedo from a grid up to 6",
+            render(xml("albedo_grid", &grid("good.vol", "").replace("sigma_t", "albedo")), "m9", &[]),
+            &[&"albedo_grid.xml", &"\"albedo\""],
+        ),
+        err(
+            "sigma_t × scale overflowing",
+            render(
+                xml(
+                    "overflow",
+                    r#"<float name="sigma_t" value="1e30"/><float name="scale" value="1e30"/>"#,
+                ),
+                "m10",
+                &[],
+            ),
+            &[&"overflow.xml", &"\"scale\""],
+        ),
+        err(
+            "JSON: a .vol claiming 1000³ voxels",
+            json(
+                "m11",
+                r#"{"media": {"smoke": {"type": "heterogeneous", "sigma_t": {"type": "gridvolume", "filename": "lying.vol"}}}}"#,
+            ),
+            &[&"base.json", &"media.smoke.sigma_t.filename", &"lying.vol"],
+        ),
+        err(
+            "JSON: max_value 0",
+            json(
+                "m12",
+                r#"{"media": {"smoke": {"type": "heterogeneous", "sigma_t": {"type": "gridvolume", "filename": "good.vol", "max_value": 0}}}}"#,
+            ),
+            &[&"base.json", &"media.smoke.sigma_t.max_value"],
+        ),
+        err(
+            "JSON: g = -1",
+            json(
+                "m13",
+                r#"{"media": {"fog": {"type": "homogeneous", "phase": {"type": "hg", "g": -1}}}}"#,
+            ),
+            &[&"base.json", &"media.fog.phase.g"],
+        ),
+        err(
+            "JSON: albedo -0.1",
+            json("m14", r#"{"media": {"fog": {"type": "homogeneous", "albedo": [0.5, -0.1, 0.5]}}}"#),
+            &[&"base.json", &"media.fog.albedo"],
+        ),
+        err(
+            "JSON: radiance -1",
+            json("m15", r#"{"media": {"fog": {"type": "homogeneous", "radiance": -1}}}"#),
+            &[&"base.json", &"media.fog.radiance"],
+        ),
+        err(
+            "JSON: sigma_t × scale overflowing",
+            json(
+                "m16",
+                r#"{"media": {"fog": {"type": "homogeneous", "sigma_t": 1e30, "scale": 1e30}}}"#,
+            ),
+            &[&"base.json", &"media.fog.scale"],
+        ),
+    ]
 }
 
 #[test]

@@ -28,8 +28,10 @@ struct Case {
 }
 
 /// `path` on the textured, gaussian-filtered showcase (image textures: the footprint
-/// matters), `intersection_test` on the Cornell box, `bdpt` and `ptracer` (splats).
-const CASES: [Case; 4] = [
+/// matters), `intersection_test` on the Cornell box, `bdpt` and `ptracer` (splats),
+/// and `path` through media (the Cornell box filled with chromatic, glowing fog: hero
+/// channels, delta and ratio tracking draw their numbers per pass too).
+const CASES: [Case; 5] = [
     Case {
         name: "path",
         scene: "showcase.json",
@@ -49,6 +51,12 @@ const CASES: [Case; 4] = [
         name: "ptracer",
         scene: "showcase.json",
         overrides: r#"{"integrator":{"type":"ptracer","max_depth":3}}"#,
+    },
+    Case {
+        name: "path_media",
+        scene: "cornell.json",
+        overrides: r#"{"integrator":{"type":"path","max_depth":6},"camera":{"medium":"fog"},
+            "media":{"fog":{"type":"homogeneous","sigma_t":[0.3,0.5,0.8],"albedo":0.8,"radiance":0.2,"phase":{"type":"hg","g":0.5}}}}"#,
     },
 ];
 
@@ -147,7 +155,7 @@ fn resume_gives_the_bits_of_one_render() {
 #[test]
 fn shards_merge_into_the_bits_of_one_render() {
     let dir = common::temp_dir("rdr-shards");
-    for case in &CASES[..3] {
+    for case in CASES[..3].iter().chain(&CASES[4..]) {
         let full = dir.path().join(format!("{}_full.exr", case.name));
         ok(&render(case, &full, &["--spp", "72"]), "full render");
         for n in [2, 3] {

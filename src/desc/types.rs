@@ -300,16 +300,34 @@ pub struct ObjectDesc {
 /// `media.<name>`: a participating medium (see [`crate::medium`]). `homogeneous`:
 /// `sigma_t` (number or RGB, ≥ 0, 1), `albedo` (number or RGB in [0, 1], 0.75), `scale`
 /// (≥ 0, 1; multiplies `sigma_t`), `phase` (`{"type": "isotropic"}` or
-/// `{"type": "hg", "g": 0.8}`; isotropic when absent) — Mitsuba's names and defaults.
+/// `{"type": "hg", "g": 0.8}`; isotropic when absent) — Mitsuba's names and defaults —
+/// and `radiance` (number or RGB, ≥ 0, 0): emitted radiance Le, the medium adding σa·Le
+/// per unit length (pbrt-v4's convention; not multiplied by `scale`).
 ///
 /// ```json
 /// "media": {"fog": {"type": "homogeneous", "sigma_t": 1.5, "albedo": 0.9, "phase": {"type": "hg", "g": 0.6}}}
 /// ```
+///
+/// `heterogeneous`: the same keys but `sigma_t`, `albedo` and `radiance` are volumes —
+/// a number, an RGB triple, `{"type": "constvolume", "value", "to_world"}` or
+/// `{"type": "gridvolume", "filename", "grid", "filter_type", "wrap_mode", "max_value",
+/// "to_world", "use_grid_bbox"}` (Mitsuba's names and defaults; `to_world` 16 numbers
+/// row-major); the medium exists inside its `sigma_t` volume's box only.
 #[derive(Clone, Debug)]
 pub struct MediumDesc {
     pub name: String,
     pub source: Source,
     pub medium: crate::medium::Medium,
+    /// A heterogeneous medium's volumes as described (grid files by name, for `rdr convert`).
+    pub volumes: Option<MediumVolumes>,
+}
+
+/// A heterogeneous medium's `sigma_t`, `albedo` and `radiance` volumes as described.
+#[derive(Clone, Debug)]
+pub struct MediumVolumes {
+    pub sigma_t: super::VolumeDesc,
+    pub albedo: super::VolumeDesc,
+    pub radiance: super::VolumeDesc,
 }
 
 /// A `mesh` object's file and placement: `path` (OBJ, relative to the scene file's

@@ -3,8 +3,9 @@
 //! the file into the render-ready [`Volume`]. The Mitsuba reader is
 //! `xml/plugins/volume.rs`.
 
-use crate::desc::{Located, Source};
+use crate::desc::{Located, MediumVolumes, Source};
 use crate::error::Result;
+use crate::medium::{Heterogeneous, Medium, PhaseFunction};
 use crate::volume::grid::GridOptions;
 use crate::volume::{vdb, vol_file, GridVolume, Volume};
 use std::path::Path;
@@ -25,6 +26,25 @@ pub struct GridFile {
     /// The key of `max_value` when given, so a value below the grid's largest one is
     /// reported there.
     pub max_value_source: Option<Source>,
+}
+
+/// The `grid` of a `gridvolume` reading `filename`: a `.vdb` file's grid by name
+/// (`density` when absent), none for a `.vol` file; an error (the key and why) where
+/// `grid` or `use_grid_bbox` does not fit the file's kind. Both readers' rule.
+pub fn grid_of(
+    filename: &str,
+    grid: Option<String>,
+    use_grid_bbox: bool,
+) -> std::result::Result<Option<String>, (&'static str, &'static str)> {
+    let vdb = filename.to_ascii_lowercase().ends_with(".vdb");
+    if vdb && use_grid_bbox {
+        return Err(("use_grid_bbox", "is for .vol grids; a .vdb grid is placed by its own transform"));
+    }
+    match (vdb, grid) {
+        (true, g) => Ok(Some(g.unwrap_or_else(|| "density".into()))),
+        (false, None) => Ok(None),
+        (false, Some(_)) => Err(("grid", "names a grid of an OpenVDB (.vdb) file; this file is a .vol")),
+    }
 }
 
 /// Loads a described volume: its grid file is read, checked and placed. Errors name
@@ -52,4 +72,21 @@ pub fn build_volume(desc: &VolumeDesc, scene: &Path, base_dir: &Path) -> Result<
         };
         source.error(scene, format!("{e} (grid \"{}\")", full.display()))
     })
+}
+
+/// A heterogeneous medium from its described volumes (grid files read): a loading error
+/// names the scene and the key; a parameter out of range is returned as (key, reason)
+/// for the reader to place.
+pub fn build_heterogeneous(
+    v: &MediumVolumes,
+    scale: f32,
+    phase: PhaseFunction,
+    scene: &Path,
+    base_dir: &Path,
+) -> Result<std::result::Result<Medium, (&'static str, String)>> {
+    let sigma_t = build_volume(&v.sigma_t, scene, base_dir)?;
+    let albedo = build_volume(&v.albedo, scene, base_dir)?;
+    let radiance = build_volume(&v.radiance, scene, base_dir)?;
+    let medium = Heterogeneous::new(sigma_t, albedo, scale, phase).and_then(|m| m.with_radiance(radiance));
+    Ok(medium.map(|m| Medium::Heterogeneous(Box::new(m))))
 }

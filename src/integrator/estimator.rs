@@ -14,7 +14,8 @@
 //! [`trace_media`]: each segment's ray is first tracked through the medium it is in
 //! (delta tracking with hero-channel MIS, [`crate::medium::tracking`]); a real
 //! scattering event makes a medium vertex (light sample with MIS against the phase
-//! function, the phase function's sample); `null` surfaces are crossed without a
+//! function, the phase function's sample); an emissive medium's light is gathered at
+//! the tracking's collisions; `null` surfaces are crossed without a
 //! vertex; shadow rays carry the media's transmittance (ratio tracking). `max_depth`
 //! counts real events, surface and medium alike, as Mitsuba's `volpath` does.
 //!
@@ -27,7 +28,7 @@ use crate::geometry::{Ray, RayDifferential};
 use crate::light::{Light, LightSample};
 use crate::material::bsdf::{Bsdf, BsdfSample};
 use crate::math::{Vec2, Vec3};
-use crate::medium::{delta_tracking, HeroWeights, PhaseFunction, Tracked};
+use crate::medium::{delta_tracking_emitting, HeroWeights, PhaseFunction, Tracked};
 use crate::sampler::PixelSampler;
 use crate::sampling::{power_heuristic, RowDraw};
 use crate::scene::{Hit, Interaction, Scene};
@@ -210,7 +211,10 @@ fn trace_media<P: Policy>(
             let t_end = hit.map_or(path.ray.t_max, |h| h.t);
             let weights = hero.get_or_insert_with(|| HeroWeights::new(sampler.next_1d()));
             let med = &scene.media[m as usize];
-            let (found, f) = delta_tracking(med, &path.ray, t_end, weights.hero, || sampler.next_1d());
+            let (found, f, le) = delta_tracking_emitting(med, &path.ray, t_end, weights, || sampler.next_1d());
+            if le != Vec3::ZERO {
+                policy.add_emission(&mut path.l, path.beta * le, path.after_delta);
+            }
             weights.apply(f, &mut path.beta);
             if path.beta == Vec3::ZERO {
                 return path.l;

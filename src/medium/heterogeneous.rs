@@ -14,6 +14,8 @@ pub struct Heterogeneous {
     pub albedo: Volume,
     pub scale: f32,
     pub phase: PhaseFunction,
+    /// Emitted radiance Le (`None`: not emissive).
+    pub radiance: Option<Volume>,
     majorants: MajorantGrid,
 }
 
@@ -22,6 +24,9 @@ impl Heterogeneous {
     pub fn new(sigma_t: Volume, albedo: Volume, scale: f32, phase: PhaseFunction) -> Result<Heterogeneous, (&'static str, String)> {
         if !(scale.is_finite() && scale >= 0.0) {
             return Err(("scale", format!("must be finite and non-negative, found {scale}")));
+        }
+        if !(sigma_t.max() * scale).is_finite() {
+            return Err(("scale", format!("times sigma_t overflows ({scale} × {})", sigma_t.max())));
         }
         if albedo.max() > 1.0 {
             return Err(("albedo", format!("must lie in [0, 1], its largest value is {}", albedo.max())));
@@ -32,8 +37,28 @@ impl Heterogeneous {
             albedo,
             scale,
             phase,
+            radiance: None,
             majorants,
         })
+    }
+
+    /// The medium emitting radiance `le` (a volume; σa·Le per unit length); a one-line
+    /// reason when its values are negative or not finite.
+    pub fn with_radiance(self, le: Volume) -> Result<Heterogeneous, (&'static str, String)> {
+        // a grid holds no negative value (GridData::new refuses them)
+        let min = match &le {
+            Volume::Constant(c) => c.value.min_element(),
+            Volume::Grid(_) => 0.0,
+        };
+        super::homogeneous::check_radiance(min, le.max())?;
+        let radiance = (le.max() > 0.0).then_some(le);
+        Ok(Heterogeneous { radiance, ..self })
+    }
+
+    /// The emitted radiance at world point `p`.
+    #[inline]
+    pub fn radiance(&self, p: Vec3) -> Vec3 {
+        self.radiance.as_ref().map_or(Vec3::ZERO, |v| Vec3::from_array(v.eval(p)))
     }
 
     /// The coefficients at world point `p`.

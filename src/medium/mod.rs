@@ -7,6 +7,10 @@
 //! that declares media changes the ray's medium where the ray crosses it, shapes
 //! without media change nothing, and the camera's medium is the one the sensor names.
 //! Coefficients are per unit length in scene units, one value per RGB channel.
+//!
+//! A medium may emit (`radiance` Le, pbrt-v4's convention): it adds σa·Le per unit
+//! length, so a thick absorbing medium glows with radiance Le, and an albedo-1 one not
+//! at all.
 
 pub mod heterogeneous;
 pub mod homogeneous;
@@ -16,7 +20,7 @@ pub mod tracking;
 pub use heterogeneous::Heterogeneous;
 pub use homogeneous::Homogeneous;
 pub use phase::PhaseFunction;
-pub use tracking::{delta_tracking, ratio_tracking, HeroWeights, MajorantSegment, Tracked};
+pub use tracking::{delta_tracking, delta_tracking_emitting, ratio_tracking, HeroWeights, MajorantSegment, Tracked};
 
 use crate::geometry::Ray;
 use crate::math::Vec3;
@@ -44,6 +48,24 @@ impl Medium {
         match self {
             Medium::Homogeneous(h) => h.phase,
             Medium::Heterogeneous(h) => h.phase,
+        }
+    }
+
+    /// Whether the medium emits anywhere.
+    #[inline]
+    pub fn is_emissive(&self) -> bool {
+        match self {
+            Medium::Homogeneous(h) => h.radiance != Vec3::ZERO,
+            Medium::Heterogeneous(h) => h.radiance.is_some(),
+        }
+    }
+
+    /// The emitted radiance Le at `p` (the medium adds σa·Le per unit length).
+    #[inline]
+    pub fn radiance(&self, p: Vec3) -> Vec3 {
+        match self {
+            Medium::Homogeneous(h) => h.radiance,
+            Medium::Heterogeneous(h) => h.radiance(p),
         }
     }
 

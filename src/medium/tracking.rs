@@ -90,8 +90,33 @@ fn rescaled(f: Vec3) -> Vec3 {
 /// Delta tracking along `ray` over `[ray.t_min, t_end]` (`t_end` finite) in channel
 /// `hero`: the event found, and the factor to apply through [`HeroWeights::apply`].
 /// `u` gives uniform numbers in [0, 1).
-pub fn delta_tracking(medium: &Medium, ray: &Ray, t_end: f32, hero: usize, mut u: impl FnMut() -> f32) -> (Tracked, Vec3) {
+pub fn delta_tracking(medium: &Medium, ray: &Ray, t_end: f32, hero: usize, u: impl FnMut() -> f32) -> (Tracked, Vec3) {
+    let (found, f, _) = track(medium, ray, t_end, hero, None, u);
+    (found, f)
+}
+
+/// [`delta_tracking`] for a path with channel-MIS state `weights`, which also gathers an
+/// emissive medium's light: the third value, to be multiplied by the path's throughput
+/// before the factor is applied. As pbrt-v4's volumetric path tracer does, the emission
+/// σa·Le is collected at every collision, real or null, weighted by the collision's
+/// density mean_c(p_c·σmaj_c·T_maj,c); the same numbers are drawn as without emission.
+pub fn delta_tracking_emitting(
+    medium: &Medium,
+    ray: &Ray,
+    t_end: f32,
+    weights: &HeroWeights,
+    u: impl FnMut() -> f32,
+) -> (Tracked, Vec3, Vec3) {
+    let emission = medium.is_emissive().then_some(weights.ratios);
+    track(medium, ray, t_end, weights.hero, emission, u)
+}
+
+/// Delta tracking; with `emission` (the path's density ratios) it sums the emission at
+/// every collision.
+#[inline]
+fn track(medium: &Medium, ray: &Ray, t_end: f32, hero: usize, emission: Option<Vec3>, mut u: impl FnMut() -> f32) -> (Tracked, Vec3, Vec3) {
     let mut f = Vec3::ONE;
+    let mut emitted = Vec3::ZERO;
     let mut found = Tracked::Passed;
     medium.segments(ray, t_end, |s| {
         let sigma_h = s.sigma_maj[hero];
@@ -108,15 +133,26 @@ pub fn delta_tracking(medium: &Medium, ray: &Ray, t_end: f32, hero: usize, mut u
             }
             t += dt;
             let tm = transmittance_ratio(s.sigma_maj, dt, hero);
-            let point = medium.at(ray.at(t));
+            let x = ray.at(t);
+            let point = medium.at(x);
+            if let Some(ratios) = emission {
+                // f·tm is each channel's density of reaching t up to a common scale,
+                // which cancels between the emission and its density
+                let reach = f * tm;
+                let q = ratios * reach * s.sigma_maj;
+                let mean = (q.x + q.y + q.z) / 3.0;
+                if mean > 0.0 {
+                    emitted += reach * point.sigma_a * medium.radiance(x) / mean;
+                }
+            }
             let sigma_n = (s.sigma_maj - point.sigma_a - point.sigma_s).max(Vec3::ZERO);
             let (p_absorb, p_scatter) = (point.sigma_a[hero] / sigma_h, point.sigma_s[hero] / sigma_h);
-            let x = u();
-            if x < p_absorb {
+            let xi = u();
+            if xi < p_absorb {
                 found = Tracked::Absorbed;
                 return false;
             }
-            if x < p_absorb + p_scatter || sigma_n[hero] <= 0.0 {
+            if xi < p_absorb + p_scatter || sigma_n[hero] <= 0.0 {
                 if point.sigma_s[hero] <= 0.0 {
                     found = Tracked::Absorbed;
                     return false;
@@ -129,7 +165,7 @@ pub fn delta_tracking(medium: &Medium, ray: &Ray, t_end: f32, hero: usize, mut u
             f = rescaled(f * tm * sigma_n / sigma_n[hero]);
         }
     });
-    (found, f)
+    (found, f, emitted)
 }
 
 /// Transmittance of every channel along `ray` over `[ray.t_min, t_end]` (`t_end`

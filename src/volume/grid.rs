@@ -26,7 +26,42 @@ pub enum WrapMode {
     Mirror,
 }
 
+impl GridFilter {
+    /// Mitsuba's `filter_type` name.
+    pub fn name(self) -> &'static str {
+        match self {
+            GridFilter::Trilinear => "trilinear",
+            GridFilter::Nearest => "nearest",
+        }
+    }
+
+    /// The filter named `name`; the error lists the names.
+    pub fn from_name(name: &str) -> Result<GridFilter, String> {
+        [GridFilter::Trilinear, GridFilter::Nearest]
+            .into_iter()
+            .find(|f| f.name() == name)
+            .ok_or_else(|| format!("unknown filter_type \"{name}\" (trilinear, nearest)"))
+    }
+}
+
 impl WrapMode {
+    /// Mitsuba's `wrap_mode` name.
+    pub fn name(self) -> &'static str {
+        match self {
+            WrapMode::Clamp => "clamp",
+            WrapMode::Repeat => "repeat",
+            WrapMode::Mirror => "mirror",
+        }
+    }
+
+    /// The wrap mode named `name`; the error lists the names.
+    pub fn from_name(name: &str) -> Result<WrapMode, String> {
+        [WrapMode::Clamp, WrapMode::Repeat, WrapMode::Mirror]
+            .into_iter()
+            .find(|w| w.name() == name)
+            .ok_or_else(|| format!("unknown wrap_mode \"{name}\" (clamp, repeat, mirror)"))
+    }
+
     /// Index `i` of an axis of `n` voxels, brought into `0..n`.
     #[inline]
     pub fn index(self, i: i64, n: i64) -> usize {

@@ -20,7 +20,6 @@ use std::path::Path;
 // ---------------------------------------------------------------------------
 
 pub fn to_json(desc: &SceneDesc, out: &Path) -> Result<Converted> {
-    super::media::refuse_grid_media(desc)?;
     refuse_textured_emitters(desc)?;
     let mut warnings = Vec::new();
     let mut files = Vec::new();
@@ -349,7 +348,7 @@ pub fn to_json(desc: &SceneDesc, out: &Path) -> Result<Converted> {
         root["shapegroups"] = Value::Object(g);
     }
     if !desc.media.is_empty() {
-        root["media"] = super::media::media_json(&desc.media);
+        root["media"] = super::media::media_json(desc, out);
     }
     if let Some(m) = &desc.camera_medium {
         root["camera"]["medium"] = m.value.clone().into();

@@ -253,13 +253,12 @@ fn v3(v: Vec3) -> String {
     format!("{}, {}, {}", v.x, v.y, v.z)
 }
 
-fn matrix(m: &Mat4) -> String {
+pub(super) fn matrix(m: &Mat4) -> String {
     row_major(m).iter().map(|x| format!("{x}")).collect::<Vec<_>>().join(" ")
 }
 
 /// The description as Mitsuba 3 XML, for the file `out`.
 pub fn to_xml(desc: &SceneDesc, out: &Path) -> Result<Converted> {
-    super::media::refuse_grid_media(desc)?;
     refuse_textured_emitters(desc)?;
     let mut w = Vec::new();
     let mut s = String::new();
@@ -424,7 +423,7 @@ pub fn to_xml(desc: &SceneDesc, out: &Path) -> Result<Converted> {
             .as_ref()
             .map_or(String::new(), |m| format!("    <ref id=\"{}\"/>\n", esc(&m.value)))
     );
-    s += &super::media::media_xml(&desc.media, esc);
+    s += &super::media::media_xml(desc, out, esc);
     // ids are shared by textures and materials in XML
     let mut ids: Vec<String> = Vec::new();
     let mut id_for = |name: &str, prefix: &str| -> String {

@@ -99,7 +99,7 @@ impl SceneDesc {
             let c = root.object("camera")?;
             c.string_opt("medium")?.map(|m| c.located("medium", m))
         };
-        let media = media::parse_media(&root)?;
+        let media = media::parse_media(&root, base_dir)?;
         let textures = root
             .named_objects("textures")?
             .iter()

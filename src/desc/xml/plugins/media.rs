@@ -1,16 +1,17 @@
 //! `<medium>` and `<phase>`: Mitsuba's participating media (read as in Mitsuba 3:
 //! `homogeneous` and `heterogeneous` with `sigma_t`, `albedo` and `scale`, their defaults
 //! 1, 0.75 and 1, the heterogeneous one's from volumes; `isotropic` and `hg` phase
-//! functions, `g` 0.8 by default). Grid volumes are loaded as they are read.
+//! functions, `g` 0.8 by default), and rdr's emissive media (`radiance`, a constant or
+//! a volume, as pbrt-v4's `Le`). Grid volumes are loaded as they are read.
 
-use super::table::{noted, read, Param, PluginDoc, Status};
+use super::table::{differs, noted, read, Param, PluginDoc, Status};
 use super::{source, Reader};
 use crate::desc::xml::document::Element;
 use crate::desc::xml::props::Plugin;
-use crate::desc::{build_volume, Located, MediumDesc};
+use crate::desc::{build_heterogeneous, Located, MediumDesc, MediumVolumes};
 use crate::error::Result;
 use crate::math::Vec3;
-use crate::medium::{Heterogeneous, Homogeneous, Medium, PhaseFunction};
+use crate::medium::{Homogeneous, Medium, PhaseFunction};
 use crate::volume::Volume;
 
 impl<'a> Reader<'a> {
@@ -31,20 +32,21 @@ impl<'a> Reader<'a> {
         }
         // rdr tracks every channel alike: a grey extinction needs no switch
         p.boolean("has_spectral_extinction", true)?;
+        let mut volumes = None;
         let medium = if p.ty == "homogeneous" {
             let sigma_t = self.constant_property(&p, "sigma_t", Vec3::ONE)?;
             let albedo = self.constant_property(&p, "albedo", Vec3::splat(0.75))?;
-            Medium::Homogeneous(Homogeneous::new(sigma_t, albedo, scale, phase).map_err(|(k, e)| p.value_error(k, e))?)
+            let radiance = self.constant_property(&p, "radiance", Vec3::ZERO)?;
+            let medium = Homogeneous::new(sigma_t, albedo, scale, phase).and_then(|m| m.with_radiance(radiance));
+            Medium::Homogeneous(medium.map_err(|(k, e)| p.value_error(k, e))?)
         } else {
             let sigma_t = self.volume_property(&p, "sigma_t", Vec3::ONE)?;
             let albedo = self.volume_property(&p, "albedo", Vec3::splat(0.75))?;
-            let (sigma_t, albedo) = (
-                build_volume(&sigma_t, &self.file, &self.base_dir)?,
-                build_volume(&albedo, &self.file, &self.base_dir)?,
-            );
-            Medium::Heterogeneous(Box::new(
-                Heterogeneous::new(sigma_t, albedo, scale, phase).map_err(|(k, e)| p.value_error(k, e))?,
-            ))
+            let radiance = self.volume_property(&p, "radiance", Vec3::ZERO)?;
+            let v = MediumVolumes { sigma_t, albedo, radiance };
+            let medium = build_heterogeneous(&v, scale, phase, &self.file, &self.base_dir)?;
+            volumes = Some(v);
+            medium.map_err(|(k, e)| p.value_error(k, e))?
         };
         p.finish(&["phase", "volume"])?;
         let wanted = el.attr("id").unwrap_or("medium");
@@ -56,6 +58,7 @@ impl<'a> Reader<'a> {
             name: name.clone(),
             source: source(el),
             medium,
+            volumes,
         });
         self.medium_of.insert(el as *const Element, name.clone());
         Ok(name)
@@ -105,6 +108,12 @@ const MEDIUM_PARAMS: &[Param] = &[
         "single-scattering albedo, each channel in [0, 1]",
     ),
     read("scale", "float", "1", "multiplies `sigma_t`"),
+    differs(
+        "radiance",
+        "colour or volume",
+        "0",
+        "rdr's (pbrt-v4's) emission, which Mitsuba 3.9 does not read: the medium adds σa·Le per unit length",
+    ),
     noted(
         "sample_emitters",
         "boolean",

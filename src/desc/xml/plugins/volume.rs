@@ -6,7 +6,7 @@ use super::table::{noted, read, Param, PluginDoc, Status};
 use super::{source, Reader, VOLUMES};
 use crate::desc::xml::document::Element;
 use crate::desc::xml::props::{Ids, Plugin};
-use crate::desc::{GridFile, Located, VolumeDesc};
+use crate::desc::{grid_of, GridFile, Located, VolumeDesc};
 use crate::error::Result;
 use crate::math::{Mat4, Vec3};
 use crate::volume::grid::GridOptions;
@@ -62,27 +62,10 @@ impl<'a> Reader<'a> {
             }
             "gridvolume" => {
                 let path = self.file(el, &p, "filename")?;
-                let vdb = path.value.to_ascii_lowercase().ends_with(".vdb");
-                let grid = match (vdb, p.string_opt("grid")?) {
-                    (true, g) => Some(g.unwrap_or_else(|| "density".into())),
-                    (false, None) => None,
-                    (false, Some(_)) => return Err(p.value_error("grid", "names a grid of an OpenVDB (.vdb) file; this file is a .vol")),
-                };
                 let use_grid_bbox = p.boolean("use_grid_bbox", false)?;
-                if vdb && use_grid_bbox {
-                    return Err(p.value_error("use_grid_bbox", "is for .vol grids; a .vdb grid is placed by its own transform"));
-                }
-                let filter = match p.string("filter_type", "trilinear")?.as_str() {
-                    "trilinear" => GridFilter::Trilinear,
-                    "nearest" => GridFilter::Nearest,
-                    other => return Err(p.value_error("filter_type", format!("unknown filter_type \"{other}\" (trilinear, nearest)"))),
-                };
-                let wrap = match p.string("wrap_mode", "clamp")?.as_str() {
-                    "clamp" => WrapMode::Clamp,
-                    "repeat" => WrapMode::Repeat,
-                    "mirror" => WrapMode::Mirror,
-                    other => return Err(p.value_error("wrap_mode", format!("unknown wrap_mode \"{other}\" (clamp, repeat, mirror)"))),
-                };
+                let grid = grid_of(&path.value, p.string_opt("grid")?, use_grid_bbox).map_err(|(k, e)| p.value_error(k, e))?;
+                let filter = GridFilter::from_name(&p.string("filter_type", "trilinear")?).map_err(|e| p.value_error("filter_type", e))?;
+                let wrap = WrapMode::from_name(&p.string("wrap_mode", "clamp")?).map_err(|e| p.value_error("wrap_mode", e))?;
                 let max_value = p.float_opt("max_value")?;
                 if max_value.is_some_and(|m| !(m.is_finite() && m >= 0.0)) {
                     return Err(p.value_error("max_value", "must be a finite number, not negative"));

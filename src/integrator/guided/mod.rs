@@ -255,7 +255,7 @@ impl Guided {
             let mut result = camera_pass_blocks(ctx, sample_index, film, |b, out| p.li_block(scene, b, out));
             result.counts += counts;
             if result.complete {
-                self.pass_done(&mut **state, ctx, pass_start);
+                self.pass_done(state, ctx, pass_start);
             }
             return result;
         }

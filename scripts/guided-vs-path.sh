@@ -16,6 +16,8 @@
 #                  to measure one switch on and off; the default: none)
 #   BASE=RDR2      a second binary whose `guided` renders beside too (before/after in one run);
 #   BASE_GUIDED='{...}' its extra override (BASE=RDR, GUIDED and BASE_GUIDED: a switch on and off)
+#   VARIANTS='tag={...} tag2={...}'  more `guided` renders of RDR beside, one per tag with its override
+#                  (no spaces inside an override), e.g. VARIANTS='paths={"integrator":{"learn_from":"paths"}}'
 #   OUT=DIR        images and logs (default /tmp/guided-vs-path)
 #
 # Prints one line per image (relMSE, spp reached, CPU s) and per scene and seed the ratio
@@ -71,6 +73,11 @@ for sc in "$@"; do
       run base "$BASE" --override '{"integrator":{"type":"guided"}}' --override "${BASE_GUIDED:-{\}}" &
       pids+=($!)
     fi
+    for v in ${VARIANTS:-}; do
+      tags+=("${v%%=*}")
+      run "${v%%=*}" "$rdr" --override '{"integrator":{"type":"guided"}}' --override "${v#*=}" &
+      pids+=($!)
+    done
     wait "${pids[@]}" # not the load
 
     declare -A merit=()

@@ -643,6 +643,35 @@ fn the_image_depends_on_sample_counts_not_on_threads_or_timing() {
     );
 }
 
+/// Where no leaf guides (`bsdf_fraction` 1, `learn_fraction` off), `guided` is `path`
+/// number for number: its iterations continue each pixel's one sample sequence
+/// (iteration k ≥ 1 takes indices [2^(k−1), 2^k)), a vertex without the guide draws
+/// no strategy number, roulette is `path`'s until a guided sample, and the
+/// iterations weigh by their spp; the images agree to rounding. env_sphere at 32²,
+/// 16 spp (max_depth 64: roulette decides most paths).
+#[test]
+fn without_guiding_the_image_is_paths_sample_for_sample() {
+    let Some(shared) = shared() else { return };
+    let file = shared.join("refs/scenes/env_sphere.json");
+    let res = r#"{"film": {"resolution": [32, 32]}}"#;
+    let off = r#"{"integrator": {"type": "guided", "bsdf_fraction": 1.0, "learn_fraction": false, "training_iterations": 3, "learn_from": "paths"}}"#;
+    let (path, guided) = (
+        render(&load_scene(&file, &[res], Profile::Physical), 16, 5),
+        render(&load_scene(&file, &[res, off], Profile::Physical), 16, 5),
+    );
+    let worst = path
+        .pixels
+        .iter()
+        .zip(&guided.pixels)
+        .map(|(p, g)| {
+            let d = *p - *g;
+            d.x.abs().max(d.y.abs()).max(d.z.abs()) / (p.max_element() + 1e-3)
+        })
+        .fold(0.0f32, f32::max);
+    eprintln!("largest relative difference between path and unguided guided: {worst:.2e}");
+    assert!(worst < 1e-4, "guided without guiding is not path's image: {worst}");
+}
+
 #[test]
 fn veach_converges_outside_the_glossy_band() {
     let Some(shared) = shared() else { return };

@@ -481,13 +481,26 @@ fn bad_medium_parameters_are_one_line_errors() {
 /// reference's noise), a sharper test where fireflies make the relative MSE noisy.
 /// A JSON translation's grid files are read from `shared` (which `RDR_SHARED` may move).
 fn against_reference(shared: &Path, file: &Path, name: &str, k: usize, spp: u32) -> (rdr::metrics::Comparison, Vec3, Vec3) {
-    let overrides = match (name, file.extension().is_some_and(|e| e == "json")) {
+    against_reference_with(shared, file, name, k, spp, &[])
+}
+
+/// [`against_reference`] of the scene with `overrides` (after the grid path's own).
+fn against_reference_with(
+    shared: &Path,
+    file: &Path,
+    name: &str,
+    k: usize,
+    spp: u32,
+    extra: &[String],
+) -> (rdr::metrics::Comparison, Vec3, Vec3) {
+    let mut overrides = match (name, file.extension().is_some_and(|e| e == "json")) {
         ("smoke_grid", true) => {
             let vol = shared.join("volumes/smoke.vol");
             vec![serde_json::json!({"media": {"smoke": {"sigma_t": {"filename": vol}}}}).to_string()]
         }
         _ => Vec::new(),
     };
+    overrides.extend_from_slice(extra);
     let mut desc = SceneDesc::load(file, &overrides).unwrap_or_else(|e| panic!("{e}"));
     desc.film.width /= k as u32;
     desc.film.height /= k as u32;
@@ -544,6 +557,32 @@ fn assert_converges(shared: &Path, name: &str, k: usize, spp: u32, json: bool) {
 fn fog_cbox_converges_to_mitsubas_volpath() {
     let Some(shared) = shared() else { return };
     assert_converges(&shared, "fog_cbox", 4, 64, true);
+}
+
+/// `guided` renders media through `path`'s estimator, guiding at surface vertices
+/// (learning from the camera paths, which see the fog, or from photons, which do not):
+/// fog_cbox converges to the reference either way.
+#[test]
+fn guided_fog_cbox_converges_to_mitsubas_volpath() {
+    let Some(shared) = shared() else { return };
+    // the JSON translation (overrides patch JSON scenes)
+    let file = translations().join("fog_cbox.json");
+    for from in ["paths", "photons"] {
+        let o = format!(r#"{{"integrator": {{"type": "guided", "learn_from": "{from}", "spatial_threshold": 300}}}}"#);
+        let (c, diff, se) = against_reference_with(&shared, &file, "fog_cbox", 4, 64, &[o]);
+        assert!(
+            c.rel_mse_corrected.abs() < 5.0 * c.std_error + 2e-4,
+            "guided ({from}) does not converge to refs/fog_cbox.exr: {c:?}"
+        );
+        for ch in 0..3 {
+            assert!(
+                diff[ch].abs() < 4.0 * se[ch],
+                "guided ({from}): channel {ch}'s mean is off the reference's by {} (± {})",
+                diff[ch],
+                se[ch]
+            );
+        }
+    }
 }
 
 #[test]

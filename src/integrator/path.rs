@@ -46,6 +46,13 @@ pub struct PathTracer {
 }
 
 impl PathTracer {
+    /// Mitsuba's roulette: survive with probability min(0.95, max throughput·η²)
+    /// (`guided` keeps it for paths that have not taken a guided sample).
+    #[inline(always)]
+    pub fn throughput_survival(beta: Vec3, eta_scale: f32) -> f32 {
+        (beta.max_element() * eta_scale).min(0.95)
+    }
+
     pub fn li(&self, scene: &Scene, ray: Ray, diff: Option<RayDifferential>, sampler: &mut PixelSampler, counts: &mut RayCounts) -> Vec3 {
         trace(&mut { *self }, scene, PathState::new(ray), 1, diff.as_ref(), sampler, counts)
     }
@@ -271,6 +278,6 @@ impl Policy for PathTracer {
     /// radiance scaling of refraction.
     #[inline(always)]
     fn survival(&self, beta: Vec3, eta_scale: f32) -> f32 {
-        (beta.max_element() * eta_scale).min(0.95)
+        Self::throughput_survival(beta, eta_scale)
     }
 }

@@ -180,13 +180,12 @@ impl Loaded {
             job: RenderJob::from_desc(desc, profile)?,
         };
         if loaded.scene.has_media {
-            // media are tracked by the camera-path estimator, which `path` runs; `guided` runs
-            // it too but learns from light paths that do not see media, and its fog_cbox
-            // image was 1.3 % dark: refused until checked; the others would render null
+            // media are tracked by the camera-path estimator, which `path` and `guided` run
+            // (`guided` guides at surface vertices); the others would render null
             // boundaries as black and media as vacuum
             let refuse = match (profile, &loaded.job.integrator) {
                 (Profile::Rdr171, _) => Some("--compat rdr171"),
-                (_, Integrator::Path(_) | Integrator::Normals(_)) => None,
+                (_, Integrator::Path(_) | Integrator::Guided(_) | Integrator::Normals(_)) => None,
                 (_, i) => Some(i.name()),
             };
             if let Some(who) = refuse {

@@ -101,6 +101,7 @@ pub fn to_json(desc: &SceneDesc, out: &Path) -> Result<Converted> {
             let combine = match g.combine {
                 crate::integrator::guided::Combine::InverseVariance => "inverse_variance",
                 crate::integrator::guided::Combine::Last => "last",
+                crate::integrator::guided::Combine::Samples => "samples",
             };
             integ.insert("combine".into(), combine.into());
             integ.insert("spatial_threshold".into(), num(g.spatial_threshold));

@@ -285,10 +285,16 @@ fn parse_guided(p: &Props) -> Result<Guided> {
         true => Some(capped(p, "training_iterations", p.int_at_least("training_iterations", 0, 0)?, 30)),
         false => None,
     };
-    let combine = match p.string_or("combine", "inverse_variance")?.as_str() {
+    let combine = match p.string_or("combine", "samples")?.as_str() {
         "inverse_variance" => guided::Combine::InverseVariance,
         "last" => guided::Combine::Last,
-        other => return Err(p.error("combine", format!("unknown combine '{other}' (available: inverse_variance, last)"))),
+        "samples" => guided::Combine::Samples,
+        other => {
+            return Err(p.error(
+                "combine",
+                format!("unknown combine '{other}' (available: inverse_variance, last, samples)"),
+            ))
+        }
     };
     let spatial_threshold = p.f32_or("spatial_threshold", d.spatial_threshold)?;
     if !(spatial_threshold > 0.0 && spatial_threshold.is_finite()) {

@@ -160,12 +160,20 @@ pub fn combine(parts: &[Part], pixels: usize) -> Vec<Vec3> {
         [only] => return only.image.to_vec(),
         _ => {}
     }
-    let weights = iteration_weights(&relative_variances(parts), parts);
+    combine_weighted(parts, &iteration_weights(&relative_variances(parts), parts), pixels)
+}
+
+/// The iterations' images with the given weights (by spp: every sample alike, the
+/// image of one film holding them all).
+pub fn combine_weighted(parts: &[Part], weights: &[f64], pixels: usize) -> Vec<Vec3> {
+    if parts.is_empty() {
+        return vec![Vec3::ZERO; pixels];
+    }
     let total: f64 = weights.iter().sum();
     (0..pixels)
         .map(|i| {
             let mut acc = [0.0f64; 3];
-            for (p, w) in parts.iter().zip(&weights) {
+            for (p, w) in parts.iter().zip(weights) {
                 let c = p.image[i];
                 acc[0] += c.x as f64 * w;
                 acc[1] += c.y as f64 * w;

@@ -2,7 +2,7 @@
 //! end of a training iteration (the tree rebuilt, the leaves' fractions chosen)
 //! and the summary.
 
-use super::combine::{combine, current_image, pixel_variances, relative_variances, Part};
+use super::combine::{combine, combine_weighted, current_image, pixel_variances, relative_variances, Part};
 use super::sdtree::{self, SdTree, TreeStats};
 use super::{Combine, DTree, Guided, LearnFrom, MAX_TRAINING_ITERATIONS, RHO};
 use crate::film::Film;
@@ -39,6 +39,8 @@ pub struct State {
     pub(super) last: bool,
     pub(super) passes: u32,
     pub(super) passes_total: u32,
+    /// The current iteration's passes that recorded (the first, or all where a leaf guides).
+    pub(super) recorded: u32,
     /// The current iteration's samples, and per-pixel moments of the samples'
     /// mean over channels: Σy, Σy², n.
     pub(super) film: Film,
@@ -69,14 +71,21 @@ impl Finished {
 
 impl Guided {
     /// Doubling iterations the spp budget gives when `training_iterations` is absent:
-    /// the most K with 2^(K+1) − 1 ≤ spp (the final one keeps at least 2^K), at most
-    /// [`MAX_TRAINING_ITERATIONS`].
+    /// the most K whose training (2^(K−1) spp, see [`Guided::iteration_length`]) the
+    /// final iteration at least matches, 2^K ≤ spp, at most [`MAX_TRAINING_ITERATIONS`].
     pub fn auto_training_iterations(spp: u32) -> u32 {
         let mut k = 0u32;
-        while k < MAX_TRAINING_ITERATIONS && (1u64 << (k + 2)) - 1 <= spp as u64 {
+        while k < MAX_TRAINING_ITERATIONS && (1u64 << (k + 1)) <= spp as u64 {
             k += 1;
         }
         k
+    }
+
+    /// Passes of training iteration `k`: 1, then 2^(k−1) (1, 1, 2, 4, …), so iteration
+    /// k ≥ 1 holds the sample indices [2^(k−1), 2^k), an aligned block of the pixels'
+    /// sequence (stratified on its own), and training ends at a power of two.
+    pub fn iteration_length(k: u32) -> u32 {
+        1u32 << k.saturating_sub(1).min(31)
     }
 
     /// Training iterations of a render of `spp` samples per pixel (under
@@ -112,6 +121,7 @@ impl Guided {
             last: false,
             passes: 0,
             passes_total: 0,
+            recorded: 0,
             film: Film::new(ctx.film.width, ctx.film.height, ctx.film.filter),
             moments: vec![[0.0; 3]; n],
             finished: Vec::new(),
@@ -121,18 +131,20 @@ impl Guided {
         s
     }
 
-    /// Length and kind of the next iteration: iteration k takes 2^k passes and
+    /// Length and kind of the next iteration: iteration k takes
+    /// [`Guided::iteration_length`] passes and
     /// trains while k is below the training iterations; the last takes what
     /// remains of the spp budget. Sample counts decide, never the clock: the same
     /// seed and spp give the same image on a busy machine and a quiet one.
     fn begin_iteration(&self, s: &mut State, ctx: &PassContext) {
         let k = s.history.len() as u32;
         let remaining = ctx.spp.saturating_sub(s.passes_total).max(1);
-        let length = 1u32 << k.min(31);
+        let length = Self::iteration_length(k);
         let training = k < self.training_iterations_for(ctx.spp);
         s.last = !training || length >= remaining;
         s.length = if s.last { remaining } else { length };
         s.passes = 0;
+        s.recorded = 0;
         s.history.push(IterationInfo {
             last: s.last,
             tree: s.tree.stats(),
@@ -150,10 +162,10 @@ impl Guided {
             spp: s.passes,
         };
         match self.combine {
-            Combine::InverseVariance => s.finished.push(finished),
+            Combine::InverseVariance | Combine::Samples => s.finished.push(finished),
             Combine::Last => s.finished = vec![finished],
         }
-        let threshold = self.spatial_threshold as f64 * (s.length as f64).sqrt();
+        let threshold = self.spatial_threshold as f64 * (s.recorded.max(1) as f64).sqrt();
         let choice = std::mem::take(&mut s.choice);
         let moments = s
             .tree
@@ -187,7 +199,10 @@ impl Guided {
                 spp: s.passes,
             });
         }
-        combine(&parts, s.moments.len())
+        match self.combine {
+            Combine::Samples => combine_weighted(&parts, &parts.iter().map(|p| p.spp as f64).collect::<Vec<_>>(), s.moments.len()),
+            _ => combine(&parts, s.moments.len()),
+        }
     }
 
     /// Schedule, iterations and tree sizes, for the render summary.
@@ -225,6 +240,7 @@ impl Guided {
             match self.combine {
                 Combine::InverseVariance => "inverse variance",
                 Combine::Last => "last iteration",
+                Combine::Samples => "all samples alike",
             },
             iterations.join(", "),
             stats.spatial_leaves,

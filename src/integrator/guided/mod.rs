@@ -4,7 +4,7 @@
 //!
 //! An SD-tree ([`sdtree`]: a binary tree over a cube around the scene whose
 //! leaves hold directional quadtrees, [`quadtree`]) learns the light arriving
-//! at surfaces. Rendering goes in iterations of 1, 2, 4, … samples per pixel;
+//! at surfaces. Rendering goes in iterations of 1, 1, 2, 4, … samples per pixel;
 //! each training iteration samples from the tree the previous one recorded and
 //! records into the next: by default the flux of photons shot from the lights
 //! (one per pixel and pass, at most 2²⁰) into the cell of the direction they arrive from, so
@@ -20,24 +20,35 @@
 //! At non-specular vertices directions come from a mixture: the BSDF with
 //! probability `bsdf_fraction`, the learned distribution otherwise; MIS against
 //! light sampling uses the mixture's density, so every iteration is unbiased.
-//! Specular vertices sample their BSDF. Russian roulette judges a path by its
-//! throughput as if the guided vertices had sampled their BSDFs, against
-//! `rr_threshold` (see [`path::Guiding`]): judged by the throughput alone, as
-//! `path` does, the paths guiding sends towards the light are the ones ended.
-//! The image combines the iterations with
-//! one weight per iteration, the inverse of its estimated variance (mean over
-//! pixels of the relative variance of the pixel mean, the `rdr compare` metric's
-//! weighting), or shows the last iteration alone (`combine: "last"`).
+//! Specular vertices sample their BSDF. Russian roulette is `path`'s until a
+//! path takes a guided sample; from then on it judges the path by its throughput
+//! as if the guided vertices had sampled their BSDFs, against `rr_threshold` (see
+//! [`path::Guiding`]): judged by the throughput alone, as `path` does, the paths
+//! guiding sends towards the light are the ones ended.
+//!
+//! All iterations draw from each pixel's one sample sequence, continuing where
+//! the last stopped as `path`'s passes do; iteration k ≥ 1 takes the indices
+//! [2^(k−1), 2^k), a stratified block on its own. The image weighs every sample
+//! alike (`combine: "samples"`, `path`'s one film), or each iteration by the
+//! inverse of its estimated variance (`"inverse_variance"`), or shows the last
+//! iteration alone (`"last"`). Where no leaf guides, a sample is `path`'s number
+//! for number, so the image is `path`'s.
 //!
 //! Schedule: iterations double while the rest of the spp budget still holds at
-//! least one more doubling, at most [`MAX_TRAINING_ITERATIONS`] of them, and the
-//! last takes what remains (64 spp: 1, 2, 4, 8, 16, then 33). Under
+//! least as many samples as training took, at most [`MAX_TRAINING_ITERATIONS`] of
+//! them, and the last takes what remains (64 spp: 1, 1, 2, 4, 8, 16, then 32). Under
 //! `--time-limit` the budget is the spp cap and the render loop stops the
 //! schedule where the time runs out. Every decision depends on sample counts
 //! only, never on the clock. The leaves choose their BSDF fractions after every
 //! iteration (a leaf with too few vertices takes its nearest ancestor's choice);
-//! there is no global switch. A final iteration in which every leaf chose BSDF
-//! sampling alone runs `path`'s own code.
+//! there is no global switch. While every leaf chooses BSDF sampling alone, a
+//! training iteration records (and shoots photons) in its first pass only and
+//! renders its other passes with `path`'s own code, as does such a final
+//! iteration (its packets, without inverse-variance weights to estimate): the
+//! guide keeps learning at the cost of one pass per iteration.
+//!
+//! Media: the estimator tracks them as for `path`; guiding acts at surface
+//! vertices only (a medium vertex samples its phase function).
 //!
 //! Deterministic: records are kept per tile and deposited in tile order after
 //! each pass, so the trees, and with them the image, do not depend on the
@@ -49,13 +60,13 @@ pub mod path;
 pub mod quadtree;
 pub mod sdtree;
 
-pub use combine::{combine, iteration_weights, pixel_variances, relative_variances, relative_variances_within, Part};
+pub use combine::{combine, combine_weighted, iteration_weights, pixel_variances, relative_variances, relative_variances_within, Part};
 pub use iteration::{IterationInfo, State};
 pub use path::{Guiding, Mixture, Record, Scratch};
 pub use quadtree::{sphere_to_square, square_to_sphere, DTree};
 pub use sdtree::{SdTree, TreeStats};
 
-use super::pass::camera_pass_with;
+use super::pass::{camera_pass_blocks, camera_pass_with};
 use super::photon::{shoot_deposits, Shooting};
 use super::{PassContext, PassResult, PathProfile, PathTracer, RayCounts};
 use crate::math::Vec3;
@@ -66,17 +77,20 @@ use std::time::Instant;
 /// integrators' default).
 const PHOTON_RR_THRESHOLD: f32 = 0.1;
 
+/// The training photons' seed offset (their own sequence, apart from the camera's).
+const PHOTON_SEED: u32 = 0x5eed_0000;
+
 /// Most photons a training pass shoots (one per pixel below it): their deposits,
 /// a few per photon, are held until the pass ends.
 pub const MAX_PHOTONS_PER_PASS: u32 = 1 << 20;
 
-/// Most training iterations the spp budget gives (1 + 2 + 4 + 8 + 16 = 31 spp):
+/// Most training iterations the spp budget gives (1 + 1 + 2 + 4 + 8 + 16 = 32 spp):
 /// a training pass costs about 2.5 `path` passes (its photons, records and the
 /// guide's lookups; caustic_cbox under `--time-limit` 30 s: 11 spp with 7 training
 /// iterations against `path`'s 41), so training stops where a minute's render
 /// still has most of its samples ahead (caustic_cbox at 256 spp with 31 of
 /// training: relMSE 2.9e-3, `path` 1.3e-2).
-pub const MAX_TRAINING_ITERATIONS: u32 = 5;
+pub const MAX_TRAINING_ITERATIONS: u32 = 6;
 
 /// Energy share above which a directional cell is split (the paper's ρ).
 pub const RHO: f32 = 0.01;
@@ -98,10 +112,12 @@ pub enum LearnFrom {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum Combine {
     /// One weight per iteration, 1 / its estimated variance.
-    #[default]
     InverseVariance,
     /// The last iteration alone.
     Last,
+    /// Weights by spp: every sample alike, as `path`'s one film.
+    #[default]
+    Samples,
 }
 
 /// Parameters (JSON `integrator` keys, besides `type`):
@@ -131,9 +147,10 @@ pub enum Combine {
 ///   ancestor's vertices choose together;
 /// * `training_iterations` (int ≥ 0, absent: chosen by the spp budget, see the
 ///   module docs) — doubling iterations before the final one;
-/// * `combine` (`"inverse_variance"` | `"last"`, `"inverse_variance"`);
+/// * `combine` (`"samples"` | `"inverse_variance"` | `"last"`, `"samples"`) — how the
+///   iterations make the image (see the module docs);
 /// * `spatial_threshold` (number > 0, 2000) — the paper's c: a spatial leaf is
-///   split when an iteration of n spp records more than c·√n vertices in it (the
+///   split when an iteration's n recording passes record more than c·√n vertices in it (the
 ///   paper's 12000 suits longer renders than the minute's tens of spp here: leaves
 ///   that span several walls send guided samples below the surface);
 /// * `learn_direct` (bool, false) — `true`: the tree learns all radiance arriving
@@ -165,7 +182,7 @@ impl Default for Guided {
             rr_threshold: 0.1,
             bsdf_fraction: 0.5,
             training_iterations: None,
-            combine: Combine::InverseVariance,
+            combine: Combine::Samples,
             spatial_threshold: 2000.0,
             learn_direct: false,
             learn_fraction: true,
@@ -180,56 +197,72 @@ impl Guided {
     pub fn render_pass(&self, ctx: &PassContext, state: &mut Option<Box<State>>) -> PassResult {
         let state = state.get_or_insert_with(|| Box::new(self.new_state(ctx)));
         let pass_start = Instant::now();
-        // each iteration draws from its own scrambling of the sampler, starting at
-        // sample 0: its samples are then independent of the ones the tree it samples
-        // from was learned from (the same pixel's Sobol points are correlated, and an
-        // adaptive density that depends on them would be biased)
+        // every iteration continues the pixels' one sample sequence where the last
+        // stopped, as `path`'s passes do, and iteration k ≥ 1 takes indices
+        // [2^(k−1), 2^k): each iteration is a stratified block of the sequence on its
+        // own and together they are `path`'s (own scramblings per iteration lost that:
+        // env_sphere at equal spp 1.67× `path`'s relMSE). The tree an iteration samples
+        // from depends on a pixel's earlier samples only through the records of all
+        // pixels together (its share ~ 1/pixels), the photons' not at all.
         let iteration = state.history.len() as u32 - 1;
-        let seed = hash_combine(ctx.seed, 0x5eed_0000 + iteration);
+        let sample_index = state.passes_total;
+        let photon_seed = hash_combine(ctx.seed, PHOTON_SEED + iteration);
         let mut counts = RayCounts::default();
+        // where no leaf guides, a sample is `path`'s: a training iteration then records
+        // (and shoots photons) in its first pass only and renders the rest as `path`,
+        // at `path`'s cost (a recording pass costs about 1.4 `path` passes, which trace
+        // packets: env_sphere), and so does a final iteration
+        let guides = if self.learn_fraction {
+            state.tree.leaves.iter().any(|l| l.bsdf_fraction < 1.0)
+        } else {
+            self.bsdf_fraction < 1.0
+        };
+        let record = !state.last && (state.passes == 0 || guides);
         // the pass's photons before the camera samples, which are merged as the pass
         // ends: a pass stopped on the way leaves the state as it was
-        let photon_deposits = if !state.last && self.learn_from == LearnFrom::Photons {
-            match self.training_photons(ctx, &state.tree, state.passes_total, seed, &mut counts) {
+        let photon_deposits = if record && self.learn_from == LearnFrom::Photons {
+            match self.training_photons(ctx, &state.tree, state.passes_total, photon_seed, &mut counts) {
                 Some(d) => d,
                 None => return PassResult { complete: false, counts },
             }
         } else {
             Vec::new()
         };
-        let last = state.last;
-        let State { film, tree, passes, .. } = &mut **state;
+        let State { film, tree, .. } = &mut **state;
         let guiding = Guiding {
             tree,
             bsdf_fraction: self.bsdf_fraction,
-            record: !last,
+            record,
             record_radiance: self.learn_from == LearnFrom::Paths,
             max_depth: self.max_depth,
             rr_threshold: self.rr_threshold,
             record_direct: self.learn_direct,
             learn_fraction: self.learn_fraction,
         };
-        // a final iteration that guides nowhere is `path`'s estimator: `path`'s own
-        // code renders it, at `path`'s cost (the guided one's bookkeeping made such
-        // a sample 7 % dearer, 15 % with the tree's lookups)
-        let unguided = last
-            && if self.learn_fraction {
-                tree.leaves.iter().all(|l| l.bsdf_fraction >= 1.0)
-            } else {
-                self.bsdf_fraction >= 1.0
-            };
-        let path = unguided.then_some(PathTracer {
+        let path = (!guides && !record).then_some(PathTracer {
             max_depth: self.max_depth,
             profile: PathProfile::Mis,
             rr_threshold: self.rr_threshold,
             hide_emitters: false,
         });
         let scene = ctx.scene;
-        let iteration_ctx = PassContext { seed, ..*ctx };
+        if let (Some(p), true) = (
+            &path,
+            self.combine != Combine::InverseVariance && scene.packets() && !scene.has_media,
+        ) {
+            // without per-pixel moments to keep (only inverse-variance weights need them),
+            // `path`'s packet pass, the same samples as its `li`
+            let mut result = camera_pass_blocks(ctx, sample_index, film, |b, out| p.li_block(scene, b, out));
+            result.counts += counts;
+            if result.complete {
+                self.pass_done(state, ctx, pass_start);
+            }
+            return result;
+        }
         // each tile's records and the samples' means (pixel, value) for the moments
         let new_tile = || (Scratch::default(), Vec::<(usize, f64)>::new());
         let width = ctx.film.width as usize;
-        let (mut result, tiles) = camera_pass_with(&iteration_ctx, *passes, film, new_tile, |s, (scratch, means)| {
+        let (mut result, tiles) = camera_pass_with(ctx, sample_index, film, new_tile, |s, (scratch, means)| {
             let mark = scratch.records.len();
             let l = match &path {
                 Some(p) => p.li(scene, s.ray, s.diff, s.sampler, s.counts),
@@ -247,6 +280,7 @@ impl Guided {
             return result;
         }
         let s = &mut **state;
+        s.recorded += record as u32;
         for (scratch, means) in &tiles {
             for &(pixel, y) in means {
                 let m = &mut s.moments[pixel];
@@ -281,15 +315,20 @@ impl Guided {
             leaf.count += 1;
             leaf.building.deposit(cell, value);
         }
+        self.pass_done(s, ctx, pass_start);
+        result
+    }
+
+    /// Counts a finished pass (begun at `start`) and ends its iteration when that is full.
+    fn pass_done(&self, s: &mut State, ctx: &PassContext, start: Instant) {
         s.passes += 1;
         s.passes_total += 1;
         let info = s.history.last_mut().expect("an iteration is running");
         info.spp = s.passes;
-        info.seconds += pass_start.elapsed().as_secs_f64();
+        info.seconds += start.elapsed().as_secs_f64();
         if s.passes >= s.length && !s.last {
             self.end_iteration(s, ctx);
         }
-        result
     }
 
     /// A training pass's photons (one per pixel, at most [`MAX_PHOTONS_PER_PASS`]) as

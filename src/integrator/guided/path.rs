@@ -8,7 +8,7 @@ use super::quadtree::{sphere_to_square, square_to_sphere, DTree};
 use super::sdtree::SdTree;
 use crate::geometry::{Ray, RayDifferential};
 use crate::integrator::estimator::{trace, PathProfile, PathState, Policy};
-use crate::integrator::RayCounts;
+use crate::integrator::{PathTracer, RayCounts};
 use crate::light::LightSample;
 use crate::material::{Bsdf, BsdfSample};
 use crate::math::{Vec2, Vec3, PI};
@@ -152,8 +152,9 @@ pub struct Scratch {
 
 /// What the sampler needs besides the scene.
 ///
-/// Russian roulette differs from `path`'s (Mitsuba's: survive with probability
-/// min(β, 0.95) from the 5th segment on): from the 5th segment on a path survives
+/// Russian roulette is `path`'s (Mitsuba's: survive with probability min(β, 0.95)
+/// from the 5th segment on) until the path takes a guided sample, so that where
+/// no leaf guides a sample is `path`'s, number for number; after it, a path survives
 /// with probability min(1, β'/`rr_threshold`), where β' is the throughput as if
 /// every guided vertex had sampled its BSDF (β times the mixture's density over
 /// the BSDF's at each). Guiding sends paths where light arrives at a lower
@@ -220,6 +221,7 @@ impl Guiding<'_> {
             records,
             verts,
             rr_scale: 1.0,
+            guided: false,
             square: None,
             waiting_light: None,
             vertex_made: false,
@@ -240,6 +242,9 @@ struct Walk<'g, 's> {
     /// Roulette's view of the throughput: β as if the guided vertices had sampled
     /// their BSDFs (see [`Guiding`]).
     rr_scale: f32,
+    /// Whether a vertex sampled from a mixture with the guide (until then roulette
+    /// is `path`'s, so a path that never meets the guide is `path`'s sample).
+    guided: bool,
     /// The last sample's point on the square and densities, when the guide took part.
     square: Option<GuidedPoint>,
     /// A light sample to record should its shadow ray get through: its leaf,
@@ -298,11 +303,10 @@ impl<'g> Policy for Walk<'g, '_> {
                 bsdf_fraction: fraction,
             }
         };
-        Plan {
-            leaf,
-            mixture,
-            u_choice: sampler.next_1d(),
-        }
+        // the strategy's number only where there is a choice: a vertex without the
+        // guide draws `path`'s numbers
+        let u_choice = if mixture.guide.is_some() { sampler.next_1d() } else { 0.0 };
+        Plan { leaf, mixture, u_choice }
     }
 
     #[inline]
@@ -313,6 +317,7 @@ impl<'g> Policy for Walk<'g, '_> {
     fn sample(&mut self, plan: &Plan, bsdf: &Bsdf, wo: Vec3, u: Vec2, uc: f32) -> Option<BsdfSample> {
         let (bs, square) = plan.mixture.sample_on_square(bsdf, wo, plan.u_choice, u, uc)?;
         if let Some(g) = square {
+            self.guided = true;
             if g.pb > 0.0 {
                 self.rr_scale *= bs.pdf / g.pb;
             }
@@ -322,11 +327,13 @@ impl<'g> Policy for Walk<'g, '_> {
     }
 
     /// From the 5th segment on, survive with probability min(1, β'/`rr_threshold`)
-    /// (see [`Guiding`]).
+    /// once the path took a guided sample, by `path`'s rule before (see [`Guiding`]).
     #[inline]
     fn survival(&self, beta: Vec3, eta_scale: f32) -> f32 {
         let t = self.guiding.rr_threshold;
-        if t > 0.0 {
+        if !self.guided {
+            PathTracer::throughput_survival(beta, eta_scale)
+        } else if t > 0.0 {
             (beta.max_element() * eta_scale * self.rr_scale / t).min(1.0)
         } else {
             1.0

@@ -11,7 +11,8 @@ Usage: /work/venv-mi/bin/python scripts/mitsuba_time.py ../shared/refs/mitsuba/X
 (its C++ `jit_llvm_set_target`, through ctypes) instead of the host's: an AVX2-only machine on an
 AVX-512 one, as far as the JIT's code goes (libraries Mitsuba calls pick their own kernels).
 Loads the file (spp and, when given, res as parameters), renders once to warm the JIT up, then
-`--reps` timed renders (`mi.render` plus evaluation of the image). Prints, for scripts:
+`--reps` timed renders (`mi.render` plus evaluation of the image); with --once, one render and
+nothing printed (scripts/real_vs_mitsuba.py times the whole process). Prints, for scripts:
     mitsuba wall W s cpu C s samples S
 with the best wall clock and the best process CPU time (`time.process_time`, all threads).
 """
@@ -51,6 +52,7 @@ def main():
     ap.add_argument("--reps", type=int, default=2)
     ap.add_argument("--variant", default="llvm_ad_rgb")
     ap.add_argument("--llvm-target")
+    ap.add_argument("--once", action="store_true", help="load and render once, untimed (a whole process to time from outside)")
     a = ap.parse_args()
     import mitsuba as mi
     import drjit as dr
@@ -58,10 +60,15 @@ def main():
     mi.set_variant(a.variant)
     if a.llvm_target:
         set_llvm_target(dr, a.llvm_target)
-    params = {"spp": a.spp}
+    # spp as a parameter for files that declare one (a real scene's bench.xml may not: Mitsuba
+    # refuses unused parameters); mi.render is given it either way
+    params = {"spp": a.spp} if "$spp" in open(a.xml).read() else {}
     if a.res:
         params["res"] = a.res
     scene = mi.load_file(a.xml, **params)
+    if a.once:
+        timed_render(mi, dr, scene, a.spp)
+        return
     timed_render(mi, dr, scene, a.spp)  # JIT warm-up
     best_wall = best_cpu = float("inf")
     for _ in range(a.reps):

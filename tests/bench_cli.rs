@@ -271,3 +271,51 @@ fn scene_rays_are_recorded_with_the_scene_triangles() {
     assert!(!ok && err.contains("rec.bin") && err.contains(".rays.f32"), "{err}");
     assert_eq!(err.trim().lines().count(), 1, "{err}");
 }
+
+/// `rdr bench FOLDER`: every `FOLDER/*/bench.xml` in name order (folders without one
+/// skipped), each at its own spp, then a summary line per scene; a folder holding none
+/// is a one-line error naming it.
+#[test]
+fn a_folder_benchmarks_each_bench_xml_in_it() {
+    let tmp = common::temp_dir("rdr-bench-cli-folder");
+    let dir = tmp.path();
+    let xml = |spp: u32| {
+        format!(
+            r#"<scene version="3.0.0">
+    <integrator type="path"/>
+    <sensor type="perspective">
+        <float name="fov" value="45"/>
+        <transform name="to_world"><lookat origin="0, 0, 4" target="0, 0, 0" up="0, 1, 0"/></transform>
+        <sampler type="independent"><integer name="sample_count" value="{spp}"/></sampler>
+        <film type="hdrfilm"><integer name="width" value="64"/><integer name="height" value="48"/></film>
+    </sensor>
+    <shape type="sphere"><bsdf type="diffuse"/></shape>
+    <emitter type="constant"/>
+</scene>"#
+        )
+    };
+    for (name, spp) in [("b-second", 6), ("a-first", 4)] {
+        std::fs::create_dir(dir.join(name)).unwrap();
+        std::fs::write(dir.join(name).join("bench.xml"), xml(spp)).unwrap();
+    }
+    std::fs::create_dir(dir.join("c-none")).unwrap();
+    std::fs::write(dir.join("c-none").join("scene.xml"), xml(1)).unwrap();
+    let (ok, out, err) = bench(&[dir.to_str().unwrap(), "--threads", "1"]);
+    assert!(ok, "{out}{err}");
+    assert_eq!(out.matches("render           64x48 at").count(), 2, "{out}");
+    let summary: Vec<Vec<&str>> = out
+        .lines()
+        .skip_while(|l| !l.starts_with("scene ") || !l.contains("samples per cpu s"))
+        .skip(1)
+        .map(|l| l.split_whitespace().collect())
+        .collect();
+    assert_eq!(summary.len(), 2, "{out}");
+    for (row, (name, spp)) in summary.iter().zip([("a-first", "4"), ("b-second", "6")]) {
+        assert_eq!((row[0], row[1]), (name, spp), "{out}");
+        let rate: f64 = row[3].parse().unwrap();
+        assert!(rate > 0.0 && rate.is_finite(), "{out}");
+    }
+    let (ok, _, err) = bench(&[dir.join("c-none").to_str().unwrap()]);
+    assert!(!ok && err.contains("c-none") && err.contains("bench.xml"), "{err}");
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+}

@@ -63,7 +63,52 @@ pub fn bench_mesh(
 /// `rdr bench SCENE.json`: load, build and render without writing.
 pub fn bench_scene(args: &SceneArgs, isa: Option<&str>, packet: Option<usize>, record: Option<(PathBuf, usize)>) -> Result<ExitCode> {
     setup_threads(args.threads)?;
+    run_scene(args, parse_isa(isa)?, packet, record)?;
+    Ok(ExitCode::SUCCESS)
+}
+
+/// `rdr bench DIR`: the scene benchmark of every `DIR/*/bench.xml` (such as
+/// ../shared/scenes/real), in name order, then one summary line per scene.
+pub fn bench_folder(args: &SceneArgs, isa: Option<&str>, packet: Option<usize>) -> Result<ExitCode> {
+    let dir = &args.scene;
+    let entries = std::fs::read_dir(dir).with_context(|| format!("cannot read the folder '{}'", dir.display()))?;
+    let mut files: Vec<PathBuf> = entries
+        .filter_map(|e| Some(e.ok()?.path().join("bench.xml")))
+        .filter(|f| f.is_file())
+        .collect();
+    files.sort();
+    anyhow::ensure!(!files.is_empty(), "'{}': no folder in it holds a bench.xml", dir.display());
+    setup_threads(args.threads)?;
     let isa = parse_isa(isa)?;
+    let mut summary = String::from("scene                            spp  render cpu s  samples per cpu s");
+    for file in files {
+        let name = file
+            .parent()
+            .and_then(|p| p.file_name())
+            .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
+        let one = SceneArgs {
+            scene: file,
+            ..args.clone()
+        };
+        let (spp, samples, cpu) = run_scene(&one, isa, packet, None)?;
+        say("")?;
+        // a render shorter than the CPU clock's tick has no rate
+        summary += &match cpu.filter(|&c| c > 0.0) {
+            Some(cpu) => format!("\n{name:<30} {spp:>5} {cpu:>13.3} {:>18.3e}", samples as f64 / cpu),
+            None => format!("\n{name:<30} {spp:>5}  (no CPU time measured)"),
+        };
+    }
+    say(summary)?;
+    Ok(ExitCode::SUCCESS)
+}
+
+/// One scene's benchmark, printed; returns its spp, samples and render CPU seconds.
+fn run_scene(
+    args: &SceneArgs,
+    isa: Option<rdr::accel::Isa>,
+    packet: Option<usize>,
+    record: Option<(PathBuf, usize)>,
+) -> Result<(u32, u64, Option<f64>)> {
     // the outputs' names, checked before the render
     let record = match record {
         Some((rays, cap)) => {
@@ -158,5 +203,5 @@ pub fn bench_scene(args: &SceneArgs, isa: Option<&str>, packet: Option<usize>, r
         );
     }
     say(t.trim_end_matches('\n'))?;
-    Ok(ExitCode::SUCCESS)
+    Ok((out.spp_done, out.samples, render_cpu))
 }

@@ -57,7 +57,7 @@ enum Compat {
     Rdr171,
 }
 
-#[derive(clap::Args)]
+#[derive(clap::Args, Clone)]
 pub struct SceneArgs {
     /// Scene file: RDR171 JSON (.json) or Mitsuba 3 XML (.xml).
     scene: PathBuf,
@@ -222,10 +222,12 @@ pub enum Command {
         #[arg(long)]
         variance: Option<PathBuf>,
     },
-    /// Benchmark: with a scene (.json), load, build and render it without writing it and
-    /// print timings; with a mesh (.obj or .ply), benchmark the BVH (build time and size,
-    /// Mrays/s of primary, incoherent and bounce rays, closest and any hit, 1 and all
-    /// threads) after checking every traversal variant against a reference.
+    /// Benchmark: with a scene (.json or .xml), load, build and render it without writing
+    /// it and print timings; with a folder, so every `FOLDER/*/bench.xml` (such as
+    /// ../shared/scenes/real), then a line per scene of samples per CPU second; with a
+    /// mesh (.obj or .ply), benchmark the BVH (build time and size, Mrays/s of primary,
+    /// incoherent and bounce rays, closest and any hit, 1 and all threads) after checking
+    /// every traversal variant against a reference.
     Bench {
         #[command(flatten)]
         args: SceneArgs,
@@ -311,7 +313,14 @@ pub fn run(command: Command) -> Result<ExitCode> {
             record_max,
         } => {
             let ext = args.scene.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
-            if ext == "obj" || ext == "ply" {
+            if args.scene.is_dir() {
+                anyhow::ensure!(
+                    record_rays.is_none(),
+                    "--record-rays takes one scene file, not the folder '{}'",
+                    args.scene.display()
+                );
+                bench::bench_folder(&args, isa.as_deref(), packet)
+            } else if ext == "obj" || ext == "ply" {
                 bench::bench_mesh(&args, repeat, isa.as_deref(), rays, trace_only, ray_file, split_budget)
             } else {
                 bench::bench_scene(&args, isa.as_deref(), packet, record_rays.map(|f| (f, record_max)))

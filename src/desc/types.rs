@@ -447,6 +447,26 @@ pub const SUN_POSITION_KEYS: [&str; 9] = [
     "second",
 ];
 
+/// A place and time read by a reader's `float(key, default)` and `int(key, default)`,
+/// Mitsuba's defaults where a key is absent.
+pub fn read_sun_position(
+    float: impl Fn(&str, f32) -> crate::error::Result<f32>,
+    int: impl Fn(&str, i32) -> crate::error::Result<i32>,
+) -> crate::error::Result<crate::light::sunsky::SunPosition> {
+    let d = crate::light::sunsky::SunPosition::default();
+    Ok(crate::light::sunsky::SunPosition {
+        latitude: float("latitude", d.latitude)?,
+        longitude: float("longitude", d.longitude)?,
+        timezone: float("timezone", d.timezone)?,
+        year: int("year", d.year)?,
+        month: int("month", d.month)?,
+        day: int("day", d.day)?,
+        hour: float("hour", d.hour)?,
+        minute: float("minute", d.minute)?,
+        second: float("second", d.second)?,
+    })
+}
+
 impl SunSkyDesc {
     /// Mitsuba's ranges: the key at fault and why, or nothing.
     pub fn check(&self) -> std::result::Result<(), (&'static str, String)> {

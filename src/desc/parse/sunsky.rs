@@ -2,9 +2,8 @@
 //! for `to_world`.
 
 use crate::desc::json::Props;
-use crate::desc::{SunPlacement, SunSkyDesc, SUN_POSITION_KEYS};
+use crate::desc::{read_sun_position, SunPlacement, SunSkyDesc, SUN_POSITION_KEYS};
 use crate::error::Result;
-use crate::light::sunsky::SunPosition;
 use crate::math::{Mat4, Vec3};
 
 pub(super) fn parse_sunsky(p: &Props) -> Result<SunSkyDesc> {
@@ -14,18 +13,7 @@ pub(super) fn parse_sunsky(p: &Props) -> Result<SunSkyDesc> {
         }
         SunPlacement::Direction(p.vec3("sun_direction")?)
     } else {
-        let d = SunPosition::default();
-        SunPlacement::At(SunPosition {
-            latitude: p.f32_or("latitude", d.latitude)?,
-            longitude: p.f32_or("longitude", d.longitude)?,
-            timezone: p.f32_or("timezone", d.timezone)?,
-            year: p.i32_or("year", d.year)?,
-            month: p.i32_or("month", d.month)?,
-            day: p.i32_or("day", d.day)?,
-            hour: p.f32_or("hour", d.hour)?,
-            minute: p.f32_or("minute", d.minute)?,
-            second: p.f32_or("second", d.second)?,
-        })
+        SunPlacement::At(read_sun_position(|k, d| p.f32_or(k, d), |k, d| p.i32_or(k, d))?)
     };
     let desc = SunSkyDesc {
         source: p.own_source(),

@@ -3,9 +3,8 @@
 use super::table::{read, PluginDoc, Status};
 use super::{source, Reader};
 use crate::desc::xml::props::Plugin;
-use crate::desc::{SunPlacement, SunSkyDesc, SUN_POSITION_KEYS};
+use crate::desc::{read_sun_position, SunPlacement, SunSkyDesc, SUN_POSITION_KEYS};
 use crate::error::Result;
-use crate::light::sunsky::SunPosition;
 use crate::math::{Mat4, Vec3};
 
 pub(super) const DOCS: &[PluginDoc] = &[PluginDoc {
@@ -50,22 +49,11 @@ impl<'a> Reader<'a> {
                 SunPlacement::Direction(d)
             }
             None => {
-                let d = SunPosition::default();
                 let int = |k: &str, default: i32| -> Result<i32> {
                     let v = p.integer(k, default as i64)?;
                     i32::try_from(v).map_err(|_| p.value_error(k, "out of range"))
                 };
-                SunPlacement::At(SunPosition {
-                    latitude: p.float("latitude", d.latitude)?,
-                    longitude: p.float("longitude", d.longitude)?,
-                    timezone: p.float("timezone", d.timezone)?,
-                    year: int("year", d.year)?,
-                    month: int("month", d.month)?,
-                    day: int("day", d.day)?,
-                    hour: p.float("hour", d.hour)?,
-                    minute: p.float("minute", d.minute)?,
-                    second: p.float("second", d.second)?,
-                })
+                SunPlacement::At(read_sun_position(|k, d| p.float(k, d), int)?)
             }
         };
         let desc = SunSkyDesc {

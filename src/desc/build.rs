@@ -363,6 +363,11 @@ pub fn build(desc: &SceneDesc, opts: BuildOptions) -> Result<Scene> {
     }
 
     let environment = match &desc.environment_map {
+        None if desc.sunsky.is_some() => {
+            let sky = desc.sunsky.as_ref().expect("matched");
+            lights.push(Light::Environment(sunsky_light(sky, &desc.file, &mut warnings)?));
+            Some(lights.len() as u32 - 1)
+        }
         None => None,
         Some(env) => {
             let t = lookup(&texture_names, &env.texture.value, "texture", desc, &env.texture.source)?;
@@ -562,4 +567,36 @@ fn resolve_texture(r: &TextureRef, names: &HashMap<&str, u32>, textures: &mut Ve
 pub fn build_bvh(prims: Vec<Prim>) -> (Vec<Prim>, WideBvh) {
     let bvh = WideBvh::build(&prims);
     (prims, bvh)
+}
+
+/// The environment light of a `sunsky`: its sun placed in the sky's frame (a world
+/// `sun_direction` through the inverse of `transform`), sky and sun as Mitsuba's.
+fn sunsky_light(d: &crate::desc::SunSkyDesc, file: &std::path::Path, warnings: &mut Vec<String>) -> Result<EnvironmentLight> {
+    use crate::light::sunsky::{SkyModel, SunModel, SunSkyParams};
+    d.check()
+        .map_err(|(key, msg)| d.source.error(file, format!("sunsky {key}: {msg}")))?;
+    let sun = match d.sun {
+        crate::desc::SunPlacement::Direction(w) => (d.transform.inverse().transform_vector3(w)).normalize(),
+        crate::desc::SunPlacement::At(at) => at.direction(),
+    };
+    let p = SunSkyParams {
+        turbidity: d.turbidity,
+        albedo: d.albedo,
+        sun,
+        sky_scale: d.sky_scale,
+        sun_scale: d.sun_scale,
+        sun_half_aperture: (0.5 * d.sun_aperture).to_radians(),
+        complex_sun: d.complex_sun,
+    };
+    if p.sun_elevation() < 0.0 {
+        warnings.push(format!(
+            "{}: sunsky's sun is below the horizon (elevation {:.2}°): sky and sun emit nothing, as Mitsuba's",
+            file.display(),
+            p.sun_elevation().to_degrees()
+        ));
+        return Ok(EnvironmentLight::sunsky(None, None, &d.transform));
+    }
+    let sky = (p.sky_scale > 0.0).then(|| SkyModel::new(&p));
+    let sun = (p.sun_scale > 0.0).then(|| SunModel::new(&p));
+    Ok(EnvironmentLight::sunsky(sky, sun, &d.transform))
 }

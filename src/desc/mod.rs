@@ -32,8 +32,8 @@ pub use checked::{
 pub use parse::integrator_from_value;
 pub use source::{Located, Source};
 pub use types::{
-    AreaLightDesc, DeltaLightDesc, EnvMapDesc, FilmDesc, ImageFile, InstanceDesc, IntegratorDesc, MaterialDesc, MediumDesc, MediumVolumes,
-    MeshFile, MeshFormat, MeshNormals, MeshOptions, ObjectDesc, PointLightDesc, SceneDesc, ShapeGroupDesc, TextureDesc, TextureRef,
-    DISK_SEGMENTS, MAX_DEPTH, MAX_FILTER_RADIUS, MAX_LIGHT_SAMPLES,
+    read_sun_position, AreaLightDesc, DeltaLightDesc, EnvMapDesc, FilmDesc, ImageFile, InstanceDesc, IntegratorDesc, MaterialDesc,
+    MediumDesc, MediumVolumes, MeshFile, MeshFormat, MeshNormals, MeshOptions, ObjectDesc, PointLightDesc, SceneDesc, ShapeGroupDesc,
+    SunPlacement, SunSkyDesc, TextureDesc, TextureRef, DISK_SEGMENTS, MAX_DEPTH, MAX_FILTER_RADIUS, MAX_LIGHT_SAMPLES, SUN_POSITION_KEYS,
 };
 pub use volume::{build_heterogeneous, build_volume, grid_of, GridFile, VolumeDesc};

@@ -28,6 +28,8 @@ pub struct SceneDesc {
     /// The `instance` entries of `objects` ([`InstanceDesc`]).
     pub instances: Vec<InstanceDesc>,
     pub environment_map: Option<EnvMapDesc>,
+    /// Mitsuba's `sunsky` (then no `environment_map`: one environment).
+    pub sunsky: Option<SunSkyDesc>,
     /// Participating media by name ([`MediumDesc`]), which objects' `interior`/`exterior`
     /// and the camera's `medium` name.
     pub media: Vec<MediumDesc>,
@@ -425,6 +427,103 @@ pub struct EnvMapDesc {
     pub texture: Located<String>,
     pub scale: f32,
     pub transform: Mat4,
+}
+
+/// Mitsuba 3's `sunsky` environment (JSON `sunsky`): the Hošek–Wilkie sky and sun.
+#[derive(Clone, Debug)]
+pub struct SunSkyDesc {
+    pub source: Source,
+    pub turbidity: f32,
+    pub albedo: Vec3,
+    pub sun: SunPlacement,
+    pub sun_scale: f32,
+    pub sky_scale: f32,
+    /// The sun's aperture (full angle), degrees.
+    pub sun_aperture: f32,
+    pub complex_sun: bool,
+    /// The sky's frame (+z up) to the world; a rotation.
+    pub transform: Mat4,
+}
+
+/// Where `sunsky`'s sun is: a world direction, or a place and time.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum SunPlacement {
+    Direction(Vec3),
+    At(crate::light::sunsky::SunPosition),
+}
+
+/// The keys of a place and time (`sunsky`'s `latitude` … `second`).
+pub const SUN_POSITION_KEYS: [&str; 9] = [
+    "latitude",
+    "longitude",
+    "timezone",
+    "year",
+    "month",
+    "day",
+    "hour",
+    "minute",
+    "second",
+];
+
+/// A place and time read by a reader's `float(key, default)` and `int(key, default)`,
+/// Mitsuba's defaults where a key is absent.
+pub fn read_sun_position(
+    float: impl Fn(&str, f32) -> crate::error::Result<f32>,
+    int: impl Fn(&str, i32) -> crate::error::Result<i32>,
+) -> crate::error::Result<crate::light::sunsky::SunPosition> {
+    let d = crate::light::sunsky::SunPosition::default();
+    Ok(crate::light::sunsky::SunPosition {
+        latitude: float("latitude", d.latitude)?,
+        longitude: float("longitude", d.longitude)?,
+        timezone: float("timezone", d.timezone)?,
+        year: int("year", d.year)?,
+        month: int("month", d.month)?,
+        day: int("day", d.day)?,
+        hour: float("hour", d.hour)?,
+        minute: float("minute", d.minute)?,
+        second: float("second", d.second)?,
+    })
+}
+
+impl SunSkyDesc {
+    /// Mitsuba's ranges: the key at fault and why, or nothing.
+    pub fn check(&self) -> std::result::Result<(), (&'static str, String)> {
+        if !(1.0..=10.0).contains(&self.turbidity) {
+            return Err(("turbidity", format!("turbidity {} is outside [1, 10]", self.turbidity)));
+        }
+        if !(self.albedo.min_element() >= 0.0 && self.albedo.max_element() <= 1.0) {
+            return Err(("albedo", format!("albedo {} is outside [0, 1]", self.albedo)));
+        }
+        for (key, v) in [("sun_scale", self.sun_scale), ("sky_scale", self.sky_scale)] {
+            if !(v >= 0.0 && v.is_finite()) {
+                return Err((key, format!("{key} {v} must be a finite number >= 0")));
+            }
+        }
+        if !(self.sun_aperture > 0.0 && self.sun_aperture < 180.0) {
+            return Err((
+                "sun_aperture",
+                format!("sun_aperture {} must be in ]0, 180[ degrees", self.sun_aperture),
+            ));
+        }
+        match self.sun {
+            SunPlacement::Direction(d) if !(d.length_squared() > 0.0 && d.is_finite()) => {
+                Err(("sun_direction", "sun_direction must be a non-zero vector".into()))
+            }
+            SunPlacement::At(at) if !(-90.0..=90.0).contains(&at.latitude) || !(1..=12).contains(&at.month) => {
+                Err(("latitude", format!("latitude {} or month {} out of range", at.latitude, at.month)))
+            }
+            _ => {
+                let m = glam::Mat3::from_mat4(self.transform);
+                let gram = m.transpose() * m;
+                let s = gram.x_axis.x;
+                let off = (gram - glam::Mat3::from_diagonal(Vec3::splat(s))).abs().to_cols_array();
+                if !(s > 0.0 && off.iter().all(|x| *x <= 1e-4 * s)) {
+                    return Err(("to_world", "the sky's transform must be a rotation (and a uniform scale)".into()));
+                }
+                Ok(())
+            }
+        }
+    }
 }
 
 /// Most path segments a sample may take (`max_depth`): glass without absorption

@@ -6,6 +6,9 @@
 //! −z is u = 0, as in Mitsuba. Texels are looked up as Mitsuba does (refs README,
 //! convention 10): `x = u·W − ½` wrapping, `y = v·(H − 1)`, bilinear.
 
+use super::sunsky::{SkyModel, SunModel, WorldSun};
+/// The largest f32 below 1.
+const ONE_MINUS_EPSILON: f32 = 0.999_999_94;
 use super::{LightSample, LightSampling, ShadowTarget};
 use crate::math::{atan2_poly, floor_f32, luminance, prefetch, select, sin_cos_poly, Mat4, Vec2, Vec3, INV_PI, PI};
 use crate::pages::HugeBuf;
@@ -24,6 +27,9 @@ pub enum EnvImage<T = Vec<Vec3>> {
         texels: T,
         mapping: UvMapping,
     },
+    /// Mitsuba's `sunsky` sky ([`SkyModel`]), evaluated per direction; the pole of
+    /// the light's frame is the sky's zenith (see [`EnvironmentLight::sunsky`]).
+    Sky(Box<SkyModel>),
 }
 
 #[derive(Clone, Debug)]
@@ -34,10 +40,16 @@ pub struct EnvironmentLight {
     to_local: Mat3,
     distribution: Distribution2D,
     mean_luminance: f32,
+    /// `sunsky`'s sun: its disc's radiance is added to the image's, and importance
+    /// sampling draws it with probability `choose` (else the image's table).
+    sun: Option<Box<WorldSun>>,
 }
 
 /// Resolution of the sampling grid for a constant environment (only sinθ varies).
 const CONSTANT_GRID: (usize, usize) = (8, 64);
+/// Resolution of the sampling grid for `sunsky`'s sky (cells of 1.4°: the glow
+/// around the sun spans several).
+const SKY_GRID: (usize, usize) = (256, 128);
 
 /// How many texels of an environment map are NaN or infinite, and how many negative
 /// (in some channel): `EnvironmentLight::new` takes them as zero, and the scene
@@ -54,6 +66,7 @@ impl EnvironmentLight {
     pub fn new(image: EnvImage, scale: f32, transform: &Mat4) -> Self {
         let image = match image {
             EnvImage::Constant(c) => EnvImage::Constant(c),
+            EnvImage::Sky(sky) => EnvImage::Sky(sky),
             EnvImage::Image {
                 width,
                 height,
@@ -85,6 +98,7 @@ impl EnvironmentLight {
             to_local,
             distribution: Distribution2D::new(&[1.0], 1, 1),
             mean_luminance: 0.0,
+            sun: None,
         };
         if let EnvImage::Image {
             width,
@@ -102,6 +116,7 @@ impl EnvironmentLight {
         }
         let (nu, nv) = match &light.image {
             EnvImage::Constant(_) => CONSTANT_GRID,
+            EnvImage::Sky(_) => SKY_GRID,
             EnvImage::Image { width, height, .. } => (*width, *height),
         };
         // Each cell's weight bounds the bilinear radiance over it (max of corners and
@@ -126,6 +141,28 @@ impl EnvironmentLight {
         }
         light.mean_luminance = (lum_sum / solid_angle.max(1e-30)) as f32;
         light.distribution = Distribution2D::new(&weights, nu, nv);
+        light
+    }
+
+    /// Mitsuba's `sunsky`: the sky (`None` with `sky_scale` 0) and the sun (`None` with
+    /// `sun_scale` 0) in the frame `to_world` (a rotation) takes to the world, +z up.
+    /// The light's own frame puts its pole at the zenith: sky coordinates (x, y, z) are
+    /// the light's local (ℓy, ℓx, ℓz), and the horizon is v = ½, a row of the grid.
+    pub fn sunsky(sky: Option<SkyModel>, sun: Option<SunModel>, to_world: &Mat4) -> Self {
+        let image = sky.map_or(EnvImage::Constant(Vec3::ZERO), |s| EnvImage::Sky(Box::new(s)));
+        let mut light = Self::new(image, 1.0, &(*to_world * Mat4::from_rotation_x(0.5 * PI)));
+        if let Some(sun) = sun {
+            let mut sun = WorldSun::new(sun, Mat3::from_mat4(*to_world));
+            // the sun drawn in proportion to its share of the power
+            let (sun_power, sky_power) = (sun.irradiance_luminance(), 4.0 * PI * light.mean_luminance);
+            sun.choose = if sky_power > 0.0 {
+                sun_power / (sun_power + sky_power)
+            } else {
+                1.0
+            };
+            light.mean_luminance += sun_power / (4.0 * PI);
+            light.sun = Some(Box::new(sun));
+        }
         light
     }
 
@@ -192,6 +229,11 @@ impl EnvironmentLight {
     fn lookup(&self, uv: Vec2) -> Vec3 {
         match &self.image {
             EnvImage::Constant(c) => *c,
+            EnvImage::Sky(sky) => {
+                let (st, ct) = sin_cos_poly(uv.y * PI);
+                let (sp, cp) = sin_cos_poly(uv.x * 2.0 * PI);
+                sky.radiance(Vec3::new(st * sp, st * cp, ct))
+            }
             EnvImage::Image {
                 width,
                 height,
@@ -249,7 +291,7 @@ impl EnvironmentLight {
     /// for importance sampling, the row drawn, which [`Self::sample_uv`] takes.
     #[inline]
     pub fn prefetch_sample(&self, u: Vec2, mode: LightSampling) -> Option<RowDraw> {
-        (mode == LightSampling::Importance).then(|| self.distribution.prefetch_sample(u))
+        (mode == LightSampling::Importance && self.sun.is_none()).then(|| self.distribution.prefetch_sample(u))
     }
 
     /// Prefetches the texels and the pdf's weight at `uv` (a hint for a ray that may miss
@@ -262,14 +304,16 @@ impl EnvironmentLight {
 
     /// Radiance arriving from direction `w` (towards the sky).
     pub fn radiance(&self, w: Vec3) -> Vec3 {
-        self.radiance_at(self.direction_to_uv(w))
+        let sun = self.sun.as_ref().map_or(Vec3::ZERO, |s| s.radiance(w));
+        self.lookup(self.direction_to_uv(w)) * self.scale + sun
     }
 
     /// Radiance at texture coordinates `uv` ([`Self::direction_to_uv`]): with
     /// [`Self::pdf_at`], one direction's mapping serves both.
     #[inline]
     pub fn radiance_at(&self, uv: Vec2) -> Vec3 {
-        self.lookup(uv) * self.scale
+        let sun = self.sun.as_ref().map_or(Vec3::ZERO, |s| s.radiance(self.uv_to_direction(uv).0));
+        self.lookup(uv) * self.scale + sun
     }
 
     pub fn sample(&self, u: Vec2, mode: LightSampling) -> Option<LightSample> {
@@ -290,11 +334,51 @@ impl EnvironmentLight {
     pub fn sample_direction(&self, u: Vec2, mode: LightSampling, draw: Option<RowDraw>) -> Option<(Vec3, f32)> {
         match mode {
             LightSampling::Uniform => Some((uniform_sphere(u), 1.0 / (4.0 * PI))),
-            LightSampling::Importance => {
-                let (uv, pdf_uv) = self.sample_uv(u, draw);
-                let (wi, sin_theta) = self.uv_to_direction(uv);
-                Self::direction_sample(wi, sin_theta, pdf_uv)
+            LightSampling::Importance => match &self.sun {
+                None => {
+                    let (uv, pdf_uv) = self.sample_uv(u, draw);
+                    let (wi, sin_theta) = self.uv_to_direction(uv);
+                    Self::direction_sample(wi, sin_theta, pdf_uv)
+                }
+                Some(sun) => {
+                    let wi = self.sample_with_sun(sun, u)?;
+                    let pdf = self.pdf(wi, mode);
+                    (pdf > 0.0).then_some((wi, pdf))
+                }
+            },
+        }
+    }
+
+    /// A direction from the sun (probability `choose`) or from the image's table.
+    fn sample_with_sun(&self, sun: &WorldSun, u: Vec2) -> Option<Vec3> {
+        if u.x < sun.choose {
+            // a direction on the disc's very edge that rounding (here, or through the
+            // coordinates the packet path takes it by) puts off the disc is dropped: its
+            // pdf would lack the sun's term while its radiance had it
+            let w = sun.sample(Vec2::new(u.x / sun.choose, u.y));
+            let through_uv = self.uv_to_direction(self.direction_coords(w).0).0;
+            return (sun.pdf(w) > 0.0 && sun.pdf(through_uv) > 0.0).then_some(w);
+        }
+        let u = Vec2::new(((u.x - sun.choose) / (1.0 - sun.choose)).min(ONE_MINUS_EPSILON), u.y);
+        let (wi, sin_theta) = self.uv_to_direction(self.distribution.sample(u).0);
+        (sin_theta > 0.0).then_some(wi)
+    }
+
+    /// The solid-angle density of importance sampling at `w` (coordinates `uv`, sinθ
+    /// `sin_theta`): the table's, and with a sun the mixture.
+    #[inline]
+    fn importance_pdf(&self, w: Vec3, uv: Vec2, sin_theta: f32) -> f32 {
+        let table = || {
+            if sin_theta.is_nan() || sin_theta <= 0.0 {
+                0.0
+            } else {
+                self.distribution.pdf(uv) / (2.0 * PI * PI * sin_theta)
             }
+        };
+        match &self.sun {
+            None => table(),
+            Some(sun) if sun.choose >= 1.0 => sun.pdf(w),
+            Some(sun) => (1.0 - sun.choose) * table() + sun.choose * sun.pdf(w),
         }
     }
 
@@ -303,6 +387,16 @@ impl EnvironmentLight {
     /// `draw`: the row [`Self::prefetch_sample`] drew for `u`, if it was.
     #[inline(always)]
     pub fn sample_uv(&self, u: Vec2, draw: Option<RowDraw>) -> (Vec2, f32) {
+        if let Some(sun) = &self.sun {
+            // the mixture's direction as coordinates, its density in their measure
+            let Some(w) = self.sample_with_sun(sun, u) else {
+                return (Vec2::ZERO, 0.0);
+            };
+            // the density where the caller goes: the direction of the coordinates
+            let uv = self.direction_coords(w).0;
+            let (w, sin_theta) = self.uv_to_direction(uv);
+            return (uv, self.importance_pdf(w, uv, sin_theta) * 2.0 * PI * PI * sin_theta);
+        }
         let (uv, pdf_uv) = match draw {
             Some(d) => self.distribution.sample_in(u, d),
             None => self.distribution.sample(u),
@@ -327,7 +421,7 @@ impl EnvironmentLight {
             LightSampling::Uniform => 1.0 / (4.0 * PI),
             LightSampling::Importance => {
                 let (uv, sin_theta) = self.direction_coords(wi);
-                self.pdf_at(uv, sin_theta, mode)
+                self.importance_pdf(wi, uv, sin_theta)
             }
         }
     }
@@ -339,10 +433,12 @@ impl EnvironmentLight {
         match mode {
             LightSampling::Uniform => 1.0 / (4.0 * PI),
             LightSampling::Importance => {
-                if sin_theta.is_nan() || sin_theta <= 0.0 {
-                    return 0.0;
-                }
-                self.distribution.pdf(uv) / (2.0 * PI * PI * sin_theta)
+                let w = if self.sun.is_some() {
+                    self.uv_to_direction(uv).0
+                } else {
+                    Vec3::ZERO
+                };
+                self.importance_pdf(w, uv, sin_theta)
             }
         }
     }

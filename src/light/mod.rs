@@ -6,6 +6,7 @@ pub mod area;
 pub mod emission;
 pub mod environment;
 pub mod projector;
+pub mod sunsky;
 pub mod textured_spot;
 
 pub use area::AreaLight;

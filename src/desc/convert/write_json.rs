@@ -361,6 +361,31 @@ pub fn to_json(desc: &SceneDesc, out: &Path) -> Result<Converted> {
         }
         root["environment_map"] = env;
     }
+    if let Some(d) = &desc.sunsky {
+        let mut sky = json!({
+            "turbidity": num(d.turbidity), "albedo": [num(d.albedo.x), num(d.albedo.y), num(d.albedo.z)],
+            "sun_scale": num(d.sun_scale), "sky_scale": num(d.sky_scale), "sun_aperture": num(d.sun_aperture),
+            "complex_sun": d.complex_sun,
+        });
+        match d.sun {
+            crate::desc::SunPlacement::Direction(v) => sky["sun_direction"] = json!([num(v.x), num(v.y), num(v.z)]),
+            crate::desc::SunPlacement::At(at) => {
+                for (k, v) in [("latitude", at.latitude), ("longitude", at.longitude), ("timezone", at.timezone)] {
+                    sky[k] = num(v);
+                }
+                for (k, v) in [("year", at.year), ("month", at.month), ("day", at.day)] {
+                    sky[k] = v.into();
+                }
+                for (k, v) in [("hour", at.hour), ("minute", at.minute), ("second", at.second)] {
+                    sky[k] = num(v);
+                }
+            }
+        }
+        if d.transform != Mat4::IDENTITY {
+            sky["transform"] = Value::Array(row_major(&d.transform).into_iter().map(num).collect());
+        }
+        root["sunsky"] = sky;
+    }
     if desc.materials.iter().any(|m| m.name == "__default_diffuse") {
         warnings.push("a shape without a material got Mitsuba's default diffuse 0.5 ('__default_diffuse')".into());
     }

@@ -790,6 +790,43 @@ pub fn to_xml(desc: &SceneDesc, out: &Path) -> Result<Converted> {
             }
         }
     }
+    if let Some(d) = &desc.sunsky {
+        let _ = writeln!(s, "  <emitter type=\"sunsky\">");
+        for (k, v) in [
+            ("turbidity", d.turbidity),
+            ("sun_scale", d.sun_scale),
+            ("sky_scale", d.sky_scale),
+            ("sun_aperture", d.sun_aperture),
+        ] {
+            let _ = writeln!(s, "    <float name=\"{k}\" value=\"{v}\"/>");
+        }
+        let _ = writeln!(s, "    <rgb name=\"albedo\" value=\"{}\"/>", v3(d.albedo));
+        let _ = writeln!(s, "    <boolean name=\"complex_sun\" value=\"{}\"/>", d.complex_sun);
+        match d.sun {
+            crate::desc::SunPlacement::Direction(v) => {
+                let _ = writeln!(s, "    <vector name=\"sun_direction\" x=\"{}\" y=\"{}\" z=\"{}\"/>", v.x, v.y, v.z);
+            }
+            crate::desc::SunPlacement::At(at) => {
+                for (k, v) in [("latitude", at.latitude), ("longitude", at.longitude), ("timezone", at.timezone)] {
+                    let _ = writeln!(s, "    <float name=\"{k}\" value=\"{v}\"/>");
+                }
+                for (k, v) in [("year", at.year), ("month", at.month), ("day", at.day)] {
+                    let _ = writeln!(s, "    <integer name=\"{k}\" value=\"{v}\"/>");
+                }
+                for (k, v) in [("hour", at.hour), ("minute", at.minute), ("second", at.second)] {
+                    let _ = writeln!(s, "    <float name=\"{k}\" value=\"{v}\"/>");
+                }
+            }
+        }
+        if d.transform != Mat4::IDENTITY {
+            let _ = writeln!(
+                s,
+                "    <transform name=\"to_world\"><matrix value=\"{}\"/></transform>",
+                matrix(&d.transform)
+            );
+        }
+        s += "  </emitter>\n";
+    }
     s += "</scene>\n";
     Ok(Converted {
         text: s,

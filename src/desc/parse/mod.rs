@@ -5,6 +5,7 @@
 mod job;
 mod materials;
 mod media;
+mod sunsky;
 
 use self::job::{parse_camera, parse_film, parse_integrator};
 use self::materials::{parse_materials, parse_texture};
@@ -121,6 +122,10 @@ impl SceneDesc {
             .map(|(n, p)| parse_shapegroup(n, p))
             .collect::<Result<Vec<_>>>()?;
         let environment_map = root.object_opt("environment_map")?.map(|p| parse_env(&p)).transpose()?;
+        let sunsky = root.object_opt("sunsky")?.map(|p| sunsky::parse_sunsky(&p)).transpose()?;
+        if environment_map.is_some() && sunsky.is_some() {
+            return Err(root.error("sunsky", "a scene has one environment: environment_map or sunsky, not both"));
+        }
         root.finish();
         let warnings = ctx.warnings.borrow().clone();
         let unknown = ctx.unknown.borrow().clone();
@@ -136,6 +141,7 @@ impl SceneDesc {
             shapegroups,
             instances,
             environment_map,
+            sunsky,
             media,
             camera_medium,
             warnings,

@@ -86,9 +86,9 @@ pub(super) const DOCS: &[PluginDoc] = &[
     },
     not_read(
         "emitter",
-        &["sunsky", "timed_sunsky"],
+        &["timed_sunsky"],
         Status::Skipped,
-        "Mitsuba 3's sun and sky (Hosek–Wilkie) is not built: warned about and left out (the scene renders without it).",
+        "Mitsuba 3's sun and sky averaged over a time window is not built: warned about and left out (the scene renders without it).",
     ),
     not_read("emitter", &["directionalarea"], Status::Refused, "not read"),
 ];

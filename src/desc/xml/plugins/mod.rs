@@ -31,6 +31,7 @@ mod media;
 mod principled;
 mod sensors;
 mod shapes;
+mod sunsky;
 pub mod table;
 mod textures;
 mod volume;
@@ -43,6 +44,7 @@ pub const FAMILIES: &table::Families = &[
     ("Shapes", shapes::DOCS),
     ("BSDFs", bsdfs::DOCS),
     ("Emitters", emitters::DOCS),
+    ("Sun and sky", sunsky::DOCS),
     ("Textures", textures::DOCS),
     ("Spectra", SPECTRA_DOCS),
     ("Media and phase functions", media::DOCS),
@@ -76,7 +78,7 @@ pub fn plugin_table_markdown() -> String {
 pub(super) const SHAPES: &str = "obj, ply, serialized, rectangle, cube, disk, sphere, cylinder, shapegroup, instance";
 pub(super) const BSDFS: &str =
     "diffuse, dielectric, thindielectric, roughdielectric, conductor, roughconductor, plastic, roughplastic, twosided, bumpmap, normalmap, mask, principled, principledthin, blendbsdf, mixturebsdf";
-pub(super) const EMITTERS: &str = "point, spot, directional, projector, constant, envmap (and area inside a <shape>)";
+pub(super) const EMITTERS: &str = "point, spot, directional, projector, constant, envmap, sunsky (and area inside a <shape>)";
 pub(super) const TEXTURES: &str = "bitmap, checkerboard, mesh_attribute, rawconstant";
 pub(super) const INTEGRATORS: &str = "path, volpath, volpathmis, direct, ptracer, bdpt, photonmapper, sppm";
 pub(super) const VOLUMES: &str = "constvolume, gridvolume";
@@ -188,6 +190,7 @@ pub fn scene(root: &Element, file: &Path) -> Result<SceneDesc> {
     let mut point_lights = Vec::new();
     let mut delta_lights = Vec::new();
     let mut environment_map: Option<EnvMapDesc> = None;
+    let mut sunsky = None;
     for (el, at) in top.objects("emitter") {
         let p = Plugin::new(el, &ids)?;
         match p.ty.as_str() {
@@ -291,11 +294,15 @@ pub fn scene(root: &Element, file: &Path) -> Result<SceneDesc> {
                 });
                 p.finish(&[])?;
             }
-            "constant" | "envmap" => {
-                if environment_map.is_some() {
+            "constant" | "envmap" | "sunsky" => {
+                if environment_map.is_some() || sunsky.is_some() {
                     return Err(at.error("more than one environment emitter (rdr has one environment)"));
                 }
-                environment_map = Some(r.environment(&p)?);
+                if p.ty == "sunsky" {
+                    sunsky = Some(r.sunsky(&p)?);
+                } else {
+                    environment_map = Some(r.environment(&p)?);
+                }
             }
             // Mitsuba 3: a top-level area emitter is attached to the one shape that refers to it
             // (read there); one nobody refers to is dropped
@@ -304,7 +311,7 @@ pub fn scene(root: &Element, file: &Path) -> Result<SceneDesc> {
                 el,
                 "an area emitter outside a <shape> that no shape refers to emits nothing (as in Mitsuba): left out",
             ),
-            "sunsky" | "timed_sunsky" => ids.warn(
+            "timed_sunsky" => ids.warn(
                 el,
                 format!(
                     "emitter \"{}\" (Mitsuba 3's sun and sky) is not built in rdr: left out, the scene renders without it",
@@ -358,6 +365,7 @@ pub fn scene(root: &Element, file: &Path) -> Result<SceneDesc> {
         shapegroups,
         instances,
         environment_map,
+        sunsky,
         media: r.media,
         camera_medium,
         warnings,

@@ -180,13 +180,14 @@ impl Loaded {
             job: RenderJob::from_desc(desc, profile)?,
         };
         if loaded.scene.has_media {
-            // media are tracked by the camera-path estimator, which `path` runs; `guided` runs
-            // it too but learns from light paths that do not see media, and its fog_cbox
-            // image was 1.3 % dark: refused until checked; the others would render null
-            // boundaries as black and media as vacuum
+            // media are tracked by the camera-path estimator, which `path` runs, and by
+            // `bdpt`'s subpaths (`ptracer`'s too); `guided` runs the estimator but learns from
+            // light paths that do not see media, and its fog_cbox image was 1.3 % dark:
+            // refused until checked; the others would render null boundaries as black and
+            // media as vacuum
             let refuse = match (profile, &loaded.job.integrator) {
                 (Profile::Rdr171, _) => Some("--compat rdr171"),
-                (_, Integrator::Path(_) | Integrator::Normals(_)) => None,
+                (_, Integrator::Path(_) | Integrator::Normals(_) | Integrator::Bdpt(_) | Integrator::Ptracer(_)) => None,
                 (_, i) => Some(i.name()),
             };
             if let Some(who) = refuse {

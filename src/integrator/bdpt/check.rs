@@ -128,6 +128,7 @@ pub fn mis_self_check(
         let ray = camera.ray(u * width as f32, v * height as f32);
         let mut cam = vec![Vertex::new(Kind::Camera, camera.position, Vec3::ZERO, Vec3::ONE)];
         cam[0].pdf_fwd = 1.0;
+        cam[0].media = [scene.camera_medium; 2];
         e.walk(
             ray,
             None,
@@ -135,6 +136,7 @@ pub fn mis_self_check(
             camera.pdf_dir(ray.d),
             TransportMode::Radiance,
             e.max_depth + 1,
+            scene.camera_medium,
             &mut cam,
             &mut sampler,
             &mut counts,

@@ -339,8 +339,15 @@ fn bad_medium_parameters_are_one_line_errors() {
 /// `refs/<name>.exr` averaged over k×k blocks: the noise-aware relative MSE, and the
 /// image means' difference per channel with its standard error (ours and the
 /// reference's noise), a sharper test where fireflies make the relative MSE noisy.
-fn against_reference(shared: &Path, file: &Path, name: &str, k: usize, spp: u32) -> (rdr::metrics::Comparison, Vec3, Vec3) {
-    let mut desc = SceneDesc::load(file, &[]).unwrap_or_else(|e| panic!("{e}"));
+fn against_reference(
+    shared: &Path,
+    file: &Path,
+    name: &str,
+    k: usize,
+    spp: u32,
+    overrides: &[String],
+) -> (rdr::metrics::Comparison, Vec3, Vec3) {
+    let mut desc = SceneDesc::load(file, overrides).unwrap_or_else(|e| panic!("{e}"));
     desc.film.width /= k as u32;
     desc.film.height /= k as u32;
     let loaded = Loaded::build(&desc, Profile::Physical).unwrap_or_else(|e| panic!("{e}"));
@@ -374,21 +381,27 @@ fn assert_converges(shared: &Path, name: &str, k: usize, spp: u32, json: bool) {
     let xml = shared.join(format!("refs/mitsuba/{name}.xml"));
     let json = json.then(|| translations().join(format!("{name}.json")));
     for file in std::iter::once(xml).chain(json) {
-        let (c, diff, se) = against_reference(shared, &file, name, k, spp);
+        assert_close(shared, &file, name, k, spp, &[]);
+    }
+}
+
+/// `file` (with `overrides`) converges to `refs/<name>.exr`: the relative MSE and the
+/// image means ([`against_reference`]).
+fn assert_close(shared: &Path, file: &Path, name: &str, k: usize, spp: u32, overrides: &[String]) {
+    let (c, diff, se) = against_reference(shared, file, name, k, spp, overrides);
+    assert!(
+        c.rel_mse_corrected.abs() < 5.0 * c.std_error + 2e-4,
+        "{} {overrides:?} does not converge to refs/{name}.exr: {c:?}",
+        file.display()
+    );
+    for ch in 0..3 {
         assert!(
-            c.rel_mse_corrected.abs() < 5.0 * c.std_error + 2e-4,
-            "{} does not converge to refs/{name}.exr: {c:?}",
-            file.display()
+            diff[ch].abs() < 4.0 * se[ch],
+            "{} {overrides:?}: channel {ch}'s mean is off the reference's by {} (± {})",
+            file.display(),
+            diff[ch],
+            se[ch]
         );
-        for ch in 0..3 {
-            assert!(
-                diff[ch].abs() < 4.0 * se[ch],
-                "{}: channel {ch}'s mean is off the reference's by {} (± {})",
-                file.display(),
-                diff[ch],
-                se[ch]
-            );
-        }
     }
 }
 
@@ -396,6 +409,16 @@ fn assert_converges(shared: &Path, name: &str, k: usize, spp: u32, json: bool) {
 fn fog_cbox_converges_to_mitsubas_volpath() {
     let Some(shared) = shared() else { return };
     assert_converges(&shared, "fog_cbox", 4, 64, true);
+}
+
+#[test]
+fn fog_cbox_converges_with_ptracer_and_bdpt() {
+    // light subpaths through the fog's null top face, medium vertices on both sides
+    let Some(shared) = shared() else { return };
+    for (integrator, spp) in [("ptracer", 64), ("bdpt", 32)] {
+        let o = format!(r#"{{"integrator": {{"type": "{integrator}"}}}}"#);
+        assert_close(&shared, &translations().join("fog_cbox.json"), "fog_cbox", 4, spp, &[o]);
+    }
 }
 
 #[test]

@@ -20,6 +20,8 @@ use crate::sampler::PixelSampler;
 pub struct MisCheck {
     /// Connections (paths) checked.
     pub paths: usize,
+    /// Of those, paths with a vertex in a medium.
+    pub medium_paths: usize,
     /// Largest |Σ_s w_s − 1| over the paths, w_s from strategy s's own densities.
     pub max_sum_error: f32,
     /// Largest relative difference between the cached densities a connection
@@ -209,6 +211,7 @@ pub fn mis_self_check(
                 let sum = weight_sum(&e, &x, &fresh);
                 out.max_sum_error = out.max_sum_error.max((sum - 1.0).abs());
                 out.paths += 1;
+                out.medium_paths += x.iter().any(|v| v.kind == Kind::Medium) as usize;
                 sample_off |= off;
             }
         }

@@ -187,7 +187,8 @@ fn shards_merge_into_the_bits_of_one_render() {
 #[test]
 fn renders_through_media_resume_and_shard_to_the_bits_of_one_render() {
     // the camera in chromatic fog filling the Cornell box: both light-path integrators
-    const FOG: &str = r#"{"media":{"fog":{"type":"homogeneous","sigma_t":[0.2,0.3,0.4],"albedo":[0.9,0.8,0.7]}},"camera":{"medium":"fog"}}"#;
+    const FOG: &str =
+        r#"{"media":{"fog":{"type":"homogeneous","sigma_t":[0.2,0.3,0.4],"albedo":[0.9,0.8,0.7]}},"camera":{"medium":"fog"}}"#;
     fn fog<'a>(spp: &'a str, extra: &[&'a str]) -> Vec<&'a str> {
         [&["--override", FOG, "--spp", spp][..], extra].concat()
     }

@@ -130,7 +130,7 @@ pub fn mis_self_check(
         let ray = camera.ray(u * width as f32, v * height as f32);
         let mut cam = vec![Vertex::new(Kind::Camera, camera.position, Vec3::ZERO, Vec3::ONE)];
         cam[0].pdf_fwd = 1.0;
-        cam[0].media = [scene.camera_medium; 2];
+        cam[0].set_media([scene.camera_medium; 2]);
         e.walk(
             ray,
             None,
@@ -211,7 +211,7 @@ pub fn mis_self_check(
                 let sum = weight_sum(&e, &x, &fresh);
                 out.max_sum_error = out.max_sum_error.max((sum - 1.0).abs());
                 out.paths += 1;
-                out.medium_paths += x.iter().any(|v| v.kind == Kind::Medium) as usize;
+                out.medium_paths += x.iter().any(|v| matches!(v.kind, Kind::Medium(_))) as usize;
                 sample_off |= off;
             }
         }

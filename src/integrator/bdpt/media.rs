@@ -1,7 +1,7 @@
 //! Media in both subpaths (and so in `ptracer`): a subpath's ray is tracked through
 //! the media it crosses with the camera paths' delta tracking and hero-channel MIS
 //! ([`crate::medium::tracking`]), `null` boundaries crossed without a vertex; a real
-//! scattering event makes a medium vertex ([`Kind::Medium`]). Connections carry the
+//! scattering event makes a medium vertex ([`Kind::Medium`], with its phase function). Connections carry the
 //! media's transmittance by ratio tracking ([`Scene::transmittance_through_media`]).
 //!
 //! The MIS densities are pbrt-v4's: directional densities in area measure, a medium
@@ -39,6 +39,7 @@ pub(super) enum Event {
 /// The next real event along `ray`, which starts in `medium`: the tracking factors
 /// applied to `beta` through `hero` (drawn when first needed), `ray` and `medium`
 /// moved past the `null` boundaries crossed. Without media, the ray's hit.
+#[inline(always)]
 pub(super) fn next_event(
     scene: &Scene,
     ray: &mut Ray,

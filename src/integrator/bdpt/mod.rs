@@ -219,7 +219,7 @@ impl Engine<'_> {
         // the pinhole, or the lens point the camera ray leaves
         let mut camera_vertex = Vertex::new(Kind::Camera, ray.o, Vec3::ZERO, Vec3::ONE);
         camera_vertex.pdf_fwd = 1.0;
-        camera_vertex.media = [ctx.scene.camera_medium; 2];
+        camera_vertex.set_media([ctx.scene.camera_medium; 2]);
         cam.push(camera_vertex);
         // the light tracer only looks for the environment behind its first segment
         let cam_max = if light_tracing { 2 } else { self.max_depth + 1 };
@@ -302,8 +302,10 @@ impl Engine<'_> {
             let hit = match media::next_event(scene, &mut ray, &mut medium, &mut hero, &mut beta, sampler, counts) {
                 media::Event::Absorbed => break,
                 media::Event::Scattered { p, medium: m } => {
-                    let mut v = Vertex::new(Kind::Medium, p, Vec3::ZERO, beta);
-                    (v.wo, v.phase, v.media) = (-ray.d, scene.media[m as usize].phase(), [Some(m); 2]);
+                    let phase = scene.media[m as usize].phase();
+                    let mut v = Vertex::new(Kind::Medium(phase), p, Vec3::ZERO, beta);
+                    v.wo = -ray.d;
+                    v.set_media([Some(m); 2]);
                     v.pdf_fwd = self.ctx.convert(pdf_dir, &path[path.len() - 1], &v);
                     let wo = v.wo;
                     path.push(v);
@@ -311,7 +313,7 @@ impl Engine<'_> {
                         break;
                     }
                     // the phase function's sample weighs 1; its density is the same both ways
-                    let (wi, pdf) = scene.media[m as usize].phase().sample(wo, Vec2::from(sampler.next_2d()));
+                    let (wi, pdf) = phase.sample(wo, Vec2::from(sampler.next_2d()));
                     let n = path.len();
                     path[n - 2].pdf_rev = self.ctx.convert(pdf, &path[n - 1], &path[n - 2]);
                     if !self.survives(n - 1, &mut beta, (rr_norm, eta_scale), sampler) {
@@ -343,7 +345,7 @@ impl Engine<'_> {
             v.pdf_fwd = self.ctx.convert(pdf_dir, &path[path.len() - 1], &v);
             v.bsdf = scene.material_of(&it).map(|m| m.bsdf_at(&it, &scene.textures));
             if scene.has_media {
-                v.media = [scene.medium_after(&it, it.ng, medium), scene.medium_after(&it, -it.ng, medium)];
+                v.set_media([scene.medium_after(&it, it.ng, medium), scene.medium_after(&it, -it.ng, medium)]);
             }
             let bsdf = v.bsdf.clone();
             path.push(v);
@@ -429,7 +431,7 @@ impl Engine<'_> {
             _ => es.p,
         };
         let ray = Ray::with_range(o, es.dir, 0.0, RAY_T_MAX);
-        v.media = media::light_media(scene, index, es.n, &ray);
+        v.set_media(media::light_media(scene, index, es.n, &ray));
         let medium = v.medium_towards(es.dir);
         path.push(v);
         self.walk(

@@ -29,6 +29,9 @@
 //! shading normals (Veach §5.3). Russian roulette as in `path`: from the 5th
 //! segment on, a subpath continues with probability min(0.95, throughput) (the
 //! light subpath's throughput relative to its start), survivors reweighted.
+//!
+//! In media, scattering points are vertices of either subpath and connections carry
+//! the media's transmittance (the `media` module).
 
 mod check;
 mod connect;

@@ -479,13 +479,9 @@ fn bad_medium_parameters_are_one_line_errors() {
 /// `refs/<name>.exr` averaged over k×k blocks: the noise-aware relative MSE, and the
 /// image means' difference per channel with its standard error (ours and the
 /// reference's noise), a sharper test where fireflies make the relative MSE noisy.
-/// A JSON translation's grid files are read from `shared` (which `RDR_SHARED` may move).
-fn against_reference(shared: &Path, file: &Path, name: &str, k: usize, spp: u32) -> (rdr::metrics::Comparison, Vec3, Vec3) {
-    against_reference_with(shared, file, name, k, spp, &[])
-}
-
-/// [`against_reference`] of the scene with `overrides` (after the grid path's own).
-fn against_reference_with(
+/// A JSON translation's grid files are read from `shared` (which `RDR_SHARED` may move);
+/// `extra` overrides come after the grid path's own.
+fn against_reference(
     shared: &Path,
     file: &Path,
     name: &str,
@@ -535,21 +531,27 @@ fn assert_converges(shared: &Path, name: &str, k: usize, spp: u32, json: bool) {
     let xml = shared.join(format!("refs/mitsuba/{name}.xml"));
     let json = json.then(|| translations().join(format!("{name}.json")));
     for file in std::iter::once(xml).chain(json) {
-        let (c, diff, se) = against_reference(shared, &file, name, k, spp);
+        assert_close(shared, &file, name, k, spp, &[]);
+    }
+}
+
+/// `file` (with `overrides`) converges to `refs/<name>.exr`: the relative MSE and the
+/// image means ([`against_reference`]).
+fn assert_close(shared: &Path, file: &Path, name: &str, k: usize, spp: u32, overrides: &[String]) {
+    let (c, diff, se) = against_reference(shared, file, name, k, spp, overrides);
+    assert!(
+        c.rel_mse_corrected.abs() < 5.0 * c.std_error + 2e-4,
+        "{} {overrides:?} does not converge to refs/{name}.exr: {c:?}",
+        file.display()
+    );
+    for ch in 0..3 {
         assert!(
-            c.rel_mse_corrected.abs() < 5.0 * c.std_error + 2e-4,
-            "{} does not converge to refs/{name}.exr: {c:?}",
-            file.display()
+            diff[ch].abs() < 4.0 * se[ch],
+            "{} {overrides:?}: channel {ch}'s mean is off the reference's by {} (± {})",
+            file.display(),
+            diff[ch],
+            se[ch]
         );
-        for ch in 0..3 {
-            assert!(
-                diff[ch].abs() < 4.0 * se[ch],
-                "{}: channel {ch}'s mean is off the reference's by {} (± {})",
-                file.display(),
-                diff[ch],
-                se[ch]
-            );
-        }
     }
 }
 
@@ -569,7 +571,7 @@ fn guided_fog_cbox_converges_to_mitsubas_volpath() {
     let file = translations().join("fog_cbox.json");
     for from in ["paths", "photons"] {
         let o = format!(r#"{{"integrator": {{"type": "guided", "learn_from": "{from}", "spatial_threshold": 300}}}}"#);
-        let (c, diff, se) = against_reference_with(&shared, &file, "fog_cbox", 4, 64, &[o]);
+        let (c, diff, se) = against_reference(&shared, &file, "fog_cbox", 4, 64, &[o]);
         assert!(
             c.rel_mse_corrected.abs() < 5.0 * c.std_error + 2e-4,
             "guided ({from}) does not converge to refs/fog_cbox.exr: {c:?}"
@@ -582,6 +584,16 @@ fn guided_fog_cbox_converges_to_mitsubas_volpath() {
                 se[ch]
             );
         }
+    }
+}
+
+#[test]
+fn fog_cbox_converges_with_ptracer_and_bdpt() {
+    // light subpaths through the fog's null top face, medium vertices on both sides
+    let Some(shared) = shared() else { return };
+    for (integrator, spp) in [("ptracer", 64), ("bdpt", 32)] {
+        let o = format!(r#"{{"integrator": {{"type": "{integrator}"}}}}"#);
+        assert_close(&shared, &translations().join("fog_cbox.json"), "fog_cbox", 4, spp, &[o]);
     }
 }
 

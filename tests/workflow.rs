@@ -193,6 +193,36 @@ fn shards_merge_into_the_bits_of_one_render() {
 }
 
 #[test]
+fn renders_through_media_resume_and_shard_to_the_bits_of_one_render() {
+    // the camera in chromatic fog filling the Cornell box: both light-path integrators
+    const FOG: &str =
+        r#"{"media":{"fog":{"type":"homogeneous","sigma_t":[0.2,0.3,0.4],"albedo":[0.9,0.8,0.7]}},"camera":{"medium":"fog"}}"#;
+    fn fog<'a>(spp: &'a str, extra: &[&'a str]) -> Vec<&'a str> {
+        [&["--override", FOG, "--spp", spp][..], extra].concat()
+    }
+    let dir = common::temp_dir("rdr-media-parts");
+    for case in &CASES[2..] {
+        let out = |n: &str| dir.path().join(format!("{}_{n}.exr", case.name));
+        let case = Case {
+            scene: "cornell.json",
+            ..*case
+        };
+        ok(&render(&case, &out("full"), &fog("24", &[])), "full render");
+        ok(&render(&case, &out("part"), &fog("9", &[])), "first 9 passes");
+        ok(&render(&case, &out("part"), &fog("24", &["--resume"])), "resume to 24");
+        assert_same(&out("part"), &out("full"), &format!("{} in fog: 9 → 24 passes", case.name));
+        let parts = [out("0of2"), out("1of2")];
+        for (k, p) in parts.iter().enumerate() {
+            ok(&render(&case, p, &fog("24", &["--shard", &format!("{k}/2")])), "shard");
+        }
+        let mut c = rdr();
+        c.arg("merge").args(&parts).arg("-o").arg(out("merged")).arg("-q");
+        ok(&run(c), "merge");
+        assert_same(&out("merged"), &out("full"), &format!("{} in fog: 2 shards merged", case.name));
+    }
+}
+
+#[test]
 fn parts_that_do_not_belong_together_are_refused() {
     let dir = common::temp_dir("rdr-refuse");
     let case = &CASES[1];

@@ -4,7 +4,8 @@
 //! (the machinery is [`super::bdpt`]'s). Area lights seen directly come from their
 //! emission points connected to the camera (s = 1); the environment, which no
 //! light path can connect to a pinhole, from camera rays that escape; point, spot
-//! and directional lights stay invisible, as in `path`.
+//! and directional lights stay invisible, as in `path`. In media, light paths scatter
+//! and connect to the camera through the media as `bdpt`'s subpaths do.
 
 use super::CameraSample;
 use crate::camera::Camera;

@@ -20,6 +20,8 @@ use crate::sampler::PixelSampler;
 pub struct MisCheck {
     /// Connections (paths) checked.
     pub paths: usize,
+    /// Of those, paths with a vertex in a medium.
+    pub medium_paths: usize,
     /// Largest |Σ_s w_s − 1| over the paths, w_s from strategy s's own densities.
     pub max_sum_error: f32,
     /// Largest relative difference between the cached densities a connection
@@ -128,6 +130,7 @@ pub fn mis_self_check(
         let ray = camera.ray(u * width as f32, v * height as f32);
         let mut cam = vec![Vertex::new(Kind::Camera, camera.position, Vec3::ZERO, Vec3::ONE)];
         cam[0].pdf_fwd = 1.0;
+        cam[0].set_media([scene.camera_medium; 2]);
         e.walk(
             ray,
             None,
@@ -135,6 +138,7 @@ pub fn mis_self_check(
             camera.pdf_dir(ray.d),
             TransportMode::Radiance,
             e.max_depth + 1,
+            scene.camera_medium,
             &mut cam,
             &mut sampler,
             &mut counts,
@@ -207,6 +211,7 @@ pub fn mis_self_check(
                 let sum = weight_sum(&e, &x, &fresh);
                 out.max_sum_error = out.max_sum_error.max((sum - 1.0).abs());
                 out.paths += 1;
+                out.medium_paths += x.iter().any(|v| matches!(v.kind, Kind::Medium(_))) as usize;
                 sample_off |= off;
             }
         }

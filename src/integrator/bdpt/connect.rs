@@ -90,7 +90,7 @@ impl Engine<'_> {
             if l == Vec3::ZERO {
                 return None;
             }
-            l = self.through(l, qs, &lens, counts)?;
+            l = self.through(l, qs, &lens, sampler, counts)?;
             sampled = Some(lens);
             pos = Some(p);
         } else if s == 1 {
@@ -115,7 +115,7 @@ impl Engine<'_> {
             if let Some(tau) = rr {
                 l = self.roulette(l, tau, sampler, s, t)?;
             }
-            l = self.through(l, pt, &q, counts)?;
+            l = self.through(l, pt, &q, sampler, counts)?;
             sampled = Some(q);
         } else {
             let (qs, pt) = (&light[s - 1], &cam[t - 1]);
@@ -132,7 +132,7 @@ impl Engine<'_> {
             if let Some(tau) = rr {
                 l = self.roulette(l, tau, sampler, s, t)?;
             }
-            l = self.through(l, qs, pt, counts)?;
+            l = self.through(l, qs, pt, sampler, counts)?;
         }
         if !weighted {
             return Some((l, pos));
@@ -156,14 +156,15 @@ impl Engine<'_> {
 
     /// The contribution `l` of a connection between two vertices times the
     /// fraction of light passing between them ([`crate::scene::Scene::transmittance`]: 1 or 0
-    /// unless masks lie between); `None` when nothing passes.
-    fn through(&self, l: Vec3, a: &Vertex, b: &Vertex, counts: &mut RayCounts) -> Option<Vec3> {
-        let tr = self.transmittance(a, b, counts);
-        (tr > 0.0).then(|| l * tr)
+    /// unless masks lie between; through media, their transmittance by ratio tracking);
+    /// `None` when nothing passes.
+    fn through(&self, l: Vec3, a: &Vertex, b: &Vertex, sampler: &mut PixelSampler, counts: &mut RayCounts) -> Option<Vec3> {
+        let tr = self.transmittance(a, b, sampler, counts);
+        (tr.max_element() > 0.0).then(|| l * tr)
     }
 
     /// The fraction of light passing between two vertices (either may be at infinity).
-    fn transmittance(&self, a: &Vertex, b: &Vertex, counts: &mut RayCounts) -> f32 {
+    fn transmittance(&self, a: &Vertex, b: &Vertex, sampler: &mut PixelSampler, counts: &mut RayCounts) -> Vec3 {
         counts.rays += 1;
         let (a, b) = if a.infinite { (b, a) } else { (a, b) };
         let ray = if b.infinite {
@@ -173,11 +174,16 @@ impl Engine<'_> {
             let v = ob - oa;
             let dist = v.length();
             if dist == 0.0 {
-                return 0.0;
+                return Vec3::ZERO;
             }
             Ray::with_range(oa, v / dist, 0.0, dist * (1.0 - 1e-5))
         };
-        self.ctx.scene.transmittance(&ray)
+        let scene = self.ctx.scene;
+        if scene.has_media {
+            scene.transmittance_through_media(&ray, a.medium_towards(ray.d), || sampler.next_1d())
+        } else {
+            Vec3::splat(scene.transmittance(&ray))
+        }
     }
 
     /// The densities of the path strategy (s, t) made, from the subpaths' cached

@@ -29,9 +29,13 @@
 //! shading normals (Veach §5.3). Russian roulette as in `path`: from the 5th
 //! segment on, a subpath continues with probability min(0.95, throughput) (the
 //! light subpath's throughput relative to its start), survivors reweighted.
+//!
+//! In media, scattering points are vertices of either subpath and connections carry
+//! the media's transmittance (the `media` module).
 
 mod check;
 mod connect;
+mod media;
 pub mod mis;
 pub mod strategies;
 pub mod vertex;
@@ -218,6 +222,7 @@ impl Engine<'_> {
         // the pinhole, or the lens point the camera ray leaves
         let mut camera_vertex = Vertex::new(Kind::Camera, ray.o, Vec3::ZERO, Vec3::ONE);
         camera_vertex.pdf_fwd = 1.0;
+        camera_vertex.set_media([ctx.scene.camera_medium; 2]);
         cam.push(camera_vertex);
         // the light tracer only looks for the environment behind its first segment
         let cam_max = if light_tracing { 2 } else { self.max_depth + 1 };
@@ -229,6 +234,7 @@ impl Engine<'_> {
             pdf_dir,
             TransportMode::Radiance,
             cam_max,
+            ctx.scene.camera_medium,
             cam,
             sampler,
             counts,
@@ -274,8 +280,8 @@ impl Engine<'_> {
         (!((s, t) == (1, 1) && weighted)).then_some(weighted)
     }
 
-    /// Traces a subpath from `ray` and appends its vertices to `path` (which holds
-    /// the vertex the ray leaves), at most `max_vertices` in all.
+    /// Traces a subpath from `ray` (starting in `medium`) and appends its vertices to
+    /// `path` (which holds the vertex the ray leaves), at most `max_vertices` in all.
     #[allow(clippy::too_many_arguments)]
     fn walk(
         &self,
@@ -285,6 +291,7 @@ impl Engine<'_> {
         mut pdf_dir: f32,
         mode: TransportMode,
         max_vertices: usize,
+        mut medium: Option<u32>,
         path: &mut Vec<Vertex>,
         sampler: &mut PixelSampler,
         counts: &mut RayCounts,
@@ -293,9 +300,34 @@ impl Engine<'_> {
         // roulette judges the throughput relative to the start, without refraction's η²
         let rr_norm = 1.0 / beta.max_element();
         let mut eta_scale = 1.0f32;
+        let mut hero = None;
         while path.len() < max_vertices {
-            counts.rays += 1;
-            let Some(hit) = scene.intersect(&ray) else {
+            let hit = match media::next_event(scene, &mut ray, &mut medium, &mut hero, &mut beta, sampler, counts) {
+                media::Event::Absorbed => break,
+                media::Event::Scattered { p, medium: m } => {
+                    let phase = scene.media[m as usize].phase();
+                    let mut v = Vertex::new(Kind::Medium(phase), p, Vec3::ZERO, beta);
+                    v.wo = -ray.d;
+                    v.set_media([Some(m); 2]);
+                    v.pdf_fwd = self.ctx.convert(pdf_dir, &path[path.len() - 1], &v);
+                    let wo = v.wo;
+                    path.push(v);
+                    if path.len() >= max_vertices {
+                        break;
+                    }
+                    // the phase function's sample weighs 1; its density is the same both ways
+                    let (wi, pdf) = phase.sample(wo, Vec2::from(sampler.next_2d()));
+                    let n = path.len();
+                    path[n - 2].pdf_rev = self.ctx.convert(pdf, &path[n - 1], &path[n - 2]);
+                    if !self.survives(n - 1, &mut beta, (rr_norm, eta_scale), sampler) {
+                        break;
+                    }
+                    (ray, pdf_dir) = (Ray::with_range(p, wi, 0.0, RAY_T_MAX), pdf);
+                    continue;
+                }
+                media::Event::Surface(hit) => hit,
+            };
+            let Some(hit) = hit else {
                 if let (TransportMode::Radiance, Some(env)) = (mode, scene.environment) {
                     let mut v = Vertex::new(Kind::Light(env), ray.o, ray.d, beta);
                     v.infinite = true;
@@ -315,6 +347,9 @@ impl Engine<'_> {
             v.uv = it.uv;
             v.pdf_fwd = self.ctx.convert(pdf_dir, &path[path.len() - 1], &v);
             v.bsdf = scene.material_of(&it).map(|m| m.bsdf_at(&it, &scene.textures));
+            if scene.has_media {
+                v.set_media([scene.medium_after(&it, it.ng, medium), scene.medium_after(&it, -it.ng, medium)]);
+            }
             let bsdf = v.bsdf.clone();
             path.push(v);
             let Some(bsdf) = bsdf else { break };
@@ -339,18 +374,29 @@ impl Engine<'_> {
             if mode == TransportMode::Radiance {
                 eta_scale *= bs.eta * bs.eta;
             }
-            let segments = n - 1; // so far, the camera ray or the light's ray first
-            if segments >= RR_DEPTH {
-                let q = (beta.max_element() * rr_norm * eta_scale).min(0.95);
-                if sampler.next_1d() >= q {
-                    break;
-                }
-                beta /= q;
+            // segments so far, the camera ray or the light's ray first
+            if !self.survives(n - 1, &mut beta, (rr_norm, eta_scale), sampler) {
+                break;
             }
             let n_off = if bs.wi.dot(it.ng) >= 0.0 { it.ng } else { -it.ng };
             ray = Ray::with_range(offset_ray_origin(it.p, n_off), bs.wi, 0.0, RAY_T_MAX);
+            medium = path[n - 1].medium_towards(bs.wi);
             pdf_dir = pdf_fwd;
         }
+    }
+
+    /// Russian roulette after `segments` segments: survival probability
+    /// min(0.95, throughput × `norm.0` × `norm.1`), survivors reweighted.
+    #[inline]
+    fn survives(&self, segments: usize, beta: &mut Vec3, norm: (f32, f32), sampler: &mut PixelSampler) -> bool {
+        if segments >= RR_DEPTH {
+            let q = (beta.max_element() * norm.0 * norm.1).min(0.95);
+            if sampler.next_1d() >= q {
+                return false;
+            }
+            *beta /= q;
+        }
+        true
     }
 
     /// A light subpath: a light chosen as for next-event estimation, a ray leaving it, its walk.
@@ -381,7 +427,6 @@ impl Engine<'_> {
             v.ng = -es.dir;
         }
         v.pdf_fwd = ctx.pdf_light_origin(&v);
-        path.push(v);
         let cos = es.n.map_or(1.0, |n| n.dot(es.dir).abs());
         let beta = es.le * (cos / (pmf * es.pdf_pos * es.pdf_dir));
         let o = match es.n {
@@ -389,6 +434,9 @@ impl Engine<'_> {
             _ => es.p,
         };
         let ray = Ray::with_range(o, es.dir, 0.0, RAY_T_MAX);
+        v.set_media(media::light_media(scene, index, es.n, &ray));
+        let medium = v.medium_towards(es.dir);
+        path.push(v);
         self.walk(
             ray,
             None,
@@ -396,6 +444,7 @@ impl Engine<'_> {
             es.pdf_dir,
             TransportMode::Importance,
             self.max_depth,
+            medium,
             path,
             sampler,
             counts,

@@ -5,10 +5,11 @@ use crate::camera::Camera;
 use crate::light::{Light, SceneBounds};
 use crate::material::{Bsdf, Normals, TransportMode};
 use crate::math::{offset_ray_origin, Vec3, INV_4PI, INV_PI, PI};
+use crate::medium::PhaseFunction;
 use crate::scene::Scene;
 
 /// What a vertex is.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Kind {
     /// The pinhole (delta position; its density is 1).
     Camera,
@@ -17,7 +18,13 @@ pub enum Kind {
     Light(u32),
     /// A surface point; it emits when `emitter` names its area light.
     Surface,
+    /// A real scattering event in a medium, with its phase function (no normal:
+    /// densities towards it take no cosine).
+    Medium(PhaseFunction),
 }
+
+/// [`Vertex::media`]'s vacuum.
+const VACUUM: u32 = u32::MAX;
 
 /// One vertex of a camera or light subpath.
 #[derive(Clone, Debug)]
@@ -46,6 +53,10 @@ pub struct Vertex {
     pub pdf_fwd: f32,
     /// Density of this vertex had the other subpath sampled it, area measure.
     pub pdf_rev: f32,
+    /// The media a ray leaving here starts in: on the side of `ng` (and for vertices
+    /// without a normal), and on the other side ([`Vertex::set_media`]; packed, as
+    /// every vertex is copied in surface-only scenes too).
+    pub media: [u32; 2],
 }
 
 impl Vertex {
@@ -64,7 +75,21 @@ impl Vertex {
             delta: false,
             pdf_fwd: 0.0,
             pdf_rev: 0.0,
+            media: [VACUUM; 2],
         }
+    }
+
+    /// Sets the media on the side of `ng` and on the other side.
+    #[inline]
+    pub fn set_media(&mut self, media: [Option<u32>; 2]) {
+        self.media = media.map(|m| m.unwrap_or(VACUUM));
+    }
+
+    /// The medium a ray leaving here in direction `w` starts in.
+    #[inline]
+    pub fn medium_towards(&self, w: Vec3) -> Option<u32> {
+        let m = self.media[(w.dot(self.ng) < 0.0) as usize];
+        (m != VACUUM).then_some(m)
     }
 
     /// On a surface: densities towards it pick up the cosine of its normal.
@@ -79,14 +104,14 @@ impl Vertex {
         match self.kind {
             Kind::Light(i) => Some(i),
             Kind::Surface => self.emitter,
-            Kind::Camera => None,
+            Kind::Camera | Kind::Medium(_) => None,
         }
     }
 
     /// Whether a connection may end here (not a specular surface nor a black one).
     pub fn connectible(&self) -> bool {
         match self.kind {
-            Kind::Camera | Kind::Light(_) => true,
+            Kind::Camera | Kind::Light(_) | Kind::Medium(_) => true,
             Kind::Surface => self.bsdf.as_ref().is_some_and(|b| !b.is_delta()),
         }
     }
@@ -117,6 +142,10 @@ impl Vertex {
     /// The BSDF from `wo` to `wi` (towards the next vertex) for the quantity the
     /// subpath carries: importance gets the adjoint ([`crate::material::adjoint`]).
     pub fn f(&self, wi: Vec3, mode: TransportMode) -> Vec3 {
+        if let Kind::Medium(phase) = self.kind {
+            // phase functions are symmetric: the same for both quantities
+            return Vec3::splat(phase.eval(self.wo, wi));
+        }
         let Some(bsdf) = &self.bsdf else { return Vec3::ZERO };
         match mode {
             TransportMode::Radiance => bsdf.eval(self.wo, wi),
@@ -176,6 +205,10 @@ impl Ctx<'_> {
                 let (Some(bsdf), Some(prev)) = (&cur.bsdf, prev) else { return 0.0 };
                 self.convert(bsdf.pdf(cur.dir_to(prev), cur.dir_to(next)), cur, next)
             }
+            Kind::Medium(phase) => match prev {
+                Some(prev) => self.convert(phase.pdf(cur.dir_to(prev), cur.dir_to(next)), cur, next),
+                None => 0.0,
+            },
         }
     }
 

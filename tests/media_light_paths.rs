@@ -93,3 +93,30 @@ fn mis_weights_sum_to_one_on_paths_with_medium_vertices() {
     assert!(c.max_sum_error < 1e-4, "{c:?}");
     assert!(c.samples_off <= 60, "{c:?}");
 }
+
+/// Light emitted by media is collected by `path`'s estimator only: `ptracer` and `bdpt`
+/// refuse an emissive medium in one line instead of rendering it dark.
+#[test]
+fn ptracer_and_bdpt_refuse_emissive_media() {
+    let dir = tempfile::tempdir().unwrap();
+    let cube = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/refs/media/box.obj");
+    for integrator in ["ptracer", "bdpt", "path"] {
+        let json = format!(
+            r#"{{"integrator": {{"type": "{integrator}"}}, "film": {{"resolution": [8, 8]}},
+  "camera": {{"position": [0, 0, 3], "look_at": [0, 0, 0], "fov": 45}},
+  "media": {{"glow": {{"type": "homogeneous", "sigma_t": 1, "albedo": 0.5, "radiance": [1, 1, 1]}}}},
+  "objects": [{{"type": "mesh", "path": "{}", "null_bsdf": true, "interior": "glow"}}]}}"#,
+            cube.display()
+        );
+        let path = dir.path().join(format!("glow_{integrator}.json"));
+        std::fs::write(&path, json).unwrap();
+        let desc = rdr::desc::SceneDesc::load(&path, &[]).unwrap_or_else(|e| panic!("{e}"));
+        match rdr::Loaded::build(&desc, Profile::Physical) {
+            Ok(_) => assert_eq!(integrator, "path", "{integrator} accepted an emissive medium"),
+            Err(e) => {
+                assert_ne!(integrator, "path", "path refused an emissive medium: {e}");
+                assert!(e.to_string().contains("does not render emissive media"), "{integrator}: {e}");
+            }
+        }
+    }
+}

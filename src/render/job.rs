@@ -192,7 +192,10 @@ impl Loaded {
                     return Err(SceneError::new(
                         &desc.file,
                         None,
-                        format!("{} does not render emissive media (this scene has one); use path (volpath in Mitsuba XML)", i.name()),
+                        format!(
+                            "{} does not render emissive media (this scene has one); use path (volpath in Mitsuba XML)",
+                            i.name()
+                        ),
                     ));
                 }
                 (_, Integrator::Bdpt(_) | Integrator::Ptracer(_)) => None,

@@ -348,6 +348,15 @@ pub fn cosine_hemisphere(u: Vec2) -> Vec3 {
     Vec3::new(d.x, d.y, z)
 }
 
+/// Direction about +z with density (n + 1)/(2π)·cos^n θ over the sphere's upper half
+/// (Lafortune and Willems' Phong lobe: cos θ = u.y^(1/(n+1)), φ = 2π u.x).
+pub fn power_cosine(u: Vec2, n: f32) -> Vec3 {
+    let cos = u.y.powf(1.0 / (n + 1.0));
+    let sin = (1.0 - cos * cos).max(0.0).sqrt();
+    let phi = 2.0 * std::f32::consts::PI * u.x;
+    Vec3::new(sin * phi.cos(), sin * phi.sin(), cos)
+}
+
 /// Shirley–Chiu concentric map to the unit disk.
 pub fn concentric_disk(u: Vec2) -> Vec2 {
     let o = 2.0 * u - Vec2::ONE;

@@ -173,6 +173,7 @@ fn wrap_modes_read_the_texels_mitsuba_reads() {
             },
             filter: ImageFilter::Bilinear,
             wrap,
+            scale: Vec3::ONE,
         };
         for i in 0..=240 {
             for j in 0..=160 {

@@ -1188,6 +1188,32 @@ fn convert_round_trips_the_mitsuba_materials() {
     assert_same_scene("many JSON → XML → JSON", &original, &SceneDesc::load(&y, &[]).unwrap());
 }
 
+/// `dir/label.xml`: `shapes` before a 32×32 camera at (0, 0, 4) under a white constant
+/// sky, path traced to depth 2, rendered at `spp` through the command line.
+fn render_under_white_sky(dir: &Path, label: &str, shapes: &str, spp: u32) -> rdr::imageio::RgbImage {
+    let xml = format!(
+        r#"<scene version="3.0.0">
+<integrator type="path"><integer name="max_depth" value="2"/></integrator>
+<sensor type="perspective"><float name="fov" value="40"/>
+<transform name="to_world"><lookat origin="0,0,4" target="0,0,0" up="0,1,0"/></transform>
+<film type="hdrfilm"><integer name="width" value="32"/><integer name="height" value="32"/><rfilter type="box"/></film>
+<sampler type="independent"><integer name="sample_count" value="{spp}"/></sampler></sensor>
+{shapes}
+<emitter type="constant"><rgb name="radiance" value="1"/></emitter>
+</scene>"#
+    );
+    let (scene, out) = (dir.join(format!("{label}.xml")), dir.join(format!("{label}-image.exr")));
+    std::fs::write(&scene, xml).unwrap();
+    let run = std::process::Command::new(env!("CARGO_BIN_EXE_rdr"))
+        .args(["render", "-q", "--spp", &spp.to_string(), "-o"])
+        .arg(&out)
+        .arg(&scene)
+        .output()
+        .unwrap();
+    assert!(run.status.success(), "{label}: {}", String::from_utf8_lossy(&run.stderr));
+    rdr::imageio::read_exr(&out).unwrap()
+}
+
 /// Texture orientation as Mitsuba 3 has it (checked with Mitsuba 3.9.1, `scalar_rgb`, on
 /// these two scenes): a `rectangle`'s uv (0, 0) is at its (−1, −1) corner and v = 0
 /// reads the image's top row, so seen from +z the image appears upside down; an OBJ
@@ -1223,28 +1249,10 @@ fn bitmap_textures_face_the_way_mitsuba_shows_them() {
         (r#"<shape type="rectangle">"#, blue, white, red),
         (r#"<shape type="obj"><string name="filename" value="quad.obj"/>"#, red, green, blue),
     ] {
-        let xml = format!(
-            r#"<scene version="3.0.0">
-<integrator type="path"><integer name="max_depth" value="2"/></integrator>
-<sensor type="perspective"><float name="fov" value="40"/>
-<transform name="to_world"><lookat origin="0,0,4" target="0,0,0" up="0,1,0"/></transform>
-<film type="hdrfilm"><integer name="width" value="32"/><integer name="height" value="32"/><rfilter type="box"/></film>
-<sampler type="independent"><integer name="sample_count" value="16"/></sampler></sensor>
-{shape}<bsdf type="diffuse"><texture type="bitmap" name="reflectance"><string name="filename" value="quad.png"/></texture></bsdf></shape>
-<emitter type="constant"><rgb name="radiance" value="1"/></emitter>
-</scene>"#
+        let shapes = format!(
+            r#"{shape}<bsdf type="diffuse"><texture type="bitmap" name="reflectance"><string name="filename" value="quad.png"/></texture></bsdf></shape>"#
         );
-        let scene = dir.path().join("quad.xml");
-        std::fs::write(&scene, xml).unwrap();
-        let out = dir.path().join("quad.exr");
-        let run = std::process::Command::new(env!("CARGO_BIN_EXE_rdr"))
-            .args(["render", "-q", "--spp", "16", "-o"])
-            .arg(&out)
-            .arg(&scene)
-            .output()
-            .unwrap();
-        assert!(run.status.success(), "{shape}: {}", String::from_utf8_lossy(&run.stderr));
-        let img = rdr::imageio::read_exr(&out).unwrap();
+        let img = render_under_white_sky(dir.path(), "quad", &shapes, 16);
         let at = |x: usize, y: usize| img.pixels[y * img.width + x];
         for (label, (x, y), want) in [
             ("top-left", (8, 8), top_left),
@@ -1256,6 +1264,63 @@ fn bitmap_textures_face_the_way_mitsuba_shows_them() {
             assert!((got - want).abs().max_element() < 0.25, "{shape} {label}: {got} not {want}");
         }
     }
+}
+
+/// Mitsuba 0.6's `scale` texture (rdr reads it, Mitsuba 3 cannot): a bitmap scaled by
+/// a colour and a checkerboard scaled by a number render as the pre-multiplied file and
+/// colours do (to rounding: the factor multiplies the filtered value).
+#[test]
+fn scale_textures_render_as_their_premultiplied_textures() {
+    use rdr::math::Vec3;
+    let dir = tempfile::tempdir().unwrap();
+    let (s, k) = (Vec3::new(0.5, 0.25, 1.5), 0.5f32);
+    let px: Vec<Vec3> = (0..16)
+        .map(|i| Vec3::new(0.2 + 0.05 * i as f32, 0.9 - 0.04 * i as f32, 0.3))
+        .collect();
+    let write = |name: &str, f: Vec3| {
+        let scaled: Vec<Vec3> = px.iter().map(|p| *p * f).collect();
+        rdr::imageio::write_exr(&dir.path().join(name), 4, 4, &scaled, rdr::imageio::ExrPixels::Float).unwrap();
+    };
+    write("plain.exr", Vec3::ONE);
+    write("premultiplied.exr", s);
+    let render = |label: &str, bitmap: &str, checks: &str| {
+        let shapes = format!(
+            r#"<shape type="rectangle"><transform name="to_world"><scale value="0.7"/><translate x="-0.75"/></transform>
+<bsdf type="diffuse">{bitmap}</bsdf></shape>
+<shape type="rectangle"><transform name="to_world"><scale value="0.7"/><translate x="0.75"/></transform>
+<bsdf type="diffuse">{checks}</bsdf></shape>"#
+        );
+        render_under_white_sky(dir.path(), label, &shapes, 4).pixels
+    };
+    let checks = |c0: f32, c1: f32| {
+        format!(r#"<texture type="checkerboard"><rgb name="color0" value="{c0}"/><rgb name="color1" value="{c1}"/></texture>"#)
+    };
+    let scaled = render(
+        "scaled",
+        &format!(
+            r#"<texture type="scale" name="reflectance"><rgb name="scale" value="{}, {}, {}"/>
+               <texture type="bitmap"><string name="filename" value="plain.exr"/></texture></texture>"#,
+            s.x, s.y, s.z
+        ),
+        &format!(
+            r#"<texture type="scale" name="reflectance"><float name="scale" value="{k}"/>{}</texture>"#,
+            checks(0.8, 0.3)
+        ),
+    );
+    let premultiplied = render(
+        "premultiplied",
+        r#"<texture type="bitmap" name="reflectance"><string name="filename" value="premultiplied.exr"/></texture>"#,
+        &checks(0.8 * k, 0.3 * k).replace("<texture ", r#"<texture name="reflectance" "#),
+    );
+    let worst = scaled
+        .iter()
+        .zip(&premultiplied)
+        .map(|(a, b)| ((*a - *b).abs() / (a.abs() + b.abs() + Vec3::splat(1e-6))).max_element())
+        .fold(0.0f32, f32::max);
+    let mean = scaled.iter().map(|p| p.element_sum() as f64).sum::<f64>() / (3 * scaled.len()) as f64;
+    println!("largest relative difference of the scaled and pre-multiplied images: {worst:e} (mean value {mean:.3})");
+    assert!(mean > 0.05, "the scaled textures' image is black");
+    assert!(worst < 1e-4, "scaled textures render unlike their pre-multiplied twins: {worst}");
 }
 
 /// The film-state identity covers what an XML scene's `<include>`s read: a `--resume`

@@ -431,3 +431,75 @@ fn diffuse_and_perfect_refraction_sampling() {
     let s = r.sample(wo, Vec2::ZERO, 0.0).unwrap();
     assert!(s.delta && s.wi.z < 0.0 && (s.wi.x.abs() - wo.x / 1.5).abs() < 1e-6);
 }
+
+/// Mitsuba 0.6's `phong` at a surface facing +z (diffuse 0.5, specular 0.5: white).
+fn phong(exponent: f32, wo: Vec3) -> rdr::material::Bsdf {
+    let m = rdr::material::Material::Phong {
+        texture: 0,
+        specular: Vec3::splat(0.5),
+        exponent,
+        specular_sampling_weight: None,
+    };
+    m.bsdf(Vec3::Z, wo, |_| Vec3::splat(0.5))
+}
+
+/// Its samples (the lobe chosen by a second stream of numbers) follow its pdf, binned
+/// about the mirror direction where the lobe is; each sample's weight is f·cos/pdf.
+#[test]
+fn phong_sampling_matches_its_pdf() {
+    for exponent in [3.0f32, 30.0] {
+        for theta in [0.3f32, 1.2] {
+            let wo = Vec3::new(theta.sin() * 0.6, theta.sin() * 0.8, theta.cos());
+            let bsdf = phong(exponent, wo);
+            let name = format!("phong n={exponent} θo={theta}");
+            let mut lobe = Rng(rdr::sampling::SplitMix64(7));
+            for _ in 0..2000 {
+                if let Some(s) = bsdf.sample(wo, lobe.next2(), lobe.next()) {
+                    let expect = bsdf.eval(wo, s.wi) * s.wi.z / bsdf.pdf(wo, s.wi);
+                    assert!(
+                        (s.weight - expect).abs().max_element() <= 1e-4 * expect.max_element(),
+                        "{name}: weight"
+                    );
+                }
+            }
+            chi2(
+                &name,
+                300_000,
+                Frame::from_normal(Vec3::new(-wo.x, -wo.y, wo.z)),
+                |u| bsdf.sample(wo, u, lobe.next()).map(|s| s.wi),
+                |w| bsdf.pdf(wo, w),
+            );
+        }
+    }
+}
+
+/// White furnace: with ρd + ρs = 1 the normalised lobe reflects everything at normal
+/// incidence (∫ (n+2)/(2π) cos^(n+1) θ dω = 1) and less elsewhere (the lobe dips below
+/// the horizon), never more.
+#[test]
+fn white_phong_reflects_all_light_at_normal_incidence_and_never_more() {
+    let n = 200_000;
+    for exponent in [3.0f32, 30.0] {
+        for theta in [0.0f32, 0.7, 1.3] {
+            let wo = Vec3::new(theta.sin(), 0.0, theta.cos());
+            let bsdf = phong(exponent, wo);
+            let mut rng = Rng(rdr::sampling::SplitMix64(11));
+            let (mut sum, mut sum2) = (0.0f64, 0.0f64);
+            for _ in 0..n {
+                let w = bsdf.sample(wo, rng.next2(), rng.next()).map_or(0.0, |s| s.weight.x as f64);
+                sum += w;
+                sum2 += w * w;
+            }
+            let mean = sum / n as f64;
+            let sigma = ((sum2 / n as f64 - mean * mean) / n as f64).sqrt();
+            println!("phong n={exponent} θo={theta}: albedo {mean:.5} ± {sigma:.5}");
+            assert!(mean <= 1.0 + 4.0 * sigma, "n={exponent} θo={theta}: albedo {mean} > 1");
+            if theta == 0.0 {
+                assert!(
+                    (mean - 1.0).abs() <= 4.0 * sigma + 1e-4,
+                    "n={exponent}: albedo {mean} ± {sigma}, not 1"
+                );
+            }
+        }
+    }
+}

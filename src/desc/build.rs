@@ -191,6 +191,7 @@ pub fn build(desc: &SceneDesc, opts: BuildOptions) -> Result<Scene> {
                 mapping: file.mapping,
                 filter: file.filter,
                 wrap: file.wrap,
+                scale: file.scale,
             })
         })?);
     }

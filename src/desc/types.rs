@@ -220,6 +220,9 @@ pub struct ImageFile {
     pub raw: bool,
     /// `wrap_mode`: `"repeat"` (default) | `"clamp"` | `"mirror"`, outside [0, 1]².
     pub wrap: crate::texture::image::WrapMode,
+    /// `scale` (vec3, (1,1,1)): a factor on every value (what the Mitsuba reader makes
+    /// of Mitsuba 0.6's `scale` texture around a bitmap).
+    pub scale: Vec3,
 }
 
 /// `materials.<name>`: `type` (`"diffuse"`) and per type:

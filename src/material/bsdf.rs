@@ -6,6 +6,7 @@ use super::conductor::SmoothConductor;
 use super::dielectric::{RoughDielectric, ThinDielectric};
 use super::fresnel;
 use super::microfacet::Microfacet;
+use super::phong::Phong;
 use super::plastic::{Plastic, RoughPlastic};
 pub use super::sample::{BsdfSample, TransportMode};
 use super::{principled::Principled, principledthin::PrincipledThin};
@@ -33,6 +34,8 @@ pub enum BsdfKind {
     Plastic(Plastic),
     /// Coated diffuse, rough coating (Mitsuba `roughplastic`).
     RoughPlastic(RoughPlastic),
+    /// Lambertian plus a modified Phong lobe (Mitsuba 0.6 `phong`).
+    Phong(Phong),
     /// Burley's Disney BSDF as Mitsuba's `principled`.
     Principled(Principled),
     /// Its thin-sheet variant, Mitsuba's `principledthin`.
@@ -126,6 +129,7 @@ impl Bsdf {
             BsdfKind::RoughDielectric(b) => b.eval(self.frame.to_local(wo), self.frame.to_local(wi), mode),
             BsdfKind::Plastic(b) => b.eval(self.frame.to_local(wo), self.frame.to_local(wi)),
             BsdfKind::RoughPlastic(b) => b.eval(self.frame.to_local(wo), self.frame.to_local(wi)),
+            BsdfKind::Phong(b) => b.eval(self.frame.to_local(wo), self.frame.to_local(wi)),
             BsdfKind::SmoothConductor(_) | BsdfKind::ThinDielectric(_) => Vec3::ZERO,
             // only the cosines: the hot case skips the full change of frame
             BsdfKind::Diffuse { albedo } => diffuse_eval(self.frame.n, albedo, wo, wi),
@@ -179,6 +183,7 @@ impl Bsdf {
             BsdfKind::RoughDielectric(b) => b.pdf(self.frame.to_local(wo), self.frame.to_local(wi)),
             BsdfKind::Plastic(b) => b.pdf(self.frame.to_local(wo), self.frame.to_local(wi)),
             BsdfKind::RoughPlastic(b) => b.pdf(self.frame.to_local(wo), self.frame.to_local(wi)),
+            BsdfKind::Phong(b) => b.pdf(self.frame.to_local(wo), self.frame.to_local(wi)),
             BsdfKind::SmoothConductor(_) | BsdfKind::ThinDielectric(_) => 0.0,
             BsdfKind::Conductor { mf, .. } => {
                 let (o, i) = (self.frame.to_local(wo), self.frame.to_local(wi));
@@ -245,6 +250,7 @@ impl Bsdf {
             BsdfKind::RoughDielectric(b) => b.sample(o, u, uc, mode),
             BsdfKind::Plastic(b) => b.sample(o, u, uc),
             BsdfKind::RoughPlastic(b) => b.sample(o, u, uc),
+            BsdfKind::Phong(b) => b.sample(o, u, uc),
             _ => return self.sample_legacy(o, u, uc, radiance),
         };
         local.map(|s| BsdfSample { wi: world(s.wi), ..s })

@@ -22,6 +22,7 @@ pub mod conductor;
 pub mod dielectric;
 pub mod fresnel;
 pub mod microfacet;
+pub mod phong;
 pub mod plastic;
 pub mod principled;
 pub mod principledthin;
@@ -144,6 +145,21 @@ pub enum Material<T = u32> {
         /// Derived: the coating's transmittance tables, set by [`Material::prepare`]
         /// (looked up on every use when `None`).
         tables: Option<&'static CoatingTables>,
+    },
+    /// `phong` (Mitsuba 0.6's `phong`, which Mitsuba 3 dropped): Lambertian plus the
+    /// normalised modified Phong lobe about the mirror direction ([`phong`]), one-sided.
+    /// `texture_name` (`diffuse_reflectance`; constant 0.5 when absent),
+    /// `specular_reflectance` (vec3, (0.2, 0.2, 0.2)), `exponent` (≥ 0, 30).
+    ///
+    /// ```json
+    /// "shiny": {"type": "phong", "texture_name": "red", "specular_reflectance": [0.3, 0.3, 0.3], "exponent": 60}
+    /// ```
+    Phong {
+        texture: T,
+        specular: Vec3,
+        exponent: f32,
+        /// Derived as in `plastic`, from the mean luminances (as Mitsuba 0.6's).
+        specular_sampling_weight: Option<f32>,
     },
     /// `twosided` (Mitsuba `twosided`): `material_name` (required) seen from the
     /// front, and from the back the same material or `back_material_name`, with the
@@ -384,6 +400,17 @@ impl<T> Material<T> {
                 specular_sampling_weight: *specular_sampling_weight,
                 tables: *tables,
             },
+            Material::Phong {
+                texture,
+                specular,
+                exponent,
+                specular_sampling_weight,
+            } => Material::Phong {
+                texture: f(texture)?,
+                specular: *specular,
+                exponent: *exponent,
+                specular_sampling_weight: *specular_sampling_weight,
+            },
             Material::TwoSided { front, back } => Material::TwoSided {
                 front: Box::new(front.map_with(f)?),
                 back: match back {
@@ -445,6 +472,12 @@ impl<T> Material<T> {
                 *specular_sampling_weight = Some(sampling_weight(mean(texture), *specular));
                 *tables = Some(CoatingTables::get(*distribution, alpha.max(1e-4), *eta));
             }
+            Material::Phong {
+                texture,
+                specular,
+                specular_sampling_weight,
+                ..
+            } => *specular_sampling_weight = Some(phong_sampling_weight(mean(texture), *specular)),
             Material::TwoSided { front, back } => {
                 front.prepare(mean);
                 if let Some(b) = back {
@@ -458,6 +491,16 @@ impl<T> Material<T> {
             }
             _ => {}
         }
+    }
+}
+
+/// Mitsuba 0.6's `phong` weight s̄/(d̄ + s̄), s̄ and d̄ the reflectances' luminances.
+fn phong_sampling_weight(diffuse: Vec3, specular: Vec3) -> f32 {
+    let (d, s) = (crate::texture::luminance(diffuse), crate::texture::luminance(specular));
+    if d + s > 0.0 {
+        s / (d + s)
+    } else {
+        0.5
     }
 }
 
@@ -639,6 +682,23 @@ impl Material {
                         specular_sampling_weight: specular_sampling_weight.unwrap_or_else(|| sampling_weight(diffuse, specular)),
                         mf,
                         tables: tables.unwrap_or_else(|| CoatingTables::get(distribution, mf.alpha_x, eta)),
+                    }),
+                )
+            }
+            Material::Phong {
+                texture,
+                specular,
+                exponent,
+                specular_sampling_weight,
+            } => {
+                let diffuse = tint(texture);
+                (
+                    ns,
+                    BsdfKind::Phong(phong::Phong {
+                        diffuse,
+                        specular,
+                        exponent,
+                        specular_sampling_weight: specular_sampling_weight.unwrap_or_else(|| phong_sampling_weight(diffuse, specular)),
                     }),
                 )
             }

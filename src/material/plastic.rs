@@ -288,17 +288,7 @@ impl RoughPlastic {
         if i.z <= 0.0 {
             return None;
         }
-        let pdf = self.pdf(o, i);
-        if pdf.is_nan() || pdf <= 0.0 {
-            return None;
-        }
-        Some(BsdfSample {
-            wi: i,
-            weight: self.eval(o, i) * (i.z / pdf),
-            pdf,
-            delta: false,
-            eta: 1.0,
-        })
+        BsdfSample::glossy(i, self.eval(o, i), self.pdf(o, i))
     }
 }
 

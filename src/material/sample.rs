@@ -30,3 +30,20 @@ pub struct BsdfSample {
     /// `refraction` included, whose radiance weight is 1): for roulette on the throughput without it.
     pub eta: f32,
 }
+
+impl BsdfSample {
+    /// A sample of the non-delta direction `wi` (local, z the normal) where the BSDF
+    /// is `f` and the density `pdf`: weight f·cos θi/pdf; `None` for a zero or NaN density.
+    pub fn glossy(wi: Vec3, f: Vec3, pdf: f32) -> Option<BsdfSample> {
+        if pdf.is_nan() || pdf <= 0.0 {
+            return None;
+        }
+        Some(BsdfSample {
+            wi,
+            weight: f * (wi.z / pdf),
+            pdf,
+            delta: false,
+            eta: 1.0,
+        })
+    }
+}

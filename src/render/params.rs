@@ -88,6 +88,10 @@ fn fields<'a>(m: &'a mut Material<TextureRef>, prefix: &str, out: &mut Vec<(Stri
             colour("color", texture, out);
             out.push((name("specular"), Field::Colour(specular)));
         }
+        Material::Phong { texture, specular, .. } => {
+            colour("color", texture, out);
+            out.push((name("specular"), Field::Colour(specular)));
+        }
         Material::RoughPlastic {
             texture, specular, alpha, ..
         } => {

@@ -19,6 +19,8 @@ pub struct ImageTexture {
     pub mapping: UvMapping,
     pub filter: ImageFilter,
     pub wrap: WrapMode,
+    /// A factor on every value (Mitsuba 0.6's `scale` texture around a bitmap).
+    pub scale: Vec3,
 }
 
 /// What an image texture shows outside [0, 1]² (JSON `wrap_mode`, Mitsuba's `wrap_mode`).
@@ -104,11 +106,12 @@ impl ImageTexture {
             let l = &self.mipmap.levels()[0];
             st = self.wrap.apply(st, l.width, l.height);
         }
-        match self.filter {
+        let v = match self.filter {
             ImageFilter::Trilinear => self.mipmap.lookup(st, self.mapping.scale * tc.duvdx, self.mapping.scale * tc.duvdy),
             ImageFilter::Bilinear => self.mipmap.bilinear(0, st),
             ImageFilter::Nearest => self.mipmap.nearest(st),
-        }
+        };
+        v * self.scale
     }
 }
 

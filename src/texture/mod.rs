@@ -152,7 +152,7 @@ impl Texture {
         match self {
             Texture::Constant(c) => *c,
             Texture::Checkerboard { color0, color1, .. } => 0.5 * (*color0 + *color1),
-            Texture::Image(t) => t.mipmap.levels()[0].mean(),
+            Texture::Image(t) => t.mipmap.levels()[0].mean() * t.scale,
             // not known before a point is shaded
             Texture::MeshAttribute { scale, .. } => Vec3::splat(0.5 * scale),
         }
@@ -160,11 +160,12 @@ impl Texture {
 
     /// The uv gradient of the texture's luminance at `uv` (Mitsuba's `eval_1_grad`):
     /// of an image, the bilinear interpolation of its full-resolution texels (through
-    /// the uv mapping); constants and checkerboards are flat almost everywhere (zero).
+    /// the uv mapping, times the luminance of its `scale`: exact for a grey one);
+    /// constants and checkerboards are flat almost everywhere (zero).
     pub fn luminance_gradient(&self, uv: Vec2) -> Vec2 {
         match self {
             Texture::Constant(_) | Texture::Checkerboard { .. } | Texture::MeshAttribute { .. } => Vec2::ZERO,
-            Texture::Image(t) => t.mipmap.luminance_gradient(t.mapping.map(uv)) * t.mapping.scale,
+            Texture::Image(t) => t.mipmap.luminance_gradient(t.mapping.map(uv)) * t.mapping.scale * luminance(t.scale),
         }
     }
 

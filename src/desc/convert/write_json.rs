@@ -202,6 +202,9 @@ pub fn to_json(desc: &SceneDesc, out: &Path) -> Result<Converted> {
                 if img.wrap != crate::texture::image::WrapMode::Repeat {
                     v["wrap_mode"] = img.wrap.name().into();
                 }
+                if img.scale != Vec3::ONE {
+                    v["scale"] = vec3(img.scale);
+                }
                 v
             }
             Texture::MeshAttribute { face, scale } => {
@@ -489,6 +492,15 @@ fn material_json(
             "type": "roughplastic", "texture_name": texture_name(texture, name, textures),
             "specular_reflectance": vec3(*specular), "eta": num(*eta), "nonlinear": nonlinear,
             "alpha": num(*alpha), "distribution": distribution_name(*distribution),
+        }),
+        Material::Phong {
+            texture,
+            specular,
+            exponent,
+            ..
+        } => json!({
+            "type": "phong", "texture_name": texture_name(texture, name, textures),
+            "specular_reflectance": vec3(*specular), "exponent": num(*exponent),
         }),
         Material::TwoSided { front, back } => {
             let mut v = json!({"type": "twosided", "material_name": nested_json(front, name, "front", textures, materials, texture_name)});

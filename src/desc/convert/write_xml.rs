@@ -163,6 +163,20 @@ fn material_xml(
             rgb_unless_one("specular_reflectance", *specular),
             iors(*eta)
         ),
+        Material::Phong {
+            texture,
+            specular,
+            exponent,
+            ..
+        } => {
+            w.push(format!("material '{name}': phong is Mitsuba 0.6's (Mitsuba 3 cannot read it)"));
+            format!(
+                "{}{}<rgb name=\"specular_reflectance\" value=\"{}\"/><float name=\"exponent\" value=\"{exponent}\"/></bsdf>",
+                open("phong"),
+                colour("diffuse_reflectance", texture),
+                v3(*specular)
+            )
+        }
         Material::TwoSided { front, back } => {
             let mut inner = material_xml(front, name, None, colour, w);
             if let Some(b) = back {
@@ -504,6 +518,12 @@ pub fn to_xml(desc: &SceneDesc, out: &Path) -> Result<Converted> {
                     crate::texture::image::ImageFilter::Bilinear => "bilinear",
                     crate::texture::image::ImageFilter::Nearest => "nearest",
                 };
+                if img.scale != Vec3::ONE {
+                    w.push(format!(
+                        "texture '{}': Mitsuba 3 has no scaled bitmap (Mitsuba 0.6's `scale` texture): its scale is left out",
+                        t.name
+                    ));
+                }
                 let _ = writeln!(
                     s,
                     "  <texture type=\"bitmap\" id=\"{}\">\n    <string name=\"filename\" value=\"{}\"/>\n    \

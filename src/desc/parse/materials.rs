@@ -59,6 +59,7 @@ pub(super) fn parse_texture(name: &str, p: &Props) -> Result<TextureDesc> {
                     )
                 })?
             },
+            scale: colour(p, "scale", Vec3::ONE)?,
         }),
         "mesh_attribute" => Texture::MeshAttribute {
             face: mesh_attribute_name(p, &p.string("name")?)?,
@@ -135,7 +136,7 @@ fn texture_name(p: &Props) -> Result<Option<TextureRef>> {
 }
 
 /// Every material type, as the error for an unknown one lists them.
-const MATERIAL_TYPES: [&str; 16] = [
+const MATERIAL_TYPES: [&str; 17] = [
     "diffuse",
     "refraction",
     "glass",
@@ -145,6 +146,7 @@ const MATERIAL_TYPES: [&str; 16] = [
     "roughdielectric",
     "plastic",
     "roughplastic",
+    "phong",
     "twosided",
     "bumpmap",
     "normalmap",
@@ -394,6 +396,12 @@ fn parse_material(name: &str, p: &Props, ty: &str) -> Result<MaterialDesc> {
             distribution: distribution(p)?,
             specular_sampling_weight: None,
             tables: None,
+        },
+        "phong" => Material::Phong {
+            texture: texture_or(p, Vec3::splat(0.5))?,
+            specular: colour(p, "specular_reflectance", Vec3::splat(0.2))?,
+            exponent: finite(p, "exponent", non_negative(p, "exponent", p.f32_or("exponent", 30.0)?)?)?,
+            specular_sampling_weight: None,
         },
         "principled" => principled::json_principled(p)?,
         "principledthin" => principled::json_principled_thin(p)?,

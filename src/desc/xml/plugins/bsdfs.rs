@@ -253,7 +253,17 @@ pub(super) const DOCS: &[PluginDoc] = &[
             "required: \"w₁, w₂, …\", each at least 0, summing to 1",
         )],
     },
-    not_read("bsdf", &["phong"], Status::Refused, "Mitsuba 0.6 (Mitsuba 3 refuses it too)"),
+    PluginDoc {
+        element: "bsdf",
+        names: &["phong"],
+        status: Status::Read,
+        note: "(Mitsuba 0.6; Mitsuba 3 cannot read it) Lambertian plus the normalised modified Phong lobe, sampled as 0.6 samples it.",
+        params: &[
+            read("diffuse_reflectance", "texture", "0.5", "a colour or a texture"),
+            differs("specular_reflectance", "colour", "0.2", "a constant colour only"),
+            differs("exponent", "float", "30", "a number only, at least 0"),
+        ],
+    },
 ];
 
 impl<'a> Reader<'a> {
@@ -463,6 +473,22 @@ impl<'a> Reader<'a> {
             "principledthin" => self.principled_thin(&p)?,
             "blendbsdf" => self.blendbsdf(&p)?,
             "mixturebsdf" => self.mixturebsdf(&p)?,
+            "phong" => {
+                let exponent = p.float("exponent", 30.0)?;
+                if !(exponent >= 0.0 && exponent.is_finite()) {
+                    return Err(p.value_error("exponent", "must be a finite number, at least 0"));
+                }
+                let specular = p.rgb("specular_reflectance", Vec3::splat(0.2))?;
+                if !(specular.min_element() >= 0.0 && specular.is_finite()) {
+                    return Err(p.value_error("specular_reflectance", "must not be negative"));
+                }
+                Material::Phong {
+                    texture: self.texture_ref(&p, "diffuse_reflectance", Vec3::splat(0.5))?,
+                    specular,
+                    exponent,
+                    specular_sampling_weight: None,
+                }
+            }
             other => return Err(p.error(format!("unsupported bsdf \"{other}\" (supported: {BSDFS})"))),
         };
         p.finish(&["bsdf", "texture"])?;

@@ -123,6 +123,7 @@ impl<'a> Reader<'a> {
                     filter: crate::texture::image::ImageFilter::Trilinear,
                     raw: false,
                     wrap: crate::texture::image::WrapMode::Repeat,
+                    scale: Vec3::ONE,
                 }),
             });
             for k in ["filter_type", "mis_compensation"] {

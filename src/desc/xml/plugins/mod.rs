@@ -76,10 +76,12 @@ pub fn plugin_table_markdown() -> String {
 }
 
 pub(super) const SHAPES: &str = "obj, ply, serialized, rectangle, cube, disk, sphere, cylinder, shapegroup, instance";
-pub(super) const BSDFS: &str =
-    "diffuse, dielectric, thindielectric, roughdielectric, conductor, roughconductor, plastic, roughplastic, twosided, bumpmap, normalmap, mask, principled, principledthin, blendbsdf, mixturebsdf";
+pub(super) const BSDFS: &str = concat!(
+    "diffuse, dielectric, thindielectric, roughdielectric, conductor, roughconductor, plastic, roughplastic, twosided, ",
+    "bumpmap, normalmap, mask, principled, principledthin, blendbsdf, mixturebsdf, phong"
+);
 pub(super) const EMITTERS: &str = "point, spot, directional, projector, constant, envmap, sunsky (and area inside a <shape>)";
-pub(super) const TEXTURES: &str = "bitmap, checkerboard, mesh_attribute, rawconstant";
+pub(super) const TEXTURES: &str = "bitmap, checkerboard, mesh_attribute, rawconstant, scale";
 pub(super) const INTEGRATORS: &str = "path, volpath, volpathmis, direct, ptracer, bdpt, photonmapper, sppm";
 pub(super) const VOLUMES: &str = "constvolume, gridvolume";
 pub(super) const FILTERS: &str = "box, tent, gaussian, mitchell";

@@ -85,12 +85,22 @@ pub(super) const DOCS: &[PluginDoc] = &[
         params: &[read("value", "float or vector", "", "required")],
     },
     not_read("texture", &["volume"], Status::Refused, "not read"),
-    not_read(
-        "texture",
-        &["scale"],
-        Status::Refused,
-        "Mitsuba 0.6's scaled texture (Mitsuba 3 refuses it too)",
-    ),
+    PluginDoc {
+        element: "texture",
+        names: &["scale"],
+        status: Status::Read,
+        note: "Mitsuba 0.6's scaled texture, which Mitsuba 3 cannot read; rdr folds the factor into the texture it wraps \
+               (a bump map's gradient by the factor's luminance: exact for a float).",
+        params: &[
+            read(
+                "value",
+                "colour or texture",
+                "",
+                "required: the nested texture (any name), or a constant colour",
+            ),
+            read("scale", "float or colour", "1", "positive"),
+        ],
+    },
 ];
 
 impl<'a> Reader<'a> {
@@ -198,6 +208,7 @@ impl<'a> Reader<'a> {
                     filter,
                     raw,
                     wrap,
+                    scale: Vec3::ONE,
                 })
             }
             "checkerboard" => {
@@ -242,9 +253,30 @@ impl<'a> Reader<'a> {
                 }
                 Texture::MeshAttribute { face, scale }
             }
+            "scale" => {
+                let s = p.rgb("scale", Vec3::ONE)?;
+                if !(s.min_element() > 0.0 && s.is_finite()) {
+                    return Err(p.value_error("scale", "must be positive and finite"));
+                }
+                let nested = p.objects("texture");
+                let inner = match nested.as_slice() {
+                    [] => match p.rgb_opt("value")? {
+                        Some(c) => Texture::Constant(c),
+                        None => return Err(p.error(format!("{} needs a nested texture (or a colour \"value\")", p.describe()))),
+                    },
+                    &[(nested, _)] => {
+                        self.nest(nested)?;
+                        let t = self.texture_value(nested);
+                        self.depth -= 1;
+                        t?
+                    }
+                    [_, (_, at), ..] => return Err(at.error(format!("{} takes one nested texture", p.describe()))),
+                };
+                scaled(inner, s).ok_or_else(|| p.value_error("scale", "must be a number around a mesh_attribute"))?
+            }
             other => return Err(p.error(format!("unsupported texture \"{other}\" (supported: {TEXTURES})"))),
         };
-        p.finish(&[])?;
+        p.finish(&["texture"])?;
         Ok(t)
     }
 
@@ -264,4 +296,20 @@ impl<'a> Reader<'a> {
         }
         Ok((s, o))
     }
+}
+
+/// `t` times `s`: Mitsuba 0.6's `scale` texture folded into the texture it wraps
+/// (`None`: a mesh attribute's scale is a number, `s` a colour).
+fn scaled(t: Texture<ImageFile>, s: Vec3) -> Option<Texture<ImageFile>> {
+    Some(match t {
+        Texture::Constant(c) => Texture::Constant(c * s),
+        Texture::Checkerboard { color0, color1, mapping } => Texture::Checkerboard {
+            color0: color0 * s,
+            color1: color1 * s,
+            mapping,
+        },
+        Texture::Image(f) => Texture::Image(ImageFile { scale: f.scale * s, ..f }),
+        Texture::MeshAttribute { face, scale } if s.x == s.y && s.y == s.z => Texture::MeshAttribute { face, scale: scale * s.x },
+        Texture::MeshAttribute { .. } => return None,
+    })
 }

@@ -450,7 +450,8 @@ impl<'a> Reader<'a> {
                     if p.has("alpha_u") || p.has("alpha_v") {
                         return Err(p.error("roughplastic is isotropic: give alpha, not alpha_u and alpha_v"));
                     }
-                    if matches!(p.colour("alpha", Vec3::splat(0.1))?, Colour::Texture(_)) {
+                    let (alpha, _, textured) = self.alphas(&p)?;
+                    if textured.is_some() {
                         return Err(p.value_error(
                             "alpha",
                             "roughplastic's alpha must be a number (as in Mitsuba 3: its coating tables need one roughness)",
@@ -462,7 +463,7 @@ impl<'a> Reader<'a> {
                         specular,
                         eta,
                         nonlinear,
-                        alpha: self.alphas(&p)?.0,
+                        alpha,
                         distribution: distribution(&p)?,
                         specular_sampling_weight: None,
                         tables: None,
@@ -581,17 +582,22 @@ impl<'a> Reader<'a> {
         } else {
             ["alpha", "alpha"]
         };
+        // a number's range first: a texture reference would call a negative one a colour
+        for k in keys {
+            if let Colour::Constant(c) = p.colour(k, Vec3::splat(0.1))? {
+                if !(0.0..=10.0).contains(&c.x) {
+                    return Err(p.value_error(k, format!("must be between 0 and 10, found {}", c.x)));
+                }
+            }
+        }
         let refs = [
             self.float_texture_ref(p, keys[0], Vec3::splat(0.1))?,
             self.float_texture_ref(p, keys[1], Vec3::splat(0.1))?,
         ];
         let mut constants = [0.1; 2];
-        for ((k, r), a) in keys.iter().zip(&refs).zip(&mut constants) {
+        for (r, a) in refs.iter().zip(&mut constants) {
             if let TextureRef::Color(c) = r {
                 *a = c.x;
-                if !(0.0..=10.0).contains(a) {
-                    return Err(p.value_error(k, format!("must be between 0 and 10, found {a}")));
-                }
             }
         }
         let textured = refs.iter().any(|r| matches!(r, TextureRef::Named(_)));

@@ -105,7 +105,7 @@ fn every_documented_scene_loads_and_renders() {
     let root = docs_common::root();
     let dir = tempfile::tempdir().expect("temporary folder");
     // examples are written as if saved in scenes/, beside the bundled assets
-    for sub in ["showcase", "cornell"] {
+    for sub in ["showcase", "cornell", "volumes"] {
         std::os::unix::fs::symlink(root.join("scenes").join(sub), dir.path().join(sub)).expect("link assets");
     }
     let mut errors = Vec::new();

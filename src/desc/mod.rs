@@ -33,7 +33,7 @@ pub use parse::integrator_from_value;
 pub use source::{Located, Source};
 pub use types::{
     read_sun_position, AreaLightDesc, DeltaLightDesc, EnvMapDesc, FilmDesc, ImageFile, InstanceDesc, IntegratorDesc, MaterialDesc,
-    MediumDesc, MediumVolumes, MeshFile, MeshFormat, MeshNormals, MeshOptions, ObjectDesc, PointLightDesc, SceneDesc, ShapeGroupDesc,
-    SunPlacement, SunSkyDesc, TextureDesc, TextureRef, DISK_SEGMENTS, MAX_DEPTH, MAX_FILTER_RADIUS, MAX_LIGHT_SAMPLES, SUN_POSITION_KEYS,
+    MediumDesc, MeshFile, MeshFormat, MeshNormals, MeshOptions, ObjectDesc, PointLightDesc, SceneDesc, ShapeGroupDesc, SunPlacement,
+    SunSkyDesc, TextureDesc, TextureRef, DISK_SEGMENTS, MAX_DEPTH, MAX_FILTER_RADIUS, MAX_LIGHT_SAMPLES, SUN_POSITION_KEYS,
 };
-pub use volume::{build_heterogeneous, build_volume, grid_of, GridFile, VolumeDesc};
+pub use volume::{build_heterogeneous, build_volume, grid_of, GridFile, MediumVolumes, VolumeDesc};

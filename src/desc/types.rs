@@ -324,15 +324,7 @@ pub struct MediumDesc {
     pub source: Source,
     pub medium: crate::medium::Medium,
     /// A heterogeneous medium's volumes as described (grid files by name, for `rdr convert`).
-    pub volumes: Option<MediumVolumes>,
-}
-
-/// A heterogeneous medium's `sigma_t`, `albedo` and `radiance` volumes as described.
-#[derive(Clone, Debug)]
-pub struct MediumVolumes {
-    pub sigma_t: super::VolumeDesc,
-    pub albedo: super::VolumeDesc,
-    pub radiance: super::VolumeDesc,
+    pub volumes: Option<super::volume::MediumVolumes>,
 }
 
 /// A `mesh` object's file and placement: `path` (OBJ, relative to the scene file's

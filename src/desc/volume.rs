@@ -3,7 +3,7 @@
 //! the file into the render-ready [`Volume`]. The Mitsuba reader is
 //! `xml/plugins/volume.rs`.
 
-use crate::desc::{Located, MediumVolumes, Source};
+use crate::desc::{Located, Source};
 use crate::error::Result;
 use crate::medium::{Heterogeneous, Medium, PhaseFunction};
 use crate::volume::grid::GridOptions;
@@ -89,4 +89,12 @@ pub fn build_heterogeneous(
     let radiance = build_volume(&v.radiance, scene, base_dir)?;
     let medium = Heterogeneous::new(sigma_t, albedo, scale, phase).and_then(|m| m.with_radiance(radiance));
     Ok(medium.map(|m| Medium::Heterogeneous(Box::new(m))))
+}
+
+/// A heterogeneous medium's `sigma_t`, `albedo` and `radiance` volumes as described.
+#[derive(Clone, Debug)]
+pub struct MediumVolumes {
+    pub sigma_t: VolumeDesc,
+    pub albedo: VolumeDesc,
+    pub radiance: VolumeDesc,
 }

@@ -3,8 +3,7 @@
 //! heterogeneous medium's volumes with their grid files rebased on the output's folder,
 //! and rdr's `radiance` of an emissive medium).
 
-use super::write_xml::matrix;
-use super::{num, rebase, row_major};
+use super::{matrix, num, rebase, row_major};
 use crate::desc::{SceneDesc, VolumeDesc};
 use crate::math::{Mat4, Vec3};
 use crate::medium::{Medium, PhaseFunction};

@@ -101,6 +101,10 @@ pub(super) fn row_major(m: &Mat4) -> [f32; 16] {
     m.transpose().to_cols_array()
 }
 
+pub(super) fn matrix(m: &Mat4) -> String {
+    row_major(m).iter().map(|x| format!("{x}")).collect::<Vec<_>>().join(" ")
+}
+
 /// An OBJ file of a mesh's data (1-based indices, uv and normal per corner).
 pub fn obj_text(d: &ObjData) -> String {
     let mut s = String::from("# written by rdr convert\n");

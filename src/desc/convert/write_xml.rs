@@ -1,6 +1,6 @@
 //! A description written as Mitsuba 3 XML.
 
-use super::{cylinder_params, distribution_name, obj_has_normals, rebase, refuse_textured_emitters, row_major, Converted};
+use super::{cylinder_params, distribution_name, matrix, obj_has_normals, rebase, refuse_textured_emitters, Converted};
 use crate::desc::{MeshFormat, MeshNormals, MeshOptions, SceneDesc, TextureRef};
 use crate::error::{Result, SceneError};
 use crate::film::Filter;
@@ -265,10 +265,6 @@ fn esc(s: &str) -> String {
 
 fn v3(v: Vec3) -> String {
     format!("{}, {}, {}", v.x, v.y, v.z)
-}
-
-pub(super) fn matrix(m: &Mat4) -> String {
-    row_major(m).iter().map(|x| format!("{x}")).collect::<Vec<_>>().join(" ")
 }
 
 /// The description as Mitsuba 3 XML, for the file `out`.

@@ -194,13 +194,22 @@ impl<'a> Reader<'a> {
         let mut note = None;
         let mut depth = |default: i64| -> Result<u32> {
             let d = p.integer("max_depth", default)?;
-            if d == -1 || d > MAX_DEPTH as i64 {
-                if d != -1 || default == -1 {
+            // Mitsuba's default -1 (unbounded) needs no word: roulette ends paths long
+            // before the bound; a -1 the scene writes out is told once
+            if d == -1 {
+                if p.has("max_depth") {
                     note = Some((
                         el,
-                        format!("max_depth {d} is more than the {MAX_DEPTH} supported; using {MAX_DEPTH}"),
+                        format!("max_depth -1 (unbounded) is rendered with at most {MAX_DEPTH} segments"),
                     ));
                 }
+                return Ok(MAX_DEPTH);
+            }
+            if d > MAX_DEPTH as i64 {
+                note = Some((
+                    el,
+                    format!("max_depth {d} is more than the {MAX_DEPTH} supported; using {MAX_DEPTH}"),
+                ));
                 return Ok(MAX_DEPTH);
             }
             if d < 1 {

@@ -36,4 +36,4 @@ pub use types::{
     MediumDesc, MeshFile, MeshFormat, MeshNormals, MeshOptions, ObjectDesc, PointLightDesc, SceneDesc, ShapeGroupDesc, SunPlacement,
     SunSkyDesc, TextureDesc, TextureRef, DISK_SEGMENTS, MAX_DEPTH, MAX_FILTER_RADIUS, MAX_LIGHT_SAMPLES, SUN_POSITION_KEYS,
 };
-pub use volume::{build_heterogeneous, build_volume, grid_of, GridFile, MediumVolumes, VolumeDesc};
+pub use volume::{build_heterogeneous, build_volume, check_max_value, grid_of, GridFile, MediumVolumes, VolumeDesc};

@@ -440,6 +440,14 @@ pub struct SunSkyDesc {
     pub transform: Mat4,
 }
 
+impl SunSkyDesc {
+    /// Mitsuba 3's defaults, read by both scene formats.
+    pub const TURBIDITY: f32 = 3.0;
+    pub const ALBEDO: f32 = 0.3;
+    /// Degrees across.
+    pub const SUN_APERTURE: f32 = 0.5358;
+}
+
 /// Where `sunsky`'s sun is: a world direction, or a place and time.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum SunPlacement {

@@ -98,3 +98,12 @@ pub struct MediumVolumes {
     pub albedo: VolumeDesc,
     pub radiance: VolumeDesc,
 }
+
+/// A grid's `max_value` as both formats check it: finite and not negative (it may
+/// raise the grid's bound, never lower it: checked when the grid is read).
+pub fn check_max_value(max_value: Option<f32>) -> std::result::Result<(), &'static str> {
+    match max_value {
+        Some(m) if !(m.is_finite() && m >= 0.0) => Err("must be a finite number, not negative"),
+        _ => Ok(()),
+    }
+}

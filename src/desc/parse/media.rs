@@ -2,7 +2,7 @@
 //! of heterogeneous media (Mitsuba's `constvolume` and `gridvolume`, with its names).
 
 use super::super::json::Props;
-use crate::desc::{build_heterogeneous, grid_of, GridFile, Located, MediumDesc, MediumVolumes, VolumeDesc};
+use crate::desc::{build_heterogeneous, check_max_value, grid_of, GridFile, Located, MediumDesc, MediumVolumes, VolumeDesc};
 use crate::error::Result;
 use crate::math::{Mat4, Vec3};
 use crate::medium::{Homogeneous, Medium, PhaseFunction};
@@ -90,9 +90,7 @@ fn volume(p: &Props, key: &str, default: f32) -> Result<VolumeDesc> {
                 None => None,
                 Some(_) => Some(q.f32_or("max_value", 0.0)?),
             };
-            if max_value.is_some_and(|m| m < 0.0) {
-                return Err(q.error("max_value", "must not be negative"));
-            }
+            check_max_value(max_value).map_err(|e| q.error("max_value", e))?;
             Volume::Grid(GridFile {
                 path: q.located("filename", filename),
                 grid,

@@ -17,12 +17,12 @@ pub(super) fn parse_sunsky(p: &Props) -> Result<SunSkyDesc> {
     };
     let desc = SunSkyDesc {
         source: p.own_source(),
-        turbidity: p.f32_or("turbidity", 3.0)?,
-        albedo: p.vec3_or("albedo", Vec3::splat(0.3))?,
+        turbidity: p.f32_or("turbidity", SunSkyDesc::TURBIDITY)?,
+        albedo: p.vec3_or("albedo", Vec3::splat(SunSkyDesc::ALBEDO))?,
         sun,
         sun_scale: p.f32_or("sun_scale", 1.0)?,
         sky_scale: p.f32_or("sky_scale", 1.0)?,
-        sun_aperture: p.f32_or("sun_aperture", 0.5358)?,
+        sun_aperture: p.f32_or("sun_aperture", SunSkyDesc::SUN_APERTURE)?,
         complex_sun: p.bool_or("complex_sun", false)?,
         transform: p.mat4_or("transform", Mat4::IDENTITY)?,
     };

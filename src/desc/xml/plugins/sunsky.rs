@@ -58,12 +58,12 @@ impl<'a> Reader<'a> {
         };
         let desc = SunSkyDesc {
             source: source(p.el),
-            turbidity: p.float("turbidity", 3.0)?,
-            albedo: p.rgb("albedo", Vec3::splat(0.3))?,
+            turbidity: p.float("turbidity", SunSkyDesc::TURBIDITY)?,
+            albedo: p.rgb("albedo", Vec3::splat(SunSkyDesc::ALBEDO))?,
             sun,
             sun_scale: p.float("sun_scale", 1.0)?,
             sky_scale: p.float("sky_scale", 1.0)?,
-            sun_aperture: p.float("sun_aperture", 0.5358)?,
+            sun_aperture: p.float("sun_aperture", SunSkyDesc::SUN_APERTURE)?,
             complex_sun: p.boolean("complex_sun", false)?,
             transform: p.transform_opt("to_world")?.unwrap_or(Mat4::IDENTITY),
         };

@@ -6,7 +6,7 @@ use super::table::{noted, read, Param, PluginDoc, Status};
 use super::{source, Reader, VOLUMES};
 use crate::desc::xml::document::Element;
 use crate::desc::xml::props::{Ids, Plugin};
-use crate::desc::{grid_of, GridFile, Located, VolumeDesc};
+use crate::desc::{check_max_value, grid_of, GridFile, Located, VolumeDesc};
 use crate::error::Result;
 use crate::math::{Mat4, Vec3};
 use crate::volume::grid::GridOptions;
@@ -67,9 +67,7 @@ impl<'a> Reader<'a> {
                 let filter = GridFilter::from_name(&p.string("filter_type", "trilinear")?).map_err(|e| p.value_error("filter_type", e))?;
                 let wrap = WrapMode::from_name(&p.string("wrap_mode", "clamp")?).map_err(|e| p.value_error("wrap_mode", e))?;
                 let max_value = p.float_opt("max_value")?;
-                if max_value.is_some_and(|m| !(m.is_finite() && m >= 0.0)) {
-                    return Err(p.value_error("max_value", "must be a finite number, not negative"));
-                }
+                check_max_value(max_value).map_err(|e| p.value_error("max_value", e))?;
                 // Mitsuba's spectral upsampling switch: rdr renders RGB, nothing to switch
                 p.ignore("raw");
                 let max_value_source = p.value_source("max_value");

@@ -343,9 +343,9 @@ fn pyramid_levels_are_box_averages() {
     let r = MipMap::new(img.clone(), TextureConvention::Rdr171, true);
     let sizes: Vec<_> = r.levels().iter().map(|l| (l.width, l.height)).collect();
     assert_eq!(sizes, vec![(8, 4), (4, 2), (2, 1)]);
-    assert_eq!(r.levels()[0].texels, img.texels);
+    assert_eq!(r.levels()[0].to_linear(), img.to_linear());
     for (a, b) in r.levels()[1..].iter().zip(&m.levels()[1..]) {
-        for (p, q) in a.texels.iter().zip(&b.texels) {
+        for (p, q) in a.to_linear().iter().zip(&b.to_linear()) {
             assert!(close(*p, *q, 1e-6));
         }
     }
@@ -367,7 +367,7 @@ fn non_power_of_two_pyramids_keep_the_mean_and_constants() {
             let m = MipMap::new(Level::new(w, h, vec![c; w * h]), conv, true);
             for (k, l) in m.levels().iter().enumerate() {
                 assert!(
-                    l.texels.iter().all(|t| close(*t, c, 1e-6)),
+                    l.to_linear().iter().all(|t| close(*t, c, 1e-6)),
                     "{conv:?} {w}x{h} level {k} is not constant"
                 );
             }
@@ -459,10 +459,56 @@ fn rdr171_level_zero_is_the_power_of_two_bilinear_resample() {
     let r = MipMap::new(img, TextureConvention::Rdr171, false);
     let l0 = &r.levels()[0];
     assert_eq!((l0.width, l0.height), (4, 1));
-    let got: Vec<f32> = l0.texels.iter().map(|t| t.x).collect();
+    let got: Vec<f32> = l0.to_linear().iter().map(|t| t.x).collect();
     // s = 0 (clamped from −0.125), 0.625, 1.375, 2.125 → 0, 2.5, 5.5, 8 (index 3 clamps to 2)
     let want = [0.0, 2.5, 5.5, 8.0];
     for (g, w) in got.iter().zip(want) {
         assert!((g - w).abs() < 1e-5, "{got:?} vs {want:?}");
     }
+}
+
+/// 8-bit files keep their bytes (4×4 tiles, decoded through a table): every texel of
+/// every level, and bilinear and trilinear lookups anywhere (tile edges, wrapping,
+/// odd sizes), equal bit for bit those of the pyramid of the same file read as `f32`.
+#[test]
+fn eight_bit_texels_read_exactly_as_their_decoded_values() {
+    let dir = common::temp_dir("rdr-textures-eight-bit");
+    let mut mismatches = 0;
+    let mut lookups = 0;
+    for (w, h, conv) in [
+        (13, 7, TextureConvention::Physical),
+        (6, 9, TextureConvention::Physical),
+        (16, 8, TextureConvention::Rdr171),
+    ] {
+        let png = dir.path().join(format!("noise{w}x{h}.png"));
+        rdr::imageio::write_png(&png, w as u32, h as u32, &noise_level(w, h, 11).to_linear()).unwrap();
+        for raw in [false, true] {
+            let eight = rdr::texture::image::load_mipmap(&png, conv, true, raw).unwrap();
+            assert!(eight.levels()[0].is_encoded8(), "{w}x{h}: level 0 keeps the bytes");
+            let img = rdr::imageio::read_texture_image_as(&png, raw).unwrap();
+            let float = MipMap::new(Level::new(img.width, img.height, img.pixels), conv, true);
+            assert_eq!(eight.levels().len(), float.levels().len());
+            for (a, b) in eight.levels().iter().zip(float.levels()) {
+                mismatches += a.to_linear().iter().zip(&b.to_linear()).filter(|(p, q)| p != q).count();
+            }
+            for i in 0..400 {
+                let st = Vec2::new(
+                    -1.3 + 3.7 * ((i * 37 % 400) as f32 / 400.0),
+                    -0.9 + 2.9 * ((i * 91 % 400) as f32 / 400.0),
+                );
+                let d = Vec2::splat(0.004 * (i % 7) as f32);
+                for level in 0..eight.levels().len() {
+                    mismatches += (eight.bilinear(level, st) != float.bilinear(level, st)) as usize;
+                }
+                mismatches += (eight.lookup(st, d, d) != float.lookup(st, d, d)) as usize;
+                mismatches += (eight.luminance_gradient(st) != float.luminance_gradient(st)) as usize;
+                mismatches += (eight.nearest(st) != float.nearest(st)) as usize;
+                lookups += eight.levels().len() + 3;
+            }
+        }
+    }
+    assert_eq!(
+        mismatches, 0,
+        "{mismatches} of {lookups} lookups (and texels) differ from the f32 pyramid's"
+    );
 }

@@ -377,8 +377,9 @@ pub fn build(desc: &SceneDesc, opts: BuildOptions) -> Result<Scene> {
                 Texture::Constant(color) => EnvImage::Constant(*color),
                 Texture::Image(img) => {
                     let level = &img.mipmap.levels()[0];
+                    let texels = level.to_linear();
                     // NaN and infinite texels were made black when the file was read
-                    let (_, negative) = crate::light::environment::unusable_texels(&level.texels);
+                    let (_, negative) = crate::light::environment::unusable_texels(&texels);
                     let not_finite = img.mipmap.non_finite_texels();
                     if not_finite + negative > 0 {
                         let file = match &desc.textures[t as usize].texture {
@@ -387,13 +388,13 @@ pub fn build(desc: &SceneDesc, opts: BuildOptions) -> Result<Scene> {
                         };
                         warnings.push(format!(
                             "{file}: environment map with {not_finite} NaN or infinite and {negative} negative texel(s) of {}; they emit nothing",
-                            level.texels.len()
+                            texels.len()
                         ));
                     }
                     EnvImage::Image {
                         width: level.width,
                         height: level.height,
-                        texels: level.texels.clone(),
+                        texels,
                         mapping: img.mapping,
                     }
                 }
@@ -420,7 +421,7 @@ pub fn build(desc: &SceneDesc, opts: BuildOptions) -> Result<Scene> {
             let path = desc.base_dir.join(&f.path.value);
             let n = img.mipmap.non_finite_texels();
             if n > 0 && env_texture != Some(&(i as u32)) && !told.contains(&path) {
-                let all = img.mipmap.levels()[0].texels.len();
+                let all = img.mipmap.levels()[0].len();
                 warnings.push(format!(
                     "{}: image texture with {n} NaN or infinite texel(s) of {all}; they are read as black",
                     path.display()

@@ -743,16 +743,63 @@ const MAX_PIXELS_PER_BYTE: u64 = 32_768;
 /// Mitsuba's bitmap `raw`: for data such as normal or roughness maps) rather than
 /// decoded from sRGB.
 pub fn decode_texture_image_as(bytes: &[u8], path: &Path, raw: bool) -> Result<RgbImage> {
+    let img = decode_texture_texels(bytes, path, raw)?;
+    let pixels = match img.texels {
+        TexelData::Linear(p) => p,
+        TexelData::Encoded8 { rgb, decode } => rgb
+            .chunks_exact(3)
+            .map(|p| Vec3::new(decode[p[0] as usize], decode[p[1] as usize], decode[p[2] as usize]))
+            .collect(),
+    };
+    Ok(RgbImage {
+        width: img.width,
+        height: img.height,
+        pixels,
+    })
+}
+
+/// A texture file's texels as read: linear values, or for 8-bit files their bytes
+/// and the table of the 256 linear values they stand for.
+pub enum TexelData {
+    Linear(Vec<Vec3>),
+    /// Three bytes a pixel (RGB), rows from the top.
+    Encoded8 {
+        rgb: Vec<u8>,
+        decode: Box<[f32; 256]>,
+    },
+}
+
+/// A texture file read for a pyramid ([`decode_texture_texels`]).
+pub struct TextureTexels {
+    pub width: usize,
+    pub height: usize,
+    pub texels: TexelData,
+}
+
+/// [`read_texture_image_as`] keeping an 8-bit file's bytes ([`TexelData::Encoded8`]).
+pub fn read_texture_texels(path: &Path, raw: bool) -> Result<TextureTexels> {
+    decode_texture_texels(&read_input(path)?, path, raw)
+}
+
+/// [`decode_texture_image_as`] keeping an 8-bit file's bytes ([`TexelData::Encoded8`]).
+pub fn decode_texture_texels(bytes: &[u8], path: &Path, raw: bool) -> Result<TextureTexels> {
     let ext = path
         .extension()
         .and_then(|e| e.to_str())
         .map(str::to_ascii_lowercase)
         .unwrap_or_default();
+    let as_linear = |img: RgbImage| TextureTexels {
+        width: img.width,
+        height: img.height,
+        texels: TexelData::Linear(img.pixels),
+    };
     if ext == "exr" {
-        return decode_exr(bytes, path, TEXTURE_BYTES_PER_PIXEL);
+        return decode_exr(bytes, path, TEXTURE_BYTES_PER_PIXEL).map(as_linear);
     }
     if ext == "pfm" {
-        return decode_pfm(bytes).map_err(|e| anyhow::anyhow!("cannot decode {}: {e}", path.display()));
+        return decode_pfm(bytes)
+            .map(as_linear)
+            .map_err(|e| anyhow::anyhow!("cannot decode {}: {e}", path.display()));
     }
     let open = || -> Result<image::ImageReader<std::io::Cursor<&[u8]>>> {
         let mut reader = image::ImageReader::new(std::io::Cursor::new(bytes));
@@ -793,8 +840,9 @@ pub fn decode_texture_image_as(bytes: &[u8], path: &Path, raw: bool) -> Result<R
         .decode()
         .map_err(|e| anyhow::anyhow!("cannot decode {}: {e}", path.display()))?;
     let (width, height) = (img.width() as usize, img.height() as usize);
-    let pixels: Vec<Vec3> = match format {
-        Some(image::ImageFormat::Hdr) => img.into_rgb32f().pixels().map(|p| Vec3::new(p[0], p[1], p[2])).collect(),
+    let linear = |pixels: Vec<Vec3>| TexelData::Linear(pixels);
+    let texels = match format {
+        Some(image::ImageFormat::Hdr) => linear(img.into_rgb32f().pixels().map(|p| Vec3::new(p[0], p[1], p[2])).collect()),
         Some(
             image::ImageFormat::Png
             | image::ImageFormat::Jpeg
@@ -803,21 +851,20 @@ pub fn decode_texture_image_as(bytes: &[u8], path: &Path, raw: bool) -> Result<R
             | image::ImageFormat::Pnm,
         ) => {
             let decode = |v: f32| if raw { v } else { srgb_to_linear(v) };
-            let lut: Vec<f32> = (0..=255).map(|i| decode(i as f32 / 255.0)).collect();
             match img {
                 image::DynamicImage::ImageRgb16(_)
                 | image::DynamicImage::ImageRgba16(_)
                 | image::DynamicImage::ImageLuma16(_)
-                | image::DynamicImage::ImageLumaA16(_) => img
-                    .into_rgb32f()
-                    .pixels()
-                    .map(|p| Vec3::new(decode(p[0]), decode(p[1]), decode(p[2])))
-                    .collect(),
-                _ => img
-                    .into_rgb8()
-                    .pixels()
-                    .map(|p| Vec3::new(lut[p[0] as usize], lut[p[1] as usize], lut[p[2] as usize]))
-                    .collect(),
+                | image::DynamicImage::ImageLumaA16(_) => linear(
+                    img.into_rgb32f()
+                        .pixels()
+                        .map(|p| Vec3::new(decode(p[0]), decode(p[1]), decode(p[2])))
+                        .collect(),
+                ),
+                _ => TexelData::Encoded8 {
+                    rgb: img.into_rgb8().into_raw(),
+                    decode: Box::new(std::array::from_fn(|i| decode(i as f32 / 255.0))),
+                },
             }
         }
         other => anyhow::bail!(
@@ -827,7 +874,7 @@ pub fn decode_texture_image_as(bytes: &[u8], path: &Path, raw: bool) -> Result<R
         ),
     };
     anyhow::ensure!(width > 0 && height > 0, "{}: image is empty", path.display());
-    Ok(RgbImage { width, height, pixels })
+    Ok(TextureTexels { width, height, texels })
 }
 
 /// A portable float map (`PF`: RGB, `Pf`: grey; a negative scale is little-endian),

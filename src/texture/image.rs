@@ -1,12 +1,13 @@
 //! `image` textures (spec §8): a picture file, its MIP pyramid and a `uvmapping2d`.
 //!
-//! Files are read with [`crate::imageio::read_texture_image`] when the scene is built:
+//! Files are read with [`crate::imageio::read_texture_texels`] when the scene is built:
 //! EXR and Radiance HDR as linear values, PNG and JPEG decoded from sRGB; alpha is
 //! dropped. Every file is read and its pyramid built once per scene, however many
 //! textures and materials use it ([`ImageCache`]).
 
 use super::mipmap::{Level, MipMap};
 use super::{TexCoord, TextureConvention, UvMapping};
+use crate::imageio::TexelData;
 use crate::math::Vec3;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -117,15 +118,23 @@ impl ImageTexture {
 
 /// Reads `path` (PNG and JPEG decoded from sRGB unless `raw`) and builds its pyramid.
 pub fn load_mipmap(path: &Path, convention: TextureConvention, mipmap: bool, raw: bool) -> anyhow::Result<MipMap> {
-    let img = crate::imageio::read_texture_image_as(path, raw)?;
-    Ok(MipMap::new(Level::new(img.width, img.height, img.pixels), convention, mipmap))
+    let img = crate::imageio::read_texture_texels(path, raw)?;
+    Ok(MipMap::new(level_of(img), convention, mipmap))
+}
+
+/// Level 0 of a file read: 8-bit files keep their bytes ([`Level::encoded8`]).
+fn level_of(img: crate::imageio::TextureTexels) -> Level {
+    match img.texels {
+        TexelData::Linear(pixels) => Level::new(img.width, img.height, pixels),
+        TexelData::Encoded8 { rgb, decode } => Level::encoded8(img.width, img.height, &rgb, decode),
+    }
 }
 
 /// [`load_mipmap`] of a file's bytes already read (`name` gives the format by its
 /// extension and names the file in messages): the fuzz target's entry point.
 pub fn decode_mipmap(bytes: &[u8], name: &Path, convention: TextureConvention, mipmap: bool) -> anyhow::Result<MipMap> {
-    let img = crate::imageio::decode_texture_image(bytes, name)?;
-    Ok(MipMap::new(Level::new(img.width, img.height, img.pixels), convention, mipmap))
+    let img = crate::imageio::decode_texture_texels(bytes, name, false)?;
+    Ok(MipMap::new(level_of(img), convention, mipmap))
 }
 
 /// The same file under different spellings (`a.png`, `./a.png`, `x/../a.png`, links)

@@ -43,25 +43,120 @@ use crate::math::{Vec2, Vec3};
 pub struct Level {
     pub width: usize,
     pub height: usize,
-    pub texels: Vec<Vec3>,
+    texels: Texels,
 }
+
+/// How a level keeps its texels. An 8-bit image keeps its bytes and the 256 values
+/// they decode to (a quarter of the memory of `f32`s, read through the table to the
+/// very same values), in 4×4 tiles of 64 bytes so that a bilinear lookup's four
+/// texels mostly share one cache line; everything else (HDR files, the box-filtered
+/// levels above) keeps linear `f32`s in rows.
+#[derive(Clone)]
+enum Texels {
+    Linear(Vec<Vec3>),
+    Encoded8 {
+        tiles: Vec<Tile>,
+        tiles_x: usize,
+        decode: Box<[f32; 256]>,
+    },
+}
+
+/// 4×4 texels of an 8-bit level, RGB and a pad byte each: one cache line.
+#[derive(Clone, Copy)]
+#[repr(C, align(64))]
+struct Tile([[u8; 4]; 16]);
 
 impl Level {
     pub fn new(width: usize, height: usize, texels: Vec<Vec3>) -> Level {
         assert!(width > 0 && height > 0 && texels.len() == width * height, "level size");
-        Level { width, height, texels }
+        Level {
+            width,
+            height,
+            texels: Texels::Linear(texels),
+        }
+    }
+
+    /// A level of 8-bit texels (`rgb`: three bytes a texel, rows from the top), each
+    /// channel read as `decode[byte]`.
+    pub fn encoded8(width: usize, height: usize, rgb: &[u8], decode: Box<[f32; 256]>) -> Level {
+        assert!(width > 0 && height > 0 && rgb.len() == 3 * width * height, "level size");
+        let (tiles_x, tiles_y) = (width.div_ceil(4), height.div_ceil(4));
+        let mut tiles = vec![Tile([[0; 4]; 16]); tiles_x * tiles_y];
+        for (y, row) in rgb.chunks_exact(3 * width).enumerate() {
+            for (x, p) in row.chunks_exact(3).enumerate() {
+                tiles[(y >> 2) * tiles_x + (x >> 2)].0[(y & 3) * 4 + (x & 3)] = [p[0], p[1], p[2], 0];
+            }
+        }
+        Level {
+            width,
+            height,
+            texels: Texels::Encoded8 { tiles, tiles_x, decode },
+        }
     }
 
     /// Texel in file order (row 0 = top).
     #[inline]
     pub fn texel(&self, x: usize, y: usize) -> Vec3 {
-        self.texels[y * self.width + x]
+        match &self.texels {
+            Texels::Linear(t) => t[y * self.width + x],
+            Texels::Encoded8 { tiles, tiles_x, decode } => {
+                let [r, g, b, _] = tiles[(y >> 2) * tiles_x + (x >> 2)].0[(y & 3) * 4 + (x & 3)];
+                Vec3::new(decode[r as usize], decode[g as usize], decode[b as usize])
+            }
+        }
+    }
+
+    /// The four texels of a bilinear lookup: `(xa, ya)`, `(xb, ya)`, `(xa, yb)`, `(xb, yb)`.
+    #[inline]
+    fn quad(&self, xa: usize, xb: usize, ya: usize, yb: usize) -> [Vec3; 4] {
+        match &self.texels {
+            Texels::Linear(t) => {
+                let (ra, rb) = (ya * self.width, yb * self.width);
+                [t[ra + xa], t[ra + xb], t[rb + xa], t[rb + xb]]
+            }
+            Texels::Encoded8 { tiles, tiles_x, decode } => {
+                let at = |x: usize, y: usize| {
+                    let [r, g, b, _] = tiles[(y >> 2) * tiles_x + (x >> 2)].0[(y & 3) * 4 + (x & 3)];
+                    Vec3::new(decode[r as usize], decode[g as usize], decode[b as usize])
+                };
+                [at(xa, ya), at(xb, ya), at(xa, yb), at(xb, yb)]
+            }
+        }
+    }
+
+    /// Number of texels.
+    pub fn len(&self) -> usize {
+        self.width * self.height
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Every texel as linear RGB, in file order.
+    pub fn to_linear(&self) -> Vec<Vec3> {
+        match &self.texels {
+            Texels::Linear(t) => t.clone(),
+            Texels::Encoded8 { .. } => (0..self.height)
+                .flat_map(|y| (0..self.width).map(move |x| self.texel(x, y)))
+                .collect(),
+        }
+    }
+
+    /// Whether the texels are kept as 8-bit values.
+    pub fn is_encoded8(&self) -> bool {
+        matches!(self.texels, Texels::Encoded8 { .. })
     }
 
     /// Mean of all texels.
     pub fn mean(&self) -> Vec3 {
-        let s = self.texels.iter().fold(glam::DVec3::ZERO, |a, t| a + t.as_dvec3());
-        (s / self.texels.len() as f64).as_vec3()
+        let mut s = glam::DVec3::ZERO;
+        for y in 0..self.height {
+            for x in 0..self.width {
+                s += self.texel(x, y).as_dvec3();
+            }
+        }
+        (s / self.len() as f64).as_vec3()
     }
 }
 
@@ -86,9 +181,11 @@ impl MipMap {
     /// their neighbours and every lookup near one would be NaN.
     pub fn new(mut image: Level, convention: TextureConvention, mipmap: bool) -> MipMap {
         let mut non_finite = 0;
-        for t in image.texels.iter_mut().filter(|t| !t.is_finite()) {
-            *t = Vec3::ZERO;
-            non_finite += 1;
+        if let Texels::Linear(texels) = &mut image.texels {
+            for t in texels.iter_mut().filter(|t| !t.is_finite()) {
+                *t = Vec3::ZERO;
+                non_finite += 1;
+            }
         }
         let mut levels = Vec::new();
         match convention {
@@ -249,8 +346,9 @@ pub fn bilinear_repeat(l: &Level, x: f32, y: f32) -> Vec3 {
     let (x0, y0) = (x0 as i64, y0 as i64);
     let (xa, xb) = (x0.rem_euclid(w) as usize, (x0 + 1).rem_euclid(w) as usize);
     let (ya, yb) = (y0.rem_euclid(h) as usize, (y0 + 1).rem_euclid(h) as usize);
-    let top = l.texel(xa, ya) * (1.0 - fx) + l.texel(xb, ya) * fx;
-    let bottom = l.texel(xa, yb) * (1.0 - fx) + l.texel(xb, yb) * fx;
+    let [a, b, c, d] = l.quad(xa, xb, ya, yb);
+    let top = a * (1.0 - fx) + b * fx;
+    let bottom = c * (1.0 - fx) + d * fx;
     top * (1.0 - fy) + bottom * fy
 }
 
@@ -311,21 +409,33 @@ fn box_weights(n: usize, m: usize) -> Vec<Vec<(usize, f32)>> {
         .collect()
 }
 
-/// Exact box (area-average) downsampling to `w × h`, separable.
+/// Exact box (area-average) downsampling to `w × h`, separable: each output row
+/// sums the horizontally filtered source rows it covers, each filtered into a
+/// one-row buffer when needed (the same sums in the same order as filtering the
+/// whole level first, without a level-sized intermediate to allocate and fault in).
 fn box_downsample(src: &Level, w: usize, h: usize) -> Level {
     let wx = box_weights(src.width, w);
     let wy = box_weights(src.height, h);
-    // horizontal pass: src.height rows of w texels
-    let mut tmp = Vec::with_capacity(w * src.height);
-    for y in 0..src.height {
-        for ws in &wx {
-            tmp.push(ws.iter().fold(Vec3::ZERO, |a, &(x, k)| a + src.texel(x, y) * k));
-        }
-    }
     let mut texels = Vec::with_capacity(w * h);
+    let mut rows: Vec<(usize, Vec<Vec3>)> = Vec::new();
     for ws in &wy {
+        // the rows this output row needs, filtered once each (odd sizes share one)
+        rows.retain(|(y, _)| ws.iter().any(|&(yy, _)| yy == *y));
+        for &(y, _) in ws {
+            if !rows.iter().any(|(yy, _)| *yy == y) {
+                let row = wx
+                    .iter()
+                    .map(|wsx| wsx.iter().fold(Vec3::ZERO, |a, &(x, k)| a + src.texel(x, y) * k))
+                    .collect();
+                rows.push((y, row));
+            }
+        }
+        let parts: Vec<(&[Vec3], f32)> = ws
+            .iter()
+            .map(|&(y, k)| (rows.iter().find(|(yy, _)| *yy == y).map_or(&[][..], |r| &r.1[..]), k))
+            .collect();
         for x in 0..w {
-            texels.push(ws.iter().fold(Vec3::ZERO, |a, &(y, k)| a + tmp[y * w + x] * k));
+            texels.push(parts.iter().fold(Vec3::ZERO, |a, &(row, k)| a + row[x] * k));
         }
     }
     Level::new(w, h, texels)

@@ -6,7 +6,7 @@
 
 use super::{render_with_aov, FilmState, RenderControl, RenderJob, RenderOutput};
 use crate::compat::Profile;
-use crate::integrator::aov::AovSet;
+use crate::film::aov::AovSet;
 use crate::scene::Scene;
 
 /// Who is asking, for the spelling of option names in messages: the command line's

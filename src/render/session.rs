@@ -113,7 +113,7 @@ pub fn check_features(what: &str, job: &RenderJob, profile: Profile, caller: Cal
     }
     if !job.integrator.supports_aov() {
         return Err(format!(
-            "{name}: the {} integrator does not make feature buffers (path, intersection_test, bdpt, ptracer, photon and normals do)",
+            "{name}: the {} integrator does not make feature buffers (path, intersection_test, bdpt, ptracer, photon, sppm and normals do)",
             job.integrator.name()
         ));
     }

@@ -7,6 +7,8 @@
 //! through [`Splats`] lists, also merged in a fixed order, into a buffer of their own
 //! that is added to the weighted average divided by the number of samples per pixel.
 
+pub mod aov;
+
 use crate::math::{Vec2, Vec3};
 use crate::pages::{clone_huge, filled_huge};
 use rayon::prelude::*;

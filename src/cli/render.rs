@@ -145,14 +145,14 @@ pub fn render(
     }
     let shard = flow.shard.as_deref().map(parse_shard).transpose()?;
     if let Some(text) = &flow.aov {
-        rdr::integrator::aov::AovSet::parse(text).map_err(|e| anyhow::anyhow!("--aov '{}': {e}", sanitize(text)))?;
+        rdr::film::aov::AovSet::parse(text).map_err(|e| anyhow::anyhow!("--aov '{}': {e}", sanitize(text)))?;
     }
     setup_threads(args.threads)?;
     let (Loaded { scene, mut job }, desc) = load_desc(args, quiet)?;
     // --aov, else the layers the scene asks for (Mitsuba's `aov` integrator)
     let aov = match flow.aov.as_ref().or(desc.integrator.aovs.as_ref()) {
-        Some(text) => rdr::integrator::aov::AovSet::parse(text).map_err(|e| anyhow::anyhow!("--aov '{}': {e}", sanitize(text)))?,
-        None => rdr::integrator::aov::AovSet::default(),
+        Some(text) => rdr::film::aov::AovSet::parse(text).map_err(|e| anyhow::anyhow!("--aov '{}': {e}", sanitize(text)))?,
+        None => rdr::film::aov::AovSet::default(),
     };
     job.time_limit = time_limit;
     if flow.denoise {
@@ -410,13 +410,10 @@ pub fn render(
             note!("warning: preview: {e:#}");
         }
     }
-    let layers = out
-        .aov
-        .as_ref()
-        .map_or_else(Vec::new, |sums| rdr::integrator::aov::channels(sums, aov));
+    let layers = out.aov.as_ref().map_or_else(Vec::new, |sums| rdr::film::aov::channels(sums, aov));
     let clean = if flow.denoise {
         let sums = out.aov.as_ref().expect("feature sums for --denoise");
-        let (albedo, normal) = (rdr::integrator::aov::layer_rgb(sums, 0), rdr::integrator::aov::layer_rgb(sums, 3));
+        let (albedo, normal) = (rdr::film::aov::layer_rgb(sums, 0), rdr::film::aov::layer_rgb(sums, 3));
         let clean = rdr::render::denoise::denoise(out.width, out.height, &out.pixels, &albedo, &normal)
             .map_err(|e| anyhow::anyhow!("--denoise: {e}"))?;
         Some(clean)

@@ -18,30 +18,18 @@
 //! | image lookup | repeat wrap, footprint-driven trilinear, level `log2(w·max(W,H))` | `max(W·s − ½, 0)`, unsigned-modulo wrap, level `(levels−1) + log2(w)` (§8) |
 //! | ray differentials | camera rays (scaled by `max(1/8, 1/√spp)`), dropped after refraction | none: every lookup on level 0 (§13) |
 //!
-//! The integrator rows are [`crate::integrator::rdr171`] (the column renderer that
-//! `--compat rdr171` runs in place of `intersection_test`, see
-//! [`crate::render::RenderJob::from_desc`]); the texture rows are one switch, [`BuildOptions::textures`]
-//! ([`crate::texture::TextureConvention`]), set here; see `src/texture/mipmap.rs`.
+//! The integrator rows are [`rdr171`] (the column renderer that `--compat rdr171`
+//! runs in place of `intersection_test`, see [`crate::render::RenderJob::from_desc`]);
+//! the texture rows are one switch, [`crate::desc::BuildOptions::textures`]
+//! ([`crate::texture::TextureConvention`]), which [`Profile::build_options`] sets
+//! (in `desc/build.rs`, so that this module imports nothing above the integrators);
+//! see `src/texture/mipmap.rs`.
 
-use crate::desc::BuildOptions;
-use crate::texture::TextureConvention;
+pub mod rdr171;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum Profile {
     #[default]
     Physical,
     Rdr171,
-}
-
-impl Profile {
-    pub fn build_options(self) -> BuildOptions {
-        match self {
-            Profile::Physical => BuildOptions::default(),
-            Profile::Rdr171 => BuildOptions {
-                swap_uv_on_rewind: false,
-                textures: TextureConvention::Rdr171,
-                ..BuildOptions::default()
-            },
-        }
-    }
 }

@@ -41,6 +41,21 @@ impl Default for BuildOptions {
     }
 }
 
+impl crate::compat::Profile {
+    /// The build options of this profile (`--compat rdr171`: the original's uv
+    /// re-winding and texture convention).
+    pub fn build_options(self) -> BuildOptions {
+        match self {
+            Self::Physical => BuildOptions::default(),
+            Self::Rdr171 => BuildOptions {
+                swap_uv_on_rewind: false,
+                textures: TextureConvention::Rdr171,
+                ..BuildOptions::default()
+            },
+        }
+    }
+}
+
 fn lookup(names: &HashMap<&str, u32>, name: &str, what: &str, desc: &SceneDesc, source: &Source) -> Result<u32> {
     names.get(name).copied().ok_or_else(|| {
         let mut known: Vec<&str> = names.keys().copied().collect();

@@ -11,12 +11,12 @@
 //! a sampler of their own, so the image itself is the same with and without `--aov`.
 //! Values are averaged over the same samples as the image, with a box filter (each
 //! sample to its own pixel): albedo and normal over all samples (a miss adds zero),
-//! depth and position over the samples that hit something (zero where none did).
+//! depth and position over the samples that hit something (zero where none did):
+//! [`crate::film::aov`] writes them out.
 
 use super::spawn_ray;
-use crate::film::{AovSample, AovSums};
+use crate::film::AovSample;
 use crate::geometry::Ray;
-use crate::imageio::{ChannelData, ExrChannel};
 use crate::math::{Vec2, Vec3};
 use crate::sampler::PixelSampler;
 use crate::scene::Scene;
@@ -26,38 +26,6 @@ const MAX_SPECULAR_BOUNCES: u32 = 16;
 
 /// Seed offset of the features' own sampler, so they never consume the image's samples.
 const AOV_SEED: u32 = 0xa0f5_3c1d;
-
-/// Which feature buffers a render writes.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct AovSet {
-    pub albedo: bool,
-    pub normal: bool,
-    pub depth: bool,
-    pub position: bool,
-}
-
-impl AovSet {
-    pub const NAMES: &'static str = "albedo, normal, depth, position";
-
-    /// `albedo,normal,depth` (comma-separated names, any order).
-    pub fn parse(text: &str) -> Result<AovSet, String> {
-        let mut set = AovSet::default();
-        for name in text.split(',').map(str::trim) {
-            match name {
-                "albedo" => set.albedo = true,
-                "normal" => set.normal = true,
-                "depth" => set.depth = true,
-                "position" => set.position = true,
-                other => return Err(format!("unknown AOV '{other}' (known: {})", Self::NAMES)),
-            }
-        }
-        Ok(set)
-    }
-
-    pub fn any(&self) -> bool {
-        self.albedo || self.normal || self.depth || self.position
-    }
-}
 
 /// The sampler of the features of sample `pass` of pixel (`x`, `y`).
 pub fn aov_sampler(x: u32, y: u32, pass: u32, seed: u32) -> PixelSampler {
@@ -100,67 +68,4 @@ pub fn features(scene: &Scene, ray: &Ray, sampler: &mut PixelSampler) -> AovSamp
         ray = spawn_ray(&it, bs.wi);
     }
     out
-}
-
-/// The feature layers `set` asks for, averaged from `sums`, as EXR channels
-/// (`albedo.R`…, `normal.X`…, `position.X`…, `depth.Z`), rows top-down.
-pub fn channels(sums: &AovSums, set: AovSet) -> Vec<ExrChannel> {
-    let (w, h) = (sums.width as usize, sums.height as usize);
-    // file row r is film row h-1-r
-    let top_down = |j: usize| (h - 1 - j / w) * w + j % w;
-    let layer = |first: usize, component: usize, per_hit: bool| -> Vec<f32> {
-        (0..w * h)
-            .map(|j| {
-                let s = &sums.sums[top_down(j)];
-                let n = if per_hit { s[10] } else { s[11] };
-                if n > 0.0 {
-                    (s[first + component] / n) as f32
-                } else {
-                    0.0
-                }
-            })
-            .collect()
-    };
-    let mut out = Vec::new();
-    let mut push = |layer_name: &str, comps: &[&str], first: usize, per_hit: bool| {
-        for (i, c) in comps.iter().enumerate() {
-            out.push(ExrChannel {
-                name: format!("{layer_name}.{c}"),
-                data: ChannelData::F32(layer(first, i, per_hit)),
-            });
-        }
-    };
-    if set.albedo {
-        push("albedo", &["R", "G", "B"], 0, false);
-    }
-    if set.normal {
-        push("normal", &["X", "Y", "Z"], 3, false);
-    }
-    if set.position {
-        push("position", &["X", "Y", "Z"], 6, true);
-    }
-    if set.depth {
-        push("depth", &["Z"], 9, true);
-    }
-    out
-}
-
-/// One feature layer (`albedo`, `normal`; three values a pixel, rows top-down), for
-/// a denoiser.
-pub fn layer_rgb(sums: &AovSums, first: usize) -> Vec<Vec3> {
-    let (w, h) = (sums.width as usize, sums.height as usize);
-    (0..w * h)
-        .map(|j| {
-            let s = &sums.sums[(h - 1 - j / w) * w + j % w];
-            if s[11] > 0.0 {
-                Vec3::new(
-                    (s[first] / s[11]) as f32,
-                    (s[first + 1] / s[11]) as f32,
-                    (s[first + 2] / s[11]) as f32,
-                )
-            } else {
-                Vec3::ZERO
-            }
-        })
-        .collect()
 }

@@ -17,7 +17,6 @@ pub mod pass;
 pub mod path;
 pub mod photon;
 pub mod ptracer;
-pub mod rdr171;
 pub mod sppm;
 pub mod state;
 
@@ -26,20 +25,20 @@ pub use estimator::PathProfile;
 pub use guided::Guided;
 pub use intersection_test::IntersectionTest;
 pub use normals::Normals;
-pub use pass::{camera_pass, camera_pass_blocks, lens_sample, CameraBlock, CameraSample, PassContext, PassResult, RayCounts, StopToken};
+pub use pass::{camera_pass, camera_pass_blocks, CameraBlock, CameraSample, PassContext, PassResult, RayCounts, StopToken};
 pub use path::PathTracer;
 pub use photon::PhotonMapper;
 pub use ptracer::Ptracer;
 pub use sppm::Sppm;
 pub use state::PassState;
 
+use crate::compat::rdr171::Rdr171Columns;
 use crate::film::Film;
 use crate::geometry::ray::RAY_T_MAX;
 use crate::geometry::Ray;
 use crate::light::{LightSample, ShadowTarget};
 use crate::math::{offset_ray_origin, Vec3};
 use crate::scene::Interaction;
-use rdr171::Rdr171Columns;
 
 /// The integrator a render job runs, with its parameters.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -57,7 +56,8 @@ pub enum Integrator {
     Photon(PhotonMapper),
     /// Stochastic progressive photon mapping.
     Sppm(Sppm),
-    /// The course renderer's `intersection_test`, quirks and all (`--compat rdr171`).
+    /// The course renderer's `intersection_test`, quirks and all (`--compat rdr171`,
+    /// [`crate::compat::rdr171`]).
     Rdr171(Rdr171Columns),
 }
 
@@ -107,7 +107,8 @@ impl Integrator {
     }
 
     /// Whether `--aov` feature buffers come with its passes: those of the integrators
-    /// whose camera rays go through [`camera_pass`].
+    /// whose camera samples go through [`camera_pass`] into the render's film (`guided`'s
+    /// go into films of its iterations).
     pub fn supports_aov(&self) -> bool {
         match self {
             Integrator::IntersectionTest(_)
@@ -147,7 +148,14 @@ impl Integrator {
             Integrator::Photon(p) => p.render_pass(ctx, pass, film, state.photon()),
             Integrator::Guided(g) => g.render_pass(ctx, state.guided()),
             Integrator::Sppm(p) => p.render_pass(ctx, pass, film, state.sppm()),
-            Integrator::Rdr171(c) => c.render(ctx, film),
+            Integrator::Rdr171(c) => {
+                // the whole render in one pass
+                let column = ctx.film.height as u64 * ctx.spp as u64;
+                let stopped = || ctx.stop.is_stopped();
+                let complete = c.render(film, (scene, ctx.camera, ctx.film), ctx.spp, &stopped, &|| (ctx.progress)(column));
+                let counts = RayCounts::default();
+                PassResult { complete, counts }
+            }
         }
     }
 

@@ -26,10 +26,6 @@ impl StopToken {
     pub fn stop(&self) {
         self.flag.store(true, Ordering::SeqCst);
     }
-    /// Sets the flag and returns whether it was already set (a second Ctrl-C).
-    pub fn stop_again(&self) -> bool {
-        self.flag.swap(true, Ordering::SeqCst)
-    }
     #[inline]
     pub fn is_stopped(&self) -> bool {
         self.flag.load(Ordering::Relaxed)
@@ -246,19 +242,9 @@ where
             Some(((t.tile, t.splats, t.counts, t.aov), own))
         })
         .collect();
-    let (done, own): (Vec<Option<TileResult>>, Vec<Option<T>>) = done
-        .into_iter()
-        .map(|d| d.map_or((None, None), |(r, o)| (Some(r), Some(o))))
-        .unzip();
-    let result = merge_tiles(done, film);
-    (
-        result,
-        if result.complete {
-            own.into_iter().flatten().collect()
-        } else {
-            Vec::new()
-        },
-    )
+    let (done, own): (Vec<_>, Vec<_>) = done.into_iter().map(Option::unzip).unzip();
+    // the tiles' collections only when every tile was rendered (and merged)
+    (merge_tiles(done, film), own.into_iter().collect::<Option<_>>().unwrap_or_default())
 }
 
 /// Pixel `(x, y)`'s sampler at sample index `pass` and the film position (and
@@ -440,7 +426,7 @@ where
 
 /// The lens point's sample for a camera ray: a thin lens takes the pixel sampler's next
 /// two dimensions, a pinhole or orthographic camera none (so their images stay as they were).
-pub fn lens_sample(camera: &crate::camera::Camera, sampler: &mut PixelSampler) -> Vec2 {
+fn lens_sample(camera: &Camera, sampler: &mut PixelSampler) -> Vec2 {
     if camera.has_lens() {
         Vec2::from(sampler.next_2d())
     } else {
@@ -467,13 +453,8 @@ pub fn tile_of(film: &FilmSettings, (x, y): (i32, i32)) -> (i32, i32, i32, i32) 
 
 /// Tiles of `block_size`² pixels in row order (film `y` up), clipped to the film.
 pub fn tile_grid(film: &FilmSettings) -> Vec<(i32, i32, i32, i32)> {
-    let b = film.block_size.max(1) as i32;
-    let (w, h) = (film.width as i32, film.height as i32);
-    let mut tiles = Vec::new();
-    for y0 in (0..h).step_by(b as usize) {
-        for x0 in (0..w).step_by(b as usize) {
-            tiles.push((x0, y0, (x0 + b).min(w), (y0 + b).min(h)));
-        }
-    }
-    tiles
+    let b = film.block_size.max(1) as usize;
+    let rows = (0..film.height as i32).step_by(b);
+    rows.flat_map(|y| (0..film.width as i32).step_by(b).map(move |x| tile_of(film, (x, y))))
+        .collect()
 }

@@ -84,43 +84,43 @@ pub struct Shooting {
     pub min_segments: u32,
 }
 
+impl Shooting {
+    /// The photon maps' shooting for paths of at most `max_depth` segments: photons of
+    /// 2 to `max_depth − 1` segments (a camera path takes at least one).
+    pub fn for_maps(count: u32, max_depth: u32, rr_threshold: f32) -> Shooting {
+        Shooting {
+            count,
+            max_segments: max_depth.saturating_sub(1),
+            rr_threshold,
+            min_segments: 2,
+        }
+    }
+}
+
 /// Photon deposits: positions, payloads (same order), rays cast.
 pub type Deposits = (Vec<[f32; 3]>, Vec<Photon>, u64);
 
-/// Shoots `s.count` photons for `iteration`; `None` when the stop token was set.
-pub fn shoot(scene: &Scene, s: Shooting, iteration: u32, seed: u32, stop: &StopToken) -> Option<PhotonMap> {
-    shoot_rounds(scene, s, iteration, seed, stop, 1)
-}
-
-/// Rounds of [`shoot_until_stored`] at most.
+/// Rounds of [`shoot`] at most.
 pub const MAX_ROUNDS: usize = 1024;
 
-/// Shoots `s.count` photons for `iteration`, and more rounds of as many until the
-/// map holds at least `s.count` (Jensen's and Mitsuba's photon maps count stored
-/// photons); all photons shot are the estimate's N. Where most photons leave the scene
-/// before a stored hit (a sky over a wide floor: first hits are not stored) the map
-/// still fills, so its k-NN radii stay small; where the first round fills it, this is
-/// [`shoot`]. Stops after a round that stored nothing and after [`MAX_ROUNDS`]. `None`
-/// when the stop token was set.
-pub fn shoot_until_stored(scene: &Scene, s: Shooting, iteration: u32, seed: u32, stop: &StopToken) -> Option<PhotonMap> {
-    shoot_rounds(scene, s, iteration, seed, stop, MAX_ROUNDS)
-}
-
-/// [`shoot_until_stored`] with at most `rounds` rounds.
-fn shoot_rounds(scene: &Scene, s: Shooting, iteration: u32, seed: u32, stop: &StopToken, rounds: usize) -> Option<PhotonMap> {
-    let n = s.count as usize;
-    let (mut pts, mut photons, mut rays, mut emitted) = (Vec::new(), Vec::new(), 0, 0u64);
+/// Shoots `s.count` photons for `iteration`; `None` when the stop token was set. With
+/// `until_stored`, more rounds of as many until the map holds at least `s.count`
+/// (Jensen's and Mitsuba's photon maps count stored photons); all photons shot are the
+/// estimate's N. Where most photons leave the scene before a stored hit (a sky over a
+/// wide floor: first hits are not stored) the map still fills, so its k-NN radii stay
+/// small. Stops after a round that stored nothing and after [`MAX_ROUNDS`].
+pub fn shoot(scene: &Scene, s: Shooting, iteration: u32, seed: u32, stop: &StopToken, until_stored: bool) -> Option<PhotonMap> {
+    let (n, rounds) = (s.count as usize, if until_stored { MAX_ROUNDS } else { 1 });
+    let (mut all, mut emitted) = (Deposits::default(), 0u64);
     for r in 0..rounds {
-        let before = photons.len();
-        let (p, ph, r_rays) = shoot_chunks(scene, s, r * n..(r + 1) * n, iteration, seed, stop)?;
-        pts.extend(p);
-        photons.extend(ph);
-        rays += r_rays;
+        let before = all.1.len();
+        append(&mut all, shoot_chunks(scene, s, r * n..(r + 1) * n, iteration, seed, stop)?);
         emitted += n as u64;
-        if photons.len() >= n || photons.len() == before {
+        if all.1.len() >= n || all.1.len() == before {
             break;
         }
     }
+    let (pts, photons, rays) = all;
     let tree = KdTree::build(pts);
     let photons = tree.permute(&photons);
     Some(PhotonMap {
@@ -169,21 +169,22 @@ fn shoot_chunks(
             Some((pts, ph, rays))
         })
         .collect::<Option<_>>()?;
-    let (mut pts, mut photons, mut rays) = (Vec::new(), Vec::new(), 0);
-    for (p, ph, r) in chunks {
-        pts.extend(p);
-        photons.extend(ph);
-        rays += r;
-    }
-    Some((pts, photons, rays))
+    let mut all = Deposits::default();
+    chunks.into_iter().for_each(|c| append(&mut all, c));
+    Some(all)
+}
+
+/// Appends deposits `d` to `all`.
+fn append(all: &mut Deposits, d: Deposits) {
+    all.0.extend(d.0);
+    all.1.extend(d.1);
+    all.2 += d.2;
 }
 
 /// The random numbers of photon `i` of `iteration` for `seed`: the (seed, iteration) pair
 /// hashed to a 64-bit key, and the photon's stream started at a hash of that key XOR `i`
-/// ([`SplitMix64::for_key`]), so no two photons share numbers. Until session 13 the three
-/// were packed into one key (`seed << 40 ^ iteration << 32 ^ i`, dropping the seed's top
-/// eight bits and overlapping it with iterations from 256 on) and the stream started at
-/// key·γ, which made photon i + 1's numbers photon i's, one draw later.
+/// ([`SplitMix64::for_key`]), so no two photons share numbers (a key packed from the
+/// three lost seed bits, and streams started at key·γ overlapped: see the test).
 fn photon_rng(seed: u32, iteration: u32, i: u64) -> SplitMix64 {
     SplitMix64::for_key(mix64((seed as u64) << 32 | iteration as u64) ^ i)
 }
@@ -291,10 +292,6 @@ impl VisiblePoint {
     }
 }
 
-fn is_glossy(b: &Bsdf) -> bool {
-    matches!(b.kind, BsdfKind::Conductor { .. })
-}
-
 /// The camera path of `photon` and `sppm`, a [`Policy`] of the camera-path estimator:
 /// light sampling alone (emission counts where the camera or a specular bounce finds
 /// it), no roulette, BSDF sampling through specular vertices (and glossy ones when
@@ -329,7 +326,7 @@ impl Policy for ToVisiblePoint {
         if bsdf.is_delta() {
             return false;
         }
-        if self.through_glossy && is_glossy(bsdf) {
+        if self.through_glossy && matches!(bsdf.kind, BsdfKind::Conductor { .. }) {
             // a photon path of at least 2 segments must still fit behind the next vertex
             return segment + 2 > self.max_depth;
         }
@@ -372,7 +369,7 @@ pub fn camera_path(
 
 /// Parameters (JSON `integrator` keys, besides `type`):
 /// * `n_photons` (int ≥ 1, 100000) — photons shot per map, and more until the map holds
-///   at least as many (see [`shoot_until_stored`]);
+///   at least as many (see [`shoot`]);
 /// * `n_iterations` (int ≥ 1, 1) — independent photon maps; the image averages them;
 /// * `spp` (int ≥ 1, 16) — camera samples per pixel per iteration (`--spp` sets it);
 ///   a render takes `n_iterations · spp` passes of one sample per pixel;
@@ -422,13 +419,8 @@ impl PhotonMapper {
         let iteration = pass / ctx.spp.max(1);
         let mut shot_rays = 0;
         if state.as_ref().is_none_or(|s| s.iteration != iteration) {
-            let shooting = Shooting {
-                count: self.n_photons,
-                max_segments: self.max_depth.saturating_sub(1),
-                rr_threshold: self.rr_threshold,
-                min_segments: 2,
-            };
-            let Some(map) = shoot_until_stored(scene, shooting, iteration, ctx.seed, ctx.stop) else {
+            let shooting = Shooting::for_maps(self.n_photons, self.max_depth, self.rr_threshold);
+            let Some(map) = shoot(scene, shooting, iteration, ctx.seed, ctx.stop, true) else {
                 return PassResult::default();
             };
             shot_rays = map.rays;

@@ -60,7 +60,7 @@ struct Pixel {
 }
 
 /// The pixels' statistics between passes.
-#[derive(Debug)]
+#[derive(Debug, Default)]
 pub struct State {
     pixels: Vec<Pixel>,
     iterations: u32,
@@ -76,21 +76,13 @@ impl Sppm {
         let scene = ctx.scene;
         let (w, h) = (ctx.film.width as usize, ctx.film.height as usize);
         debug_assert_eq!(w * h, film.width as usize * film.height as usize);
-        let shooting = Shooting {
-            count: self.photons_per_iteration,
-            max_segments: self.max_depth.saturating_sub(1),
-            rr_threshold: self.rr_threshold,
-            min_segments: 2,
-        };
-        let Some(map) = shoot(scene, shooting, pass, ctx.seed, ctx.stop) else {
+        let shooting = Shooting::for_maps(self.photons_per_iteration, self.max_depth, self.rr_threshold);
+        let Some(map) = shoot(scene, shooting, pass, ctx.seed, ctx.stop, false) else {
             return PassResult::default();
         };
         let state = state.get_or_insert_with(|| State {
             pixels: vec![Pixel::default(); w * h],
-            iterations: 0,
-            photons_emitted: 0,
-            photons_stored: 0,
-            map_bytes: 0,
+            ..State::default()
         });
         let spread = ctx.camera.pixel_spread();
         let (alpha, max_depth) = (self.alpha, self.max_depth);
@@ -173,17 +165,16 @@ impl State {
 
     /// Photon counts, memory and radii, for the render summary.
     pub fn summary(&self) -> String {
-        let s = self;
-        let mut radii: Vec<f32> = s.pixels.iter().map(|p| p.r).filter(|r| *r > 0.0).collect();
+        let mut radii: Vec<f32> = self.pixels.iter().map(|p| p.r).filter(|r| *r > 0.0).collect();
         radii.sort_by(f32::total_cmp);
         let q = |f: f64| radii.get(((radii.len() as f64 - 1.0) * f).round() as usize).copied().unwrap_or(0.0);
         format!(
             "sppm: {} iterations, {} photons shot, {} stored ({:.0} per iteration, at most {:.1} MB, {} bytes per photon); final radius min/median/max {:.3e}/{:.3e}/{:.3e}",
-            s.iterations,
-            s.photons_emitted,
-            s.photons_stored,
-            s.photons_stored as f64 / s.iterations.max(1) as f64,
-            s.map_bytes as f64 / 1e6,
+            self.iterations,
+            self.photons_emitted,
+            self.photons_stored,
+            self.photons_stored as f64 / self.iterations.max(1) as f64,
+            self.map_bytes as f64 / 1e6,
             BYTES_PER_PHOTON,
             q(0.0),
             q(0.5),

@@ -1,5 +1,5 @@
 //! `--denoise`: Intel Open Image Denoise's `RT` filter on the finished image, with the
-//! albedo and normal feature buffers ([`crate::integrator::aov`]).
+//! albedo and normal feature buffers ([`crate::film::aov`]).
 //!
 //! Only with the cargo feature `denoise`, which loads `libOpenImageDenoise` at run time
 //! (`libloading`): the library is not a Debian package and the default build does not

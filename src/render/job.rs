@@ -3,11 +3,11 @@
 //! (geometry, materials, lights, BVH) is the [`Scene`].
 
 use crate::camera::{Camera, Projection};
+use crate::compat::rdr171::Rdr171Columns;
 use crate::compat::Profile;
 use crate::desc::{build, BuildOptions, SceneDesc};
 use crate::error::{Result, SceneError};
 use crate::film::{FilmSampling, FilmSettings};
-use crate::integrator::rdr171::Rdr171Columns;
 use crate::integrator::Integrator;
 use crate::scene::Scene;
 use std::path::Path;

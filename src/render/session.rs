@@ -6,7 +6,7 @@
 
 use super::{render_with_aov, FilmState, RenderControl, RenderJob, RenderOutput};
 use crate::compat::Profile;
-use crate::integrator::aov::AovSet;
+use crate::film::aov::AovSet;
 use crate::scene::Scene;
 
 /// Who is asking, for the spelling of option names in messages: the command line's
@@ -113,7 +113,7 @@ pub fn check_features(what: &str, job: &RenderJob, profile: Profile, caller: Cal
     }
     if !job.integrator.supports_aov() {
         return Err(format!(
-            "{name}: the {} integrator does not make feature buffers (path, intersection_test, bdpt, ptracer, photon and normals do)",
+            "{name}: the {} integrator does not make feature buffers (path, intersection_test, bdpt, ptracer, photon, sppm and normals do)",
             job.integrator.name()
         ));
     }

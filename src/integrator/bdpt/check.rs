@@ -9,10 +9,10 @@
 //! from the others break the sum.
 
 use super::vertex::{Ctx, Kind, Vertex};
-use super::{ctx, Engine, Heuristic, PathDensities, Select};
+use super::{Engine, Heuristic, PathDensities, Select};
+use crate::integrator::estimator::sample_light;
 use crate::integrator::RayCounts;
-use crate::material::TransportMode;
-use crate::math::{Vec2, Vec3};
+use crate::math::Vec3;
 use crate::sampler::PixelSampler;
 
 /// What [`mis_self_check`] found.
@@ -66,11 +66,8 @@ fn path_densities(ctx: &Ctx, x: &[Vertex]) -> PathDensities {
 fn weight_sum(e: &Engine, x: &[Vertex], d: &PathDensities) -> f32 {
     let n = x.len();
     let mut sum = 0.0;
-    for s in 0..=n {
+    for s in 0..n {
         let t = n - s;
-        if t == 0 {
-            continue;
-        }
         let light: Vec<Vertex> = (0..s)
             .map(|i| Vertex {
                 pdf_fwd: d.light[i],
@@ -114,35 +111,15 @@ pub fn mis_self_check(
     max_depth: u32,
     samples: u32,
 ) -> MisCheck {
-    let e = Engine {
-        ctx: ctx(scene, camera),
-        max_depth: max_depth as usize,
-        heuristic: Heuristic::Power,
-        select: Select::All,
-        roulette: 0.0,
-    };
+    let e = Engine::new(scene, camera, max_depth, Heuristic::Power, Select::All, 0.0);
     let mut out = MisCheck::default();
     let mut counts = RayCounts::default();
-    let mut d = PathDensities::default();
     for i in 0..samples {
         let mut sampler = PixelSampler::new(i % width, (i / width) % height, i, 77);
         let (u, v) = sampler.next_2d();
         let ray = camera.ray(u * width as f32, v * height as f32);
-        let mut cam = vec![Vertex::new(Kind::Camera, camera.position, Vec3::ZERO, Vec3::ONE)];
-        cam[0].pdf_fwd = 1.0;
-        cam[0].set_media([scene.camera_medium; 2]);
-        e.walk(
-            ray,
-            None,
-            Vec3::ONE,
-            camera.pdf_dir(ray.d),
-            TransportMode::Radiance,
-            e.max_depth + 1,
-            scene.camera_medium,
-            &mut cam,
-            &mut sampler,
-            &mut counts,
-        );
+        let mut cam = Vec::new();
+        e.camera_subpath(ray, None, e.max_depth + 1, &mut cam, &mut sampler, &mut counts);
         let mut light = Vec::new();
         e.light_subpath(&mut light, &mut sampler, &mut counts);
         let mut sample_off = false;
@@ -162,34 +139,21 @@ pub fn mis_self_check(
                 // the vertex a connection samples (s = 1: a light; t = 1: the pinhole)
                 let mut sampled = None;
                 if s == 1 && t > 1 {
-                    let mut probe = sampler;
-                    let (index, _, _) = scene.light_sampler.sample(probe.next_1d());
-                    let Some(ls) = scene.lights[index].sample(cam[t - 1].p, Vec2::from(probe.next_2d()), scene.light_sampling) else {
+                    // the light sample `connect` drew (from the same numbers)
+                    let Some((index, _, ls)) = sample_light(scene, cam[t - 1].p, &mut sampler.clone()) else {
                         continue;
                     };
-                    let mut q = match ls.target {
-                        crate::light::ShadowTarget::Infinity => {
-                            let mut q = Vertex::new(Kind::Light(index as u32), cam[t - 1].p, ls.wi, Vec3::ONE);
-                            q.infinite = true;
-                            q
-                        }
-                        crate::light::ShadowTarget::Point { p, n } => {
-                            Vertex::new(Kind::Light(index as u32), p, n.unwrap_or(Vec3::ZERO), Vec3::ONE)
-                        }
-                    };
-                    q.pdf_fwd = e.ctx.pdf_light_origin(&q);
-                    sampled = Some(q);
+                    sampled = Some(e.ctx.sampled_light(index, &ls, cam[t - 1].p));
                 } else if t == 1 {
                     sampled = Some(cam[0].clone());
                 }
-                e.densities(&light, &cam, s, t, sampled.as_ref(), &mut d);
-                let mut x: Vec<Vertex> = Vec::with_capacity(n);
-                for i in 0..s {
-                    x.push(if s == 1 { sampled.as_ref().unwrap_or(&light[0]) } else { &light[i] }.clone());
-                }
-                for j in (0..t).rev() {
-                    x.push(if t == 1 { sampled.as_ref().unwrap_or(&cam[0]) } else { &cam[j] }.clone());
-                }
+                // the path and the densities (p_L, p_E) the connection assembled for its weight
+                let c = e.connection(&light, &cam, s, t, sampled.as_ref());
+                let assembled: Vec<(f32, f32, bool)> = (0..n).map(|i| c.at(i)).collect();
+                let mut x: Vec<Vertex> = (0..s)
+                    .map(|i| c.lv(i).clone())
+                    .chain((0..t).rev().map(|j| c.cv(j).clone()))
+                    .collect();
                 // an emitter the camera subpath hit, as the light vertex a light subpath starts with
                 if let (Kind::Surface, Some(index)) = (x[0].kind, x[0].emitter) {
                     let (p, ng, uv) = (x[0].p, x[0].ng, x[0].uv);
@@ -198,11 +162,11 @@ pub fn mis_self_check(
                 }
                 let fresh = path_densities(&e.ctx, &x);
                 let mut off = false;
-                for i in 0..n {
+                for (i, &(pl, pe, _)) in assembled.iter().enumerate() {
                     if fresh.delta[i] || (i > 0 && fresh.delta[i - 1]) || (i + 1 < n && fresh.delta[i + 1]) {
                         continue; // densities next to specular vertices are conventions
                     }
-                    for (a, b) in [(d.light[i], fresh.light[i]), (d.camera[i], fresh.camera[i])] {
+                    for (a, b) in [(pl, fresh.light[i]), (pe, fresh.camera[i])] {
                         let err = (a - b).abs() / a.abs().max(b.abs()).max(1e-20);
                         out.max_density_error = out.max_density_error.max(err);
                         off |= err > 1e-2;

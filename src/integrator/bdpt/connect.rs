@@ -3,7 +3,7 @@
 
 use super::mis;
 use super::vertex::{Kind, Vertex};
-use super::{Engine, Heuristic, PathDensities};
+use super::{Engine, Heuristic};
 use crate::geometry::ray::RAY_T_MAX;
 use crate::geometry::Ray;
 use crate::integrator::estimator::sample_light;
@@ -99,15 +99,7 @@ impl Engine<'_> {
             if ls.pdf <= 0.0 || pmf <= 0.0 {
                 return None;
             }
-            let mut q = match ls.target {
-                crate::light::ShadowTarget::Infinity => {
-                    let mut q = Vertex::new(Kind::Light(index as u32), pt.p, ls.wi, Vec3::ONE);
-                    q.infinite = true;
-                    q
-                }
-                crate::light::ShadowTarget::Point { p, n } => Vertex::new(Kind::Light(index as u32), p, n.unwrap_or(Vec3::ZERO), Vec3::ONE),
-            };
-            q.pdf_fwd = ctx.pdf_light_origin(&q);
+            let q = ctx.sampled_light(index, &ls, pt.p);
             l = pt.beta * pt.f(ls.wi, TransportMode::Radiance) * ls.radiance * (pt.cos(ls.wi) / (pmf * ls.pdf));
             if l == Vec3::ZERO {
                 return None;
@@ -154,17 +146,11 @@ impl Engine<'_> {
         (sampler.keyed_1d((s as u32) << 16 | t as u32) < q).then(|| c / q)
     }
 
-    /// The contribution `l` of a connection between two vertices times the
-    /// fraction of light passing between them ([`crate::scene::Scene::transmittance`]: 1 or 0
-    /// unless masks lie between; through media, their transmittance by ratio tracking);
-    /// `None` when nothing passes.
+    /// The contribution `l` of a connection between two vertices (either may be at
+    /// infinity) times the fraction of light passing between them
+    /// ([`crate::scene::Scene::transmittance`]: 1 or 0 unless masks lie between; through
+    /// media, their transmittance by ratio tracking); `None` when nothing passes.
     fn through(&self, l: Vec3, a: &Vertex, b: &Vertex, sampler: &mut PixelSampler, counts: &mut RayCounts) -> Option<Vec3> {
-        let tr = self.transmittance(a, b, sampler, counts);
-        (tr.max_element() > 0.0).then(|| l * tr)
-    }
-
-    /// The fraction of light passing between two vertices (either may be at infinity).
-    fn transmittance(&self, a: &Vertex, b: &Vertex, sampler: &mut PixelSampler, counts: &mut RayCounts) -> Vec3 {
         counts.rays += 1;
         let (a, b) = if a.infinite { (b, a) } else { (a, b) };
         let ray = if b.infinite {
@@ -174,16 +160,17 @@ impl Engine<'_> {
             let v = ob - oa;
             let dist = v.length();
             if dist == 0.0 {
-                return Vec3::ZERO;
+                return None;
             }
             Ray::with_range(oa, v / dist, 0.0, dist * (1.0 - 1e-5))
         };
         let scene = self.ctx.scene;
-        if scene.has_media {
+        let tr = if scene.has_media {
             scene.transmittance_through_media(&ray, a.medium_towards(ray.d), || sampler.next_1d())
         } else {
             Vec3::splat(scene.transmittance(&ray))
-        }
+        };
+        (tr.max_element() > 0.0).then(|| l * tr)
     }
 
     /// The densities of the path strategy (s, t) made, from the subpaths' cached
@@ -230,17 +217,6 @@ impl Engine<'_> {
         c.delta_light = x0.light().is_some_and(|i| ctx.scene.lights[i as usize].is_delta());
         c
     }
-
-    /// [`Engine::connection`]'s densities collected (for checking them).
-    pub(super) fn densities(&self, light: &[Vertex], cam: &[Vertex], s: usize, t: usize, sampled: Option<&Vertex>, d: &mut PathDensities) {
-        let c = self.connection(light, cam, s, t, sampled);
-        d.clear();
-        for i in 0..s + t {
-            let (pl, pe, delta) = c.at(i);
-            d.push(pl, pe, delta);
-        }
-        d.delta_light = c.delta_light;
-    }
 }
 
 /// The path of strategy (s, t): the subpaths' prefixes, the vertex the connection
@@ -260,16 +236,18 @@ pub(super) struct Connection<'v> {
 }
 
 impl<'v> Connection<'v> {
+    /// Path vertex `i` of the light side.
     #[inline(always)]
-    fn lv(&self, i: usize) -> &'v Vertex {
+    pub(super) fn lv(&self, i: usize) -> &'v Vertex {
         match self.sampled {
             Some(v) if self.s == 1 && i == 0 => v,
             _ => &self.light[i],
         }
     }
 
+    /// Camera-side vertex `j` (0 at the camera).
     #[inline(always)]
-    fn cv(&self, j: usize) -> &'v Vertex {
+    pub(super) fn cv(&self, j: usize) -> &'v Vertex {
         match self.sampled {
             Some(v) if self.t == 1 && j == 0 => v,
             _ => &self.cam[j],
@@ -278,7 +256,7 @@ impl<'v> Connection<'v> {
 
     /// Path vertex `i` (0 at the light): (p_L, p_E, specular).
     #[inline(always)]
-    fn at(&self, i: usize) -> (f32, f32, bool) {
+    pub(super) fn at(&self, i: usize) -> (f32, f32, bool) {
         let s = self.s;
         if i < s {
             let v = self.lv(i);

@@ -33,25 +33,6 @@ pub struct PathDensities {
 }
 
 impl PathDensities {
-    pub const fn new() -> PathDensities {
-        PathDensities {
-            light: Vec::new(),
-            camera: Vec::new(),
-            delta: Vec::new(),
-            delta_light: false,
-        }
-    }
-    pub fn len(&self) -> usize {
-        self.light.len()
-    }
-    pub fn is_empty(&self) -> bool {
-        self.light.is_empty()
-    }
-    pub fn clear(&mut self) {
-        self.light.clear();
-        self.camera.clear();
-        self.delta.clear();
-    }
     pub fn push(&mut self, p_light: f32, p_camera: f32, delta: bool) {
         self.light.push(p_light);
         self.camera.push(p_camera);
@@ -61,7 +42,7 @@ impl PathDensities {
     /// Whether strategy `s` can produce this path. Paths of one segment are
     /// left to s = 0 (the emitter seen directly) alone.
     pub fn possible(&self, s: usize) -> bool {
-        let n = self.len();
+        let n = self.light.len();
         if n == 2 {
             return s == 0 && !self.delta_light;
         }
@@ -71,7 +52,7 @@ impl PathDensities {
 
     /// The MIS weight of strategy `s` for this path.
     pub fn weight(&self, s: usize, heuristic: Heuristic) -> f32 {
-        weight_of(self.len(), s, self.delta_light, heuristic, |i| {
+        weight_of(self.light.len(), s, self.delta_light, heuristic, |i| {
             (self.light[i], self.camera[i], self.delta[i])
         })
     }

@@ -40,13 +40,15 @@ pub mod mis;
 pub mod strategies;
 pub mod vertex;
 
-use super::{CameraSample, RayCounts};
+use super::{spawn_ray, CameraSample, RayCounts};
+use crate::camera::Camera;
 use crate::geometry::ray::RAY_T_MAX;
 use crate::geometry::{Ray, RayDifferential};
 use crate::light::SceneBounds;
 use crate::material::{Normals, TransportMode};
 use crate::math::{offset_ray_origin, Vec2, Vec3};
 use crate::sampler::PixelSampler;
+use crate::scene::Scene;
 pub use check::{mis_self_check, MisCheck};
 pub use mis::{Heuristic, PathDensities};
 use vertex::{Ctx, Kind, Vertex};
@@ -62,8 +64,8 @@ pub const CONNECTION_ROULETTE: f32 = 0.3;
 /// Parameters (JSON `integrator` keys, besides `type` and `spp`):
 /// * `max_depth` (int ≥ 1, 12) — path segments, the camera ray being the first,
 ///   as `path` (so both converge to the same image);
-/// * `rr_threshold` (number, 0.1), `profile` (as `path`'s) — read and kept; roulette
-///   follows `path`'s rule, so the converged image depends on neither;
+/// * `rr_threshold` (number, 0.1; kept) and `profile` (as `path`'s; checked) — read;
+///   roulette follows `path`'s rule, so the converged image depends on neither;
 /// * `mis` (`"power"` | `"balance"`, `"power"`) — the MIS heuristic;
 /// * `strategy` ([s, t], none) — debugging view: render only the paths of strategy
 ///   (s, t) (s + t − 1 segments), unweighted (each strategy alone converges to the
@@ -108,47 +110,18 @@ impl Bdpt {
     }
 
     /// One camera sample: its radiance; light-tracing contributions go to `s.splats`.
-    pub fn li(&self, scene: &crate::scene::Scene, camera: &crate::camera::Camera, s: &mut CameraSample) -> Vec3 {
-        let e = Engine {
-            ctx: ctx(scene, camera),
-            max_depth: self.max_depth as usize,
-            heuristic: self.heuristic,
-            select: match self.strategy {
-                Some((s, t)) => Select::Only(s as usize, t as usize, self.strategy_weighted),
-                None => Select::All,
-            },
-            roulette: self.connection_roulette,
+    pub fn li(&self, scene: &Scene, camera: &Camera, s: &mut CameraSample) -> Vec3 {
+        let select = match self.strategy {
+            Some((s, t)) => Select::Only(s as usize, t as usize, self.strategy_weighted),
+            None => Select::All,
         };
-        e.sample(s)
+        Engine::new(scene, camera, self.max_depth, self.heuristic, select, self.connection_roulette).sample(s)
     }
 }
 
 /// The light tracer's sample (`ptracer`): see [`super::ptracer`].
-pub(crate) fn light_tracing_sample(
-    max_depth: u32,
-    scene: &crate::scene::Scene,
-    camera: &crate::camera::Camera,
-    s: &mut CameraSample,
-) -> Vec3 {
-    let e = Engine {
-        ctx: ctx(scene, camera),
-        max_depth: max_depth as usize,
-        heuristic: Heuristic::Power,
-        select: Select::LightTracing,
-        roulette: 0.0,
-    };
-    e.sample(s)
-}
-
-fn ctx<'a>(scene: &'a crate::scene::Scene, camera: &'a crate::camera::Camera) -> Ctx<'a> {
-    Ctx {
-        scene,
-        camera,
-        bounds: SceneBounds {
-            center: scene.center,
-            radius: scene.radius,
-        },
-    }
+pub(crate) fn light_tracing_sample(max_depth: u32, scene: &Scene, camera: &Camera, s: &mut CameraSample) -> Vec3 {
+    Engine::new(scene, camera, max_depth, Heuristic::Power, Select::LightTracing, 0.0).sample(s)
 }
 
 #[derive(Clone, Copy, PartialEq)]
@@ -176,7 +149,21 @@ struct Engine<'a> {
     roulette: f32,
 }
 
-impl Engine<'_> {
+impl<'a> Engine<'a> {
+    fn new(scene: &'a Scene, camera: &'a Camera, max_depth: u32, heuristic: Heuristic, select: Select, roulette: f32) -> Self {
+        let bounds = SceneBounds {
+            center: scene.center,
+            radius: scene.radius,
+        };
+        Engine {
+            ctx: Ctx { scene, camera, bounds },
+            max_depth: max_depth as usize,
+            heuristic,
+            select,
+            roulette,
+        }
+    }
+
     fn sample(&self, cs: &mut CameraSample) -> Vec3 {
         let mut l = Vec3::ZERO;
         let splats = &mut *cs.splats;
@@ -195,58 +182,28 @@ impl Engine<'_> {
         diff: Option<RayDifferential>,
         sampler: &mut PixelSampler,
         counts: &mut RayCounts,
-        sink: impl FnMut(usize, usize, Vec3, Option<Vec2>),
+        mut sink: impl FnMut(usize, usize, Vec3, Option<Vec2>),
     ) {
         // the subpaths reuse this thread's buffers (taken, so a
         // nested sample would only start with empty ones)
         let (mut cam, mut light) = BUFFERS.take();
         cam.clear();
         light.clear();
-        self.sample_with(ray, diff, sampler, counts, &mut cam, &mut light, sink);
-        BUFFERS.set((cam, light));
-    }
-
-    #[allow(clippy::too_many_arguments)]
-    fn sample_with(
-        &self,
-        ray: Ray,
-        diff: Option<RayDifferential>,
-        sampler: &mut PixelSampler,
-        counts: &mut RayCounts,
-        cam: &mut Vec<Vertex>,
-        light: &mut Vec<Vertex>,
-        mut sink: impl FnMut(usize, usize, Vec3, Option<Vec2>),
-    ) {
-        let ctx = &self.ctx;
-        let light_tracing = self.select == Select::LightTracing;
-        // the pinhole, or the lens point the camera ray leaves
-        let mut camera_vertex = Vertex::new(Kind::Camera, ray.o, Vec3::ZERO, Vec3::ONE);
-        camera_vertex.pdf_fwd = 1.0;
-        camera_vertex.set_media([ctx.scene.camera_medium; 2]);
-        cam.push(camera_vertex);
         // the light tracer only looks for the environment behind its first segment
-        let cam_max = if light_tracing { 2 } else { self.max_depth + 1 };
-        let pdf_dir = ctx.camera.pdf_dir_from(ray.o, ray.d);
-        self.walk(
-            ray,
-            diff,
-            Vec3::ONE,
-            pdf_dir,
-            TransportMode::Radiance,
-            cam_max,
-            ctx.scene.camera_medium,
-            cam,
-            sampler,
-            counts,
-        );
-        self.light_subpath(light, sampler, counts);
+        let cam_max = if self.select == Select::LightTracing {
+            2
+        } else {
+            self.max_depth + 1
+        };
+        self.camera_subpath(ray, diff, cam_max, &mut cam, sampler, counts);
+        self.light_subpath(&mut light, sampler, counts);
 
         let mut acc = 0.0f32;
         for t in 1..=cam.len() {
             for s in 0..=light.len() {
-                let Some(weighted) = self.selected(s, t, cam) else { continue };
+                let Some(weighted) = self.selected(s, t, &cam) else { continue };
                 let rr = (self.roulette > 0.0 && matches!(self.select, Select::All | Select::Each) && t > 1).then_some(self.roulette * acc);
-                let Some((c, pos)) = self.connect(light, cam, s, t, sampler, counts, weighted, rr) else {
+                let Some((c, pos)) = self.connect(&light, &cam, s, t, sampler, counts, weighted, rr) else {
                     continue;
                 };
                 if pos.is_none() {
@@ -255,6 +212,7 @@ impl Engine<'_> {
                 sink(s, t, c, pos);
             }
         }
+        BUFFERS.set((cam, light));
     }
 
     /// Whether the sample evaluates strategy (s, t), and MIS-weighted or not
@@ -278,6 +236,37 @@ impl Engine<'_> {
         };
         // one-segment paths: s = 0 (the light tracer: s = 1 for surfaces)
         (!((s, t) == (1, 1) && weighted)).then_some(weighted)
+    }
+
+    /// A camera subpath of at most `max_vertices`: the pinhole (or the lens point the
+    /// camera ray leaves), then the walk of `ray`.
+    fn camera_subpath(
+        &self,
+        ray: Ray,
+        diff: Option<RayDifferential>,
+        max_vertices: usize,
+        cam: &mut Vec<Vertex>,
+        sampler: &mut PixelSampler,
+        counts: &mut RayCounts,
+    ) {
+        let (camera, medium) = (self.ctx.camera, self.ctx.scene.camera_medium);
+        let mut v = Vertex::new(Kind::Camera, ray.o, Vec3::ZERO, Vec3::ONE);
+        v.pdf_fwd = 1.0;
+        v.set_media([medium; 2]);
+        cam.push(v);
+        let pdf_dir = camera.pdf_dir_from(ray.o, ray.d);
+        self.walk(
+            ray,
+            diff,
+            Vec3::ONE,
+            pdf_dir,
+            TransportMode::Radiance,
+            max_vertices,
+            medium,
+            cam,
+            sampler,
+            counts,
+        );
     }
 
     /// Traces a subpath from `ray` (starting in `medium`) and appends its vertices to
@@ -378,8 +367,7 @@ impl Engine<'_> {
             if !self.survives(n - 1, &mut beta, (rr_norm, eta_scale), sampler) {
                 break;
             }
-            let n_off = if bs.wi.dot(it.ng) >= 0.0 { it.ng } else { -it.ng };
-            ray = Ray::with_range(offset_ray_origin(it.p, n_off), bs.wi, 0.0, RAY_T_MAX);
+            ray = spawn_ray(&it, bs.wi);
             medium = path[n - 1].medium_towards(bs.wi);
             pdf_dir = pdf_fwd;
         }

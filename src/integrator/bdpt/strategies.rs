@@ -7,7 +7,7 @@
 //! are the main film's (every sample counts in every pixel's weight, also where a
 //! strategy contributed nothing), set when the images are made.
 
-use super::{ctx, Bdpt, Engine, Select};
+use super::{Bdpt, Engine, Select};
 use crate::film::{Film, FilmTile, Splats};
 use crate::integrator::pass::{camera_pass_with, tile_of, PassContext, PassResult};
 use crate::math::Vec3;
@@ -93,13 +93,14 @@ struct StrategyTiles {
 /// and every strategy's contribution added to its own film too.
 pub fn render_pass(bdpt: &Bdpt, pc: &PassContext, pass: u32, film: &mut Film, state: &mut Option<StrategyFilms>) -> PassResult {
     let films = state.get_or_insert_with(|| StrategyFilms::new(bdpt.max_depth, film));
-    let e = Engine {
-        ctx: ctx(pc.scene, pc.camera),
-        max_depth: bdpt.max_depth as usize,
-        heuristic: bdpt.heuristic,
-        select: Select::Each,
-        roulette: bdpt.connection_roulette,
-    };
+    let e = Engine::new(
+        pc.scene,
+        pc.camera,
+        bdpt.max_depth,
+        bdpt.heuristic,
+        Select::Each,
+        bdpt.connection_roulette,
+    );
     let n = films.list.len();
     let (w, h) = (pc.film.width as i32, pc.film.height as i32);
     let filter = &pc.film.filter;

@@ -2,7 +2,7 @@
 //! all in area measure (solid angle towards the environment, which has no area).
 
 use crate::camera::Camera;
-use crate::light::{Light, SceneBounds};
+use crate::light::{Light, LightSample, SceneBounds, ShadowTarget};
 use crate::material::{Bsdf, Normals, TransportMode};
 use crate::math::{offset_ray_origin, Vec3, INV_4PI, INV_PI, PI};
 use crate::medium::PhaseFunction;
@@ -149,14 +149,8 @@ impl Vertex {
         let Some(bsdf) = &self.bsdf else { return Vec3::ZERO };
         match mode {
             TransportMode::Radiance => bsdf.eval(self.wo, wi),
-            TransportMode::Importance => bsdf.eval_adjoint(self.wo, wi, self.normals()),
+            TransportMode::Importance => bsdf.eval_adjoint(self.wo, wi, Normals { ns: self.ns, ng: self.ng }),
         }
-    }
-
-    /// The shading and geometric normals (for the adjoint BSDF).
-    #[inline]
-    pub fn normals(&self) -> Normals {
-        Normals { ns: self.ns, ng: self.ng }
     }
 
     /// A point just off the surface, on the side of direction `w`.
@@ -205,10 +199,7 @@ impl Ctx<'_> {
                 let (Some(bsdf), Some(prev)) = (&cur.bsdf, prev) else { return 0.0 };
                 self.convert(bsdf.pdf(cur.dir_to(prev), cur.dir_to(next)), cur, next)
             }
-            Kind::Medium(phase) => match prev {
-                Some(prev) => self.convert(phase.pdf(cur.dir_to(prev), cur.dir_to(next)), cur, next),
-                None => 0.0,
-            },
+            Kind::Medium(phase) => prev.map_or(0.0, |prev| self.convert(phase.pdf(cur.dir_to(prev), cur.dir_to(next)), cur, next)),
         }
     }
 
@@ -263,6 +254,21 @@ impl Ctx<'_> {
             Light::Area(a) => pmf / a.area(),
             Light::Environment(_) => pmf * l.pdf_emission(Vec3::ZERO, -light.ng, self.bounds).1,
         }
+    }
+
+    /// The light vertex a light sample `ls` of light `index`, taken from `from`, reached (at
+    /// infinity: the sample's direction), with its density as a light subpath's origin.
+    pub fn sampled_light(&self, index: usize, ls: &LightSample, from: Vec3) -> Vertex {
+        let kind = Kind::Light(index as u32);
+        let mut q = match ls.target {
+            ShadowTarget::Infinity => Vertex {
+                infinite: true,
+                ..Vertex::new(kind, from, ls.wi, Vec3::ONE)
+            },
+            ShadowTarget::Point { p, n } => Vertex::new(kind, p, n.unwrap_or(Vec3::ZERO), Vec3::ONE),
+        };
+        q.pdf_fwd = self.pdf_light_origin(&q);
+        q
     }
 
     /// Radiance (intensity for point and spot lights, irradiance for a directional

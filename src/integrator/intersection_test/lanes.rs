@@ -20,6 +20,12 @@ fn lane_dot(u: &[[f32; PACKET]; 3], w: &[[f32; PACKET]; 3], i: usize) -> f32 {
     (u[0][i] * w[0][i]) + (u[1][i] * w[1][i]) + (u[2][i] * w[2][i])
 }
 
+/// The lanes whose flag is set, as bits.
+#[inline(always)]
+fn lane_mask(flags: &[bool; PACKET]) -> u32 {
+    flags.iter().enumerate().fold(0, |m, (i, &f)| m | (f as u32) << i)
+}
+
 /// The path totals and albedos of a block's diffuse first hits by lane, in
 /// structure-of-arrays form, and the last step of their radiance.
 #[derive(Default)]
@@ -161,10 +167,7 @@ impl ShadingPoints {
                 d[a][i] = to[a][i] / dist[i];
             }
         }
-        let mut reached = 0u32;
-        for (i, &r) in reach.iter().enumerate() {
-            reached |= (r as u32) << i;
-        }
+        let reached = lane_mask(&reach);
         // made in place (an array filled with a template first cost a copy per lane)
         let rays = std::array::from_fn(|i| Ray {
             o: Vec3::new(o[0][i], o[1][i], o[2][i]),
@@ -334,11 +337,7 @@ impl PlainHits {
                 at.nf[a][i] = if take[i] { nf[a][i] } else { at.nf[a][i] };
             }
         }
-        let mut facing = 0u32;
-        for (i, &t) in take.iter().enumerate() {
-            facing |= (t as u32) << i;
-        }
-        facing
+        lane_mask(&take)
     }
 }
 

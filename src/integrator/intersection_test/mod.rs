@@ -290,10 +290,9 @@ fn direct_diffuse(
     sampler: &mut PixelSampler,
     counts: &mut RayCounts,
 ) -> Vec3 {
-    let n = if twosided && it.ns.dot(it.wo) < 0.0 { -it.ns } else { it.ns };
-    if n.dot(it.wo) <= 0.0 {
+    let Some(n) = facing_normal(it, twosided) else {
         return Vec3::ZERO; // the back of a one-sided surface is black
-    }
+    };
     let mut total = Vec3::ZERO;
     for (index, light) in scene.lights.iter().enumerate() {
         if light.is_delta() {

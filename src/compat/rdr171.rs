@@ -1,9 +1,10 @@
 //! The RDR171 `intersection_test` exactly as the course's reference images were
-//! made (spec §5, §7, §13, §14). Deliberately unphysical; see the module table
-//! in [`crate::compat`]. It runs in place of `intersection_test` under `--compat rdr171`.
+//! made (spec §5, §7, §13, §14): the integrator rows of the table in [`super`].
+//! Deliberately unphysical. It runs in place of `intersection_test` under
+//! `--compat rdr171` (`Integrator::Rdr171`, which hands it the pass's settings).
 
-use super::{PassContext, PassResult, RayCounts};
-use crate::film::{Film, FilmTile};
+use crate::camera::Camera;
+use crate::film::{Film, FilmSettings, FilmTile};
 use crate::geometry::triangle::intersect_moller_trumbore_f64;
 use crate::geometry::Ray;
 use crate::light::Light;
@@ -11,6 +12,7 @@ use crate::material::Material;
 use crate::math::{reflect, refract, Vec2, Vec3, INV_PI, PI};
 use crate::sampler::Mt19937Sampler;
 use crate::scene::{Hit, Interaction, Prim, Scene};
+use rayon::prelude::*;
 
 struct Candidate {
     key: (u32, u32),
@@ -65,35 +67,10 @@ pub fn intersect(scene: &Scene, ray: &Ray) -> Option<Hit> {
     hit
 }
 
-/// `dot(d, n) < 0 ? −n : n`.
-fn face_forward(d: Vec3, n: Vec3) -> Vec3 {
-    if d.dot(n) < 0.0 {
-        -n
-    } else {
-        n
-    }
-}
-
 /// The column renderer: the scene's `max_depth` (surface hits, not segments).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Rdr171Columns {
     pub max_depth: u32,
-}
-
-impl Rdr171Columns {
-    /// The whole render in one pass: every column with all its samples. Columns
-    /// finished before the stop token is set are kept (the pass is then incomplete).
-    pub fn render(&self, ctx: &PassContext, film: &mut Film) -> PassResult {
-        let column_samples = ctx.film.height as u64 * ctx.spp as u64;
-        let columns = render_columns(ctx, self.max_depth, &|| (ctx.progress)(column_samples));
-        for t in columns.iter().flatten() {
-            film.merge(t);
-        }
-        PassResult {
-            complete: columns.iter().all(Option::is_some),
-            counts: RayCounts::default(),
-        }
-    }
 }
 
 pub fn li(scene: &Scene, mut ray: Ray, max_depth: u32) -> Vec3 {
@@ -106,7 +83,9 @@ pub fn li(scene: &Scene, mut ray: Ray, max_depth: u32) -> Vec3 {
                 let entering = n.dot(it.wo) > 0.0;
                 let (ratio, n) = if entering { (*eta, n) } else { (1.0 / *eta, -n) };
                 let wi = refract(it.wo, n, ratio).unwrap_or_else(|| reflect(it.wo, n));
-                ray = Ray::new(it.p + face_forward(wi, it.ng) * 1e-4, wi);
+                // the offset along the normal faced forward (`dot(wi, ng) < 0 ? −ng : ng`)
+                let ng = if wi.dot(it.ng) < 0.0 { -it.ng } else { it.ng };
+                ray = Ray::new(it.p + ng * 1e-4, wi);
             }
             Some(Material::Diffuse { texture, twosided }) => {
                 let albedo = scene.textures[*texture as usize].eval(it.uv);
@@ -143,32 +122,43 @@ fn direct(scene: &Scene, it: &Interaction, albedo: Vec3, twosided: bool) -> Vec3
     total
 }
 
-/// Renders column by column, each with a fresh default-seeded sampler (spec §7).
-/// Columns finished before the stop token is set are kept.
-fn render_columns(ctx: &PassContext, max_depth: u32, on_column: &(dyn Fn() + Sync)) -> Vec<Option<FilmTile>> {
-    use rayon::prelude::*;
-    let (scene, camera, filter, spp) = (ctx.scene, ctx.camera, &ctx.film.filter, ctx.spp);
-    let (w, h) = (ctx.film.width as i32, ctx.film.height as i32);
-    // one column of slack: a jittered position can round up into the next pixel
-    let reach = filter.reach() + 1;
-    (0..w)
-        .into_par_iter()
-        .map(|px| {
-            if ctx.stop.is_stopped() {
-                return None;
-            }
-            let mut sampler = Mt19937Sampler::default();
-            let mut tile = FilmTile::new(px, 0, px + 1, h, reach, w, h);
-            for py in 0..h {
-                for _ in 0..spp {
-                    let (u1, u2) = sampler.get_2d();
-                    let pos = Vec2::new(px as f32 + u1, py as f32 + u2);
-                    let l = li(scene, camera.ray(pos.x, pos.y), max_depth);
-                    tile.add(pos, l, filter, w, h);
+impl Rdr171Columns {
+    /// The whole render into `film`, column by column, each with a fresh default-seeded
+    /// sampler (spec §7) and `spp` samples a pixel; `column_done` is called after each
+    /// column. Columns not started before `stopped()` are left out: returns whether
+    /// none was (the columns finished are kept).
+    pub fn render(
+        &self,
+        film: &mut Film,
+        (scene, camera, settings): (&Scene, &Camera, &FilmSettings),
+        spp: u32,
+        stopped: &(dyn Fn() -> bool + Sync),
+        column_done: &(dyn Fn() + Sync),
+    ) -> bool {
+        let (w, h, filter) = (settings.width as i32, settings.height as i32, &settings.filter);
+        // one column of slack: a jittered position can round up into the next pixel
+        let reach = filter.reach() + 1;
+        let columns: Vec<Option<FilmTile>> = (0..w)
+            .into_par_iter()
+            .map(|px| {
+                if stopped() {
+                    return None;
                 }
-            }
-            on_column();
-            Some(tile)
-        })
-        .collect()
+                let mut sampler = Mt19937Sampler::default();
+                let mut tile = FilmTile::new(px, 0, px + 1, h, reach, w, h);
+                for py in 0..h {
+                    for _ in 0..spp {
+                        let (u1, u2) = sampler.get_2d();
+                        let pos = Vec2::new(px as f32 + u1, py as f32 + u2);
+                        let l = li(scene, camera.ray(pos.x, pos.y), self.max_depth);
+                        tile.add(pos, l, filter, w, h);
+                    }
+                }
+                column_done();
+                Some(tile)
+            })
+            .collect();
+        columns.iter().flatten().for_each(|t| film.merge(t));
+        columns.iter().all(Option::is_some)
+    }
 }

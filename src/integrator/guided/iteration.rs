@@ -4,7 +4,7 @@
 
 use super::combine::{combine, combine_weighted, current_image, pixel_variances, relative_variances, Part};
 use super::sdtree::{self, SdTree, TreeStats};
-use super::{Combine, DTree, Guided, LearnFrom, MAX_TRAINING_ITERATIONS, RHO};
+use super::{Combine, DTree, Guided, LearnFrom, GUIDED_PASS_COST, MAX_TRAINING_ITERATIONS, RHO};
 use crate::film::Film;
 use crate::integrator::PassContext;
 use crate::math::Vec3;
@@ -23,6 +23,11 @@ pub struct IterationInfo {
     /// What the leaves' fractions chosen at its end are estimated to gain
     /// ([`sdtree::ChoiceMoments::gain`]; `None` without a choice).
     pub gain: Option<f64>,
+    /// Measured relative variance per sample with the guide over that without
+    /// (see [`State::guide`]; `None` where not measured).
+    pub variance_ratio: Option<f64>,
+    /// Whether its passes sampled the guide.
+    pub guided: bool,
     pub last: bool,
     /// The tree it sampled from.
     pub tree: TreeStats,
@@ -50,6 +55,22 @@ pub struct State {
     finished: Vec<Finished>,
     /// The current iteration's first-pass vertices, for the leaves' fractions.
     pub(super) choice: Vec<sdtree::ChoiceSample>,
+    /// Whether the leaves sample their guides at their learned fractions (with
+    /// `learn_fraction` and photons to learn from; else always): while the relative
+    /// variance per sample with the guide, times [`GUIDED_PASS_COST`], is at least
+    /// that without, every leaf samples its BSDF alone and the passes are `path`'s
+    /// (its packets): a few leaves guiding for a few per cent cost every pass the
+    /// guided code. A training iteration's first pass samples the other way than its
+    /// rest, and the two images against the finished iterations' measure both
+    /// (roulette's part included), so that sample counts decide, never the clock.
+    /// The guide is taken up where two measurements in a row find it pays and left
+    /// where one finds it does not: a few pixels' fireflies swing one measurement
+    /// (veach_path at 64 spp measured 1.35, 0.02, 81.6, 0.39 in turn).
+    pub guide: bool,
+    /// Whether the last measurement found that the guide pays.
+    pub(super) paid: bool,
+    /// The film's sums after the current training iteration's first pass.
+    pub(super) probe: Option<(Vec<[f64; 3]>, Vec<f64>)>,
 }
 
 /// A finished iteration's image and the variance of each of its pixel means.
@@ -126,6 +147,9 @@ impl Guided {
             moments: vec![[0.0; 3]; n],
             finished: Vec::new(),
             choice: Vec::new(),
+            guide: !self.learn_fraction || self.learn_from == LearnFrom::Paths,
+            probe: None,
+            paid: false,
         };
         self.begin_iteration(&mut s, ctx);
         s
@@ -145,8 +169,10 @@ impl Guided {
         s.length = if s.last { remaining } else { length };
         s.passes = 0;
         s.recorded = 0;
+        s.probe = None;
         s.history.push(IterationInfo {
             last: s.last,
+            guided: s.guide,
             tree: s.tree.stats(),
             ..IterationInfo::default()
         });
@@ -156,6 +182,12 @@ impl Guided {
     /// starts the next iteration.
     pub(super) fn end_iteration(&self, s: &mut State, ctx: &PassContext) {
         let build_start = Instant::now();
+        let variance_ratio = self.probe_variance_ratio(s);
+        if let Some(r) = variance_ratio {
+            let pays = r * GUIDED_PASS_COST < 1.0;
+            s.guide = pays && s.paid;
+            s.paid = pays;
+        }
         let finished = Finished {
             image: current_image(s.film.sums()),
             pixel_variance: pixel_variances(&s.moments, ctx.film.width as usize),
@@ -179,9 +211,51 @@ impl Guided {
         info.build_seconds = build;
         info.variance = variance;
         info.gain = self.learn_fraction.then(|| moments.gain());
+        info.variance_ratio = variance_ratio;
         s.film.take_sums(true);
         s.moments.iter_mut().for_each(|x| *x = [0.0; 3]);
         self.begin_iteration(s, ctx);
+    }
+
+    /// The relative variance per sample of the current training iteration's passes
+    /// that sampled the guide over that of those that did not; `None` without two
+    /// kinds of passes to compare or a finished iteration, or where the gate does not
+    /// apply (see [`State::guide`]). Three independent images, the first pass's (f),
+    /// the rest's (r, n passes) and the finished iterations' (m), give three squared
+    /// differences summed over the pixels with relMSE's weights (m standing in for
+    /// the reference): D_fr = a + b/n, D_fm = a + M, D_rm = b/n + M, solved for the
+    /// variance per sample of the first pass (a) and of the rest (b).
+    fn probe_variance_ratio(&self, s: &State) -> Option<f64> {
+        if !self.learn_fraction || self.learn_from == LearnFrom::Paths || s.passes < 2 {
+            return None;
+        }
+        let (probe_sum, probe_weight) = s.probe.as_ref()?;
+        let parts: Vec<Part> = s.finished.iter().map(Finished::part).collect();
+        let weights: Vec<f64> = parts.iter().map(|p| p.spp as f64).collect();
+        if weights.iter().sum::<f64>() == 0.0 {
+            return None;
+        }
+        let mean = combine_weighted(&parts, &weights, s.moments.len());
+        let sums = s.film.sums();
+        let luminance = |s: [f64; 3]| (s[0] + s[1] + s[2]) / 3.0;
+        let (mut fr, mut fm, mut rm) = (0.0f64, 0.0f64, 0.0f64);
+        for (i, m) in mean.iter().enumerate() {
+            let (w1, w) = (probe_weight[i], sums.weight[i]);
+            if w1 <= 0.0 || w - w1 <= 0.0 {
+                continue;
+            }
+            let m = (m.x + m.y + m.z) as f64 / 3.0;
+            let f = luminance(probe_sum[i]) / w1;
+            let r = luminance(std::array::from_fn(|c| sums.sum[i][c] - probe_sum[i][c])) / (w - w1);
+            let weight = 1.0 / (m * m + 0.01);
+            fr += weight * (f - r).powi(2);
+            fm += weight * (f - m).powi(2);
+            rm += weight * (r - m).powi(2);
+        }
+        let first = 0.5 * (fr + fm - rm);
+        let rest = 0.5 * (fr + rm - fm) * (s.passes - 1) as f64;
+        let (with, without) = if s.guide { (rest, first) } else { (first, rest) };
+        (with > 0.0 && without > 0.0 && with.is_finite() && without.is_finite()).then(|| with / without)
     }
 
     /// The image so far (film rows, y up): the iterations, finished and current,
@@ -214,8 +288,9 @@ impl Guided {
             .filter(|i| i.spp > 0)
             .map(|i| {
                 format!(
-                    "{}{} spp {:.2} s (tree {} leaves, {:.1} MB; build {:.1} ms{}{})",
+                    "{}{}{} spp {:.2} s (tree {} leaves, {:.1} MB; build {:.1} ms{}{}{})",
                     if i.last { "final " } else { "" },
+                    if i.guided { "guided " } else { "" },
                     i.spp,
                     i.seconds,
                     i.tree.spatial_leaves,
@@ -226,7 +301,9 @@ impl Guided {
                     } else {
                         String::new()
                     },
-                    i.gain.map_or_else(String::new, |g| format!(", gain {:.1} %", 100.0 * g))
+                    i.gain.map_or_else(String::new, |g| format!(", gain {:.1} %", 100.0 * g)),
+                    i.variance_ratio
+                        .map_or_else(String::new, |r| format!(", image variance ratio {r:.2}"))
                 )
             })
             .collect();

@@ -41,11 +41,16 @@
 //! schedule where the time runs out. Every decision depends on sample counts
 //! only, never on the clock. The leaves choose their BSDF fractions after every
 //! iteration (a leaf with too few vertices takes its nearest ancestor's choice);
-//! there is no global switch. While every leaf chooses BSDF sampling alone, a
-//! training iteration records (and shoots photons) in its first pass only and
-//! renders its other passes with `path`'s own code, as does such a final
-//! iteration (its packets, without inverse-variance weights to estimate): the
-//! guide keeps learning at the cost of one pass per iteration.
+//! there is no global switch on an estimate. What guiding costs is weighed by
+//! measurement ([`State::guide`]): a training iteration's first pass samples the
+//! other way than its other passes, and the guide is used while the variance per
+//! sample it leaves, times [`GUIDED_PASS_COST`], is below that without (two
+//! measurements in a row to take it up, one to leave it). While it is not used, or
+//! every leaf chooses BSDF sampling alone, a training iteration records (and shoots
+//! photons) in its first pass only and renders its other passes with `path`'s own
+//! code, as does such a final iteration (its packets, without inverse-variance
+//! weights to estimate): the guide keeps learning at the cost of one pass per
+//! iteration.
 //!
 //! Media: the estimator tracks them as for `path`; guiding acts at surface
 //! vertices only (a medium vertex samples its phase function).
@@ -91,6 +96,14 @@ pub const MAX_PHOTONS_PER_PASS: u32 = 1 << 20;
 /// still has most of its samples ahead (caustic_cbox at 256 spp with 31 of
 /// training: relMSE 2.9e-3, `path` 1.3e-2).
 pub const MAX_TRAINING_ITERATIONS: u32 = 6;
+
+/// What a pass that samples the guide costs against `path`'s pass (its packets),
+/// the price the guide must pay for: the leaves guide only while the variance per
+/// sample with the guide, times this, is below that without (see [`State::guide`]).
+/// Measured: cbox_path and caustic_cbox at 33 spp, one training iteration, then
+/// every leaf at fraction 0.5: 3.23 and 3.23 CPU s against `path`'s 2.22 and 2.21
+/// (AMD EPYC Zen 5, AVX-512, loaded).
+pub const GUIDED_PASS_COST: f64 = 1.5;
 
 /// Energy share above which a directional cell is split (the paper's ρ).
 pub const RHO: f32 = 0.01;
@@ -212,8 +225,11 @@ impl Guided {
         // (and shoots photons) in its first pass only and renders the rest as `path`,
         // at `path`'s cost (a recording pass costs about 1.4 `path` passes, which trace
         // packets: env_sphere), and so does a final iteration
+        // a training iteration's first pass samples the other way than the rest (the
+        // guide where they do not, and back), for the choice of `State::guide`
+        let probe = !state.last && state.passes == 0;
         let guides = if self.learn_fraction {
-            state.tree.leaves.iter().any(|l| l.bsdf_fraction < 1.0)
+            state.guide != probe && state.tree.leaves.iter().any(|l| l.bsdf_fraction < 1.0)
         } else {
             self.bsdf_fraction < 1.0
         };
@@ -229,15 +245,19 @@ impl Guided {
             Vec::new()
         };
         let State { film, tree, .. } = &mut **state;
+        let record_radiance = self.learn_from == LearnFrom::Paths;
+        // while the guide does not pay (see `State::guide`), BSDF sampling alone, except
+        // where the paths that learn sample from it
+        let off = self.learn_fraction && !guides && !(record && record_radiance);
         let guiding = Guiding {
             tree,
-            bsdf_fraction: self.bsdf_fraction,
+            bsdf_fraction: if off { 1.0 } else { self.bsdf_fraction },
             record,
-            record_radiance: self.learn_from == LearnFrom::Paths,
+            record_radiance,
             max_depth: self.max_depth,
             rr_threshold: self.rr_threshold,
             record_direct: self.learn_direct,
-            learn_fraction: self.learn_fraction,
+            learn_fraction: self.learn_fraction && !off,
         };
         let path = (!guides && !record).then_some(PathTracer {
             max_depth: self.max_depth,
@@ -326,6 +346,10 @@ impl Guided {
         let info = s.history.last_mut().expect("an iteration is running");
         info.spp = s.passes;
         info.seconds += start.elapsed().as_secs_f64();
+        if s.passes == 1 && !s.last {
+            let sums = s.film.sums();
+            s.probe = Some((sums.sum.clone(), sums.weight.clone()));
+        }
         if s.passes >= s.length && !s.last {
             self.end_iteration(s, ctx);
         }

@@ -15,19 +15,7 @@ fn textured_eta_and_k_converge_to_mitsubas_image() {
     );
     let refs = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/refs/materials");
     let dir = temp_dir("rdr-conductor-textures");
-    let json = dir.path().join("conductor_textured.json");
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_rdr"))
-        .args([
-            "convert",
-            "-q",
-            refs.join("conductor_textured.xml").to_str().unwrap(),
-            "-o",
-            json.to_str().unwrap(),
-        ])
-        .output()
-        .unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    let text = std::fs::read_to_string(&json).unwrap();
+    let (json, text) = converted_to_json(&refs.join("conductor_textured.xml"), dir.path());
     assert!(
         text.contains("\"etaT\": \"") && text.contains("\"eta\": \""),
         "η is not a texture name in the JSON: {text}"

@@ -92,19 +92,8 @@ fn mesh_attributes_of_any_name_converge_to_mitsubas_image() {
     );
     let refs = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/refs/shapes");
     let dir = temp_dir("rdr-mesh-attribute-json");
-    let json = dir.path().join("mesh_attribute.json");
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_rdr"))
-        .args([
-            "convert",
-            "-q",
-            refs.join("mesh_attribute.xml").to_str().unwrap(),
-            "-o",
-            json.to_str().unwrap(),
-        ])
-        .output()
-        .unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    assert!(std::fs::read_to_string(&json).unwrap().contains("vertex_tint_color"));
+    let (json, text) = converted_to_json(&refs.join("mesh_attribute.xml"), dir.path());
+    assert!(text.contains("vertex_tint_color") && text.contains(".ply"), "{text}");
     assert!(
         converges_to_ref_within(&refs, &json, "mesh_attribute", &[], 64, 2e-4),
         "the converted JSON scene does not converge to Mitsuba's image"
@@ -165,9 +154,8 @@ property list uchar int vertex_indices\nend_header\n0 0 0 1 0 0 1 0.5\n1 0 0 0 1
         names
             .iter()
             .map(|n| {
-                format!(
-                    r#"  <shape type="ply"><string name="filename" value="tri.ply"/><bsdf type="diffuse"><texture name="reflectance" type="mesh_attribute"><string name="name" value="{n}"/></texture></bsdf></shape>"#
-                )
+                let texture = format!(r#"<texture name="reflectance" type="mesh_attribute"><string name="name" value="{n}"/></texture>"#);
+                format!(r#"  <shape type="ply"><string name="filename" value="tri.ply"/><bsdf type="diffuse">{texture}</bsdf></shape>"#)
             })
             .collect::<Vec<_>>()
             .join("\n")

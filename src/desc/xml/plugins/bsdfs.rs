@@ -606,9 +606,9 @@ impl<'a> Reader<'a> {
     /// [`values::NAMED_CONDUCTORS`], or `none`, the default); the 0.6 `ext_eta` folded in.
     pub(super) fn conductor_eta_k(&mut self, p: &Plugin<'a>) -> Result<(Vec3, Vec3, Option<[TextureRef; 2]>)> {
         let named = p.string_opt("material")?;
-        let textured = ["eta", "k"]
+        let textured = [("eta", Vec3::ZERO), ("k", Vec3::ONE)]
             .iter()
-            .any(|k| p.has(k) && matches!(p.colour(k, Vec3::ZERO), Ok(Colour::Texture(_))));
+            .any(|&(k, default)| p.has(k) && matches!(p.colour(k, default), Ok(Colour::Texture(_))));
         if textured && !matches!(named.as_deref(), None | Some("none")) {
             return Err(p.value_error("material", "give either material or eta and k, not both"));
         }

@@ -72,7 +72,10 @@ pub(super) const DOCS: &[PluginDoc] = &[
                 "name",
                 "string",
                 "",
-                "required: `vertex_…` or `face_…`, from a PLY file by Mitsuba's rules (`red green blue`: `vertex_color`; `P_x P_y P_z`: `vertex_P`; …); integer colours are read as fractions of 255 (Mitsuba: as they are)",
+                concat!(
+                    "required: `vertex_…` or `face_…`, from a PLY file by Mitsuba's rules (`red green blue`: `vertex_color`; ",
+                    "`P_x P_y P_z`: `vertex_P`; …); integer colours are read as fractions of 255 (Mitsuba: as they are)"
+                ),
             ),
             read("scale", "float", "1", ""),
         ],

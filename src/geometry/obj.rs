@@ -35,7 +35,7 @@ pub struct ObjData {
     pub warnings: Vec<String>,
     /// The per-vertex values a PLY file gives (one per position) and the per-face ones
     /// (one per triangle), named as Mitsuba names them ([`super::ply`]).
-    pub attributes: Vec<super::mesh::MeshAttribute>,
+    pub attributes: Vec<super::attribute::MeshAttribute>,
 }
 
 #[derive(Debug, thiserror::Error)]

@@ -1,6 +1,6 @@
 //! PLY meshes (for scenes and `rdr bench`), into the same [`ObjData`] the OBJ reader gives.
 
-use super::mesh::MeshAttribute;
+use super::attribute::MeshAttribute;
 use super::obj::{ObjData, ObjTriangle};
 use crate::math::{Vec2, Vec3};
 use anyhow::{bail, Context, Result};

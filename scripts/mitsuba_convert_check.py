@@ -1,17 +1,25 @@
 #!/usr/bin/env python3
-"""Does `rdr convert` write XML that Mitsuba 3 loads and renders as rdr does? For every scene
-(.json and .xml) under ../shared/scenes, ../shared/refs/scenes and scenes/ (or those given):
-a JSON scene is converted to XML, an XML scene to JSON and back to XML (the round trip users
-make). The XML is shrunk to RES pixels wide at SPP samples (the same edit for both renderers),
-rendered by Mitsuba 3 (scalar_rgb, two seeds) and by rdr (`rdr render` of the same converted
-file), and compared by relative MSE: rdr against Mitsuba, and Mitsuba's seed against seed (the
-noise floor). An oracle run by hand, never by tests or CI: Mitsuba is not a dependency.
+"""Do Mitsuba scenes load in rdr, render as Mitsuba 3 renders them, and survive `rdr convert`?
+For every scene under ../shared/scenes (Mitsuba XML; `fragments/` folders are includes, not
+scenes), ../shared/refs/mitsuba (XML), ../shared/refs/scenes (JSON) and scenes/ (JSON), or those
+given, all made RES pixels wide at SPP samples (the same edit for both renderers):
+- an XML scene (its Mitsuba 0.6 spellings that Mitsuba 3 refuses put in Mitsuba 3's form,
+  `mitsuba_oracle.mitsuba3_form`) is rendered by rdr and by Mitsuba (scalar_rgb, seeds 1 and 2: their difference is
+  the noise floor); then converted XML -> JSON -> XML by `rdr convert` (the round trip users
+  make), and the converted XML is rendered by Mitsuba (seed 3) and by rdr. Each of the three
+  images is compared with the mean of Mitsuba's two images of the original: rdr reads the scene
+  as Mitsuba does (`rdr`), the round trip kept the scene for Mitsuba (`trip`) and for rdr (`rdr2`);
+- a JSON scene is converted to XML and the XML rendered by both.
+Relative MSE mean((x - r)^2 / (r^2 + 0.01)); a figure is within noise at <= 3x the floor + 1e-3, the
+floor being Mitsuba's seed-to-seed relMSE or, for an XML scene where rdr is the noisier, the mean
+of rdr's and Mitsuba's.
+An oracle run by hand, never by tests or CI: Mitsuba is not a dependency.
 
 Usage: /work/venv-mi/bin/python scripts/mitsuba_convert_check.py [--rdr BIN] [--res 48] [--spp 64]
            [--out DIR] [--timeout 300] [SCENE ...]
-Prints one line per scene: status, relMSE(rdr, Mitsuba), the floor, and Mitsuba's or rdr's
-first error line. Status: ok (within 3× the floor + 1e-3), DIFF, NO-CONVERT (rdr refused), MI-LOAD
-(Mitsuba refused the XML), RDR-RENDER.
+Prints one line per scene: status, the figures, and the first error line. Status: ok, DIFF (a figure
+above noise), RDR-LOAD (rdr refused the scene), NO-CONVERT (the round trip failed), MI-ORIG (Mitsuba
+refused the original), MI-LOAD (Mitsuba refused the converted XML), RDR-RENDER (rdr refused it).
 """
 import argparse, glob, os, re, subprocess, sys
 
@@ -32,96 +40,109 @@ import numpy as np
 import mitsuba as mi
 
 mi.set_variant("scalar_rgb")
+sys.path.insert(0, HERE)
+from mitsuba_oracle import inlined, mitsuba3_form, rel_mse, shrunk  # noqa: E402
+
+
+class Failed(Exception):
+    def __init__(self, status, msg):
+        super().__init__(msg)
+        self.status, self.msg = status, msg
 
 
 def scenes():
     if a.scenes:
         return a.scenes
-    found = []
-    for base in [os.path.join(a.shared, "scenes"), os.path.join(a.shared, "refs", "scenes"), os.path.join(ROOT, "scenes")]:
-        for ext in ("json", "xml"):
-            found += glob.glob(os.path.join(base, "**", "*." + ext), recursive=True)
+    sh = a.shared
+    found = glob.glob(os.path.join(sh, "scenes", "**", "*.xml"), recursive=True)
+    found = [f for f in found if "/fragments/" not in f]
+    found += glob.glob(os.path.join(sh, "refs", "mitsuba", "*.xml"))
+    found += glob.glob(os.path.join(sh, "refs", "scenes", "*.json"))
+    found += glob.glob(os.path.join(ROOT, "scenes", "*.json"))
     return sorted(found)
 
 
-def run(args):
+def run(args, status):
     p = subprocess.run(args, capture_output=True, text=True, timeout=a.timeout)
-    return p.returncode, (p.stderr.strip().splitlines() or [""])[0]
+    if p.returncode != 0:
+        raise Failed(status, (p.stderr.strip().splitlines() or [""])[0][:200])
 
 
-def shrink(xml_text):
-    """The film RES wide (height in proportion) and SPP samples."""
-    w = re.search(r'<integer name="width" value="(\d+)"', xml_text)
-    h = re.search(r'<integer name="height" value="(\d+)"', xml_text)
-    if w and h:
-        W, H = int(w.group(1)), int(h.group(1))
-        nh = max(1, round(H * a.res / W))
-        xml_text = xml_text.replace(w.group(0), f'<integer name="width" value="{a.res}"')
-        xml_text = xml_text.replace(h.group(0), f'<integer name="height" value="{nh}"')
-    return re.sub(r'<integer name="sample_count" value="\d+"', f'<integer name="sample_count" value="{a.spp}"', xml_text)
-
-
-def rel_mse(x, r):
-    return float(np.mean((x - r) ** 2 / (r**2 + 1e-2)))
-
-
-def check(scene):
-    name = re.sub(r"[^A-Za-z0-9_.-]", "_", os.path.relpath(scene, ROOT if scene.startswith(ROOT) else a.shared))
-    d = os.path.join(a.out, name)
-    os.makedirs(d, exist_ok=True)
-    xml = os.path.join(d, "converted.xml")
-    if scene.endswith(".json"):
-        rc, err = run([a.rdr, "convert", "-q", scene, "-o", xml])
-    else:
-        js = os.path.join(d, "converted.json")
-        rc, err = run([a.rdr, "convert", "-q", scene, "-o", js])
-        if rc == 0:
-            rc, err = run([a.rdr, "convert", "-q", js, "-o", xml])
-    if rc != 0:
-        return "NO-CONVERT", None, None, err
-    small = os.path.join(d, "small.xml")
-    with open(xml) as f:
-        text = shrink(f.read())
-    with open(small, "w") as f:
-        f.write(text)
-    note = ""
+def mitsuba(path, seeds, status):
+    """Mitsuba's images of the file. Mitsuba 0.6's integrators (bdpt, photonmapper, sppm) are not in
+    Mitsuba 3: its image is then path's (the same converged image); rdr renders the file."""
+    with open(path) as f:
+        text = f.read()
     try:
         try:
-            sc = mi.load_file(small)
+            sc, note = mi.load_file(path), ""
         except Exception as e:
-            # Mitsuba 0.6's integrators (bdpt, photonmapper, sppm) are not in Mitsuba 3: its
-            # image of the scene is path's (the same converged image); rdr renders the file
-            m = re.search(r'<integrator type="(bdpt|photonmapper|sppm)">.*?</integrator>', text, re.S)
-            if not (m and "Plugin \"" + m.group(1) + "\" not found" in str(e)):
+            m = re.search(r'<integrator type="(bdpt|photonmapper|sppm)"\s*(/>|>.*?</integrator>)', text, re.S)
+            if not (m and 'Plugin "' + m.group(1) + '" not found' in str(e)):
                 raise
             note = f"(Mitsuba: path for {m.group(1)})"
-            path_xml = os.path.join(d, "small_path.xml")
-            with open(path_xml, "w") as f:
+            alt = os.path.splitext(path)[0] + "_path.xml"
+            with open(alt, "w") as f:
                 f.write(text.replace(m.group(0), '<integrator type="path"/>'))
-            sc = mi.load_file(path_xml)
-        m1 = np.array(mi.render(sc, seed=1))[..., :3]
-        m2 = np.array(mi.render(sc, seed=2))[..., :3]
+            sc = mi.load_file(alt)
+        return [np.array(mi.render(sc, seed=s))[..., :3] for s in seeds], note
     except Exception as e:  # Mitsuba's own message, first line
-        return "MI-LOAD", None, None, str(e).strip().splitlines()[0][:200]
-    out = os.path.join(d, "rdr.exr")
-    rc, err = run([a.rdr, "render", "-q", small, "-o", out, "--seed", "1"])
-    if rc != 0:
-        return "RDR-RENDER", None, None, err
-    x = np.array(mi.Bitmap(out))[..., :3]
-    if x.shape != m1.shape:
-        return "DIFF", None, None, f"shapes {x.shape} and {m1.shape}"
+        raise Failed(status, str(e).strip().splitlines()[0][:200])
+
+
+def rdr_image(scene, out, status, seed=1):
+    run([a.rdr, "render", "-q", scene, "-o", out, "--seed", str(seed)], status)
+    return np.array(mi.Bitmap(out))[..., :3]
+
+
+def check(scene, d):
+    """The figures (name, relMSE) and the floor, and a note."""
+    if scene.endswith(".json"):
+        xml = os.path.join(d, "converted.xml")
+        run([a.rdr, "convert", "-q", scene, "-o", xml], "NO-CONVERT")
+        small = os.path.join(d, "small.xml")
+        with open(xml) as f:
+            text = shrunk(f.read(), a.res, a.spp)
+        with open(small, "w") as f:
+            f.write(text)
+        (m1, m2), note = mitsuba(small, (1, 2), "MI-LOAD")
+        figs = [("rdr", rdr_image(small, os.path.join(d, "rdr.exr"), "RDR-RENDER"))]
+    else:
+        small = os.path.join(d, "original.xml")
+        with open(small, "w") as f:
+            f.write(mitsuba3_form(shrunk(inlined(scene), a.res, a.spp, os.path.dirname(os.path.abspath(scene)))))
+        x = rdr_image(small, os.path.join(d, "rdr.exr"), "RDR-LOAD")
+        x2 = rdr_image(small, os.path.join(d, "rdr_seed2.exr"), "RDR-LOAD", seed=2)
+        js, xml = os.path.join(d, "converted.json"), os.path.join(d, "converted.xml")
+        run([a.rdr, "convert", "-q", small, "-o", js], "NO-CONVERT")
+        run([a.rdr, "convert", "-q", js, "-o", xml], "NO-CONVERT")
+        (m1, m2), note = mitsuba(small, (1, 2), "MI-ORIG")
+        (c,), _ = mitsuba(xml, (3,), "MI-LOAD")
+        figs = [("rdr", x), ("trip", c), ("rdr2", rdr_image(xml, os.path.join(d, "rdr2.exr"), "RDR-RENDER"))]
     mean = (m1 + m2) / 2
-    err, floor = rel_mse(x, mean), rel_mse(m1, m2)
-    return ("ok" if err <= 3 * floor + 1e-3 else "DIFF"), err, floor, note
+    for name, img in figs:
+        if img.shape != mean.shape:
+            raise Failed("DIFF", f"{name}: shapes {img.shape} and {mean.shape}")
+    floor = rel_mse(m1, m2)
+    if not scene.endswith(".json"):
+        # rdr's own noise counts too where it is the larger (two seeds apart: twice one image's)
+        floor = max(floor, (rel_mse(x, x2) + floor) / 2)
+    return [(name, rel_mse(img, mean)) for name, img in figs], floor, note
 
 
 counts = {}
 for s in scenes():
+    label = os.path.relpath(s, ROOT if s.startswith(ROOT) else a.shared)
+    d = os.path.join(a.out, re.sub(r"[^A-Za-z0-9_.-]", "_", label))
+    os.makedirs(d, exist_ok=True)
     try:
-        status, err, floor, msg = check(s)
+        figs, floor, msg = check(s, d)
+        status = "ok" if all(e <= 3 * floor + 1e-3 for _, e in figs) else "DIFF"
+        fig = " ".join(f"{n} {e:.2e}" for n, e in figs) + f" (floor {floor:.2e})"
+    except Failed as f:
+        status, fig, msg = f.status, "", f.msg
     except subprocess.TimeoutExpired:
-        status, err, floor, msg = "TIMEOUT", None, None, ""
+        status, fig, msg = "TIMEOUT", "", ""
     counts[status] = counts.get(status, 0) + 1
-    fig = f"{err:.2e} (floor {floor:.2e})" if err is not None else ""
-    print(f"{status:11s} {os.path.relpath(s, ROOT)}  {fig}  {msg}", flush=True)
+    print(f"{status:10s} {label}  {fig}  {msg}", flush=True)
 print(" ".join(f"{k}: {v}" for k, v in sorted(counts.items())))

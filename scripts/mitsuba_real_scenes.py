@@ -30,46 +30,8 @@ import numpy as np
 import mitsuba as mi
 
 mi.set_variant("scalar_rgb")
-
-
-def value(text, v):
-    """An integer property's value, `$name` looked up in the file's <default>s."""
-    if v.startswith("$"):
-        m = re.search(r'<default name="%s" value="(\d+)"' % re.escape(v[1:]), text)
-        return int(m.group(1)) if m else None
-    return int(v)
-
-
-def inlined(path):
-    """The file's text with its <include>s' contents in place (their <scene> tags dropped), so
-    a film declared in an included fragment (Mitsuba's cbox-rgb.xml) is found and edited."""
-    with open(path) as f:
-        text = f.read()
-
-    def one(m):
-        inner = inlined(os.path.join(os.path.dirname(path), m.group(1)))
-        return re.sub(r"<\?xml[^>]*>|<scene[^>]*>|</scene>", "", inner)
-
-    return re.sub(r'<include filename="([^"]+)"\s*/>', one, text)
-
-
-def prepared(scene, out):
-    text = inlined(scene)
-    w = re.search(r'(<integer name="width" value=")([^"]+)(")', text)
-    h = re.search(r'(<integer name="height" value=")([^"]+)(")', text)
-    W, H = value(text, w.group(2)), value(text, h.group(2))
-    nh = max(1, round(H * a.width / W))
-    text = text.replace(w.group(0), f"{w.group(1)}{a.width}{w.group(3)}", 1)
-    text = text.replace(h.group(0), f"{h.group(1)}{nh}{h.group(3)}", 1)
-    text = re.sub(r'(<integer name="(?:sample_count|sampleCount)" value=")[^"]+(")', rf"\g<1>{a.spp}\g<2>", text)
-    folder = os.path.dirname(os.path.abspath(scene))
-    text = re.sub(r"(<scene[^>]*>)", rf'\1\n<path value="{folder}"/>', text, count=1)
-    with open(out, "w") as f:
-        f.write(text)
-
-
-def rel_mse(x, r):
-    return float(np.mean((x - r) ** 2 / (r**2 + 1e-2)))
+sys.path.insert(0, HERE)
+from mitsuba_oracle import prepared, rel_mse  # noqa: E402
 
 
 def scenes():
@@ -85,7 +47,7 @@ for scene in scenes():
     os.makedirs(d, exist_ok=True)
     small = os.path.join(d, "small.xml")
     try:
-        prepared(scene, small)
+        prepared(scene, small, a.width, a.spp)
         t = time.time()
         sc = mi.load_file(small)
         m = [np.array(mi.render(sc, seed=s))[..., :3] for s in (1, 2)]

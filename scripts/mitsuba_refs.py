@@ -61,3 +61,21 @@ def render_reference(mi, scene, out_dir, name, passes, spp):
     rel = np.sqrt((var / (mean**2 + 0.01)).mean())
     print(f"{name}: {passes}x{spp} spp, relMSE-noise {rel:.2e}, mean {mean.mean(axis=(0, 1))}", file=sys.stderr, flush=True)
     return mean
+
+
+def sphere_light_and_sky(center, radius, radiance, sky, indent="  "):
+    """A spherical area light (`center`, `radiance` as XML vector strings) and a constant sky."""
+    return f"""{indent}<shape type="sphere">
+{indent}  <point name="center" value="{center}"/><float name="radius" value="{radius}"/>
+{indent}  <emitter type="area"><rgb name="radiance" value="{radiance}"/></emitter>
+{indent}</shape>
+{indent}<emitter type="constant"><rgb name="radiance" value="{sky}"/></emitter>"""
+
+
+def write_and_render(mi, out_dir, name, xml_text, passes, spp):
+    """Writes the scene `xml_text` as <name>.xml into `out_dir` and renders its reference
+    there (`render_reference`)."""
+    xml_path = os.path.join(out_dir, name + ".xml")
+    with open(xml_path, "w") as f:
+        f.write(xml_text)
+    return render_reference(mi, mi.load_file(xml_path), out_dir, name, passes, spp)

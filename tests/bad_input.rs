@@ -241,10 +241,10 @@ fn cases() -> Vec<Case> {
             s["textures"]["attr"] = json!({"type": "mesh_attribute"})
         })
         .err(&["textures.attr.name", "missing"]),
-        edit("mesh_attribute of an unknown name", |s| {
-            s["textures"]["attr"] = json!({"type": "mesh_attribute", "name": "vertex_uv"})
+        edit("mesh_attribute of a name not vertex_ or face_", |s| {
+            s["textures"]["attr"] = json!({"type": "mesh_attribute", "name": "uv"})
         })
-        .err(&["textures.attr.name", "vertex_uv"]),
+        .err(&["textures.attr.name", "\"uv\" must start with \"vertex_\" or \"face_\""]),
         edit("mesh_attribute on a mesh without colours", |s| {
             s["textures"]["attr"] = json!({"type": "mesh_attribute", "name": "vertex_color"});
             s["materials"]["matte"]["texture_name"] = json!("attr");

@@ -145,6 +145,7 @@ fn test_bsdfs() -> Vec<(&'static str, Bsdf)> {
         alpha_x: 0.3,
         alpha_y: 0.3,
         alpha_textures: None,
+        eta_k_textures: None,
         distribution: rdr::material::Distribution::Beckmann,
         twosided: true,
     }

@@ -292,7 +292,12 @@ fn conductor_reflects_the_conductor_fresnel_term() {
         (Vec3::new(0.143, 0.374, 1.442), Vec3::new(3.983, 2.385, 1.603)),
         (Vec3::new(1.657, 0.880, 0.521), Vec3::new(9.224, 6.270, 4.837)),
     ] {
-        let m = Material::Conductor { texture: 0, eta, k };
+        let m = Material::Conductor {
+            texture: 0,
+            eta,
+            k,
+            eta_k_textures: None,
+        };
         // at normal incidence ((n−1)² + k²)/((n+1)² + k²)
         let s = bsdf(&m, Vec3::Z, Vec3::ONE).sample(Vec3::Z, Vec2::ZERO, 0.0).unwrap();
         for c in 0..3 {
@@ -325,6 +330,7 @@ fn conductor_reflects_the_conductor_fresnel_term() {
         texture: 0,
         eta: Vec3::ZERO,
         k: Vec3::ONE,
+        eta_k_textures: None,
     };
     let wo = dir(0.8, 0.0);
     let s = bsdf(&mirror, wo, Vec3::ONE).sample(wo, Vec2::ZERO, 0.0).unwrap();

@@ -328,6 +328,7 @@ fn conductor(kind: rdr::material::Distribution, ax: f32, ay: f32, wo: Vec3) -> r
         alpha_x: ax,
         alpha_y: ay,
         alpha_textures: None,
+        eta_k_textures: None,
         distribution: kind,
         twosided: true,
     };

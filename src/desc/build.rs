@@ -4,7 +4,7 @@ use super::source::Source;
 use super::{MeshFile, MeshFormat, MeshNormals, SceneDesc, TextureRef};
 use crate::accel::WideBvh;
 use crate::error::{Result, SceneError};
-use crate::geometry::mesh::Mesh;
+use crate::geometry::mesh::{Mesh, ATTRIBUTE_SLOTS};
 /// Moved to the geometry layer; re-exported for existing callers.
 pub use crate::geometry::prim::prim_bounds;
 use crate::geometry::{obj, ply, serialized, shapes};
@@ -227,6 +227,29 @@ pub fn build(desc: &SceneDesc, opts: BuildOptions) -> Result<Scene> {
     for m in &mut materials {
         m.prepare(&|t: &u32| textures[*t as usize].mean());
     }
+    // the mesh attribute names the textures read, each a slot of the surface interaction
+    let mut attribute_names: Vec<String> = Vec::new();
+    for (i, t) in textures.iter_mut().enumerate() {
+        if let Texture::MeshAttribute { name, slot, .. } = t {
+            let k = attribute_names.iter().position(|n| n == name).unwrap_or_else(|| {
+                attribute_names.push(name.clone());
+                attribute_names.len() - 1
+            });
+            if k >= ATTRIBUTE_SLOTS {
+                let message = format!(
+                    "the scene's textures read {} mesh attributes ({}); at most {ATTRIBUTE_SLOTS} are supported",
+                    k + 1,
+                    attribute_names.join(", ")
+                );
+                return Err(match desc.textures.get(i) {
+                    Some(t) => t.source.error(&desc.file, message),
+                    None => SceneError::new(&desc.file, None, message),
+                });
+            }
+            *slot = k as u8;
+        }
+    }
+    let attribute_names: Vec<&str> = attribute_names.iter().map(String::as_str).collect();
 
     // Meshes load in parallel; errors are reported for the first failing object.
     // The scene's own objects, then the members of each shape group (in order).
@@ -286,8 +309,11 @@ pub fn build(desc: &SceneDesc, opts: BuildOptions) -> Result<Scene> {
     };
     let camera_medium = medium(&desc.camera_medium)?;
     for (oi, (o, shape)) in all.iter().zip(shapes).enumerate() {
-        let (shape, w) = shape?;
+        let (mut shape, w) = shape?;
         warnings.extend(w);
+        if let Shape::Mesh(mesh) = &mut shape {
+            mesh.bind_attributes(&attribute_names);
+        }
         let empty = matches!(&shape, Shape::Mesh(m) if m.triangles.is_empty());
         if let (true, Shape::Mesh(file)) = (empty, &o.shape) {
             degenerate.push(&file.path.value);
@@ -329,36 +355,39 @@ pub fn build(desc: &SceneDesc, opts: BuildOptions) -> Result<Scene> {
             }
         };
         if let (Some(m), false) = (material, empty) {
-            // a mesh_attribute texture needs its colours on this object's mesh
-            let mut needs = (false, false);
+            // the mesh attributes it reads must be on this object's mesh, of 1 or 3 channels
+            let mut needs: Vec<&str> = Vec::new();
             let _ = materials[m as usize].try_map_textures(|&t| {
-                if let Texture::MeshAttribute { face, .. } = textures[t as usize] {
-                    if face {
-                        needs.1 = true;
-                    } else {
-                        needs.0 = true;
-                    }
+                if let Texture::MeshAttribute { name, .. } = &textures[t as usize] {
+                    needs.push(name);
                 }
                 Ok::<(), ()>(())
             });
-            let (vertex, face) = match &shape {
-                Shape::Mesh(mesh) => (!mesh.vertex_colors.is_empty(), !mesh.face_colors.is_empty()),
-                Shape::Sphere(_) | Shape::Cylinder(_) => (false, false),
+            let on_mesh = |name: &str| match &shape {
+                Shape::Mesh(mesh) => mesh.attributes.iter().find(|a| a.name == name),
+                Shape::Sphere(_) | Shape::Cylinder(_) => None,
             };
-            let missing = if needs.0 && !vertex {
-                Some("vertex_color")
-            } else if needs.1 && !face {
-                Some("face_color")
-            } else {
-                None
-            };
-            if let Some(a) = missing {
+            let material_name = &desc.materials[m as usize].name;
+            let problem = needs.iter().find_map(|&name| match on_mesh(name) {
+                None => {
+                    let has: Vec<&str> = match &shape {
+                        Shape::Mesh(mesh) => mesh.attributes.iter().map(|a| a.name.as_str()).collect(),
+                        Shape::Sphere(_) | Shape::Cylinder(_) => Vec::new(),
+                    };
+                    let has = if has.is_empty() { "none".to_string() } else { has.join(", ") };
+                    Some(format!(
+                        "material '{material_name}' reads the mesh attribute {name}, which this object's mesh has not (it has: {has})"
+                    ))
+                }
+                Some(a) if a.channels != 1 && a.channels != 3 => Some(format!(
+                    "material '{material_name}' reads the mesh attribute {name} of {} channels; a mesh_attribute reads 1 or 3 (as Mitsuba)",
+                    a.channels
+                )),
+                Some(_) => None,
+            });
+            if let Some(problem) = problem {
                 let source = o.material.as_ref().map_or(&o.source, |m| &m.source);
-                return Err(source.error(
-                    &desc.file,
-                    format!("material '{}' reads the mesh attribute {a}, which this object's mesh has not (a PLY file with red, green, blue per {})",
-                        desc.materials[m as usize].name, if a == "face_color" { "face" } else { "vertex" }),
-                ));
+                return Err(source.error(&desc.file, problem));
             }
         }
         let (interior, exterior) = (medium(&o.interior)?, medium(&o.exterior)?);

@@ -2,7 +2,7 @@
 //! coordinates and shading frame, and their screen-space derivatives.
 
 use super::cylinder::Cylinder;
-use super::mesh::Mesh;
+use super::mesh::{Mesh, ATTRIBUTE_SLOTS};
 use super::prim::{Hit, Prim};
 use super::sphere::Sphere;
 use super::{Ray, RayDifferential};
@@ -30,10 +30,10 @@ pub struct Interaction {
     /// Direction back along the incoming ray.
     pub wo: Vec3,
     pub object: u32,
-    /// The mesh's vertex colour interpolated with the barycentrics, and its face
-    /// colour (zero where the mesh has none, spheres, and without `uv`).
-    pub vertex_color: Vec3,
-    pub face_color: Vec3,
+    /// The mesh attributes the scene's textures read, by slot ([`Mesh::slots`]): a
+    /// vertex attribute interpolated with the barycentrics, a face attribute as it is
+    /// (zero where the mesh has none, on spheres and cylinders, and without `uv`).
+    pub attributes: [Vec3; ATTRIBUTE_SLOTS],
 }
 
 /// Order of a sphere's texture coordinates (which one is the azimuth).
@@ -85,18 +85,23 @@ impl Interaction {
             None => [Vec2::new(0.0, 0.0), Vec2::new(1.0, 0.0), Vec2::new(1.0, 1.0)],
         };
         let (dpdu, dpdv) = triangle_dpduv(p, &uvs).unwrap_or_else(|| fallback_dpduv(self.ng));
-        let vertex_color = if mesh.vertex_colors.is_empty() {
-            Vec3::ZERO
-        } else {
-            let c = tri.p.map(|i| mesh.vertex_colors[i as usize]);
-            (c[0] * b[0] + c[1] * b[1]) + c[2] * b[2]
-        };
+        let mut attributes = [Vec3::ZERO; ATTRIBUTE_SLOTS];
+        for (value, slot) in attributes.iter_mut().zip(mesh.slots) {
+            let Some(a) = slot.map(|a| &mesh.attributes[a as usize]) else {
+                continue;
+            };
+            *value = if a.per_face() {
+                a.values[index as usize]
+            } else {
+                let c = tri.p.map(|i| a.values[i as usize]);
+                (c[0] * b[0] + c[1] * b[1]) + c[2] * b[2]
+            };
+        }
         Interaction {
             uv: uvs[0] * b[0] + uvs[1] * b[1] + uvs[2] * b[2],
             dpdu,
             dpdv,
-            vertex_color,
-            face_color: mesh.face_colors.get(index as usize).copied().unwrap_or(Vec3::ZERO),
+            attributes,
             ..self
         }
     }
@@ -153,8 +158,7 @@ impl Interaction {
             duvdy: Vec2::ZERO,
             wo,
             object,
-            vertex_color: Vec3::ZERO,
-            face_color: Vec3::ZERO,
+            attributes: [Vec3::ZERO; ATTRIBUTE_SLOTS],
         }
     }
 

@@ -1,5 +1,6 @@
 //! Triangle meshes in world space.
 
+pub use super::attribute::{MeshAttribute, ATTRIBUTE_SLOTS};
 use super::obj::{ObjData, ObjTriangle};
 use crate::math::{transform_point, transform_vector, Mat4, Vec2, Vec3};
 
@@ -9,10 +10,12 @@ pub struct Mesh {
     pub normals: Vec<Vec3>,
     pub uvs: Vec<Vec2>,
     pub triangles: Vec<ObjTriangle>,
-    /// Per-vertex colours (indexed like `positions`) and per-triangle colours (like
-    /// `triangles`) from a PLY file; empty when it had none (the `mesh_attribute` texture).
-    pub vertex_colors: Vec<Vec3>,
-    pub face_colors: Vec<Vec3>,
+    /// The per-vertex and per-face values the file gave (a PLY file's properties
+    /// beyond positions, normals and uvs), for the `mesh_attribute` texture.
+    pub attributes: Vec<MeshAttribute>,
+    /// Which of `attributes` each of the scene's attribute slots reads (the scene
+    /// numbers the attribute names its textures use; [`Mesh::bind_attributes`]).
+    pub slots: [Option<u16>; ATTRIBUTE_SLOTS],
 }
 
 /// What [`Mesh::from_obj`] dropped or changed, for the caller's warnings.
@@ -53,7 +56,8 @@ impl Mesh {
             .collect();
         let mut report = MeshReport::default();
         let mut triangles = Vec::with_capacity(obj.triangles.len());
-        let mut face_colors = Vec::with_capacity(obj.face_colors.len());
+        // the faces kept, to keep their face attributes' values
+        let mut kept = Vec::with_capacity(obj.triangles.len());
         for (i, mut t) in obj.triangles.into_iter().enumerate() {
             let p = t.p.map(|i| positions[i as usize]);
             let c = (p[1] - p[0]).cross(p[2] - p[0]);
@@ -84,21 +88,41 @@ impl Mesh {
                 }
             }
             triangles.push(t);
-            if let Some(&c) = obj.face_colors.get(i) {
-                face_colors.push(c);
-            }
+            kept.push(i);
         }
+        let attributes = obj
+            .attributes
+            .into_iter()
+            .map(|mut a| {
+                if a.per_face() {
+                    a.values = kept.iter().map(|&i| a.values[i]).collect();
+                }
+                a
+            })
+            .collect();
         (
             Mesh {
                 positions,
                 normals,
                 uvs: obj.uvs,
                 triangles,
-                vertex_colors: obj.vertex_colors,
-                face_colors,
+                attributes,
+                slots: [None; ATTRIBUTE_SLOTS],
             },
             report,
         )
+    }
+
+    /// Points slot `k` at the attribute named `names[k]`; the names it lacks.
+    pub fn bind_attributes<'a>(&mut self, names: &[&'a str]) -> Vec<&'a str> {
+        let mut missing = Vec::new();
+        for (k, name) in names.iter().enumerate().take(ATTRIBUTE_SLOTS) {
+            self.slots[k] = self.attributes.iter().position(|a| a.name == *name).map(|i| i as u16);
+            if self.slots[k].is_none() {
+                missing.push(*name);
+            }
+        }
+        missing
     }
 
     #[inline]

@@ -2,6 +2,7 @@
 //! surface interactions, meshes and OBJ/PLY/serialized loading, generated meshes.
 
 pub mod aabb;
+pub mod attribute;
 pub mod cylinder;
 pub mod interaction;
 pub mod mesh;

@@ -33,11 +33,9 @@ pub struct ObjData {
     pub uvs: Vec<Vec2>,
     pub triangles: Vec<ObjTriangle>,
     pub warnings: Vec<String>,
-    /// Colours a PLY file gives its vertices (`red green blue`: Mitsuba's
-    /// `vertex_color`), one per position, or none.
-    pub vertex_colors: Vec<Vec3>,
-    /// Colours a PLY file gives its faces (Mitsuba's `face_color`), one per triangle.
-    pub face_colors: Vec<Vec3>,
+    /// The per-vertex values a PLY file gives (one per position) and the per-face ones
+    /// (one per triangle), named as Mitsuba names them ([`super::ply`]).
+    pub attributes: Vec<super::attribute::MeshAttribute>,
 }
 
 #[derive(Debug, thiserror::Error)]

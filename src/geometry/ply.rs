@@ -1,5 +1,6 @@
 //! PLY meshes (for scenes and `rdr bench`), into the same [`ObjData`] the OBJ reader gives.
 
+use super::attribute::MeshAttribute;
 use super::obj::{ObjData, ObjTriangle};
 use crate::math::{Vec2, Vec3};
 use anyhow::{bail, Context, Result};
@@ -143,16 +144,26 @@ pub fn parse_ply(bytes: &[u8]) -> Result<ObjData> {
     let uv_names = [("u", "v"), ("s", "t"), ("texture_u", "texture_v"), ("texture_s", "texture_t")]
         .into_iter()
         .find(|(a, b)| has(a) && has(b));
-    // colours (Mitsuba's `vertex_color` / `face_color` attributes): `red green blue`
-    // or `r g b`, integers scaled by their type's maximum (uchar: 1/255), floats as they are
-    let colour_names = |element: &str| -> Option<[&'static str; 3]> {
-        let props: &[Prop] = elements.iter().find(|e| e.0 == element).map_or(&[], |e| &e.2);
-        let has = |n: &str| props.iter().any(|p| p.2 == n && p.1.is_none());
-        [["red", "green", "blue"], ["r", "g", "b"]]
-            .into_iter()
-            .find(|c| c.iter().all(|n| has(n)))
-    };
-    let (vertex_colour, face_colour) = (colour_names("vertex"), colour_names("face"));
+    // the other scalar properties, grouped into attributes as Mitsuba groups them
+    let mut reserved = vec!["x", "y", "z", "nx", "ny", "nz", "u", "v"];
+    reserved.extend(uv_names.map_or([""; 2], |(a, b)| [a, b]));
+    let groups: Vec<Vec<AttributeFields>> = elements
+        .iter()
+        .map(|(name, _, props)| {
+            if name != "vertex" && name != "face" {
+                return Vec::new();
+            }
+            let scalars: Vec<&str> = props.iter().filter(|p| p.1.is_none()).map(|p| p.2.as_str()).collect();
+            let (groups, ignored) = attribute_fields(name, &scalars, &reserved);
+            if !ignored.is_empty() {
+                data.warnings.push(format!(
+                    "element '{name}': properties that make no attribute by Mitsuba 3's rules, not read: {}",
+                    ignored.join(", ")
+                ));
+            }
+            groups
+        })
+        .collect();
     let colour_scale = |t: &str| match t {
         "uchar" | "uint8" => 1.0 / 255.0,
         "ushort" | "uint16" => 1.0 / 65535.0,
@@ -161,22 +172,32 @@ pub fn parse_ply(bytes: &[u8]) -> Result<ObjData> {
     if vertex_props.iter().all(|p| p.2 != "x") && elements.iter().any(|e| e.0 == "vertex" && e.1 > 0) {
         bail!("element 'vertex' has no property 'x'");
     }
-    for (name, count, props) in &elements {
+    for (e, (name, count, props)) in elements.iter().enumerate() {
         if props.is_empty() {
             continue; // records of nothing
         }
+        let attributes = &groups[e];
+        // each property's attribute and channel
+        let channel: Vec<Option<(usize, usize)>> = props
+            .iter()
+            .map(|p| {
+                attributes
+                    .iter()
+                    .enumerate()
+                    .find_map(|(a, g)| g.fields.iter().position(|f| *f == p.2).map(|c| (a, c)))
+            })
+            .collect();
+        let first = data.attributes.len();
+        data.attributes.extend(attributes.iter().map(|g| MeshAttribute {
+            name: g.name.clone(),
+            channels: g.fields.len() as u8,
+            values: Vec::new(),
+        }));
         for _ in 0..*count {
             let (mut xyz, mut n, mut uv) = ([0.0f32; 3], [0.0f32; 3], [0.0f32; 2]);
-            let mut rgb = [0.0f32; 3];
-            let colour = if name == "vertex" {
-                vertex_colour
-            } else if name == "face" {
-                face_colour
-            } else {
-                None
-            };
+            let mut values = vec![[0.0f32; 3]; attributes.len()];
             let mut face: Vec<u32> = Vec::new();
-            for (t, list, pname) in props {
+            for ((t, list, pname), channel) in props.iter().zip(&channel) {
                 match list {
                     None => {
                         let v = read(t)? as f32;
@@ -189,9 +210,12 @@ pub fn parse_ply(bytes: &[u8]) -> Result<ObjData> {
                             "nz" => n[2] = v,
                             p if uv_names.is_some_and(|(a, _)| a == p) => uv[0] = v,
                             p if uv_names.is_some_and(|(_, b)| b == p) => uv[1] = v,
-                            p => {
-                                if let Some(k) = colour.and_then(|c| c.iter().position(|c| *c == p)) {
-                                    rgb[k] = v * colour_scale(t);
+                            _ => {
+                                if let Some((a, c)) = *channel {
+                                    if c < 3 {
+                                        let scale = if attributes[a].colour { colour_scale(t) } else { 1.0 };
+                                        values[a][c] = v * scale;
+                                    }
                                 }
                             }
                         }
@@ -224,9 +248,7 @@ pub fn parse_ply(bytes: &[u8]) -> Result<ObjData> {
                 if uv_names.is_some() {
                     data.uvs.push(Vec2::from_array(uv));
                 }
-                if vertex_colour.is_some() {
-                    data.vertex_colors.push(Vec3::from_array(rgb));
-                }
+                push_values(&mut data.attributes[first..], &values, 1);
             } else if name == "face" {
                 for k in 2..face.len() {
                     let idx = [face[0], face[k - 1], face[k]];
@@ -236,14 +258,123 @@ pub fn parse_ply(bytes: &[u8]) -> Result<ObjData> {
                         uv: uv_names.is_some().then_some(idx),
                         line: 0,
                     });
-                    if face_colour.is_some() {
-                        data.face_colors.push(Vec3::from_array(rgb));
-                    }
                 }
+                push_values(&mut data.attributes[first..], &values, face.len().saturating_sub(2));
             }
         }
     }
     Ok(data)
+}
+
+/// `count` copies of one record's attribute values (a face fanned into `count`
+/// triangles) appended to the attributes; one channel is kept in all three.
+fn push_values(attributes: &mut [MeshAttribute], values: &[[f32; 3]], count: usize) {
+    for (a, v) in attributes.iter_mut().zip(values) {
+        let v = if a.channels == 1 { Vec3::splat(v[0]) } else { Vec3::from_array(*v) };
+        a.values.extend(std::iter::repeat_n(v, count));
+    }
+}
+
+/// The properties of one attribute: its Mitsuba name and their names, channel order.
+struct AttributeFields<'a> {
+    name: String,
+    fields: Vec<&'a str>,
+    /// A colour (integers are read as fractions of their type's maximum).
+    colour: bool,
+}
+
+/// Suffix families of an attribute's properties `P_x P_y P_z`: the first property's
+/// suffix picks the family, the next ones follow it in order.
+const SUFFIX_FAMILIES: [&str; 4] = ["xyzw", "rgba", "0123", "1234"];
+
+/// Mitsuba 3's grouping of an element's scalar properties (`element` "vertex" or
+/// "face") other than `reserved` into attributes: `r g b [a]` or `red green blue
+/// [alpha]` are `{element}_color`; consecutive properties `P_c` with one prefix `P`
+/// and one-letter suffixes running through a family of [`SUFFIX_FAMILIES`] are
+/// `{element}_P` (`{element}_P_color` for `r g b`), kept if there are 1 or 3 of them.
+/// Also the names of the properties left out.
+fn attribute_fields<'a>(element: &str, names: &[&'a str], reserved: &[&str]) -> (Vec<AttributeFields<'a>>, Vec<&'a str>) {
+    let has = |n: &str| names.contains(&n);
+    let mut groups = Vec::new();
+    if let Some(rgb) = [["r", "g", "b", "a"], ["red", "green", "blue", "alpha"]]
+        .into_iter()
+        .find(|c| c[..3].iter().all(|n| has(n)))
+    {
+        let fields = rgb
+            .iter()
+            .filter(|n| has(n))
+            .map(|n| *names.iter().find(|m| *m == n).expect("has"))
+            .collect();
+        groups.push(AttributeFields {
+            name: format!("{element}_color"),
+            fields,
+            colour: true,
+        });
+    }
+    let taken =
+        |n: &str| reserved.contains(&n) || ["r", "g", "b", "a"].contains(&n) || groups.first().is_some_and(|g| g.fields.contains(&n));
+    let taken: Vec<bool> = names.iter().map(|n| taken(n)).collect();
+    let (mut ignored, mut done): (Vec<&str>, Vec<&str>) = (Vec::new(), Vec::new());
+    // the attribute being read: its prefix, suffix family and properties
+    let mut run: Option<(&str, usize, Vec<&str>)> = None;
+    let mut flush = |run: &mut Option<(&'a str, usize, Vec<&'a str>)>, ignored: &mut Vec<&'a str>, done: &mut Vec<&'a str>| {
+        if let Some((prefix, family, fields)) = run.take() {
+            if fields.len() == 1 || fields.len() == 3 {
+                let colour = if family == 1 { "_color" } else { "" };
+                groups.push(AttributeFields {
+                    name: format!("{element}_{prefix}{colour}"),
+                    fields,
+                    colour: family == 1,
+                });
+                done.push(prefix);
+            } else {
+                ignored.extend(fields);
+            }
+        }
+    };
+    let mut skipping: Option<&str> = None;
+    for (&n, _) in names.iter().zip(&taken).filter(|(_, t)| !**t) {
+        let split = n.rsplit_once('_').filter(|(_, s)| s.chars().count() == 1);
+        if let (Some(p), Some((prefix, _))) = (skipping, split) {
+            if p == prefix {
+                ignored.push(n);
+                continue;
+            }
+        }
+        skipping = None;
+        let Some((prefix, suffix)) = split else {
+            flush(&mut run, &mut ignored, &mut done);
+            ignored.push(n);
+            continue;
+        };
+        let c = suffix.chars().next().expect("one letter");
+        if run.as_ref().is_some_and(|r| r.0 != prefix) {
+            flush(&mut run, &mut ignored, &mut done);
+        }
+        match run.as_mut() {
+            None => match SUFFIX_FAMILIES.iter().position(|f| f.starts_with(c)) {
+                Some(family) if !done.contains(&prefix) => run = Some((prefix, family, vec![n])),
+                Some(_) => {
+                    // a second attribute of this prefix
+                    ignored.push(n);
+                    skipping = Some(prefix);
+                }
+                None => ignored.push(n),
+            },
+            Some((_, family, fields)) => {
+                if SUFFIX_FAMILIES[*family].chars().nth(fields.len()) == Some(c) {
+                    fields.push(n);
+                } else {
+                    // out of sequence: the whole attribute is left out
+                    ignored.extend(run.take().expect("reading").2);
+                    ignored.push(n);
+                    skipping = Some(prefix);
+                }
+            }
+        }
+    }
+    flush(&mut run, &mut ignored, &mut done);
+    (groups, ignored)
 }
 
 #[cfg(test)]

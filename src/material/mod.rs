@@ -87,6 +87,10 @@ pub enum Material<T = u32> {
         /// When either roughness is a texture: both, as textures (a constant one as a
         /// constant texture), read as floats at the point in place of `alpha_x`, `alpha_y`.
         alpha_textures: Option<[T; 2]>,
+        /// When `etaT` or `k` is a texture (Mitsuba's textured `eta`, `k`): both, as
+        /// textures (a constant one as a constant texture), read as colours at the
+        /// point in place of `eta_t`, `k`.
+        eta_k_textures: Option<[T; 2]>,
         distribution: Distribution,
         twosided: bool,
     },
@@ -95,7 +99,13 @@ pub enum Material<T = u32> {
     /// (a tint, Mitsuba's `specular_reflectance`; white when absent), `eta` (vec3,
     /// (0,0,0)), `k` (vec3, (1,1,1)): the defaults make a perfect mirror, as
     /// Mitsuba's `material="none"`. Normal-incidence reflectance ((η−1)²+k²)/((η+1)²+k²).
-    Conductor { texture: T, eta: Vec3, k: Vec3 },
+    /// `eta` and `k` may name textures (`eta_k_textures`, as the rough conductor's).
+    Conductor {
+        texture: T,
+        eta: Vec3,
+        k: Vec3,
+        eta_k_textures: Option<[T; 2]>,
+    },
     /// `thindielectric` (Mitsuba `thindielectric`): a thin pane, both faces alike;
     /// reflects 2F/(1+F) (inter-reflections inside the pane summed), lets the rest
     /// through undeflected. `R`, `T` (vec3, (1,1,1): `specular_reflectance`,
@@ -328,6 +338,7 @@ impl<T> Material<T> {
                 alpha_x,
                 alpha_y,
                 alpha_textures,
+                eta_k_textures,
                 distribution,
                 twosided,
             } => Material::RoughConductor {
@@ -338,13 +349,20 @@ impl<T> Material<T> {
                 alpha_x: *alpha_x,
                 alpha_y: *alpha_y,
                 alpha_textures: map_pair(alpha_textures, f)?,
+                eta_k_textures: map_pair(eta_k_textures, f)?,
                 distribution: *distribution,
                 twosided: *twosided,
             },
-            Material::Conductor { texture, eta, k } => Material::Conductor {
+            Material::Conductor {
+                texture,
+                eta,
+                k,
+                eta_k_textures,
+            } => Material::Conductor {
                 texture: f(texture)?,
                 eta: *eta,
                 k: *k,
+                eta_k_textures: map_pair(eta_k_textures, f)?,
             },
             Material::ThinDielectric { reflect, transmit, eta } => Material::ThinDielectric {
                 reflect: *reflect,
@@ -597,25 +615,38 @@ impl Material {
                 alpha_x,
                 alpha_y,
                 alpha_textures,
+                eta_k_textures,
                 distribution,
                 twosided,
-            } => (
-                if twosided { facing } else { ns },
-                BsdfKind::Conductor {
-                    tint: tint(texture),
-                    eta: eta_t / eta_i,
-                    k: k / eta_i,
-                    mf: microfacet_at(distribution, alpha_x, alpha_y, alpha_textures, tint),
-                },
-            ),
-            Material::Conductor { texture, eta, k } => (
-                ns,
-                BsdfKind::SmoothConductor(conductor::SmoothConductor {
-                    tint: tint(texture),
-                    eta,
-                    k,
-                }),
-            ),
+            } => {
+                // as the XML reader keeps a constant η from 0 (a textured one here)
+                let (eta_t, k) = eta_k_at(eta_t, k, eta_k_textures, tint, 1e-4);
+                (
+                    if twosided { facing } else { ns },
+                    BsdfKind::Conductor {
+                        tint: tint(texture),
+                        eta: eta_t / eta_i,
+                        k: k / eta_i,
+                        mf: microfacet_at(distribution, alpha_x, alpha_y, alpha_textures, tint),
+                    },
+                )
+            }
+            Material::Conductor {
+                texture,
+                eta,
+                k,
+                eta_k_textures,
+            } => {
+                let (eta, k) = eta_k_at(eta, k, eta_k_textures, tint, 0.0);
+                (
+                    ns,
+                    BsdfKind::SmoothConductor(conductor::SmoothConductor {
+                        tint: tint(texture),
+                        eta,
+                        k,
+                    }),
+                )
+            }
             Material::ThinDielectric { reflect, transmit, eta } => (
                 ns,
                 BsdfKind::ThinDielectric(dielectric::ThinDielectric {
@@ -755,6 +786,15 @@ impl Material {
             kind,
             perturbed: None,
         }
+    }
+}
+
+/// A conductor's η and k at the point: the textures' values when it has them (η at
+/// least `min_eta`, k at least 0), else the constants.
+fn eta_k_at(eta: Vec3, k: Vec3, textures: Option<[u32; 2]>, tint: &impl Fn(u32) -> Vec3, min_eta: f32) -> (Vec3, Vec3) {
+    match textures {
+        Some([e, kt]) => (tint(e).max(Vec3::splat(min_eta)), tint(kt).max(Vec3::ZERO)),
+        None => (eta, k),
     }
 }
 

@@ -63,8 +63,7 @@ impl Interaction {
             uv: self.uv,
             duvdx: self.duvdx,
             duvdy: self.duvdy,
-            vertex_color: self.vertex_color,
-            face_color: self.face_color,
+            attributes: self.attributes,
         }
     }
 }

@@ -10,6 +10,7 @@
 pub mod image;
 pub mod mipmap;
 
+use crate::geometry::mesh::ATTRIBUTE_SLOTS;
 use crate::math::{Vec2, Vec3};
 pub use image::ImageTexture;
 pub use mipmap::MipMap;
@@ -37,10 +38,9 @@ pub struct TexCoord {
     pub uv: Vec2,
     pub duvdx: Vec2,
     pub duvdy: Vec2,
-    /// The point's mesh attributes (zero where the mesh has none): what
+    /// The point's mesh attributes by slot (zero where the mesh has none): what
     /// [`Texture::MeshAttribute`] returns.
-    pub vertex_color: Vec3,
-    pub face_color: Vec3,
+    pub attributes: [Vec3; ATTRIBUTE_SLOTS],
 }
 
 impl TexCoord {
@@ -51,8 +51,7 @@ impl TexCoord {
             uv,
             duvdx: Vec2::ZERO,
             duvdy: Vec2::ZERO,
-            vertex_color: Vec3::ZERO,
-            face_color: Vec3::ZERO,
+            attributes: [Vec3::ZERO; ATTRIBUTE_SLOTS],
         }
     }
 }
@@ -111,17 +110,20 @@ pub enum Texture<I = ImageTexture> {
     ///          "tex_coordinate_generator": {"type": "uvmapping2d", "scale": [4, 4]}}
     /// ```
     Image(I),
-    /// `mesh_attribute` (Mitsuba's `mesh_attribute`): a colour the mesh carries, read
-    /// from a PLY file's `red green blue` (or `r g b`) properties (integers divided by
-    /// their type's maximum, 255 for `uchar`; floats as they are). `name` (required):
-    /// `"vertex_color"` (per vertex, interpolated with the barycentrics) or
-    /// `"face_color"` (per face); `scale` (1). An object whose mesh lacks the attribute
-    /// is an error when the scene is built. No filtering, no uv gradient.
+    /// `mesh_attribute` (Mitsuba's `mesh_attribute`): a value the mesh carries, read
+    /// from a PLY file's properties by Mitsuba's rules (`red green blue` or `r g b`:
+    /// `vertex_color` / `face_color`; `P_x P_y P_z`, `P_0 P_1 P_2` or `P_1 P_2 P_3`:
+    /// `vertex_P`; `P_r P_g P_b`: `vertex_P_color`; one such property alone: a
+    /// one-channel `vertex_P`, a grey; colours in integers divided by their type's
+    /// maximum, 255 for `uchar`; the rest as they are). `name` (required): `"vertex_…"`
+    /// (per vertex, interpolated with the barycentrics) or `"face_…"` (per face);
+    /// `scale` (1). An object whose mesh lacks the attribute is an error when the scene
+    /// is built; a scene reads at most four names. No filtering, no uv gradient.
     ///
     /// ```json
     /// "paint": {"type": "mesh_attribute", "name": "vertex_color"}
     /// ```
-    MeshAttribute { face: bool, scale: f32 },
+    MeshAttribute { name: String, slot: u8, scale: f32 },
 }
 
 impl<I> Texture<I> {
@@ -136,8 +138,9 @@ impl<I> Texture<I> {
                 mapping: *mapping,
             },
             Texture::Image(i) => Texture::Image(f(i)?),
-            Texture::MeshAttribute { face, scale } => Texture::MeshAttribute {
-                face: *face,
+            Texture::MeshAttribute { name, slot, scale } => Texture::MeshAttribute {
+                name: name.clone(),
+                slot: *slot,
                 scale: *scale,
             },
         })
@@ -186,7 +189,7 @@ impl Texture {
                 }
             }
             Texture::Image(t) => t.eval(&tc),
-            Texture::MeshAttribute { face, scale } => (if *face { tc.face_color } else { tc.vertex_color }) * *scale,
+            Texture::MeshAttribute { slot, scale, .. } => tc.attributes[*slot as usize] * *scale,
         }
     }
 }

@@ -206,3 +206,15 @@ pub fn assert_same_image_for_1_2_3_threads(scene: &Path, spp: u32, overrides: &s
     assert!(one == render(2), "{what}: 2 threads give another image than 1");
     assert!(one == render(3), "{what}: 3 threads give another image than 1");
 }
+
+/// `rdr convert` of the scene `xml` into `<dir>/<stem>.json`: its path and its text.
+pub fn converted_to_json(xml: &Path, dir: &Path) -> (PathBuf, String) {
+    let json = dir.join(xml.with_extension("json").file_name().unwrap());
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_rdr"))
+        .args(["convert", "-q", xml.to_str().unwrap(), "-o", json.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let text = std::fs::read_to_string(&json).unwrap();
+    (json, text)
+}

@@ -133,12 +133,25 @@ fn volume_xml(desc: &SceneDesc, name: &str, v: &VolumeDesc, out: &Path, esc: &im
     let rgb = |c: Vec3| format!("{}, {}, {}", c.x, c.y, c.z);
     let to_world = |m: &Mat4| format!("<transform name=\"to_world\"><matrix value=\"{}\"/></transform>", matrix(m));
     match &v.value {
-        Volume::Constant(c) if c.to_world == Mat4::IDENTITY => format!("    <rgb name=\"{name}\" value=\"{}\"/>\n", rgb(c.value)),
-        Volume::Constant(c) => format!(
-            "    <volume type=\"constvolume\" name=\"{name}\">\n      <rgb name=\"value\" value=\"{}\"/>\n      {}\n    </volume>\n",
-            rgb(c.value),
-            to_world(&c.to_world)
-        ),
+        // a grey as a float; Mitsuba's RGB variants read a bare <rgb> as a reflectance
+        // (refused above 1: a sigma_t of 1.5), a constvolume's <rgb> as it is
+        Volume::Constant(c) if c.to_world == Mat4::IDENTITY && c.value == Vec3::splat(c.value.x) => {
+            format!("    <float name=\"{name}\" value=\"{}\"/>\n", c.value.x)
+        }
+        Volume::Constant(c) if c.to_world == Mat4::IDENTITY && c.value.max_element() <= 1.0 => {
+            format!("    <rgb name=\"{name}\" value=\"{}\"/>\n", rgb(c.value))
+        }
+        Volume::Constant(c) => {
+            let transform = if c.to_world == Mat4::IDENTITY {
+                String::new()
+            } else {
+                format!("\n      {}", to_world(&c.to_world))
+            };
+            format!(
+                "    <volume type=\"constvolume\" name=\"{name}\">\n      <rgb name=\"value\" value=\"{}\"/>{transform}\n    </volume>\n",
+                rgb(c.value),
+            )
+        }
         Volume::Grid(g) => {
             let o = &g.options;
             let mut s = format!(

@@ -132,6 +132,78 @@ pub fn obj_text(d: &ObjData) -> String {
     s
 }
 
+/// An ASCII PLY file of a mesh's data with its attributes, each under the property
+/// names the PLY reader makes that name of again (`vertex_color`: `r g b`;
+/// `vertex_P_color`: `P_r P_g P_b`; `vertex_P`: `P_x [P_y P_z]`); `None` when a
+/// triangle's normals or uvs are indexed apart from its positions (no PLY can say that).
+pub fn ply_text(d: &ObjData) -> Option<String> {
+    if d.triangles
+        .iter()
+        .any(|t| t.n.is_some_and(|n| n != t.p) || t.uv.is_some_and(|uv| uv != t.p))
+    {
+        return None;
+    }
+    let (has_n, has_uv) = (d.normals.len() == d.positions.len(), d.uvs.len() == d.positions.len());
+    let properties = |a: &crate::geometry::mesh::MeshAttribute| -> Vec<String> {
+        let rest = a.name.split_once('_').map_or("", |(_, r)| r);
+        let names: Vec<String> = match rest.strip_suffix("color") {
+            Some("") => ["r", "g", "b", "a"].map(String::from).to_vec(),
+            Some(prefix) => ["r", "g", "b"].map(|c| format!("{prefix}{c}")).to_vec(),
+            None => ["x", "y", "z"].map(|c| format!("{rest}_{c}")).to_vec(),
+        };
+        names.into_iter().take(a.channels as usize).collect()
+    };
+    let (vertex, face): (Vec<_>, Vec<_>) = d.attributes.iter().partition(|a| !a.per_face());
+    let mut s = format!(
+        "ply\nformat ascii 1.0\ncomment written by rdr convert\nelement vertex {}\n",
+        d.positions.len()
+    );
+    let mut props = vec!["x", "y", "z"];
+    props.extend(if has_n { &["nx", "ny", "nz"][..] } else { &[] });
+    props.extend(if has_uv { &["u", "v"][..] } else { &[] });
+    for p in props {
+        let _ = writeln!(s, "property float {p}");
+    }
+    for a in &vertex {
+        for p in properties(a) {
+            let _ = writeln!(s, "property float {p}");
+        }
+    }
+    let _ = writeln!(s, "element face {}\nproperty list uchar int vertex_indices", d.triangles.len());
+    for a in &face {
+        for p in properties(a) {
+            let _ = writeln!(s, "property float {p}");
+        }
+    }
+    s += "end_header\n";
+    // one record: its attributes' channels (a fourth, alpha, is 1)
+    let values = |attributes: &[&crate::geometry::mesh::MeshAttribute], i: usize, s: &mut String| {
+        for a in attributes {
+            let v = a.values[i];
+            for c in 0..a.channels as usize {
+                let _ = write!(s, " {}", if c < 3 { v[c] } else { 1.0 });
+            }
+        }
+    };
+    for (i, p) in d.positions.iter().enumerate() {
+        let _ = write!(s, "{} {} {}", p.x, p.y, p.z);
+        if has_n {
+            let _ = write!(s, " {} {} {}", d.normals[i].x, d.normals[i].y, d.normals[i].z);
+        }
+        if has_uv {
+            let _ = write!(s, " {} {}", d.uvs[i].x, d.uvs[i].y);
+        }
+        values(&vertex, i, &mut s);
+        s += "\n";
+    }
+    for (i, t) in d.triangles.iter().enumerate() {
+        let _ = write!(s, "3 {} {} {}", t.p[0], t.p[1], t.p[2]);
+        values(&face, i, &mut s);
+        s += "\n";
+    }
+    Some(s)
+}
+
 /// Textured spot lights and projectors are not carried yet: an error naming the first,
 /// not a silently plain light (area lights' radiance textures are carried).
 pub(super) fn refuse_textured_emitters(desc: &SceneDesc) -> Result<()> {

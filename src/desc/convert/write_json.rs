@@ -1,8 +1,8 @@
 //! A description written as RDR171 JSON.
 
 use super::{
-    cylinder_params, distribution_name, num, obj_has_normals, obj_text, out_dir, rebase, refuse_textured_emitters, row_major, vec2, vec3,
-    Converted,
+    cylinder_params, distribution_name, num, obj_has_normals, obj_text, out_dir, ply_text, rebase, refuse_textured_emitters, row_major,
+    vec2, vec3, Converted,
 };
 use crate::desc::{MeshFormat, MeshNormals, SceneDesc, TextureRef};
 use crate::error::Result;
@@ -207,8 +207,8 @@ pub fn to_json(desc: &SceneDesc, out: &Path) -> Result<Converted> {
                 }
                 v
             }
-            Texture::MeshAttribute { face, scale } => {
-                json!({"type": "mesh_attribute", "name": if *face { "face_color" } else { "vertex_color" }, "scale": num(*scale)})
+            Texture::MeshAttribute { name, scale, .. } => {
+                json!({"type": "mesh_attribute", "name": name, "scale": num(*scale)})
             }
         };
         textures.insert(t.name.clone(), v);
@@ -287,8 +287,10 @@ pub fn to_json(desc: &SceneDesc, out: &Path) -> Result<Converted> {
                     rebase(desc, &m.path.value, out)
                 } else {
                     let data = crate::desc::build::mesh_data(desc, m)?;
-                    let name = format!("{stem}_meshes/{i}.obj");
-                    files.push((out_dir(out).join(&name), obj_text(&data).into_bytes()));
+                    // a mesh with attributes as a PLY file, which carries them
+                    let ply = Some(&data).filter(|d| !d.attributes.is_empty()).and_then(ply_text);
+                    let name = format!("{stem}_meshes/{i}.{}", if ply.is_some() { "ply" } else { "obj" });
+                    files.push((out_dir(out).join(&name), ply.unwrap_or_else(|| obj_text(&data)).into_bytes()));
                     name
                 };
                 let mut v = json!({"type": "mesh", "path": path});
@@ -433,14 +435,16 @@ fn material_json(
             alpha_x,
             alpha_y,
             alpha_textures,
+            eta_k_textures,
             distribution,
             twosided,
         } => {
             let [ax, ay] = rough_json(*alpha_x, *alpha_y, alpha_textures);
+            let [eta, k] = eta_k_json(*eta_t, *k, eta_k_textures);
             let mut v = json!({
                 "type": "roughconductor",
                 "texture_name": texture_name(texture, name, textures),
-                "etaI": vec3(*eta_i), "etaT": vec3(*eta_t), "k": vec3(*k),
+                "etaI": vec3(*eta_i), "etaT": eta, "k": k,
                 "alpha_x": ax, "alpha_y": ay,
                 "distribution": distribution_name(*distribution),
             });
@@ -449,9 +453,15 @@ fn material_json(
             }
             v
         }
-        Material::Conductor { texture, eta, k } => json!({
-            "type": "conductor", "texture_name": texture_name(texture, name, textures), "eta": vec3(*eta), "k": vec3(*k),
-        }),
+        Material::Conductor {
+            texture,
+            eta,
+            k,
+            eta_k_textures,
+        } => {
+            let [eta, k] = eta_k_json(*eta, *k, eta_k_textures);
+            json!({"type": "conductor", "texture_name": texture_name(texture, name, textures), "eta": eta, "k": k})
+        }
         Material::ThinDielectric { reflect, transmit, eta } => {
             json!({"type": "thindielectric", "R": vec3(*reflect), "T": vec3(*transmit), "eta": num(*eta)})
         }
@@ -587,6 +597,18 @@ fn perturb_json(v: &mut Value, o: &crate::material::bump::PerturbOptions) {
 }
 
 /// `alpha_x` and `alpha_y` as JSON: numbers, or texture names where they are textures.
+/// A conductor's η and k: colours, or texture names (a constant one as its colour).
+fn eta_k_json(eta: Vec3, k: Vec3, textures: &Option<[TextureRef; 2]>) -> [Value; 2] {
+    let one = |t: &TextureRef| match t {
+        TextureRef::Named(n) => Value::String(n.value.clone()),
+        TextureRef::Color(c) => vec3(*c),
+    };
+    match textures {
+        Some([e, k]) => [one(e), one(k)],
+        None => [vec3(eta), vec3(k)],
+    }
+}
+
 fn rough_json(alpha_x: f32, alpha_y: f32, textures: &Option<[TextureRef; 2]>) -> [Value; 2] {
     let one = |t: &TextureRef| match t {
         TextureRef::Named(n) => Value::String(n.value.clone()),

@@ -46,6 +46,10 @@ fn material_xml(
         };
         format!("{a}<string name=\"distribution\" value=\"{}\"/>", distribution_name(d))
     };
+    let eta_k = |eta: Vec3, k: Vec3, textures: &Option<[TextureRef; 2]>| match textures {
+        Some([e, k]) => colour("eta", e) + &colour("k", k),
+        None => format!("<rgb name=\"eta\" value=\"{}\"/><rgb name=\"k\" value=\"{}\"/>", v3(eta), v3(k)),
+    };
     match m {
         Material::Diffuse { texture, twosided } => {
             if *twosided {
@@ -79,6 +83,7 @@ fn material_xml(
             alpha_x,
             alpha_y,
             alpha_textures,
+            eta_k_textures,
             distribution,
             twosided,
         } => {
@@ -86,16 +91,20 @@ fn material_xml(
             // Mitsuba's on the front only: a two-sided one is wrapped in a twosided
             // (unless it is one side of a twosided already), a one-sided one bare
             let wrap = *twosided && id.is_some();
+            if eta_k_textures.is_some() && *eta_i != Vec3::ONE {
+                w.push(format!(
+                    "material '{name}': etaI is not written beside a textured etaT or k (Mitsuba has no ext_eta on conductors)"
+                ));
+            }
             let bsdf = format!(
-                "{}{}<rgb name=\"eta\" value=\"{}\"/><rgb name=\"k\" value=\"{}\"/>{}</bsdf>",
+                "{}{}{}{}</bsdf>",
                 if wrap {
                     "<bsdf type=\"roughconductor\">".to_string()
                 } else {
                     open("roughconductor")
                 },
                 alphas(*alpha_x, *alpha_y, alpha_textures, *distribution),
-                v3(*eta_t / *eta_i),
-                v3(*k / *eta_i),
+                eta_k(*eta_t / *eta_i, *k / *eta_i, eta_k_textures),
                 colour("specular_reflectance", texture)
             );
             if wrap {
@@ -104,11 +113,15 @@ fn material_xml(
                 bsdf
             }
         }
-        Material::Conductor { texture, eta, k } => format!(
-            "{}<rgb name=\"eta\" value=\"{}\"/><rgb name=\"k\" value=\"{}\"/>{}</bsdf>",
+        Material::Conductor {
+            texture,
+            eta,
+            k,
+            eta_k_textures,
+        } => format!(
+            "{}{}{}</bsdf>",
             open("conductor"),
-            v3(*eta),
-            v3(*k),
+            eta_k(*eta, *k, eta_k_textures),
             colour("specular_reflectance", texture)
         ),
         Material::ThinDielectric { reflect, transmit, eta } => format!(
@@ -296,8 +309,14 @@ pub fn to_xml(desc: &SceneDesc, out: &Path) -> Result<Converted> {
             } else {
                 ""
             };
-            // Mitsuba's `path` ignores media and masks' null BSDFs: `volpath` renders what rdr's `path` does
-            let ty = if has_masks || !desc.media.is_empty() { "volpath" } else { "path" };
+            // Mitsuba's `path` ignores media and masks' null BSDFs: `volpath` renders what rdr's `path`
+            // does; with media `volpathmis`, whose spectral MIS over chromatic extinction is rdr's
+            // (volpath converges to the same image with far more noise: milk_sphere 8x its floor)
+            let ty = match (desc.media.is_empty(), has_masks) {
+                (false, _) => "volpathmis",
+                (true, true) => "volpath",
+                (true, false) => "path",
+            };
             format!("  <integrator type=\"{ty}\">\n{}{hide}  </integrator>\n", depth(p.max_depth))
         }
         Integrator::IntersectionTest(t) => {
@@ -486,13 +505,13 @@ pub fn to_xml(desc: &SceneDesc, out: &Path) -> Result<Converted> {
                 float_ids.insert(t.name.clone(), twin);
                 texture_ids.insert(t.name.clone(), id);
             }
-            Texture::MeshAttribute { face, scale } => {
+            Texture::MeshAttribute { name, scale, .. } => {
                 let id = id_for(&t.name, "texture-");
                 let _ = writeln!(
                     s,
                     "  <texture type=\"mesh_attribute\" id=\"{}\">\n    <string name=\"name\" value=\"{}\"/>\n    <float name=\"scale\" value=\"{scale}\"/>\n  </texture>",
                     esc(&id),
-                    if *face { "face_color" } else { "vertex_color" }
+                    esc(name)
                 );
                 texture_ids.insert(t.name.clone(), id);
             }
@@ -541,7 +560,9 @@ pub fn to_xml(desc: &SceneDesc, out: &Path) -> Result<Converted> {
     let colour = |name: &str, r: &TextureRef| -> String {
         // parameters Mitsuba reads as colours (and bump heights, whose checkerboard has
         // no gradient); the others as floats (`eval_1`)
-        const COLOURS: [&str; 8] = [
+        const COLOURS: [&str; 10] = [
+            "eta",
+            "k",
             "radiance",
             "reflectance",
             "specular_reflectance",

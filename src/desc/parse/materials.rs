@@ -62,7 +62,8 @@ pub(super) fn parse_texture(name: &str, p: &Props) -> Result<TextureDesc> {
             scale: colour(p, "scale", Vec3::ONE)?,
         }),
         "mesh_attribute" => Texture::MeshAttribute {
-            face: mesh_attribute_name(p, &p.string("name")?)?,
+            name: mesh_attribute_name(p, p.string("name")?)?,
+            slot: 0,
             scale: finite(p, "scale", p.f32_or("scale", 1.0)?)?,
         },
         _ => {
@@ -89,6 +90,31 @@ fn rough_number(p: &Props, key: &str, read: impl Fn(&str) -> Result<f32>) -> Res
         Some(serde_json::Value::String(_)) => Ok(0.1),
         _ => read(key),
     }
+}
+
+/// A conductor's `eta` or `k` as a colour: a placeholder when it names a texture
+/// (read by [`eta_k_textures`]).
+fn eta_k_number(p: &Props, key: &str, read: impl Fn(&str) -> Result<Vec3>) -> Result<Vec3> {
+    match p.raw(key) {
+        Some(serde_json::Value::String(_)) => Ok(Vec3::ONE),
+        _ => read(key),
+    }
+}
+
+fn eta_k_colour(p: &Props, key: &str, default: Vec3) -> Result<Vec3> {
+    eta_k_number(p, key, |k| colour(p, k, default))
+}
+
+/// A conductor's η and k keys (`keys`; η's default `eta_default`, k's 1) as textures
+/// when either names one (a colour stays a constant).
+fn eta_k_textures(p: &Props, keys: [&str; 2], eta_default: f32) -> Result<Option<[TextureRef; 2]>> {
+    if !keys.iter().any(|k| matches!(p.raw(k), Some(serde_json::Value::String(_)))) {
+        return Ok(None);
+    }
+    Ok(Some([
+        principled::json_texture(p, keys[0], eta_default, true)?,
+        principled::json_texture(p, keys[1], 1.0, true)?,
+    ]))
 }
 
 /// `alpha_x` and `alpha_y` as textures when either names one (a number stays a constant).
@@ -353,18 +379,20 @@ fn parse_material(name: &str, p: &Props, ty: &str) -> Result<MaterialDesc> {
         "roughconductor" => Material::RoughConductor {
             texture: texture_ref(p, "R", None)?,
             eta_i: p.vec3_or("etaI", Vec3::ONE)?,
-            eta_t: p.vec3_or("etaT", Vec3::ONE)?,
-            k: p.vec3_or("k", Vec3::ONE)?,
+            eta_t: eta_k_number(p, "etaT", |k| p.vec3_or(k, Vec3::ONE))?,
+            k: eta_k_number(p, "k", |k| p.vec3_or(k, Vec3::ONE))?,
             alpha_x: rough_number(p, "alpha_x", |k| non_negative(p, k, p.f32_or(k, 0.1)?))?,
             alpha_y: rough_number(p, "alpha_y", |k| non_negative(p, k, p.f32_or(k, 0.1)?))?,
             alpha_textures: rough_textures(p)?,
+            eta_k_textures: eta_k_textures(p, ["etaT", "k"], 1.0)?,
             distribution: distribution(p)?,
             twosided: p.bool_or("twosided", true)?,
         },
         "conductor" => Material::Conductor {
             texture: texture_or(p, Vec3::ONE)?,
-            eta: colour(p, "eta", Vec3::ZERO)?,
-            k: colour(p, "k", Vec3::ONE)?,
+            eta: eta_k_colour(p, "eta", Vec3::ZERO)?,
+            k: eta_k_colour(p, "k", Vec3::ONE)?,
+            eta_k_textures: eta_k_textures(p, ["eta", "k"], 0.0)?,
         },
         "thindielectric" => Material::ThinDielectric {
             reflect: colour(p, "R", Vec3::ONE)?,

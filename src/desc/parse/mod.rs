@@ -11,8 +11,8 @@ use self::job::{parse_camera, parse_film, parse_integrator};
 use self::materials::{parse_materials, parse_texture};
 use crate::desc::json::{Context, Props};
 use crate::desc::{
-    cylinder_shape, json, principled, rotation_quat, xml, AreaLightDesc, EnvMapDesc, InstanceDesc, IntegratorDesc, MeshFile, MeshOptions,
-    ObjectDesc, SceneDesc, ShapeGroupDesc, TextureRef,
+    cylinder_shape, json, principled, rotation_quat, xml, AreaLightDesc, EnvMapDesc, InstanceDesc, IntegratorDesc, MeshFile, MeshFormat,
+    MeshOptions, ObjectDesc, SceneDesc, ShapeGroupDesc, TextureRef,
 };
 use crate::error::Result;
 use crate::geometry::sphere::Sphere;
@@ -277,16 +277,10 @@ fn non_negative_flux(p: &Props, key: &str, flux: Vec3) -> Result<Vec3> {
     Ok(flux)
 }
 
-/// A `mesh_attribute`'s `name`: whether it is `face_color` (else `vertex_color`).
-fn mesh_attribute_name(p: &Props, name: &str) -> Result<bool> {
-    match name {
-        "vertex_color" => Ok(false),
-        "face_color" => Ok(true),
-        other => Err(p.error(
-            "name",
-            format!("unknown mesh attribute '{other}' (available: vertex_color, face_color: a PLY file's red, green, blue)"),
-        )),
-    }
+/// A `mesh_attribute`'s `name` (`vertex_…` or `face_…`).
+fn mesh_attribute_name(p: &Props, name: String) -> Result<String> {
+    crate::geometry::mesh::MeshAttribute::check_name(&name).map_err(|m| p.error("name", m))?;
+    Ok(name)
 }
 
 fn non_negative(p: &Props, key: &str, v: f32) -> Result<f32> {
@@ -322,12 +316,20 @@ fn roughness(p: &Props, key: &str) -> Result<f32> {
 fn parse_object(p: &Props) -> Result<ObjectDesc> {
     let ty = p.string("type")?;
     let shape = match ty.as_str() {
-        "mesh" => Shape::Mesh(MeshFile {
-            path: p.located("path", p.string("path")?),
-            transform: p.mat4_or("transform", Mat4::IDENTITY)?,
-            translate: point(p, "translate", p.vec3_or("translate", Vec3::ZERO)?)?,
-            options: MeshOptions::default(),
-        }),
+        "mesh" => {
+            let path = p.string("path")?;
+            // a PLY file by its name (read as it is: rdr's uv, its normals or none)
+            let ply = Path::new(&path).extension().is_some_and(|e| e.eq_ignore_ascii_case("ply"));
+            Shape::Mesh(MeshFile {
+                path: p.located("path", path),
+                transform: p.mat4_or("transform", Mat4::IDENTITY)?,
+                translate: point(p, "translate", p.vec3_or("translate", Vec3::ZERO)?)?,
+                options: MeshOptions {
+                    format: if ply { MeshFormat::Ply } else { MeshFormat::Obj },
+                    ..MeshOptions::default()
+                },
+            })
+        }
         "sphere" => {
             let radius = p.f32_or("radius", 1.0)?;
             if radius <= 0.0 {

@@ -30,13 +30,8 @@ const ALPHA_V: Param = read("alpha_v", "float texture", "0.1", "");
 const DISTRIBUTION: Param = read("distribution", "string", "beckmann", "`beckmann` or `ggx`");
 const SAMPLE_VISIBLE: Param = noted("sample_visible", "boolean", "rdr samples visible normals where it can");
 const MATERIAL: Param = read("material", "string", "none", "a named conductor (`Au`, `Cu`, …) or `none`");
-const ETA: Param = differs(
-    "eta",
-    "colour",
-    "0",
-    "with `k`, instead of `material`; a colour (rdr takes no texture here)",
-);
-const K: Param = differs("k", "colour", "1", "a colour (rdr takes no texture here)");
+const ETA: Param = read("eta", "texture", "0", "with `k`, instead of `material`; a colour or a texture");
+const K: Param = read("k", "texture", "1", "a colour or a texture");
 const EXT_ETA: Param = differs("ext_eta", "float", "", "(Mitsuba 0.6) folded into η and k, with a warning");
 const CONDUCTOR_TINT: Param = read("specular_reflectance", "texture", "1", "a colour or a texture");
 const PERTURB: [Param; 2] = [
@@ -389,7 +384,7 @@ impl<'a> Reader<'a> {
             },
             "roughconductor" => {
                 let (alpha_x, alpha_y, alpha_textures) = self.alphas(&p)?;
-                let (eta, k) = self.conductor_eta_k(&p)?;
+                let (eta, k, eta_k_textures) = self.conductor_eta_k(&p)?;
                 p.ignore("sample_visible");
                 Material::RoughConductor {
                     texture: self.texture_ref(&p, "specular_reflectance", Vec3::ONE)?,
@@ -399,17 +394,19 @@ impl<'a> Reader<'a> {
                     alpha_x,
                     alpha_y,
                     alpha_textures,
+                    eta_k_textures,
                     distribution: distribution(&p)?,
                     // Mitsuba's reflects on its front only (a twosided makes it two-sided)
                     twosided: false,
                 }
             }
             "conductor" => {
-                let (eta, k) = self.conductor_eta_k(&p)?;
+                let (eta, k, eta_k_textures) = self.conductor_eta_k(&p)?;
                 Material::Conductor {
                     texture: self.texture_ref(&p, "specular_reflectance", Vec3::ONE)?,
                     eta,
                     k,
+                    eta_k_textures,
                 }
             }
             "thindielectric" => Material::ThinDielectric {
@@ -604,10 +601,24 @@ impl<'a> Reader<'a> {
         Ok((constants[0], constants[1], textured.then_some(refs)))
     }
 
-    /// A conductor's η and k: `eta` (0) and `k` (1), or `material` (a name from
+    /// A conductor's η and k: `eta` (0) and `k` (1), colours or textures (then both as
+    /// texture references, the third value), or `material` (a name from
     /// [`values::NAMED_CONDUCTORS`], or `none`, the default); the 0.6 `ext_eta` folded in.
-    pub(super) fn conductor_eta_k(&self, p: &Plugin) -> Result<(Vec3, Vec3)> {
+    pub(super) fn conductor_eta_k(&mut self, p: &Plugin<'a>) -> Result<(Vec3, Vec3, Option<[TextureRef; 2]>)> {
         let named = p.string_opt("material")?;
+        let textured = [("eta", Vec3::ZERO), ("k", Vec3::ONE)]
+            .iter()
+            .any(|&(k, default)| p.has(k) && matches!(p.colour(k, default), Ok(Colour::Texture(_))));
+        if textured && !matches!(named.as_deref(), None | Some("none")) {
+            return Err(p.value_error("material", "give either material or eta and k, not both"));
+        }
+        if textured {
+            if p.float_opt("ext_eta")?.is_some_and(|e| e != 1.0) {
+                return Err(p.value_error("ext_eta", "cannot be folded into a textured eta or k"));
+            }
+            let refs = [self.texture_ref(p, "eta", Vec3::ZERO)?, self.texture_ref(p, "k", Vec3::ONE)?];
+            return Ok((Vec3::ZERO, Vec3::ONE, Some(refs)));
+        }
         let (mut eta, mut k) = match named.as_deref() {
             Some(m) if m != "none" => {
                 if p.has("eta") || p.has("k") {
@@ -631,7 +642,7 @@ impl<'a> Reader<'a> {
                 self.ids.warn(p.el, format!("ext_eta {ext} (Mitsuba 0.6) folded into eta and k"));
             }
         }
-        Ok((eta, k))
+        Ok((eta, k, None))
     }
 }
 

@@ -42,7 +42,7 @@ pub(super) const DOCS: &[PluginDoc] = &[
         element: "shape",
         names: &["ply"],
         status: Status::Read,
-        note: "ASCII and binary; vertex colours for `mesh_attribute`.",
+        note: "ASCII and binary; per-vertex and per-face attributes for `mesh_attribute`, named by Mitsuba's rules.",
         params: &[
             FILENAME,
             read("flip_tex_coords", "boolean", "false", ""),

@@ -72,7 +72,10 @@ pub(super) const DOCS: &[PluginDoc] = &[
                 "name",
                 "string",
                 "",
-                "required: `vertex_color` or `face_color` (a PLY file's `red green blue`)",
+                concat!(
+                    "required: `vertex_…` or `face_…`, from a PLY file by Mitsuba's rules (`red green blue`: `vertex_color`; ",
+                    "`P_x P_y P_z`: `vertex_P`; …); integer colours are read as fractions of 255 (Mitsuba: as they are)"
+                ),
             ),
             read("scale", "float", "1", ""),
         ],
@@ -237,21 +240,12 @@ impl<'a> Reader<'a> {
             }
             "mesh_attribute" => {
                 let name = p.required_string("name")?;
-                let face = match name.as_str() {
-                    "vertex_color" => false,
-                    "face_color" => true,
-                    other => {
-                        return Err(p.value_error(
-                            "name",
-                            format!("unsupported mesh attribute \"{other}\" (supported: vertex_color, face_color)"),
-                        ))
-                    }
-                };
+                crate::geometry::mesh::MeshAttribute::check_name(&name).map_err(|m| p.value_error("name", m))?;
                 let scale = p.float("scale", 1.0)?;
                 if !scale.is_finite() {
                     return Err(p.value_error("scale", "must be a finite number"));
                 }
-                Texture::MeshAttribute { face, scale }
+                Texture::MeshAttribute { name, slot: 0, scale }
             }
             "scale" => {
                 let s = p.rgb("scale", Vec3::ONE)?;
@@ -309,7 +303,11 @@ fn scaled(t: Texture<ImageFile>, s: Vec3) -> Option<Texture<ImageFile>> {
             mapping,
         },
         Texture::Image(f) => Texture::Image(ImageFile { scale: f.scale * s, ..f }),
-        Texture::MeshAttribute { face, scale } if s.x == s.y && s.y == s.z => Texture::MeshAttribute { face, scale: scale * s.x },
+        Texture::MeshAttribute { name, slot, scale } if s.x == s.y && s.y == s.z => Texture::MeshAttribute {
+            name,
+            slot,
+            scale: scale * s.x,
+        },
         Texture::MeshAttribute { .. } => return None,
     })
 }

@@ -4,13 +4,17 @@
 //! ([`crate::integrator::estimator::Branches`]: roulette below 1, splitting above, at
 //! most 8), where
 //!
-//!   q = β / √(I² + 0.01) · √(M₂ / C) · √(C_img / V_img),
+//!   q = β / √(I² + 0.01) · √(M / C) · √(C_img / V_img),
 //!
 //! the factor that minimises the image's relative variance × cost: I is the pixel's
-//! estimate (blurred over 3×3 pixels; 0.01 is the relative MSE's own floor), M₂ and C
-//! are the second moment of one continuation's estimate of the radiance the vertex
-//! reflects and the rays it costs, learned per cell of a grid over the scene, and
-//! V_img and C_img the relative variance and ray cost of a pixel sample. Easy regions
+//! estimate (blurred over 3×3 pixels; 0.01 is the relative MSE's own floor), C the rays
+//! one continuation from the vertex costs, V_img and C_img the relative variance and ray
+//! cost of a pixel sample, and M what a continuation's estimate X of the radiance the
+//! vertex reflects adds to the variance: for roulette (q < 1) its second moment E[X²]
+//! (the paper's), for splitting only its variance V[X] (averaging n sub-paths divides
+//! V[X], not E[X]², by n; with E[X²], env_sphere's easy paths were split 8 ways and
+//! the image had 8× `path`'s relMSE at equal time). X and C are learned per cell of a
+//! grid over the scene. Easy regions
 //! (little light coming back, or cheaply) end paths early, hard ones (a caustic seen
 //! through glass) split them. Cost is counted in rays, never in seconds.
 //!
@@ -47,13 +51,13 @@ const MIN_SURVIVAL: f32 = 0.05;
 pub struct State {
     lo: Vec3,
     cells_per_unit: f32,
-    /// Each cell's √(M₂ / C) (negative: not learned yet).
-    cell_factors: Vec<f32>,
+    /// Each cell's √(E[X²] / C) and √(V[X] / C) (negative: not learned yet).
+    cell_factors: Vec<[f32; 2]>,
     /// Each pixel's β-to-factor scale, 1/√(I² + 0.01) · √(C_img / V_img) (empty before
     /// the first iteration ends).
     pixel_factors: Vec<f32>,
-    /// This iteration's records per cell: Σx², Σrays, count.
-    cells: Vec<[f64; 3]>,
+    /// This iteration's records per cell: Σx, Σx², Σrays, count.
+    cells: Vec<[f64; 4]>,
     /// This iteration's samples per pixel: Σy, Σy², count (y: mean over channels);
     /// and all iterations' Σy, count, for the pixels' estimates.
     pixels: Vec<[f64; 3]>,
@@ -85,9 +89,9 @@ impl State {
         State {
             lo: ctx.scene.center - Vec3::splat(r),
             cells_per_unit: GRID as f32 / (2.0 * r),
-            cell_factors: vec![-1.0; GRID * GRID * GRID],
+            cell_factors: vec![[-1.0; 2]; GRID * GRID * GRID],
             pixel_factors: Vec::new(),
-            cells: vec![[0.0; 3]; GRID * GRID * GRID],
+            cells: vec![[0.0; 4]; GRID * GRID * GRID],
             pixels: vec![[0.0; 3]; w * h],
             means: vec![[0.0; 2]; w * h],
             rays: 0,
@@ -113,9 +117,10 @@ impl State {
         for t in tiles {
             for &(cell, x, rays) in &t.records {
                 let c = &mut self.cells[cell as usize];
-                c[0] += x as f64 * x as f64;
-                c[1] += rays as f64;
-                c[2] += 1.0;
+                c[0] += x as f64;
+                c[1] += x as f64 * x as f64;
+                c[2] += rays as f64;
+                c[3] += 1.0;
             }
             for &(pixel, y, rays) in &t.samples {
                 let (p, m) = (&mut self.pixels[pixel as usize], &mut self.means[pixel as usize]);
@@ -139,9 +144,12 @@ impl State {
     fn learn(&mut self, width: usize) {
         let mut learned = 0;
         for (f, c) in self.cell_factors.iter_mut().zip(&self.cells) {
-            if c[2] >= MIN_RECORDS as f64 {
+            let [s, s2, rays, n] = *c;
+            if n >= MIN_RECORDS as f64 {
                 // a continuation costs its own ray at least
-                *f = ((c[0] / c[2]) / (c[1] / c[2]).max(1.0)).sqrt() as f32;
+                let cost = (rays / n).max(1.0);
+                let variance = ((s2 - s * s / n) / (n - 1.0)).max(0.0);
+                *f = [((s2 / n) / cost).sqrt() as f32, (variance / cost).sqrt() as f32];
                 learned += 1;
             }
         }
@@ -183,9 +191,31 @@ impl State {
         }
         self.cells_learned = learned;
         self.iterations += 1;
-        self.cells.iter_mut().for_each(|c| *c = [0.0; 3]);
+        self.cells.iter_mut().for_each(|c| *c = [0.0; 4]);
         self.pixels.iter_mut().for_each(|p| *p = [0.0; 3]);
         (self.rays, self.samples) = (0, 0);
+    }
+
+    /// The factor of the pixel `pixel`'s samples (`None` before anything is learned).
+    pub fn pixel_factor(&self, pixel: usize) -> Option<f32> {
+        self.pixel_factors.get(pixel).copied()
+    }
+
+    /// The EARS factor at `p` for throughput `beta` (see the module docs) and the cell of
+    /// `p`, or `None` (with the cell) where the cell or the pixel has learned nothing yet.
+    pub fn factor(&self, pixel_factor: Option<f32>, p: Vec3, beta: Vec3) -> (Option<f32>, u32) {
+        let cell = self.cell(p);
+        let [rr, split] = self.cell_factors[cell as usize];
+        let Some(pixel) = pixel_factor.filter(|_| rr >= 0.0) else {
+            return (None, cell);
+        };
+        let w = (beta.x + beta.y + beta.z) * (1.0 / 3.0) * pixel;
+        let q = if w * rr < 1.0 {
+            (w * rr).max(MIN_SURVIVAL)
+        } else {
+            (w * split).clamp(1.0, MAX_SPLIT as f32)
+        };
+        (Some(q), cell)
     }
 
     /// A line for the render summary.
@@ -236,15 +266,11 @@ impl Policy for Ears<'_> {
     /// The EARS factor (see the module docs) where the cell and the pixel have been
     /// learned; Mitsuba's roulette elsewhere.
     fn split_factor(&self, it: &Interaction, beta: Vec3, eta_scale: f32, segment: u32) -> (f32, u32) {
-        let cell = self.state.cell(it.p);
-        let learned = self.state.cell_factors[cell as usize];
-        let q = match self.pixel_factor {
-            Some(pixel) if learned >= 0.0 => {
-                let q = (beta.x + beta.y + beta.z) * (1.0 / 3.0) * pixel * learned;
-                q.clamp(MIN_SURVIVAL, MAX_SPLIT as f32)
-            }
-            _ if segment >= RR_DEPTH => PathTracer::throughput_survival(beta, eta_scale),
-            _ => 1.0,
+        let (learned, cell) = self.state.factor(self.pixel_factor, it.p, beta);
+        let q = match learned {
+            Some(q) => q,
+            None if segment >= RR_DEPTH => PathTracer::throughput_survival(beta, eta_scale),
+            None => 1.0,
         };
         (if self.split { q } else { q.min(1.0) }, cell)
     }
@@ -287,7 +313,7 @@ fn li(path: &PathTracer, state: &State, scene: &Scene, s: &mut super::CameraSamp
     let mut policy = Ears {
         path,
         state,
-        pixel_factor: state.pixel_factors.get(pixel).copied(),
+        pixel_factor: state.pixel_factor(pixel),
         split: !scene.has_media,
         branches,
     };

@@ -23,7 +23,7 @@ const RR_DEPTH_DOC: super::table::Param = differs(
 const RR_DOC: super::table::Param = read(
     "rr",
     "string",
-    "\"mitsuba\"",
+    "mitsuba",
     "rdr's own: `ears` for learned Russian roulette and splitting (EARS, Rath et al. 2022), see `path`'s `rr`",
 );
 const HIDE_EMITTERS_DOC: super::table::Param = read(

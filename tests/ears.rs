@@ -110,12 +110,12 @@ fn forced_splitting_and_roulette_keep_cbox_unbiased() {
     assert!(z.abs() < 5.0, "z = {z}");
 }
 
-/// Two renders (seeds `seeds`) of `scene` at half its resolution with `overrides`.
-fn half_res(shared: &Path, scene: &str, spp: u32, seeds: (u32, u32), overrides: &[&str]) -> (Image, Image) {
+/// Two renders (seeds 1, 2) of `scene` at half its resolution with `overrides`.
+fn half_res(shared: &Path, scene: &str, spp: u32, overrides: &[&str]) -> (Image, Image) {
     let path = shared.join(format!("refs/scenes/{scene}.json"));
     let o = [&[r#"{"film": {"resolution": [128, 128]}}"#], overrides].concat();
     let s = load_scene(&path, &o, Profile::Physical);
-    (render(&s, spp, seeds.0), render(&s, spp, seeds.1))
+    (render(&s, spp, 1), render(&s, spp, 2))
 }
 
 fn report(name: &str, c: &Comparison) -> bool {
@@ -135,29 +135,19 @@ fn ears_converges_to_the_reference_and_to_path() {
     // box-filtered half-resolution render converges to
     let r = read(&shared.join("refs/caustic_cbox.exr")).block_average(2, false);
     let vr = read(&shared.join("refs/caustic_cbox.var.exr")).block_average(2, true);
-    let (a, b) = half_res(&shared, "caustic_cbox", 32, (1, 2), &[EARS]);
+    let (a, b) = half_res(&shared, "caustic_cbox", 32, &[EARS]);
     let to_reference = compare(&a, &b, &r, &vr);
     assert!(report("caustic_cbox ears vs reference", &to_reference), "{to_reference:?}");
-    // env_sphere: against `path`'s own renders (their mean, and the variance of that
-    // mean from their difference), of other seeds (EARS's first passes are `path`'s)
-    let (pa, pb) = half_res(&shared, "env_sphere", 32, (3, 4), &[]);
-    let mean = Image::new(
-        pa.width,
-        pa.height,
-        pa.pixels.iter().zip(&pb.pixels).map(|(x, y)| (*x + *y) * 0.5).collect(),
+    // env_sphere: against `path`'s own renders at seeds of their own (their mean, and the
+    // variance of that mean from their difference)
+    let file = shared.join("refs/scenes/env_sphere.json");
+    let o = r#"{"film": {"resolution": [128, 128]}}"#;
+    let (path, ears) = (
+        load_scene(&file, &[o], Profile::Physical),
+        load_scene(&file, &[o, EARS], Profile::Physical),
     );
-    let var = Image::new(
-        pa.width,
-        pa.height,
-        pa.pixels
-            .iter()
-            .zip(&pb.pixels)
-            .map(|(x, y)| (*x - *y) * (*x - *y) * 0.25)
-            .collect(),
-    );
-    let (a, b) = half_res(&shared, "env_sphere", 32, (1, 2), &[EARS]);
-    let to_path = compare(&a, &b, &mean, &var);
-    assert!(report("env_sphere ears vs path", &to_path), "{to_path:?}");
+    let (to_path, _) = common::transport::against_path("env_sphere ears vs path", &path, &ears, 32, 32, 1);
+    assert!(to_path.rel_mse_corrected.abs() < 5.0 * to_path.std_error + 2e-4, "{to_path:?}");
 }
 
 #[test]

@@ -41,10 +41,19 @@ for sc in "$@"; do
     echo "load before $name seed $seed: $(uptime | sed 's/.*load average/load average/')"
     declare -A merit=()
     for tag in path ears; do
-      rr=mitsuba
-      [[ $tag == ears ]] && rr=ears
+      file=$scene select=(--override "{\"integrator\":{\"rr\":\"$tag\"}}")
+      [[ $tag == path ]] && select=()
+      if [[ $tag == ears && $scene == *.xml ]]; then
+        # XML takes no --override: a copy with the property, beside links to the scene's files
+        mkdir -p "$out/xml-$name"
+        ln -sf "$(realpath "$(dirname "$scene")")"/* "$out/xml-$name/"
+        file=$out/xml-$name/ears.xml
+        sed 's|<integrator type="path">|&<string name="rr" value="ears"/>|' "$scene" >"$file"
+        grep -q 'name="rr"' "$file" || { echo "no <integrator type=\"path\"> in $scene" >&2; exit 1; }
+        select=()
+      fi
       /usr/bin/time -f 'cpu %U %S' -o "$out/$name.$tag.$seed.time" \
-        "$rdr" render "$scene" "${common[@]}" --override "{\"integrator\":{\"rr\":\"$rr\"}}" \
+        "$rdr" render "$file" "${common[@]}" "${select[@]}" \
         -o "$out/$name.$tag.$seed.exr" >"$out/$name.$tag.$seed.log" 2>&1 &
     done
     wait

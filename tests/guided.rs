@@ -278,6 +278,7 @@ fn radiance_shares(loaded: &rdr::Loaded, p: Vec3, n: u32, objects: [u32; 2]) -> 
         profile: rdr::integrator::PathProfile::Mis,
         rr_threshold: 0.1,
         hide_emitters: false,
+        rr: rdr::integrator::Roulette::Mitsuba,
     };
     let mut rng = Rng::new(5);
     let mut counts = rdr::integrator::RayCounts::default();
@@ -418,6 +419,7 @@ fn path_records_estimate_the_radiance_arriving_through_the_glass_and_from_the_wa
         profile: rdr::integrator::PathProfile::Mis,
         rr_threshold: 0.1,
         hide_emitters: false,
+        rr: rdr::integrator::Roulette::Mitsuba,
     };
     let mut counts = rdr::integrator::RayCounts::default();
     let mut rng = Rng::new(5);
@@ -523,6 +525,7 @@ fn photon_guide_and_guided_roulette_cut_the_ceiling_variance_of_caustic_cbox() {
         profile: rdr::integrator::PathProfile::Mis,
         rr_threshold: 0.1,
         hide_emitters: false,
+        rr: rdr::integrator::Roulette::Mitsuba,
     };
     let guiding = rdr::integrator::guided::Guiding {
         tree,

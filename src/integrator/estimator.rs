@@ -19,6 +19,10 @@
 //! vertex; shadow rays carry the media's transmittance (ratio tracking). `max_depth`
 //! counts real events, surface and medium alike, as Mitsuba's `volpath` does.
 //!
+//! A policy may also split paths ([`Policy::SPLITS`], `path`'s `rr: "ears"`): its
+//! roulette and splitting step is in [`split`], the sub-paths it makes are traced one
+//! after another from an explicit stack.
+//!
 //! The light-sampling pieces ([`choose_light`], [`sample_light`],
 //! [`light_sample_weight`]) serve the other integrators' direct light too.
 
@@ -35,7 +39,9 @@ use crate::scene::{Hit, Interaction, Scene};
 use std::mem::MaybeUninit;
 
 mod media;
+mod split;
 use media::trace_media;
+pub use split::{Branches, MAX_SPLIT};
 
 /// Which strategies find light: light sampling and BSDF sampling combined by MIS,
 /// light sampling alone (`NextEvent`), or BSDF sampling alone (`RandomWalk`).
@@ -94,6 +100,22 @@ pub trait Policy {
     }
     /// Whether paths play Russian roulette from [`RR_DEPTH`] on (without it no number is drawn for it).
     const ROULETTE: bool = true;
+    /// Whether roulette is the policy's learned roulette and splitting instead (at every
+    /// surface vertex: [`Policy::split_factor`], sub-paths kept in [`Policy::branches`]).
+    const SPLITS: bool = false;
+    /// With [`Policy::SPLITS`]: the expected number of sub-paths to continue from `it`
+    /// (throughput `beta` arriving there, before its BSDF sample; below 1: roulette) and
+    /// the statistics' cell the vertex belongs to, for the sub-paths' records.
+    #[inline(always)]
+    fn split_factor(&self, it: &Interaction, beta: Vec3, eta_scale: f32, segment: u32) -> (f32, u32) {
+        let _ = (it, beta, eta_scale, segment);
+        (1.0, split::NO_CELL)
+    }
+    /// With [`Policy::SPLITS`]: where the sub-paths wait (`None`: nowhere, no splitting).
+    #[inline(always)]
+    fn branches(&mut self) -> Option<&mut Branches> {
+        None
+    }
     /// Probability of surviving roulette from [`RR_DEPTH`] on, given the throughput
     /// and the product of η² of the refractions so far (1: always).
     #[inline(always)]
@@ -185,7 +207,15 @@ pub fn trace<P: Policy>(
             path.add_unoccluded(policy, &s, scene.transmittance(&s.ray));
         }
         if !goes_on {
-            return path.l;
+            // a splitting policy's sub-paths waiting at earlier vertices, one after another
+            match policy.branches() {
+                Some(b) if P::SPLITS => match b.end_path(path.l, counts.rays) {
+                    Some((next, s)) => (path, segment) = (next, s),
+                    None => return b.total(),
+                },
+                _ => return path.l,
+            }
+            continue;
         }
         segment += 1;
     }
@@ -453,6 +483,9 @@ impl PathState {
 
         if policy.stops_at(it, bsdf, self.beta, segment) {
             return (shadow, false);
+        }
+        if P::SPLITS {
+            return (shadow, self.split(policy, v, segment, sampler, counts));
         }
         let Some(bs) = policy.sample(&v.plan, bsdf, it.wo, u_bsdf, uc) else {
             return (shadow, false);

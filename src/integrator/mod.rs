@@ -9,6 +9,7 @@
 
 pub mod aov;
 pub mod bdpt;
+pub mod ears;
 pub mod estimator;
 pub mod guided;
 pub mod intersection_test;
@@ -25,8 +26,8 @@ pub use estimator::PathProfile;
 pub use guided::Guided;
 pub use intersection_test::IntersectionTest;
 pub use normals::Normals;
-pub use pass::{camera_pass, camera_pass_blocks, CameraBlock, CameraSample, PassContext, PassResult, RayCounts, StopToken};
-pub use path::PathTracer;
+pub use pass::{camera_pass, camera_pass_blocks, lens_sample, CameraBlock, CameraSample, PassContext, PassResult, RayCounts, StopToken};
+pub use path::{PathTracer, Roulette};
 pub use photon::PhotonMapper;
 pub use ptracer::Ptracer;
 pub use sppm::Sppm;
@@ -100,7 +101,9 @@ impl Integrator {
         match self {
             // the strategy images of `visualize_strategies` live outside the film state
             Integrator::Bdpt(b) => !b.visualize_strategies,
-            Integrator::IntersectionTest(_) | Integrator::Path(_) | Integrator::Ptracer(_) | Integrator::Normals(_) => true,
+            // EARS learns its factors from the passes before
+            Integrator::Path(p) => p.rr == Roulette::Mitsuba,
+            Integrator::IntersectionTest(_) | Integrator::Ptracer(_) | Integrator::Normals(_) => true,
             // the guiding tree learns from the passes before
             Integrator::Photon(_) | Integrator::Sppm(_) | Integrator::Guided(_) | Integrator::Rdr171(_) => false,
         }
@@ -137,6 +140,7 @@ impl Integrator {
         match self {
             Integrator::IntersectionTest(i) if i.packets(scene) => camera_pass_blocks(ctx, pass, film, |b, out| i.li_block(scene, b, out)),
             Integrator::IntersectionTest(i) => camera_pass(ctx, pass, film, |s| i.li(scene, s.ray, s.diff, s.sampler, s.counts)),
+            Integrator::Path(p) if p.rr == Roulette::Ears => ears::render_pass(p, ctx, pass, film, state.ears()),
             Integrator::Path(p) if scene.packets() && !scene.has_media => {
                 camera_pass_blocks(ctx, pass, film, |b, out| p.li_block(scene, b, out))
             }
@@ -186,6 +190,7 @@ impl Integrator {
             (Integrator::Photon(p), PassState::Photon(Some(s))) => Some(p.summary(s)),
             (Integrator::Sppm(_), PassState::Sppm(Some(s))) => Some(s.summary()),
             (Integrator::Guided(g), PassState::Guided(Some(s))) => Some(g.summary(s)),
+            (Integrator::Path(_), PassState::Ears(Some(s))) => Some(s.summary()),
             _ => None,
         }
     }

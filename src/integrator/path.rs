@@ -30,7 +30,12 @@ use std::mem::MaybeUninit;
 /// * `profile` (`"MIS"` | `"NEE"` | `"RW"`, `"MIS"`; also the long names
 ///   `MultipleImportanceSampling`, `NextEventEstimation`, `RandomWalk`);
 /// * `rr_threshold` (number, 0.1) — read and kept; roulette follows Mitsuba's rule
-///   (see the module docs), so the converged image does not depend on it.
+///   (see the module docs), so the converged image does not depend on it;
+/// * `rr` (`"mitsuba"` | `"ears"`, `"mitsuba"`) — Russian roulette: Mitsuba's rule, or
+///   EARS (Rath et al. 2022, efficiency-aware Russian roulette and splitting): at every
+///   vertex a path is ended or split into up to 8 by factors learned over passes
+///   ([`super::ears`]); unbiased either way, but the passes then depend on the ones
+///   before (no `--resume` or `--shard`).
 ///
 /// ```json
 /// {"type": "path", "spp": 64, "max_depth": 12, "profile": "MIS"}
@@ -43,6 +48,34 @@ pub struct PathTracer {
     /// Emitters and the environment seen directly by the camera are black (Mitsuba's
     /// `hide_emitters`); the light they cast is not hidden.
     pub hide_emitters: bool,
+    pub rr: Roulette,
+}
+
+/// How `path` plays Russian roulette (its `rr` key).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Roulette {
+    /// Mitsuba's rule (see the module docs).
+    #[default]
+    Mitsuba,
+    /// Learned roulette and splitting ([`super::ears`]).
+    Ears,
+}
+
+impl Roulette {
+    /// The names the `rr` key takes.
+    pub const NAMES: [&'static str; 2] = ["mitsuba", "ears"];
+
+    pub fn from_name(name: &str) -> Option<Roulette> {
+        match name {
+            "mitsuba" => Some(Roulette::Mitsuba),
+            "ears" => Some(Roulette::Ears),
+            _ => None,
+        }
+    }
+
+    pub fn name(self) -> &'static str {
+        Self::NAMES[self as usize]
+    }
 }
 
 impl PathTracer {

@@ -1,12 +1,12 @@
 //! What an integrator keeps from one pass to the next, owned by the render loop
 //! and handed to each pass beside the film (which only accumulates samples and
 //! splats): photon maps, SPPM's pixel statistics, guiding's SD-tree and its
-//! iterations, BDPT's strategy films. None of it is saved with the film state,
+//! iterations, EARS's learned statistics, BDPT's strategy films. None of it is saved with the film state,
 //! so the integrators that keep any refuse `--resume` and `--shard`
 //! ([`super::Integrator::passes_independent`]).
 
 use super::bdpt::strategies::StrategyFilms;
-use super::{guided, photon, sppm};
+use super::{ears, guided, photon, sppm};
 
 /// One integrator's state between passes, empty until its first pass.
 #[derive(Default)]
@@ -20,6 +20,8 @@ pub enum PassState {
     Sppm(Option<sppm::State>),
     /// `guided`: the SD-tree, the iterations and their images.
     Guided(Option<Box<guided::State>>),
+    /// `path` with `rr: "ears"`: the statistics its roulette and splitting learn.
+    Ears(Option<Box<ears::State>>),
     /// `bdpt` with `visualize_strategies`: a film per strategy.
     Strategies(Option<StrategyFilms>),
 }
@@ -54,5 +56,6 @@ impl PassState {
     slot!(photon, Photon, photon::MapState);
     slot!(sppm, Sppm, sppm::State);
     slot!(guided, Guided, Box<guided::State>);
+    slot!(ears, Ears, Box<ears::State>);
     slot!(strategies, Strategies, StrategyFilms);
 }

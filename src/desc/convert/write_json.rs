@@ -7,7 +7,7 @@ use super::{
 use crate::desc::{MeshFormat, MeshNormals, SceneDesc, TextureRef};
 use crate::error::Result;
 use crate::film::Filter;
-use crate::integrator::{bdpt::Heuristic, Integrator, PathProfile};
+use crate::integrator::{bdpt::Heuristic, Integrator, PathProfile, Roulette};
 use crate::material::Material;
 use crate::math::{Mat4, Vec3};
 use crate::scene::Shape;
@@ -36,6 +36,9 @@ pub fn to_json(desc: &SceneDesc, out: &Path) -> Result<Converted> {
             };
             integ.insert("profile".into(), profile.into());
             integ.insert("rr_threshold".into(), num(p.rr_threshold));
+            if p.rr != Roulette::Mitsuba {
+                integ.insert("rr".into(), p.rr.name().into());
+            }
             if p.hide_emitters {
                 integ.insert("hide_emitters".into(), true.into());
             }

@@ -4,7 +4,7 @@ use super::{cylinder_params, distribution_name, matrix, obj_has_normals, rebase,
 use crate::desc::{MeshFormat, MeshNormals, MeshOptions, SceneDesc, TextureRef};
 use crate::error::{Result, SceneError};
 use crate::film::Filter;
-use crate::integrator::{bdpt::Heuristic, Integrator, PathProfile};
+use crate::integrator::{bdpt::Heuristic, Integrator, PathProfile, Roulette};
 use crate::material::{Distribution, Material};
 use crate::math::{Mat4, Vec2, Vec3};
 use crate::scene::Shape;
@@ -303,6 +303,9 @@ pub fn to_xml(desc: &SceneDesc, out: &Path) -> Result<Converted> {
         Integrator::Path(p) => {
             if p.profile != PathProfile::Mis {
                 w.push("the path profile (NEE/RW) has no Mitsuba counterpart: written as path (the same converged image)".into());
+            }
+            if p.rr != Roulette::Mitsuba {
+                w.push("rr \"ears\" has no Mitsuba counterpart: written with Mitsuba's roulette (the same converged image)".into());
             }
             let hide = if p.hide_emitters {
                 "    <boolean name=\"hide_emitters\" value=\"true\"/>\n"

@@ -10,7 +10,8 @@ use crate::desc::{
 use crate::error::Result;
 use crate::film::Filter;
 use crate::integrator::{
-    bdpt::Heuristic, guided, Bdpt, Guided, Integrator, IntersectionTest, Normals, PathProfile, PathTracer, PhotonMapper, Ptracer, Sppm,
+    bdpt::Heuristic, guided, Bdpt, Guided, Integrator, IntersectionTest, Normals, PathProfile, PathTracer, PhotonMapper, Ptracer, Roulette,
+    Sppm,
 };
 use crate::math::Vec3;
 
@@ -49,6 +50,7 @@ pub(super) fn parse_integrator(p: &Props) -> Result<IntegratorDesc> {
                         profile,
                         rr_threshold,
                         hide_emitters: p.bool_or("hide_emitters", false)?,
+                        rr: roulette(p)?,
                     }),
                     spp,
                 )
@@ -516,4 +518,15 @@ pub(super) fn parse_camera(p: &Props) -> Result<CameraParams> {
     }
     p.finish();
     Ok(c)
+}
+
+/// `path`'s `rr`: its Russian roulette, by name.
+fn roulette(p: &Props) -> Result<Roulette> {
+    let name = p.string_or("rr", Roulette::Mitsuba.name())?;
+    Roulette::from_name(&name).ok_or_else(|| {
+        p.error(
+            "rr",
+            format!("unknown Russian roulette '{name}' (available: {})", Roulette::NAMES.join(", ")),
+        )
+    })
 }

@@ -73,7 +73,7 @@ pub use sdtree::{SdTree, TreeStats};
 
 use super::pass::{camera_pass_blocks, camera_pass_with};
 use super::photon::{shoot_deposits, Shooting};
-use super::{PassContext, PassResult, PathProfile, PathTracer, RayCounts};
+use super::{PassContext, PassResult, PathProfile, PathTracer, RayCounts, Roulette};
 use crate::math::Vec3;
 use crate::sampler::hash_combine;
 use std::time::Instant;
@@ -264,6 +264,7 @@ impl Guided {
             profile: PathProfile::Mis,
             rr_threshold: self.rr_threshold,
             hide_emitters: false,
+            rr: Roulette::Mitsuba,
         });
         let scene = ctx.scene;
         if let (Some(p), true) = (

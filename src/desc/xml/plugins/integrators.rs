@@ -6,7 +6,7 @@ use crate::desc::xml::document::Element;
 use crate::desc::xml::props::Plugin;
 use crate::desc::MAX_DEPTH;
 use crate::error::Result;
-use crate::integrator::{bdpt::Heuristic, Bdpt, Integrator, PathProfile, PathTracer, PhotonMapper, Ptracer, Sppm};
+use crate::integrator::{bdpt::Heuristic, Bdpt, Integrator, PathProfile, PathTracer, PhotonMapper, Ptracer, Roulette, Sppm};
 
 const MAX_DEPTH_DOC: super::table::Param = differs(
     "max_depth",
@@ -19,6 +19,12 @@ const RR_DEPTH_DOC: super::table::Param = differs(
     "integer",
     "5",
     "checked (at least 1), not used: rdr's Russian roulette is its own and unbiased",
+);
+const RR_DOC: super::table::Param = read(
+    "rr",
+    "string",
+    "mitsuba",
+    "rdr's own: `ears` for learned Russian roulette and splitting (EARS, Rath et al. 2022), see `path`'s `rr`",
 );
 const HIDE_EMITTERS_DOC: super::table::Param = read(
     "hide_emitters",
@@ -43,7 +49,7 @@ pub(super) const DOCS: &[PluginDoc] = &[
                render media (delta tracking with spectral MIS, ratio-tracked shadow rays, see [Media](../media.md)); \
                without media they are `path`, whose rays pass through `mask`s as volpath's shadow rays do. Mitsuba's \
                `path` renders media as vacuum, with a warning. No integrator: `path`.",
-        params: &[MAX_DEPTH_DOC, RR_DEPTH_DOC, HIDE_EMITTERS_DOC],
+        params: &[MAX_DEPTH_DOC, RR_DEPTH_DOC, HIDE_EMITTERS_DOC, RR_DOC],
     },
     PluginDoc {
         element: "integrator",
@@ -223,11 +229,19 @@ impl<'a> Reader<'a> {
             "path" | "volpath" | "volpathmis" => {
                 let max_depth = depth(-1)?;
                 p.integer_in("rr_depth", 5, 1, i32::MAX as i64)?;
+                let rr = p.string("rr", Roulette::Mitsuba.name())?;
+                let rr = Roulette::from_name(&rr).ok_or_else(|| {
+                    p.value_error(
+                        "rr",
+                        format!("unknown Russian roulette '{rr}' (available: {})", Roulette::NAMES.join(", ")),
+                    )
+                })?;
                 Integrator::Path(PathTracer {
                     max_depth,
                     profile: PathProfile::Mis,
                     rr_threshold: 0.1,
                     hide_emitters,
+                    rr,
                 })
             }
             "direct" => {
@@ -244,6 +258,7 @@ impl<'a> Reader<'a> {
                     profile: PathProfile::Mis,
                     rr_threshold: 0.1,
                     hide_emitters,
+                    rr: Roulette::Mitsuba,
                 })
             }
             "ptracer" => {

@@ -19,7 +19,7 @@ use crate::desc::{
     TextureRef, MAX_DEPTH,
 };
 use crate::error::Result;
-use crate::integrator::{Integrator, PathProfile, PathTracer};
+use crate::integrator::{Integrator, PathProfile, PathTracer, Roulette};
 use crate::math::{Mat4, Vec3};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -111,6 +111,7 @@ pub fn scene(root: &Element, file: &Path) -> Result<SceneDesc> {
                 profile: PathProfile::Mis,
                 rr_threshold: 0.1,
                 hide_emitters: false,
+                rr: Roulette::Mitsuba,
             }),
             None,
             None,

@@ -272,6 +272,30 @@ pub fn atan2_poly(y: f32, x: f32) -> f32 {
     select(x.is_nan() || y.is_nan(), f32::NAN, a)
 }
 
+/// `e^x` within 2 ulp (relative 2.4·10⁻⁷) for x in [−87, 88], clamped to that range
+/// (below it, e^−87 ≈ 1.6·10⁻³⁸ rather than 0), inlined without a library call: `x = k·ln 2 + r` with
+/// |r| ≤ ln 2 / 2 (Cody and Waite: `k·HI` is exact), `e^r` by its degree-7 Taylor
+/// polynomial (truncation 5·10⁻⁹), scaled by 2^k through the exponent bits. Float and
+/// integer lane operations only (no branch, no saturating conversion), so that loops
+/// over lanes vectorize (a film filter's weights).
+#[inline(always)]
+pub fn exp_poly(x: f32) -> f32 {
+    const HI: f32 = 0.693_359_4; // 355/512 exactly, so k·HI is exact
+    const LO: f32 = -2.121_944_4e-4;
+    // 1.5·2²³: adding it rounds to the nearest integer, which lands in the low bits
+    const ROUND: f32 = 12_582_912.0;
+    let x = x.clamp(-87.0, 88.0);
+    let shifted = x * std::f32::consts::LOG2_E + ROUND;
+    let k = shifted - ROUND;
+    let r = (x - k * HI) - k * LO;
+    let mut p = 1.0 / 5040.0;
+    for c in [1.0 / 720.0, 1.0 / 120.0, 1.0 / 24.0, 1.0 / 6.0, 0.5, 1.0, 1.0] {
+        p = p * r + c;
+    }
+    let k = shifted.to_bits().wrapping_sub(ROUND.to_bits());
+    p * f32::from_bits(k.wrapping_add(127) << 23)
+}
+
 /// `if c { a } else { b }` for values already computed: a select, not a branch.
 #[inline(always)]
 pub fn select(c: bool, a: f32, b: f32) -> f32 {
@@ -405,6 +429,23 @@ mod tests {
             let (a, b) = (floor_f32(x), x.floor());
             assert!(a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan()), "{x:e}: {a:e} != {b:e}");
         }
+    }
+
+    #[test]
+    fn exp_poly_is_within_2_4e7_of_exp() {
+        // relative to f64's exp, over the whole range it promises and some steps past it
+        let mut worst = 0.0f64;
+        for k in -870_000..=880_000 {
+            let x = k as f32 / 10_000.0;
+            let exact = (x as f64).exp();
+            worst = worst.max(((exp_poly(x) as f64 - exact) / exact).abs());
+        }
+        println!("exp_poly: worst relative error {worst:e}");
+        assert!(worst < 2.4e-7, "relative error {worst:e}");
+        // clamped below: e^−87, not 0, NaN or a wrapped exponent
+        assert_eq!(exp_poly(-1000.0), exp_poly(-87.0));
+        assert!(exp_poly(-87.0) > 1e-38 && exp_poly(-87.0) < 2e-38);
+        assert_eq!(exp_poly(0.0), 1.0);
     }
 
     #[test]

@@ -151,7 +151,7 @@ impl Rdr171Columns {
                         let (u1, u2) = sampler.get_2d();
                         let pos = Vec2::new(px as f32 + u1, py as f32 + u2);
                         let l = li(scene, camera.ray(pos.x, pos.y), self.max_depth);
-                        tile.add(pos, l, filter, w, h);
+                        tile.add_exact(pos, l, filter, w, h);
                     }
                 }
                 column_done();

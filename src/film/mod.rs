@@ -10,92 +10,20 @@
 pub mod aov;
 
 use crate::math::{Vec2, Vec3};
+
+mod filter;
 use crate::pages::{clone_huge, filled_huge};
+pub use filter::{Filter, FilterSampler};
 use rayon::prelude::*;
 
-/// The pixel reconstruction filter, `film.filter` in a scene: `type` (`"box"` |
-/// `"gaussian"` | `"mitchell"`, `"box"`), `radius` (> 0, 0.5), `alpha` (gaussian, 2),
-/// `B`, `C` (mitchell, 1/3 each). Without a `filter` object the film uses a box of
-/// radius 0.5.
-///
-/// ```json
-/// "filter": {"type": "gaussian", "radius": 1.5, "alpha": 2}
-/// ```
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Filter {
-    Box {
-        radius: f32,
-    },
-    /// `exp(−α·d²) − tail` per axis, clamped at 0; build it with [`Filter::gaussian`],
-    /// which derives `tail = exp(−α·radius²)` so the weight vanishes at the radius.
-    Gaussian {
-        radius: f32,
-        alpha: f32,
-        tail: f32,
-    },
-    Mitchell {
-        radius: f32,
-        b: f32,
-        c: f32,
-    },
-    /// `(1 − |dx|/r)·(1 − |dy|/r)`: Mitsuba's tent.
-    Tent {
-        radius: f32,
-    },
-}
-
-impl Filter {
-    /// A gaussian of falloff `alpha` cut off (and shifted to 0) at `radius`.
-    pub fn gaussian(radius: f32, alpha: f32) -> Filter {
-        Filter::Gaussian {
-            radius,
-            alpha,
-            tail: (-alpha * radius * radius).exp(),
-        }
-    }
-
-    pub fn radius(&self) -> f32 {
-        match *self {
-            Filter::Box { radius } | Filter::Gaussian { radius, .. } | Filter::Mitchell { radius, .. } | Filter::Tent { radius } => radius,
-        }
-    }
-
-    /// A box of radius ≤ ½: each sample counts once, with weight 1, in its own pixel only.
-    pub fn is_own_pixel_box(&self) -> bool {
-        matches!(*self, Filter::Box { radius } if radius <= 0.5)
-    }
-
-    /// How many pixels a sample reaches on each side of its own: ceil(r − ½).
-    pub fn reach(&self) -> i32 {
-        (self.radius() - 0.5).ceil().max(0.0) as i32
-    }
-
-    /// Weight of a sample at offset `(dx, dy)` from a pixel centre: every filter is
-    /// separable, the product of its [`Filter::axis`] factors.
-    pub fn eval(&self, dx: f32, dy: f32) -> f32 {
-        self.axis(dx) * self.axis(dy)
-    }
-
-    /// The factor of one axis at offset `d` (0 beyond the radius).
-    #[inline]
-    pub fn axis(&self, d: f32) -> f32 {
-        let r = self.radius();
-        if d.abs() > r {
-            return 0.0;
-        }
-        match *self {
-            Filter::Box { .. } => 1.0,
-            Filter::Tent { radius } => 1.0 - d.abs() / radius,
-            Filter::Gaussian { alpha, tail, .. } => ((-alpha * d * d).exp() - tail).max(0.0),
-            Filter::Mitchell { radius, b, c } => {
-                let x = (2.0 * (d / radius)).abs();
-                if x > 1.0 {
-                    ((-b - 6.0 * c) * x * x * x + (6.0 * b + 30.0 * c) * x * x + (-12.0 * b - 48.0 * c) * x + (8.0 * b + 24.0 * c)) / 6.0
-                } else {
-                    ((12.0 - 9.0 * b - 6.0 * c) * x * x * x + (-18.0 + 12.0 * b + 6.0 * c) * x * x + (6.0 - 2.0 * b)) / 6.0
-                }
-            }
-        }
+/// The range of `w` between its first and last non-zero entry (empty if all are 0):
+/// the footprint's edges often weigh 0, and skipping them up front keeps the branch on
+/// each pixel's weight predictable.
+#[inline(always)]
+fn non_zero_span(w: &[f32]) -> std::ops::Range<usize> {
+    match w.iter().position(|&v| v != 0.0) {
+        Some(first) => first..w.len() - w.iter().rev().position(|&v| v != 0.0).unwrap_or(0),
+        None => 0..0,
     }
 }
 
@@ -156,6 +84,25 @@ impl FilmTile {
     /// outside the film are dropped (spec §5.1).
     #[inline]
     pub fn add(&mut self, pos: Vec2, l: Vec3, filter: &Filter, film_w: i32, film_h: i32) {
+        self.add_weighted(pos, l, filter, (film_w, film_h), Filter::axis_weights);
+    }
+
+    /// [`FilmTile::add`] with every weight from [`Filter::axis`] (the library's `exp`
+    /// pixel by pixel), as the RDR171 renderer weighed them: its images bit for bit.
+    #[inline]
+    pub fn add_exact(&mut self, pos: Vec2, l: Vec3, filter: &Filter, film_w: i32, film_h: i32) {
+        self.add_weighted(pos, l, filter, (film_w, film_h), Filter::axis_weights_exact);
+    }
+
+    #[inline(always)]
+    fn add_weighted(
+        &mut self,
+        pos: Vec2,
+        l: Vec3,
+        filter: &Filter,
+        (film_w, film_h): (i32, i32),
+        weights: impl Fn(&Filter, f32, i32, &mut [f32; 16], usize),
+    ) {
         if filter.is_own_pixel_box() {
             self.add_own_pixel(pos, l, film_w, film_h);
             return;
@@ -169,26 +116,30 @@ impl FilmTile {
         let k = filter.reach();
         let (ya, yb) = ((py - k).max(self.y0), (py + k).min(self.y0 + self.h - 1));
         let (xa, xb) = ((px - k).max(self.x0), (px + k).min(self.x0 + self.w - 1));
-        // the filter is separable: each column's factor once per sample, not once per
-        // pixel (a gaussian's exp was a fifth of a Veach MIS render)
-        let mut columns = [0.0f32; 16];
-        let cached = ((xb - xa + 1).max(0) as usize) <= columns.len();
-        if cached {
-            for (c, x) in columns.iter_mut().zip(xa..=xb) {
-                *c = filter.axis(pos.x - (x as f32 + 0.5));
+        let (nx, ny) = ((xb - xa + 1).max(0) as usize, (yb - ya + 1).max(0) as usize);
+        // the filter is separable: each column's and each row's factor once per sample
+        let (mut columns, mut rows) = ([0.0f32; 16], [0.0f32; 16]);
+        if nx > columns.len() || ny > rows.len() {
+            for y in ya..=yb {
+                let wy = filter.axis(pos.y - (y as f32 + 0.5));
+                for x in xa..=xb {
+                    let w = filter.axis(pos.x - (x as f32 + 0.5)) * wy;
+                    if w != 0.0 {
+                        self.splat(x, y, l, w);
+                    }
+                }
             }
+            return;
         }
-        for y in ya..=yb {
-            let wy = filter.axis(pos.y - (y as f32 + 0.5));
-            for (i, x) in (xa..=xb).enumerate() {
-                let wx = if cached {
-                    columns[i]
-                } else {
-                    filter.axis(pos.x - (x as f32 + 0.5))
-                };
+        weights(filter, pos.x, xa, &mut columns, nx);
+        weights(filter, pos.y, ya, &mut rows, ny);
+        let (cs, rs) = (non_zero_span(&columns[..nx]), non_zero_span(&rows[..ny]));
+        for (j, &wy) in rows[rs.clone()].iter().enumerate() {
+            let row = ((ya - self.y0 + (rs.start + j) as i32) * self.w + (xa - self.x0)) as usize + cs.start;
+            for (i, &wx) in columns[cs.clone()].iter().enumerate() {
                 let w = wx * wy;
                 if w != 0.0 {
-                    self.splat(x, y, l, w);
+                    self.splat_at(row + i, l, w);
                 }
             }
         }
@@ -219,17 +170,16 @@ impl FilmTile {
         if lx < 0 || ly < 0 || lx >= self.w || ly >= self.h {
             return; // only possible for samples a caller placed outside its tile
         }
-        let i = (ly * self.w + lx) as usize;
+        self.splat_at((ly * self.w + lx) as usize, l, w);
+    }
+
+    /// [`FilmTile::splat`] at index `i` of the tile's pixels (`l·1` is `l` bit for bit).
+    #[inline(always)]
+    fn splat_at(&mut self, i: usize, l: Vec3, w: f32) {
         let s = &mut self.sum[i];
-        if w == 1.0 {
-            s[0] += l.x;
-            s[1] += l.y;
-            s[2] += l.z;
-        } else {
-            s[0] += l.x * w;
-            s[1] += l.y * w;
-            s[2] += l.z * w;
-        }
+        s[0] += l.x * w;
+        s[1] += l.y * w;
+        s[2] += l.z * w;
         self.weight[i] += w as f64;
     }
 }
@@ -259,60 +209,6 @@ impl FilmSampling {
         } else {
             FilmSampling::Importance(FilterSampler::new(filter))
         }
-    }
-}
-
-/// Bins of [`FilterSampler`]'s table over `[-radius, radius]`.
-const SAMPLER_BINS: usize = 128;
-
-/// Draws offsets in proportion to |filter| on each axis: every filter here is a product
-/// of one function of `dx` and the same function of `dy`, so the two axes are drawn
-/// apart from the same table (piecewise constant, the filter at each bin's centre).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct FilterSampler {
-    radius: f32,
-    /// `cdf[i]`: the share of |filter| in bins `[0, i)`; `cdf[BINS] = 1`.
-    cdf: [f32; SAMPLER_BINS + 1],
-    /// Bit `i` set: the filter is negative in bin `i`.
-    negative: u128,
-}
-
-impl FilterSampler {
-    pub fn new(filter: &Filter) -> FilterSampler {
-        let radius = filter.radius();
-        let width = 2.0 * radius / SAMPLER_BINS as f32;
-        let mut cdf = [0.0f32; SAMPLER_BINS + 1];
-        let mut negative = 0u128;
-        let mut total = 0.0f64;
-        for i in 0..SAMPLER_BINS {
-            let g = filter.eval(-radius + (i as f32 + 0.5) * width, 0.0);
-            if g < 0.0 {
-                negative |= 1 << i;
-            }
-            total += g.abs() as f64;
-            cdf[i + 1] = total as f32;
-        }
-        for c in cdf.iter_mut() {
-            *c = if total > 0.0 { (*c as f64 / total) as f32 } else { 0.0 };
-        }
-        cdf[SAMPLER_BINS] = 1.0;
-        FilterSampler { radius, cdf, negative }
-    }
-
-    /// One axis: the offset for `u` in [0, 1) and whether the filter is negative there.
-    fn axis(&self, u: f32) -> (f32, bool) {
-        // the last bin whose start is at most u (bins of zero share are never chosen)
-        let i = self.cdf[1..SAMPLER_BINS].partition_point(|&c| c <= u);
-        let (a, b) = (self.cdf[i], self.cdf[i + 1]);
-        let t = if b > a { ((u - a) / (b - a)).clamp(0.0, 1.0) } else { 0.5 };
-        let width = 2.0 * self.radius / SAMPLER_BINS as f32;
-        (-self.radius + (i as f32 + t) * width, self.negative & (1 << i) != 0)
-    }
-
-    /// The offset from the pixel's centre for the sample `(u, v)` and its weight (±1).
-    pub fn sample(&self, u: f32, v: f32) -> (Vec2, f32) {
-        let ((dx, nx), (dy, ny)) = (self.axis(u), self.axis(v));
-        (Vec2::new(dx, dy), if nx != ny { -1.0 } else { 1.0 })
     }
 }
 

@@ -26,7 +26,7 @@ pub use estimator::PathProfile;
 pub use guided::Guided;
 pub use intersection_test::IntersectionTest;
 pub use normals::Normals;
-pub use pass::{camera_pass, camera_pass_blocks, lens_sample, CameraBlock, CameraSample, PassContext, PassResult, RayCounts, StopToken};
+pub use pass::{camera_pass, camera_pass_blocks, CameraBlock, CameraSample, PassContext, PassResult, RayCounts, StopToken};
 pub use path::{PathTracer, Roulette};
 pub use photon::PhotonMapper;
 pub use ptracer::Ptracer;

@@ -880,6 +880,8 @@ fn media_cases(dir: &Path) -> Vec<Case> {
     std::fs::write(d("lying.vol"), lying).unwrap();
     std::fs::write(d("nan.vol"), with(48 + 4 * 9, &f32::NAN.to_le_bytes())).unwrap();
     std::fs::write(d("negative.vol"), with(48 + 4 * 9, &(-2.0f32).to_le_bytes())).unwrap();
+    // 1e30 beside values up to 6 in one majorant cell: delta tracking would stall there
+    std::fs::write(d("dense.vol"), with(48 + 4 * 9, &1e30f32.to_le_bytes())).unwrap();
     // the first root child of "density" moved 2^30 voxels away: a box of 2^90 voxels
     let mut vdb = std::fs::read(Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/vdb/small_raw.vdb")).unwrap();
     let t = vdb.windows(24).position(|w| w == b"UniformScaleTranslateMap").unwrap() + 24 + 18 * 8;
@@ -918,6 +920,19 @@ fn media_cases(dir: &Path) -> Vec<Case> {
             "a .vol holding a negative density",
             render(xml("vol_negative", &grid("negative.vol", "")), "m3", &[]),
             &[&"vol_negative.xml", &"filename", &"negative.vol", &"not negative"],
+        ),
+        err(
+            "a .vol holding 1e30 beside thin densities",
+            render(xml("vol_dense", &grid("dense.vol", "")), "m3d", &[]),
+            &[&"vol_dense.xml", &"\"sigma_t\"", &"optical depth"],
+        ),
+        err(
+            "JSON: a .vol holding 1e30 beside thin densities",
+            json(
+                "m3j",
+                r#"{"media": {"smoke": {"type": "heterogeneous", "sigma_t": {"type": "gridvolume", "filename": "dense.vol"}}}}"#,
+            ),
+            &[&"base.json", &"media.smoke.sigma_t", &"optical depth"],
         ),
         err(
             "a .vdb claiming 2^90 voxels",

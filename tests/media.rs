@@ -262,6 +262,29 @@ fn emissive_scattering_medium_in_a_box_of_its_radiance_renders_it() {
     }
 }
 
+#[test]
+fn hide_emitters_hides_what_the_camera_ray_sees_of_an_emissive_medium() {
+    // the emissive furnace's box 100 times larger: the camera ray sees Le·(1 − albedo)
+    // emitted along it before its first scattering (and no wall), hidden; the rest,
+    // Le·albedo, arrives after scattering and stays
+    let le = Vec3::new(1.0, 2.0, 0.5);
+    let xml = emissive_furnace_xml(le, false)
+        .replace(r#"value="-1"/>"#, r#"value="-1"/><boolean name="hide_emitters" value="true"/>"#)
+        .replace(
+            r#"<boolean name="flip_normals" value="true"/>"#,
+            r#"<boolean name="flip_normals" value="true"/><transform name="to_world"><scale value="100"/></transform>"#,
+        );
+    let (mean, err) = render_xml(&xml, 256);
+    let exact = le * 0.6;
+    eprintln!("hidden emitters in an emissive medium: {mean} ± {err} vs {exact}");
+    for c in 0..3 {
+        assert!(
+            (mean[c] - exact[c]).abs() < 4.0 * err[c] + 0.01 * exact[c],
+            "channel {c}: {mean} ± {err}, expected {exact}"
+        );
+    }
+}
+
 /// E2(x) = ∫₀¹ exp(−x/μ) dμ by the midpoint rule.
 fn e2(x: f64) -> f64 {
     let n = 4000;

@@ -535,7 +535,7 @@ pub fn build(desc: &SceneDesc, opts: BuildOptions) -> Result<Scene> {
         .iter()
         .any(|m| m.reads_surface(|&t| matches!(textures[t as usize], Texture::Constant(_))))
         || lights.iter().any(|l| matches!(l, Light::Area(a) if a.texture.is_some()));
-    Ok(Scene {
+    let mut scene = Scene {
         uses_footprints: texture_coords && textures.iter().any(|t| matches!(t, Texture::Image(_))),
         texture_coords,
         textures,
@@ -558,7 +558,10 @@ pub fn build(desc: &SceneDesc, opts: BuildOptions) -> Result<Scene> {
         has_media: camera_medium.is_some() || objects_have_media,
         media: desc.media.iter().map(|m| m.medium.clone()).collect(),
         camera_medium,
-    })
+        sealed_media: Vec::new(),
+    };
+    scene.sealed_media = crate::scene::sealed_media(&scene);
+    Ok(scene)
 }
 
 /// Appends the primitives of object `oi`'s shape.

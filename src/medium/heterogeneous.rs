@@ -7,6 +7,11 @@ use crate::geometry::Ray;
 use crate::math::Vec3;
 use crate::volume::{majorant, MajorantGrid, Volume};
 
+/// The largest optical depth (σ_maj × length) of a majorant cell: delta tracking's
+/// expected steps across it. Above it a medium is opaque at any visible scale, while
+/// null collisions in its thin parts would take that many steps each crossing.
+pub const MAX_CELL_OPTICAL_DEPTH: f64 = 1e5;
+
 /// Extinction `sigma_t` × `scale` and single-scattering `albedo`, each a volume.
 #[derive(Clone, Debug)]
 pub struct Heterogeneous {
@@ -32,6 +37,18 @@ impl Heterogeneous {
             return Err(("albedo", format!("must lie in [0, 1], its largest value is {}", albedo.max())));
         }
         let majorants = MajorantGrid::new(&sigma_t, majorant::DEFAULT_RES);
+        // delta tracking takes about this many steps to cross the densest cell, null
+        // collisions included where thin values share a cell with it
+        let (peak, reach) = (majorants.max() * scale, majorants.cell_reach());
+        if f64::from(peak) * f64::from(reach) > MAX_CELL_OPTICAL_DEPTH {
+            return Err((
+                "sigma_t",
+                format!(
+                    "values up to {peak:e} (× scale) over majorant cells {reach:e} across reach an optical depth above \
+                     {MAX_CELL_OPTICAL_DEPTH:e} per cell, which delta tracking cannot cross in time: lower the peaks or scale"
+                ),
+            ));
+        }
         Ok(Heterogeneous {
             sigma_t,
             albedo,

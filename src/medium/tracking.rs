@@ -120,20 +120,22 @@ fn track(medium: &Medium, ray: &Ray, t_end: f32, hero: usize, emission: Option<V
     let mut found = Tracked::Passed;
     medium.segments(ray, t_end, |s| {
         let sigma_h = s.sigma_maj[hero];
-        let mut t = s.t0;
+        // in f64: steps far below the ray's f32 resolution still advance
+        let mut t = f64::from(s.t0);
         loop {
             let dt = if sigma_h > 0.0 {
                 -(1.0 - u()).ln() / sigma_h
             } else {
                 f32::INFINITY
             };
-            if dt >= s.t1 - t {
-                f = rescaled(f * transmittance_ratio(s.sigma_maj, s.t1 - t, hero));
+            let left = (f64::from(s.t1) - t) as f32;
+            if dt >= left {
+                f = rescaled(f * transmittance_ratio(s.sigma_maj, left, hero));
                 return true;
             }
-            t += dt;
+            t += f64::from(dt);
             let tm = transmittance_ratio(s.sigma_maj, dt, hero);
-            let x = ray.at(t);
+            let x = ray.at(t as f32);
             let point = medium.at(x);
             if let Some(ratios) = emission {
                 // f·tm is each channel's density of reaching t up to a common scale,
@@ -158,7 +160,7 @@ fn track(medium: &Medium, ray: &Ray, t_end: f32, hero: usize, emission: Option<V
                     return false;
                 }
                 f = rescaled(f * tm * point.sigma_s / point.sigma_s[hero]);
-                found = Tracked::Scattered { t, point };
+                found = Tracked::Scattered { t: t as f32, point };
                 return false;
             }
             // a null collision: the ray goes on
@@ -183,13 +185,13 @@ pub fn ratio_tracking(medium: &Medium, ray: &Ray, t_end: f32, mut u: impl FnMut(
         if mu <= 0.0 {
             return true;
         }
-        let mut t = s.t0;
+        let mut t = f64::from(s.t0);
         loop {
-            t -= (1.0 - u()).ln() / mu;
-            if t >= s.t1 {
+            t -= f64::from((1.0 - u()).ln() / mu);
+            if t >= f64::from(s.t1) {
                 return true;
             }
-            let point = medium.at(ray.at(t));
+            let point = medium.at(ray.at(t as f32));
             tr *= (Vec3::ONE - (point.sigma_a + point.sigma_s) / mu).max(Vec3::ZERO);
             if tr.max_element() <= 0.0 {
                 return false;

@@ -6,7 +6,7 @@
 //! [`crate::camera::CameraParams`] and [`crate::texture::UvMapping`].
 
 mod media;
-pub use media::MAX_NULL_CROSSINGS;
+pub use media::{sealed_media, MAX_NULL_CROSSINGS};
 
 use crate::accel::instance::{Group, Instance, TwoLevel};
 use crate::accel::WideBvh;
@@ -113,6 +113,8 @@ pub struct Scene {
     /// Some object is a medium boundary or has a `null` BSDF (or the camera is in a
     /// medium): camera paths then track media ([`crate::integrator::estimator`]).
     pub has_media: bool,
+    /// Per medium: no light sample from inside it can arrive ([`media::sealed_media`]).
+    pub sealed_media: Vec<bool>,
 }
 
 /// Masked surfaces one ray passes through at most (a stack of cut-outs deeper than

@@ -102,6 +102,19 @@ impl MajorantGrid {
         }
     }
 
+    /// The largest cell bound.
+    pub fn max(&self) -> f32 {
+        self.max.iter().fold(0.0, |m, &v| m.max(v))
+    }
+
+    /// A bound on the length, in world units, of a ray's piece inside one cell: the
+    /// sum of a cell's three edges.
+    pub fn cell_reach(&self) -> f32 {
+        let to_world = self.to_local.inverse();
+        let edge = |axis: Vec3, n: usize| to_world.transform_vector3(axis).length() / n as f32;
+        edge(Vec3::X, self.res[0]) + edge(Vec3::Y, self.res[1]) + edge(Vec3::Z, self.res[2])
+    }
+
     pub fn res(&self) -> [usize; 3] {
         self.res
     }

@@ -38,9 +38,10 @@ pub(super) enum Event {
 
 /// The next real event along `ray`, which starts in `medium`: the tracking factors
 /// applied to `beta` through `hero` (drawn when first needed), `ray` and `medium`
-/// moved past the `null` boundaries crossed. Without media, the ray's hit.
+/// moved past the `null` boundaries crossed. Without media (`MEDIA` false: a scene
+/// without any), the ray's hit.
 #[inline(always)]
-pub(super) fn next_event(
+pub(super) fn next_event<const MEDIA: bool>(
     scene: &Scene,
     ray: &mut Ray,
     medium: &mut Option<u32>,
@@ -49,7 +50,7 @@ pub(super) fn next_event(
     sampler: &mut PixelSampler,
     counts: &mut RayCounts,
 ) -> Event {
-    if !scene.has_media {
+    if !MEDIA {
         counts.rays += 1;
         return Event::Surface(scene.intersect(ray));
     }

@@ -274,6 +274,29 @@ impl<'a> Engine<'a> {
     #[allow(clippy::too_many_arguments)]
     fn walk(
         &self,
+        ray: Ray,
+        diff: Option<RayDifferential>,
+        beta: Vec3,
+        pdf_dir: f32,
+        mode: TransportMode,
+        max_vertices: usize,
+        medium: Option<u32>,
+        path: &mut Vec<Vertex>,
+        sampler: &mut PixelSampler,
+        counts: &mut RayCounts,
+    ) {
+        // one walk per kind of scene: a surface-only one carries no media code
+        let walk = match self.ctx.scene.has_media {
+            true => Self::walk_in::<true>,
+            false => Self::walk_in::<false>,
+        };
+        walk(self, ray, diff, beta, pdf_dir, mode, max_vertices, medium, path, sampler, counts);
+    }
+
+    /// [`Engine::walk`] in a scene with media (`MEDIA`) or without.
+    #[allow(clippy::too_many_arguments)]
+    fn walk_in<const MEDIA: bool>(
+        &self,
         mut ray: Ray,
         diff: Option<RayDifferential>,
         mut beta: Vec3,
@@ -291,7 +314,7 @@ impl<'a> Engine<'a> {
         let mut eta_scale = 1.0f32;
         let mut hero = None;
         while path.len() < max_vertices {
-            let hit = match media::next_event(scene, &mut ray, &mut medium, &mut hero, &mut beta, sampler, counts) {
+            let hit = match media::next_event::<MEDIA>(scene, &mut ray, &mut medium, &mut hero, &mut beta, sampler, counts) {
                 media::Event::Absorbed => break,
                 media::Event::Scattered { p, medium: m } => {
                     let phase = scene.media[m as usize].phase();
@@ -336,7 +359,7 @@ impl<'a> Engine<'a> {
             v.uv = it.uv;
             v.pdf_fwd = self.ctx.convert(pdf_dir, &path[path.len() - 1], &v);
             v.bsdf = scene.material_of(&it).map(|m| m.bsdf_at(&it, &scene.textures));
-            if scene.has_media {
+            if MEDIA {
                 v.set_media([scene.medium_after(&it, it.ng, medium), scene.medium_after(&it, -it.ng, medium)]);
             }
             let bsdf = v.bsdf.clone();

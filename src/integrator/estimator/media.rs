@@ -28,7 +28,8 @@ pub(super) fn trace_media<P: Policy>(
             let weights = hero.get_or_insert_with(|| HeroWeights::new(sampler.next_1d()));
             let med = &scene.media[m as usize];
             let (found, f, le) = delta_tracking_emitting(med, &path.ray, t_end, weights, || sampler.next_1d());
-            if le != Vec3::ZERO {
+            // the camera ray's own (as a surface light it meets) is hidden with the emitters
+            if le != Vec3::ZERO && !(segment == 1 && policy.hide_emitters()) {
                 policy.add_emission(&mut path.l, path.beta * le, path.after_delta);
             }
             weights.apply(f, &mut path.beta);
@@ -99,24 +100,33 @@ impl PathState {
             return false;
         }
         let (profile, wo) = (policy.profile(), -self.ray.d);
-        if profile != PathProfile::RandomWalk && !scene.lights.is_empty() {
-            if let Some((_, pmf, ls)) = sample_light(scene, x, sampler) {
+        // in a sealed medium no light sample arrives: the phase sample alone finds light
+        let samples_light = profile != PathProfile::RandomWalk && !scene.lights.is_empty() && scene.lights_reach(medium);
+        if samples_light {
+            let (index, pmf, u) = choose_light(scene, sampler);
+            let light = &scene.lights[index];
+            if let Some(mut ls) = light.sample_unlit(x, u, scene.light_sampling, None) {
                 let f = phase.eval(wo, ls.wi);
-                if f > 0.0 && ls.pdf > 0.0 && pmf > 0.0 && ls.radiance != Vec3::ZERO {
+                if f > 0.0 && ls.pdf > 0.0 && pmf > 0.0 {
                     counts.rays += 1;
-                    let light_pdf = pmf * ls.pdf;
-                    let w = if profile == PathProfile::NextEvent {
-                        1.0
-                    } else {
-                        light_sample_weight(&ls, light_pdf, || phase.pdf(wo, ls.wi))
-                    };
                     let tr = scene.transmittance_through_media(&shadow_ray_from_point(x, &ls), medium, || sampler.next_1d());
-                    self.l += self.beta * ls.radiance * tr * (f * w / light_pdf);
+                    // the radiance only for a sample that arrives
+                    if tr != Vec3::ZERO {
+                        ls.radiance = light.radiance_of(&ls);
+                        let light_pdf = pmf * ls.pdf;
+                        let w = if profile == PathProfile::NextEvent {
+                            1.0
+                        } else {
+                            light_sample_weight(&ls, light_pdf, || phase.pdf(wo, ls.wi))
+                        };
+                        self.l += self.beta * ls.radiance * tr * (f * w / light_pdf);
+                    }
                 }
             }
         }
         let (wi, pdf) = phase.sample(wo, Vec2::from(sampler.next_2d()));
-        self.after_delta = false;
+        // emission the phase sample finds weighs 1 where no light was sampled
+        self.after_delta = !samples_light;
         self.bsdf_pdf = pdf;
         self.prev_p = x;
         self.sky_coords = None;

@@ -9,7 +9,7 @@ use pyo3::prelude::*;
 use pyo3::types::{PyBool, PyBytes, PyDict, PyFloat, PyInt, PyList, PyString, PyTuple};
 use rdr::desc::xml::dict::DictValue;
 use rdr::desc::SceneDesc;
-use rdr::integrator::aov::AovSet;
+use rdr::film::aov::AovSet;
 use rdr::math::Vec3;
 use rdr::render::params::ParamValue;
 use rdr::render::session::{self, Caller, RenderOptions};
@@ -292,7 +292,7 @@ fn render<'py>(
     let mut names: Vec<String> = ["R", "G", "B"].map(String::from).to_vec();
     let data = match &out.aov {
         Some(sums) if aov.any() => {
-            let layers = rdr::integrator::aov::channels(sums, aov);
+            let layers = rdr::film::aov::channels(sums, aov);
             let values: Vec<&[f32]> = layers
                 .iter()
                 .filter_map(|l| match &l.data {

@@ -5,7 +5,7 @@
 //! noise-aware relative MSE of the other reference tests; the integrators that trace from
 //! the lights (`bdpt`, `ptracer`, `photon`, `sppm`) converge to the same images, so their
 //! emission sampling is right; `guided` and `intersection_test` take them; bad input
-//! fails with the key named; `rdr convert` and `--compat rdr171` refuse them in one line.
+//! fails with the key named; `rdr convert` carries them both ways; `--compat rdr171` refuses them in one line.
 
 mod common;
 use common::*;
@@ -516,54 +516,57 @@ fn bad_xml_names_line_and_property() {
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
 
-/// `rdr convert` carries an area light's radiance texture both ways: each converted
-/// scene converges to Mitsuba's image of the original.
+/// `rdr convert` carries each textured emitter (the spot's texture, the projector's
+/// irradiance, the area light's radiance) both ways, with the image's path relative to the
+/// converted file: XML → JSON → XML and JSON → XML → JSON, each converted scene converges to
+/// Mitsuba's image of the original.
 #[test]
-fn convert_carries_textured_area_lights() {
-    let dir = temp_dir("rdr-textured-area-convert");
-    let mut failed = Vec::new();
-    for (from, to) in [("xml", "json"), ("json", "xml")] {
-        let out = dir.path().join(format!("area_texture.from-{from}.{to}"));
+fn convert_carries_textured_emitters_both_ways() {
+    let dir = temp_dir("rdr-textured-convert");
+    let convert = |from: &Path, to: &Path| {
         let run = std::process::Command::new(env!("CARGO_BIN_EXE_rdr"))
             .args(["convert", "-q"])
-            .arg(refs().join(format!("area_texture.{from}")))
+            .arg(from)
             .arg("-o")
-            .arg(&out)
+            .arg(to)
             .output()
             .unwrap();
-        assert!(run.status.success(), "{from} → {to}: {}", String::from_utf8_lossy(&run.stderr));
-        if !converges_with(&out, "area_texture", &[], 256) {
-            failed.push(format!("{from} → {to}"));
+        assert!(
+            run.status.success(),
+            "{} → {}: {}",
+            from.display(),
+            to.display(),
+            String::from_utf8_lossy(&run.stderr)
+        );
+    };
+    let mut failed = Vec::new();
+    for name in NAMES {
+        for (from, to) in [("xml", "json"), ("json", "xml")] {
+            let there = dir.path().join(format!("{name}.from-{from}.{to}"));
+            let back = dir.path().join(format!("{name}.from-{from}.back.{from}"));
+            convert(&refs().join(format!("{name}.{from}")), &there);
+            convert(&there, &back);
+            for out in [&there, &back] {
+                let text = std::fs::read_to_string(out).unwrap();
+                let image = format!("{name}_tex.exr");
+                assert!(
+                    text.contains(&image) && !text.contains(&format!("\"{}\"", refs().join(&image).display())),
+                    "{}: the image's path is not written relative: {text}",
+                    out.display()
+                );
+                if !converges_with(out, name, &[], 256) {
+                    failed.push(out.file_name().unwrap().to_string_lossy().into_owned());
+                }
+            }
         }
     }
     assert!(failed.is_empty(), "converted scenes off Mitsuba's image: {failed:?}");
 }
 
-/// `rdr convert` cannot carry textured spots and projectors yet and says so in one line
-/// naming the light, and `--compat rdr171` refuses all three (the course renderer had none).
+/// `--compat rdr171` refuses all three textured emitters in one line (the course renderer had none).
 #[test]
-fn convert_and_compat_refuse_them() {
-    let dir = temp_dir("rdr-textured-convert");
+fn compat_refuses_them() {
     for name in NAMES {
-        for ext in ["json", "xml"] {
-            if name == "area_texture" {
-                continue;
-            }
-            let out_ext = if ext == "json" { "xml" } else { "json" };
-            let out = std::process::Command::new(env!("CARGO_BIN_EXE_rdr"))
-                .args(["convert", "-q"])
-                .arg(refs().join(format!("{name}.{ext}")))
-                .arg("-o")
-                .arg(dir.path().join(format!("{name}.{out_ext}")))
-                .output()
-                .unwrap();
-            let err = String::from_utf8_lossy(&out.stderr);
-            assert_eq!(out.status.code(), Some(1), "{name}.{ext}: {err}");
-            assert!(
-                err.lines().count() == 1 && err.contains("rdr convert does not carry"),
-                "{name}.{ext}: {err}"
-            );
-        }
         let o = vec![r#"{"integrator": {"type": "intersection_test"}}"#.to_string()];
         let e = rdr::load(&refs().join(format!("{name}.json")), &o, Profile::Rdr171)
             .err()

@@ -15,7 +15,7 @@ pub use write_json::to_json;
 pub use write_xml::to_xml;
 
 use crate::desc::{MeshFile, SceneDesc};
-use crate::error::{Result, SceneError};
+use crate::error::Result;
 use crate::geometry::obj::ObjData;
 use crate::material::Distribution;
 use crate::math::{Mat4, Vec2, Vec3};
@@ -202,19 +202,6 @@ pub fn ply_text(d: &ObjData) -> Option<String> {
         s += "\n";
     }
     Some(s)
-}
-
-/// Textured spot lights and projectors are not carried yet: an error naming the first,
-/// not a silently plain light (area lights' radiance textures are carried).
-pub(super) fn refuse_textured_emitters(desc: &SceneDesc) -> Result<()> {
-    if let Some(l) = desc.integrator.delta_lights.iter().find(|l| l.texture.is_some()) {
-        return Err(SceneError::new(
-            &desc.file,
-            Some(&l.key),
-            "rdr convert does not carry textured spot lights and projectors yet",
-        ));
-    }
-    Ok(())
 }
 
 pub(super) fn distribution_name(d: Distribution) -> &'static str {

@@ -1,11 +1,10 @@
 //! A description written as RDR171 JSON.
 
 use super::{
-    cylinder_params, distribution_name, num, obj_has_normals, obj_text, out_dir, ply_text, rebase, refuse_textured_emitters, row_major,
-    vec2, vec3, Converted,
+    cylinder_params, distribution_name, num, obj_has_normals, obj_text, out_dir, ply_text, rebase, row_major, vec2, vec3, Converted,
 };
 use crate::desc::{MeshFormat, MeshNormals, SceneDesc, TextureRef};
-use crate::error::Result;
+use crate::error::{Result, SceneError};
 use crate::film::Filter;
 use crate::integrator::{bdpt::Heuristic, Integrator, PathProfile, Roulette};
 use crate::material::Material;
@@ -20,7 +19,6 @@ use std::path::Path;
 // ---------------------------------------------------------------------------
 
 pub fn to_json(desc: &SceneDesc, out: &Path) -> Result<Converted> {
-    refuse_textured_emitters(desc)?;
     let mut warnings = Vec::new();
     let mut files = Vec::new();
     let d = &desc.integrator;
@@ -125,6 +123,14 @@ pub fn to_json(desc: &SceneDesc, out: &Path) -> Result<Converted> {
         .iter()
         .map(|l| json!({"type": "point", "position": vec3(l.position), "flux": vec3(l.flux)}))
         .collect();
+    // a textured spot's or a projector's image: the texture's name, or a colour
+    let emitter_texture = |l: &crate::desc::DeltaLightDesc| -> Result<Value> {
+        match &l.texture {
+            Some(TextureRef::Named(n)) => Ok(n.value.clone().into()),
+            Some(TextureRef::Color(c)) => Ok(vec3(*c)),
+            None => Err(SceneError::new(&desc.file, Some(&l.key), "the light's texture is missing")),
+        }
+    };
     for l in &d.delta_lights {
         lights.push(match &l.light {
             crate::light::Light::Spot {
@@ -140,7 +146,17 @@ pub fn to_json(desc: &SceneDesc, out: &Path) -> Result<Converted> {
             crate::light::Light::Directional { direction, irradiance } => {
                 json!({"type": "directional", "direction": vec3(*direction), "irradiance": vec3(*irradiance)})
             }
-            _ => unreachable!("delta_lights holds spot and directional lights"),
+            // the frame's t as `ref_up` gives back the same frame (s = up × n)
+            crate::light::Light::TexturedSpot(t) => json!({
+                "type": "spot", "position": vec3(t.position), "direction": vec3(t.frame.n), "ref_up": vec3(t.frame.t),
+                "intensity": vec3(t.intensity), "cutoff_angle": num(t.cutoff.to_degrees()),
+                "beam_width": num(t.beam_width.to_degrees()), "texture": emitter_texture(l)?,
+            }),
+            crate::light::Light::Projector(p) => json!({
+                "type": "projector", "position": vec3(p.position), "direction": vec3(p.frame.n), "ref_up": vec3(p.frame.t),
+                "irradiance": emitter_texture(l)?, "scale": num(p.scale), "fov": num(p.fov.to_degrees()), "fov_axis": p.fov_axis.name(),
+            }),
+            _ => unreachable!("delta_lights holds spot, directional and projector lights"),
         });
     }
     integ.insert("lights".into(), Value::Array(lights));

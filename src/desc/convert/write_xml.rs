@@ -1,6 +1,6 @@
 //! A description written as Mitsuba 3 XML.
 
-use super::{cylinder_params, distribution_name, matrix, obj_has_normals, rebase, refuse_textured_emitters, Converted};
+use super::{cylinder_params, distribution_name, matrix, obj_has_normals, rebase, Converted};
 use crate::desc::{MeshFormat, MeshNormals, MeshOptions, SceneDesc, TextureRef};
 use crate::error::{Result, SceneError};
 use crate::film::Filter;
@@ -243,6 +243,33 @@ fn material_xml(
     }
 }
 
+/// A light's `to_world` at `position` with `frame`: Mitsuba's `lookat` with the frame's t
+/// as `up` gives back the same frame (its x is up × n).
+fn light_to_world(position: Vec3, frame: &crate::math::Frame) -> String {
+    format!(
+        "<transform name=\"to_world\"><lookat origin=\"{}\" target=\"{}\" up=\"{}\"/></transform>",
+        v3(position),
+        v3(position + frame.n),
+        v3(frame.t)
+    )
+}
+
+/// A `spot` emitter (angles in radians) with `extra` properties (its texture).
+fn spot_xml(to_world: &str, intensity: Vec3, cutoff: f32, beam_width: f32, extra: &str) -> String {
+    format!(
+        "  <emitter type=\"spot\">\n    {to_world}\n    <rgb name=\"intensity\" value=\"{}\"/>\n    \
+         <float name=\"cutoff_angle\" value=\"{}\"/>\n    <float name=\"beam_width\" value=\"{}\"/>\n{}  </emitter>\n",
+        v3(intensity),
+        cutoff.to_degrees(),
+        beam_width.to_degrees(),
+        if extra.is_empty() {
+            String::new()
+        } else {
+            format!("    {extra}\n")
+        }
+    )
+}
+
 /// Whether two references are the same constant or name the same texture.
 fn same_texture(a: &TextureRef, b: &TextureRef) -> bool {
     match (a, b) {
@@ -282,7 +309,6 @@ fn v3(v: Vec3) -> String {
 
 /// The description as Mitsuba 3 XML, for the file `out`.
 pub fn to_xml(desc: &SceneDesc, out: &Path) -> Result<Converted> {
-    refuse_textured_emitters(desc)?;
     let mut w = Vec::new();
     let mut s = String::new();
     let _ = writeln!(s, "<?xml version=\"1.0\" encoding=\"utf-8\"?>");
@@ -563,8 +589,10 @@ pub fn to_xml(desc: &SceneDesc, out: &Path) -> Result<Converted> {
     let colour = |name: &str, r: &TextureRef| -> String {
         // parameters Mitsuba reads as colours (and bump heights, whose checkerboard has
         // no gradient); the others as floats (`eval_1`)
-        const COLOURS: [&str; 10] = [
+        const COLOURS: [&str; 12] = [
             "eta",
+            "irradiance",
+            "texture",
             "k",
             "radiance",
             "reflectance",
@@ -753,6 +781,11 @@ pub fn to_xml(desc: &SceneDesc, out: &Path) -> Result<Converted> {
             v3(l.flux / (4.0 * std::f32::consts::PI))
         );
     }
+    // a textured spot's or a projector's image, its file path already relative to `out`
+    let emitter_texture = |l: &crate::desc::DeltaLightDesc, key: &str| match &l.texture {
+        Some(t) => Ok(colour(key, t)),
+        None => Err(SceneError::new(&desc.file, Some(&l.key), "the light's texture is missing")),
+    };
     for l in &desc.integrator.delta_lights {
         match &l.light {
             crate::light::Light::Spot {
@@ -764,19 +797,13 @@ pub fn to_xml(desc: &SceneDesc, out: &Path) -> Result<Converted> {
             } => {
                 // the up vector only has to differ from the axis (the cone is round)
                 let up = if axis.x.abs() < 0.9 { Vec3::X } else { Vec3::Y };
-                let _ = writeln!(
-                    s,
-                    "  <emitter type=\"spot\">\n    \
-                     <transform name=\"to_world\"><lookat origin=\"{}\" target=\"{}\" up=\"{}\"/></transform>\n    \
-                     <rgb name=\"intensity\" value=\"{}\"/>\n    <float name=\"cutoff_angle\" value=\"{}\"/>\n    \
-                     <float name=\"beam_width\" value=\"{}\"/>\n  </emitter>",
+                let to_world = format!(
+                    "<transform name=\"to_world\"><lookat origin=\"{}\" target=\"{}\" up=\"{}\"/></transform>",
                     v3(*position),
                     v3(*position + *axis),
-                    v3(up),
-                    v3(*intensity),
-                    cutoff.to_degrees(),
-                    beam_width.to_degrees()
+                    v3(up)
                 );
+                s += &spot_xml(&to_world, *intensity, *cutoff, *beam_width, "");
             }
             crate::light::Light::Directional { direction, irradiance } => {
                 let _ = writeln!(
@@ -786,7 +813,35 @@ pub fn to_xml(desc: &SceneDesc, out: &Path) -> Result<Converted> {
                     v3(*irradiance)
                 );
             }
-            _ => unreachable!("delta_lights holds spot and directional lights"),
+            crate::light::Light::TexturedSpot(t) => {
+                let to_world = light_to_world(t.position, &t.frame);
+                // Mitsuba's spot wants an image: a constant one is a plain spot of intensity × colour
+                let constant = match &l.texture {
+                    Some(TextureRef::Color(c)) => Some(*c),
+                    Some(TextureRef::Named(n)) => match desc.textures.iter().find(|d| d.name == n.value).map(|d| &d.texture) {
+                        Some(Texture::Constant(c)) => Some(*c),
+                        _ => None,
+                    },
+                    None => None,
+                };
+                s += &match constant {
+                    Some(c) => spot_xml(&to_world, t.intensity * c, t.cutoff, t.beam_width, ""),
+                    None => spot_xml(&to_world, t.intensity, t.cutoff, t.beam_width, &emitter_texture(l, "texture")?),
+                };
+            }
+            crate::light::Light::Projector(p) => {
+                let _ = writeln!(
+                    s,
+                    "  <emitter type=\"projector\">\n    {}\n    <float name=\"scale\" value=\"{}\"/>\n    \
+                     <float name=\"fov\" value=\"{}\"/>\n    <string name=\"fov_axis\" value=\"{}\"/>\n    {}\n  </emitter>",
+                    light_to_world(p.position, &p.frame),
+                    p.scale,
+                    p.fov.to_degrees(),
+                    p.fov_axis.name(),
+                    emitter_texture(l, "irradiance")?
+                );
+            }
+            _ => unreachable!("delta_lights holds spot, directional and projector lights"),
         }
     }
     if desc.integrator.light_sampling == crate::light::LightSampling::Uniform {

@@ -13,10 +13,24 @@ use std::path::Path;
 
 /// A slab y ∈ [0, 0.6] of chromatic, forward-scattering fog behind `null` boundaries
 /// on a diffuse floor, an opaque sphere half in it; a spherical light above it and a
-/// small one inside it (a light subpath starting in the fog). `glow`: the fog emits
-/// radiance (4, 2, 1) (σa·Le per unit length).
+/// small one inside it (a light subpath starting in the fog). `glow`: the fog is a
+/// heterogeneous one (a 4³ grid, σt from 0.4 to 2 under a majorant of 3, so delta
+/// tracking makes null collisions) that emits radiance (4, 2, 1) (σa·Le per unit length).
 fn fog_slab(dir: &Path, integrator: &str, glow: bool) -> rdr::Loaded {
     let cube = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/refs/media/box.obj");
+    let medium = if glow {
+        let values = (0..64).map(|i| 0.2 + (i % 5) as f32 * 0.2).collect();
+        let bbox = rdr::geometry::Aabb::new(Vec3::ZERO, Vec3::ONE);
+        let grid = rdr::volume::GridData::new([4, 4, 4], 1, bbox, values).unwrap();
+        std::fs::write(dir.join("glow.vol"), rdr::volume::vol_file::encode(&grid)).unwrap();
+        r#"{"type": "heterogeneous", "scale": 2, "albedo": [0.9, 0.7, 0.4], "radiance": [4, 2, 1],
+    "sigma_t": {"type": "gridvolume", "filename": "glow.vol", "max_value": 1.5,
+      "to_world": [3, 0, 0, -1.5, 0, 0.6, 0, 0, 0, 0, 3, -1.5, 0, 0, 0, 1]},
+    "phase": {"type": "hg", "g": 0.5}}"#
+    } else {
+        r#"{"type": "homogeneous", "sigma_t": [0.6, 1.5, 3], "albedo": [0.9, 0.7, 0.4],
+    "phase": {"type": "hg", "g": 0.5}}"#
+    };
     let json = format!(
         r#"{{
   "integrator": {{"type": "{integrator}", "max_depth": 8}},
@@ -24,8 +38,7 @@ fn fog_slab(dir: &Path, integrator: &str, glow: bool) -> rdr::Loaded {
   "camera": {{"position": [0, 1.6, 3.5], "look_at": [0, 0.3, 0], "fov": 45}},
   "textures": {{"grey": {{"type": "constant", "color": [0.6, 0.6, 0.6]}}}},
   "materials": {{"grey": {{"type": "diffuse", "texture_name": "grey"}}}},
-  "media": {{"fog": {{"type": "homogeneous", "sigma_t": [0.6, 1.5, 3], "albedo": [0.9, 0.7, 0.4],
-    "phase": {{"type": "hg", "g": 0.5}}{}}}}},
+  "media": {{"fog": {medium}}},
   "objects": [
     {{"type": "sphere", "center": [0, -100, 0], "radius": 100, "material_name": "grey"}},
     {{"type": "sphere", "center": [0.3, 0.35, 0], "radius": 0.35, "material_name": "grey"}},
@@ -35,7 +48,6 @@ fn fog_slab(dir: &Path, integrator: &str, glow: bool) -> rdr::Loaded {
      "transform": [1.5, 0, 0, 0, 0, 0.3, 0, 0.3, 0, 0, 1.5, 0, 0, 0, 0, 1]}}
   ]
 }}"#,
-        if glow { r#", "radiance": [4, 2, 1]"# } else { "" },
         cube.display()
     );
     let path = dir.join(format!("slab_{integrator}_{glow}.json"));

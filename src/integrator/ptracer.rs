@@ -5,7 +5,8 @@
 //! emission points connected to the camera (s = 1); the environment, which no
 //! light path can connect to a pinhole, from camera rays that escape; point, spot
 //! and directional lights stay invisible, as in `path`. In media, light paths scatter
-//! and connect to the camera through the media as `bdpt`'s subpaths do.
+//! and connect to the camera through the media as `bdpt`'s subpaths do; a scene with
+//! an emissive medium is refused, as no light path starts inside a medium's volume.
 
 use super::CameraSample;
 use crate::camera::Camera;

@@ -182,18 +182,19 @@ impl Loaded {
         if loaded.scene.has_media {
             // media are tracked by the camera-path estimator, which `path` and `guided` run
             // (`guided` guides at surface vertices), and by `bdpt`'s subpaths (`ptracer`'s
-            // too), which do not collect light emitted by media yet; the others would render
-            // null boundaries as black and media as vacuum
+            // too), whose camera subpaths collect light emitted by media; `ptracer`'s light
+            // subpaths cannot find it (none starts in a medium's volume); the others would
+            // render null boundaries as black and media as vacuum
             let emissive = loaded.scene.media.iter().any(|m| m.is_emissive());
             let refuse = match (profile, &loaded.job.integrator) {
                 (Profile::Rdr171, _) => Some("--compat rdr171"),
                 (_, Integrator::Path(_) | Integrator::Guided(_) | Integrator::Normals(_)) => None,
-                (_, i @ (Integrator::Bdpt(_) | Integrator::Ptracer(_))) if emissive => {
+                (_, i @ Integrator::Ptracer(_)) if emissive => {
                     return Err(SceneError::new(
                         &desc.file,
                         None,
                         format!(
-                            "{} does not render emissive media (this scene has one); use path (volpath in Mitsuba XML)",
+                            "{} does not render emissive media (this scene has one: a light tracer cannot see light emitted by a medium); use path or bdpt (volpath in Mitsuba XML)",
                             i.name()
                         ),
                     ));

@@ -119,7 +119,7 @@ pub fn mis_self_check(
         let (u, v) = sampler.next_2d();
         let ray = camera.ray(u * width as f32, v * height as f32);
         let mut cam = Vec::new();
-        e.camera_subpath(ray, None, e.max_depth + 1, &mut cam, &mut sampler, &mut counts);
+        e.camera_subpath(ray, None, e.max_depth + 1, &mut cam, &mut Vec::new(), &mut sampler, &mut counts);
         let mut light = Vec::new();
         e.light_subpath(&mut light, &mut sampler, &mut counts);
         let mut sample_off = false;

@@ -15,6 +15,11 @@
 //! the ray's side, or the camera's medium if the ray meets none (as the camera
 //! paths' tracking finds it in a scene whose boundaries are consistent).
 //!
+//! The camera subpath gathers an emissive medium's light as the path estimator does
+//! ([`delta_tracking_emitting`]: at every collision, real or null, over its density):
+//! only the camera subpath can find it (no light subpath starts in a medium's
+//! volume), so these s = 0 paths weigh 1.
+//!
 //! [`Kind::Medium`]: super::vertex::Kind::Medium
 //! [`Scene::transmittance_through_media`]: crate::scene::Scene::transmittance_through_media
 
@@ -22,7 +27,7 @@ use crate::geometry::Ray;
 use crate::integrator::RayCounts;
 use crate::light::Light;
 use crate::math::Vec3;
-use crate::medium::{delta_tracking, HeroWeights, Tracked};
+use crate::medium::{delta_tracking, delta_tracking_emitting, HeroWeights, Tracked};
 use crate::sampler::PixelSampler;
 use crate::scene::{Hit, Scene, MAX_NULL_CROSSINGS};
 
@@ -38,8 +43,10 @@ pub(super) enum Event {
 
 /// The next real event along `ray`, which starts in `medium`: the tracking factors
 /// applied to `beta` through `hero` (drawn when first needed), `ray` and `medium`
-/// moved past the `null` boundaries crossed. Without media (`MEDIA` false: a scene
-/// without any), the ray's hit.
+/// moved past the `null` boundaries crossed; with `glow`, the light emitted by the media
+/// along the way (times the throughput) is added to it. Without media (`MEDIA` false: a
+/// scene without any), the ray's hit.
+#[allow(clippy::too_many_arguments)]
 #[inline(always)]
 pub(super) fn next_event<const MEDIA: bool>(
     scene: &Scene,
@@ -47,6 +54,7 @@ pub(super) fn next_event<const MEDIA: bool>(
     medium: &mut Option<u32>,
     hero: &mut Option<HeroWeights>,
     beta: &mut Vec3,
+    mut glow: Option<&mut Vec3>,
     sampler: &mut PixelSampler,
     counts: &mut RayCounts,
 ) -> Event {
@@ -60,7 +68,15 @@ pub(super) fn next_event<const MEDIA: bool>(
         if let Some(m) = *medium {
             let t_end = hit.map_or(ray.t_max, |h| h.t);
             let w = hero.get_or_insert_with(|| HeroWeights::new(sampler.next_1d()));
-            let (found, f) = delta_tracking(&scene.media[m as usize], ray, t_end, w.hero, || sampler.next_1d());
+            let med = &scene.media[m as usize];
+            let (found, f) = match glow.as_deref_mut() {
+                Some(g) => {
+                    let (found, f, le) = delta_tracking_emitting(med, ray, t_end, w, || sampler.next_1d());
+                    *g += *beta * le;
+                    (found, f)
+                }
+                None => delta_tracking(med, ray, t_end, w.hero, || sampler.next_1d()),
+            };
             w.apply(f, beta);
             match found {
                 _ if *beta == Vec3::ZERO => return Event::Absorbed,

@@ -31,7 +31,9 @@
 //! light subpath's throughput relative to its start), survivors reweighted.
 //!
 //! In media, scattering points are vertices of either subpath and connections carry
-//! the media's transmittance (the `media` module).
+//! the media's transmittance (the `media` module). Light emitted by a medium is found by
+//! the camera subpath alone (an s = 0 strategy of weight 1: no light subpath starts in
+//! a medium's volume); the light tracer (`ptracer`) cannot see it.
 
 mod check;
 mod connect;
@@ -135,9 +137,13 @@ enum Select {
     Each,
 }
 
+/// A sample's camera and light subpaths, and the light its camera subpath found
+/// emitted by media, as (t, radiance): t − 1 the segment along which it was emitted.
+type Buffers = (Vec<Vertex>, Vec<Vertex>, Vec<(usize, Vec3)>);
+
 thread_local! {
     /// Per-thread camera and light subpaths, reused across samples.
-    static BUFFERS: std::cell::Cell<(Vec<Vertex>, Vec<Vertex>)> = const { std::cell::Cell::new((Vec::new(), Vec::new())) };
+    static BUFFERS: std::cell::Cell<Buffers> = const { std::cell::Cell::new((Vec::new(), Vec::new(), Vec::new())) };
 }
 
 struct Engine<'a> {
@@ -186,19 +192,27 @@ impl<'a> Engine<'a> {
     ) {
         // the subpaths reuse this thread's buffers (taken, so a
         // nested sample would only start with empty ones)
-        let (mut cam, mut light) = BUFFERS.take();
+        let (mut cam, mut light, mut glow) = BUFFERS.take();
         cam.clear();
         light.clear();
+        glow.clear();
         // the light tracer only looks for the environment behind its first segment
         let cam_max = if self.select == Select::LightTracing {
             2
         } else {
             self.max_depth + 1
         };
-        self.camera_subpath(ray, diff, cam_max, &mut cam, sampler, counts);
+        self.camera_subpath(ray, diff, cam_max, &mut cam, &mut glow, sampler, counts);
         self.light_subpath(&mut light, sampler, counts);
 
         let mut acc = 0.0f32;
+        // medium emission: only s = 0 makes it, weight 1 (weighted or not)
+        for &(t, le) in &glow {
+            if self.select != Select::LightTracing && self.selected(0, t, &cam).is_some() {
+                acc += crate::math::luminance(le);
+                sink(0, t, le, None);
+            }
+        }
         for t in 1..=cam.len() {
             for s in 0..=light.len() {
                 let Some(weighted) = self.selected(s, t, &cam) else { continue };
@@ -212,7 +226,7 @@ impl<'a> Engine<'a> {
                 sink(s, t, c, pos);
             }
         }
-        BUFFERS.set((cam, light));
+        BUFFERS.set((cam, light, glow));
     }
 
     /// Whether the sample evaluates strategy (s, t), and MIS-weighted or not
@@ -239,13 +253,15 @@ impl<'a> Engine<'a> {
     }
 
     /// A camera subpath of at most `max_vertices`: the pinhole (or the lens point the
-    /// camera ray leaves), then the walk of `ray`.
+    /// camera ray leaves), then the walk of `ray`; the light media emit along it to `glow`.
+    #[allow(clippy::too_many_arguments)]
     fn camera_subpath(
         &self,
         ray: Ray,
         diff: Option<RayDifferential>,
         max_vertices: usize,
         cam: &mut Vec<Vertex>,
+        glow: &mut Vec<(usize, Vec3)>,
         sampler: &mut PixelSampler,
         counts: &mut RayCounts,
     ) {
@@ -264,13 +280,15 @@ impl<'a> Engine<'a> {
             max_vertices,
             medium,
             cam,
+            Some(glow),
             sampler,
             counts,
         );
     }
 
     /// Traces a subpath from `ray` (starting in `medium`) and appends its vertices to
-    /// `path` (which holds the vertex the ray leaves), at most `max_vertices` in all.
+    /// `path` (which holds the vertex the ray leaves), at most `max_vertices` in all;
+    /// with `glow`, the light emitted by media along it, as (t, radiance).
     #[allow(clippy::too_many_arguments)]
     fn walk(
         &self,
@@ -282,6 +300,7 @@ impl<'a> Engine<'a> {
         max_vertices: usize,
         medium: Option<u32>,
         path: &mut Vec<Vertex>,
+        glow: Option<&mut Vec<(usize, Vec3)>>,
         sampler: &mut PixelSampler,
         counts: &mut RayCounts,
     ) {
@@ -290,7 +309,20 @@ impl<'a> Engine<'a> {
             true => Self::walk_in::<true>,
             false => Self::walk_in::<false>,
         };
-        walk(self, ray, diff, beta, pdf_dir, mode, max_vertices, medium, path, sampler, counts);
+        walk(
+            self,
+            ray,
+            diff,
+            beta,
+            pdf_dir,
+            mode,
+            max_vertices,
+            medium,
+            path,
+            glow,
+            sampler,
+            counts,
+        );
     }
 
     /// [`Engine::walk`] in a scene with media (`MEDIA`) or without.
@@ -305,6 +337,7 @@ impl<'a> Engine<'a> {
         max_vertices: usize,
         mut medium: Option<u32>,
         path: &mut Vec<Vertex>,
+        mut glow: Option<&mut Vec<(usize, Vec3)>>,
         sampler: &mut PixelSampler,
         counts: &mut RayCounts,
     ) {
@@ -314,7 +347,22 @@ impl<'a> Engine<'a> {
         let mut eta_scale = 1.0f32;
         let mut hero = None;
         while path.len() < max_vertices {
-            let hit = match media::next_event::<MEDIA>(scene, &mut ray, &mut medium, &mut hero, &mut beta, sampler, counts) {
+            // the segment traced now ends at vertex path.len(): its emission is strategy (0, path.len() + 1)
+            let mut le = Vec3::ZERO;
+            let found = media::next_event::<MEDIA>(
+                scene,
+                &mut ray,
+                &mut medium,
+                &mut hero,
+                &mut beta,
+                glow.is_some().then_some(&mut le),
+                sampler,
+                counts,
+            );
+            if let (true, Some(g)) = (le != Vec3::ZERO, glow.as_deref_mut()) {
+                g.push((path.len() + 1, le));
+            }
+            let hit = match found {
                 media::Event::Absorbed => break,
                 media::Event::Scattered { p, medium: m } => {
                     let phase = scene.media[m as usize].phase();
@@ -457,6 +505,7 @@ impl<'a> Engine<'a> {
             self.max_depth,
             medium,
             path,
+            None,
             sampler,
             counts,
         );

@@ -328,14 +328,16 @@ fn thin_slab_single_scattering_matches_the_closed_form() {
 }
 
 /// An absorbing sphere (interior A, exterior B) inside an absorbing box (interior B),
-/// both null, under a uniform sky: seen through 2 units of B and 2 of A.
+/// both null, under a uniform sky: seen through 2 units of B and 2 of A. B takes no light
+/// sample (`sample_emitters` false; it does not scatter, so the image is the same).
 fn nested_xml() -> String {
     format!(
         r#"<scene version="3.0.0">
           <integrator type="volpath"/>
           {}
           <emitter type="constant"><rgb name="radiance" value="1"/></emitter>
-          <medium type="homogeneous" id="b"><float name="sigma_t" value="0.25"/><float name="albedo" value="0"/></medium>
+          <medium type="homogeneous" id="b"><float name="sigma_t" value="0.25"/><float name="albedo" value="0"/>
+            <boolean name="sample_emitters" value="false"/></medium>
           <shape type="cube"><transform name="to_world"><scale value="2"/></transform><bsdf type="null"/><ref name="interior" id="b"/></shape>
           <shape type="sphere"><float name="radius" value="1"/><bsdf type="null"/>
             <medium type="homogeneous" name="interior"><float name="sigma_t" value="0.5"/><float name="albedo" value="0"/></medium>
@@ -438,6 +440,17 @@ fn convert_carries_media_both_ways() {
         let out = rdr::desc::convert::to_xml(&json, &dir.path().join(format!("s{i}_back.xml"))).unwrap();
         let back = write(&format!("s{i}_back.xml"), &out.text, &out.files);
         let (a, b, c) = (media_of(&original), media_of(&json), media_of(&back));
+        let sample_emitters = |d: &SceneDesc| d.media.iter().map(|m| m.sample_emitters).collect::<Vec<_>>();
+        // only nested_xml's medium b takes no light sample
+        let expected = if i == 0 {
+            vec![false, true]
+        } else {
+            vec![true; original.media.len()]
+        };
+        assert_eq!(sample_emitters(&original), expected, "scene {i}: as read");
+        for other in [&json, &back] {
+            assert_eq!(sample_emitters(&original), sample_emitters(other), "scene {i}: sample_emitters");
+        }
         assert!(!a.0.is_empty());
         for other in [&b, &c] {
             assert_eq!((&a.1, &a.2), (&other.1, &other.2), "scene {i}: camera medium or boundaries changed");

@@ -560,7 +560,9 @@ pub fn build(desc: &SceneDesc, opts: BuildOptions) -> Result<Scene> {
         camera_medium,
         sealed_media: Vec::new(),
     };
-    scene.sealed_media = crate::scene::sealed_media(&scene);
+    // a medium that asks for no light sample (`sample_emitters` false) is treated as sealed
+    let sealed = crate::scene::sealed_media(&scene).into_iter().zip(&desc.media);
+    scene.sealed_media = sealed.map(|(sealed, m)| sealed || !m.sample_emitters).collect();
     Ok(scene)
 }
 

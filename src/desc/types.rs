@@ -323,6 +323,9 @@ pub struct MediumDesc {
     pub name: String,
     pub source: Source,
     pub medium: crate::medium::Medium,
+    /// Whether light is sampled from its scattering points (Mitsuba's `sample_emitters`,
+    /// true by default); when false the phase function's sample alone finds light.
+    pub sample_emitters: bool,
     /// A heterogeneous medium's volumes as described (grid files by name, for `rdr convert`).
     pub volumes: Option<super::volume::MediumVolumes>,
 }

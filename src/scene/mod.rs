@@ -113,7 +113,8 @@ pub struct Scene {
     /// Some object is a medium boundary or has a `null` BSDF (or the camera is in a
     /// medium): camera paths then track media ([`crate::integrator::estimator`]).
     pub has_media: bool,
-    /// Per medium: no light sample from inside it can arrive ([`media::sealed_media`]).
+    /// Per medium: no light sample is taken from inside it, because none can arrive
+    /// ([`media::sealed_media`]) or its description asks for none (`sample_emitters`).
     pub sealed_media: Vec<bool>,
 }
 

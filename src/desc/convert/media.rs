@@ -121,6 +121,9 @@ pub fn media_json(desc: &SceneDesc, out: &Path) -> Value {
         if !is_zero(&p.radiance) {
             v["radiance"] = volume_json(desc, &p.radiance, out);
         }
+        if !d.sample_emitters {
+            v["sample_emitters"] = false.into();
+        }
         if let PhaseFunction::HenyeyGreenstein { g } = p.phase {
             v["phase"] = json!({"type": "hg", "g": num(g)});
         }
@@ -193,6 +196,9 @@ pub fn media_xml(desc: &SceneDesc, out: &Path, esc: impl Fn(&str) -> String) -> 
         }
         if !is_zero(&p.radiance) {
             s += &volume_xml(desc, "radiance", &p.radiance, out, &esc);
+        }
+        if !d.sample_emitters {
+            s += "    <boolean name=\"sample_emitters\" value=\"false\"/>\n";
         }
         if let PhaseFunction::HenyeyGreenstein { g } = p.phase {
             s += &format!("    <phase type=\"hg\">\n      <float name=\"g\" value=\"{g}\"/>\n    </phase>\n");

@@ -21,6 +21,7 @@ pub(super) fn parse_media(root: &Props, base_dir: &Path) -> Result<Vec<MediumDes
 fn parse_medium(name: &str, p: &Props, base_dir: &Path) -> Result<MediumDesc> {
     let ty = p.string("type")?;
     let scale = p.f32_or("scale", 1.0)?;
+    let sample_emitters = p.bool_or("sample_emitters", true)?;
     let phase = match p.object_opt("phase")? {
         None => PhaseFunction::Isotropic,
         Some(q) => parse_phase(&q)?,
@@ -54,6 +55,7 @@ fn parse_medium(name: &str, p: &Props, base_dir: &Path) -> Result<MediumDesc> {
         name: name.to_string(),
         source: p.own_source(),
         medium,
+        sample_emitters,
         volumes,
     })
 }

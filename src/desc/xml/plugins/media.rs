@@ -26,10 +26,7 @@ impl<'a> Reader<'a> {
         }
         let scale = p.float("scale", 1.0)?;
         let phase = phase(&p)?;
-        if !p.boolean("sample_emitters", true)? {
-            self.ids
-                .warn(el, "sample_emitters false noted: rdr samples emitters from every medium vertex");
-        }
+        let sample_emitters = p.boolean("sample_emitters", true)?;
         // rdr tracks every channel alike: a grey extinction needs no switch
         p.boolean("has_spectral_extinction", true)?;
         let mut volumes = None;
@@ -58,6 +55,7 @@ impl<'a> Reader<'a> {
             name: name.clone(),
             source: source(el),
             medium,
+            sample_emitters,
             volumes,
         });
         self.medium_of.insert(el as *const Element, name.clone());
@@ -114,10 +112,11 @@ const MEDIUM_PARAMS: &[Param] = &[
         "0",
         "rdr's (pbrt-v4's) emission, which Mitsuba 3.9 does not read: the medium adds σa·Le per unit length",
     ),
-    noted(
+    read(
         "sample_emitters",
         "boolean",
-        "false is warned about: rdr samples emitters from every medium vertex",
+        "true",
+        "false: no light sample from its scattering points; the phase function's sample finds light",
     ),
     noted(
         "has_spectral_extinction",

@@ -12,7 +12,8 @@ given, all made RES pixels wide at SPP samples (the same edit for both renderers
 - a JSON scene is converted to XML and the XML rendered by both.
 Relative MSE mean((x - r)^2 / (r^2 + 0.01)); a figure is within noise at <= 3x the floor + 1e-3, the
 floor being Mitsuba's seed-to-seed relMSE or, for an XML scene where rdr is the noisier, the mean
-of rdr's and Mitsuba's.
+of rdr's and Mitsuba's. Each is one pair's figure, heavy-tailed where a scene has rare bright paths
+(a caustic seen through a diffuse bounce): to compare the renderers' noise, use seed_noise.py.
 An oracle run by hand, never by tests or CI: Mitsuba is not a dependency.
 
 Usage: /work/venv-mi/bin/python scripts/mitsuba_convert_check.py [--rdr BIN] [--res 48] [--spp 64]

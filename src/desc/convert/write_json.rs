@@ -113,6 +113,9 @@ pub fn to_json(desc: &SceneDesc, out: &Path) -> Result<Converted> {
                 crate::integrator::guided::LearnFrom::Photons => "photons",
             };
             integ.insert("learn_from".into(), learn_from.into());
+            if g.rr != Roulette::Mitsuba {
+                integ.insert("rr".into(), g.rr.name().into());
+            }
         }
         Integrator::Rdr171(_) => unreachable!("a description never holds the compat integrator"),
     }

@@ -310,6 +310,7 @@ fn parse_guided(p: &Props) -> Result<Guided> {
         other => return Err(p.error("learn_from", format!("unknown learn_from '{other}' (available: paths, photons)"))),
     };
     Ok(Guided {
+        rr: roulette(p)?,
         learn_from,
         learn_direct,
         learn_fraction,
@@ -520,7 +521,7 @@ pub(super) fn parse_camera(p: &Props) -> Result<CameraParams> {
     Ok(c)
 }
 
-/// `path`'s `rr`: its Russian roulette, by name.
+/// `path`'s and `guided`'s `rr`: their Russian roulette, by name.
 fn roulette(p: &Props) -> Result<Roulette> {
     let name = p.string_or("rr", Roulette::Mitsuba.name())?;
     Roulette::from_name(&name).ok_or_else(|| {

@@ -71,6 +71,8 @@ pub struct State {
     pub(super) paid: bool,
     /// The film's sums after the current training iteration's first pass.
     pub(super) probe: Option<(Vec<[f64; 3]>, Vec<f64>)>,
+    /// EARS's statistics (`rr: "ears"`), from the passes that played it.
+    pub(super) ears: Option<Box<crate::integrator::ears::State>>,
 }
 
 /// A finished iteration's image and the variance of each of its pixel means.
@@ -150,6 +152,7 @@ impl Guided {
             guide: !self.learn_fraction || self.learn_from == LearnFrom::Paths,
             probe: None,
             paid: false,
+            ears: None,
         };
         self.begin_iteration(&mut s, ctx);
         s
@@ -307,6 +310,7 @@ impl Guided {
                 )
             })
             .collect();
+        let ears = s.ears.as_ref().map_or_else(String::new, |e| format!("; {}", e.summary()));
         format!(
             "guided: schedule {}; learned from {}; combine {}; iterations: {}; SD-tree {} spatial leaves, {} directional nodes (depth ≤ {}), {:.1} MB; leaves per BSDF fraction {}",
             s.schedule,
@@ -329,7 +333,7 @@ impl Guided {
                 .zip(stats.fractions)
                 .map(|(f, n)| if *f >= 1.0 { format!("1: {n}") } else { format!("≥ {f}: {n}") })
                 .collect::<Vec<_>>()
-                .join(", ")
-        )
+                .join(", "),
+        ) + &ears
     }
 }

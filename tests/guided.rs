@@ -647,8 +647,9 @@ fn the_cost_aware_switch_guides_caustic_cbox_and_not_cbox_path() {
 /// guide) play EARS's learned roulette and splitting while sampling the guide (every
 /// leaf at fraction 0.5). caustic_cbox at 128², 64 spp (32 of them the final
 /// iteration's, EARS learning at its 2nd, 4th, 8th, 16th and 32nd pass), two seeds against
-/// the reference averaged over 2×2 blocks. With the splitting's 1/n left out (split
-/// sub-paths weighted 1 each) see the assertion's message.
+/// the reference averaged over 2×2 blocks: relMSE corrected −1.3e-4 ± 4.5e-4, raw 7.3e-3.
+/// With the splitting's 1/n left out (split sub-paths weighted 1 each): corrected
+/// +9.1 ± 2.8, which the noise hides from `converges`, raw 22.8.
 #[test]
 fn guided_with_ears_splits_and_converges_to_the_reference() {
     let Some(shared) = shared() else { return };
@@ -677,7 +678,9 @@ fn guided_with_ears_splits_and_converges_to_the_reference() {
     assert!(number(1) >= 3 && number(3) > 0, "EARS did not learn: {ears}");
     let image = |o: &rdr::RenderOutput| Image::new(o.width as usize, o.height as usize, o.pixels.clone());
     let c = check("guided rr ears caustic_cbox", (&image(&a), &image(&b)), &r, &vr);
-    assert!(converges(&c), "{c:?}");
+    // a bias that splitting makes also makes fireflies, whose noise can hide it from
+    // `converges` alone: the error itself is bounded too (4x the baseline's)
+    assert!(converges(&c) && c.rel_mse_raw < 0.03, "{c:?}");
 }
 
 /// Every decision of the schedule depends on sample counts only: the same scene,

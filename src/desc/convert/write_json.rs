@@ -100,7 +100,6 @@ pub fn to_json(desc: &SceneDesc, out: &Path) -> Result<Converted> {
                 integ.insert("training_iterations".into(), n.into());
             }
             let combine = match g.combine {
-                crate::integrator::guided::Combine::InverseVariance => "inverse_variance",
                 crate::integrator::guided::Combine::Last => "last",
                 crate::integrator::guided::Combine::Samples => "samples",
             };

@@ -288,15 +288,9 @@ fn parse_guided(p: &Props) -> Result<Guided> {
         false => None,
     };
     let combine = match p.string_or("combine", "samples")?.as_str() {
-        "inverse_variance" => guided::Combine::InverseVariance,
         "last" => guided::Combine::Last,
         "samples" => guided::Combine::Samples,
-        other => {
-            return Err(p.error(
-                "combine",
-                format!("unknown combine '{other}' (available: inverse_variance, last, samples)"),
-            ))
-        }
+        other => return Err(p.error("combine", format!("unknown combine '{other}' (available: last, samples)"))),
     };
     let spatial_threshold = p.f32_or("spatial_threshold", d.spatial_threshold)?;
     if !(spatial_threshold > 0.0 && spatial_threshold.is_finite()) {

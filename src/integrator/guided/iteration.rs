@@ -197,7 +197,7 @@ impl Guided {
             spp: s.passes,
         };
         match self.combine {
-            Combine::InverseVariance | Combine::Samples => s.finished.push(finished),
+            Combine::Samples => s.finished.push(finished),
             Combine::Last => s.finished = vec![finished],
         }
         let threshold = self.spatial_threshold as f64 * (s.recorded.max(1) as f64).sqrt();
@@ -262,7 +262,7 @@ impl Guided {
     }
 
     /// The image so far (film rows, y up): the iterations, finished and current,
-    /// each weighted by the inverse of its estimated variance (or the last alone).
+    /// every sample alike (or the last alone).
     pub fn image(&self, s: &State, width: usize) -> Vec<Vec3> {
         let current = (s.passes > 0).then(|| (current_image(s.film.sums()), pixel_variances(&s.moments, width)));
         let mut parts: Vec<Part> = match self.combine {
@@ -319,7 +319,6 @@ impl Guided {
                 LearnFrom::Paths => "camera paths",
             },
             match self.combine {
-                Combine::InverseVariance => "inverse variance",
                 Combine::Last => "last iteration",
                 Combine::Samples => "all samples alike",
             },

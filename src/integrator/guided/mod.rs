@@ -29,8 +29,7 @@
 //! All iterations draw from each pixel's one sample sequence, continuing where
 //! the last stopped as `path`'s passes do; iteration k ≥ 1 takes the indices
 //! [2^(k−1), 2^k), a stratified block on its own. The image weighs every sample
-//! alike (`combine: "samples"`, `path`'s one film), or each iteration by the
-//! inverse of its estimated variance (`"inverse_variance"`), or shows the last
+//! alike (`combine: "samples"`, `path`'s one film), or shows the last
 //! iteration alone (`"last"`). Where no leaf guides, a sample is `path`'s number
 //! for number, so the image is `path`'s.
 //!
@@ -124,8 +123,6 @@ pub enum LearnFrom {
 /// How the iterations' images make the final one.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum Combine {
-    /// One weight per iteration, 1 / its estimated variance.
-    InverseVariance,
     /// The last iteration alone.
     Last,
     /// Weights by spp: every sample alike, as `path`'s one film.
@@ -160,7 +157,7 @@ pub enum Combine {
 ///   ancestor's vertices choose together;
 /// * `training_iterations` (int ≥ 0, absent: chosen by the spp budget, see the
 ///   module docs) — doubling iterations before the final one;
-/// * `combine` (`"samples"` | `"inverse_variance"` | `"last"`, `"samples"`) — how the
+/// * `combine` (`"samples"` | `"last"`, `"samples"`) — how the
 ///   iterations make the image (see the module docs);
 /// * `spatial_threshold` (number > 0, 2000) — the paper's c: a spatial leaf is
 ///   split when an iteration's n recording passes record more than c·√n vertices in it (the
@@ -177,7 +174,7 @@ pub enum Combine {
 ///   splitting ([`super::ears`]) instead of the roulette above, learning its statistics
 ///   from those passes (the first two play Mitsuba's);
 /// ```json
-/// {"type": "guided", "spp": 256, "bsdf_fraction": 0.5, "combine": "inverse_variance"}
+/// {"type": "guided", "spp": 256, "bsdf_fraction": 0.5, "combine": "samples"}
 /// ```
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Guided {
@@ -283,12 +280,9 @@ impl Guided {
             rr: Roulette::Mitsuba,
         });
         let scene = ctx.scene;
-        if let (Some(p), true) = (
-            &path,
-            self.combine != Combine::InverseVariance && scene.packets() && !scene.has_media && !ears_pass,
-        ) {
-            // without per-pixel moments to keep (only inverse-variance weights need them),
-            // `path`'s packet pass, the same samples as its `li`
+        if let (Some(p), true) = (&path, scene.packets() && !scene.has_media && !ears_pass) {
+            // `path`'s packet pass, the same samples as its `li` (no per-pixel moments:
+            // the summary's variance estimate is the recording passes')
             let mut result = camera_pass_blocks(ctx, sample_index, film, |b, out| p.li_block(scene, b, out));
             result.counts += counts;
             if result.complete {
@@ -310,7 +304,7 @@ impl Guided {
                 (Some(p), None) => p.li(scene, s.ray, s.diff, s.sampler, s.counts),
                 (None, Some(e)) => {
                     let learned = (e, e.pixel_factor(pixel));
-                    guiding.li_ears(scene, s.ray, s.diff, s.sampler, s.counts, scratch, learned, &mut split.branches)
+                    guiding.li_ears(scene, s, scratch, learned, &mut split.branches)
                 }
                 (None, None) => guiding.li(scene, s.ray, s.diff, s.sampler, s.counts, scratch),
             };

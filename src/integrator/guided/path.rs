@@ -9,7 +9,7 @@ use super::sdtree::SdTree;
 use crate::geometry::{Ray, RayDifferential};
 use crate::integrator::ears;
 use crate::integrator::estimator::{trace, Branches, PathProfile, PathState, Policy};
-use crate::integrator::{PathTracer, RayCounts};
+use crate::integrator::{CameraSample, PathTracer, RayCounts};
 use crate::light::LightSample;
 use crate::material::{Bsdf, BsdfSample};
 use crate::math::{Vec2, Vec3, PI};
@@ -227,19 +227,16 @@ impl Guiding<'_> {
     /// guided's roulette, by the statistics `learned` (the sample's pixel factor
     /// `pixel_factor`), the sub-paths waiting in `branches`; only for passes that do not
     /// record (a waiting vertex's prefix sum of the estimate follows one path).
-    #[allow(clippy::too_many_arguments)]
     pub fn li_ears(
         &self,
         scene: &Scene,
-        ray: Ray,
-        diff: Option<RayDifferential>,
-        sampler: &mut PixelSampler,
-        counts: &mut RayCounts,
+        s: &mut CameraSample,
         scratch: &mut Scratch,
         learned: (&ears::State, Option<f32>),
         branches: &mut Branches,
     ) -> Vec3 {
         debug_assert!(!self.record, "EARS sub-paths do not record");
+        let (sampler, counts) = (&mut *s.sampler, &mut *s.counts);
         branches.begin(counts.rays);
         let (state, pixel_factor) = learned;
         let ears = Learned {
@@ -249,7 +246,7 @@ impl Guiding<'_> {
             branches,
         };
         let mut walk = Walk::<true>::new(self, scratch, Some(ears));
-        let l = trace(&mut walk, scene, PathState::new(ray), 1, diff.as_ref(), sampler, counts);
+        let l = trace(&mut walk, scene, PathState::new(s.ray), 1, s.diff.as_ref(), sampler, counts);
         if let (true, Some(e)) = (scene.has_media, walk.ears.as_mut()) {
             // the media loop ends its one path itself
             e.branches.end_path(l, counts.rays);

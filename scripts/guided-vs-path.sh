@@ -19,6 +19,8 @@
 #   VARIANTS='tag={...} tag2={...}'  more `guided` renders of RDR beside, one per tag with its override
 #                  (no spaces inside an override), e.g. VARIANTS='paths={"integrator":{"learn_from":"paths"}}'
 #   OUT=DIR        images and logs (default /tmp/guided-vs-path)
+#   REF=PATH       (no .exr) the reference of scene files given by path (PATH.var.exr is used
+#                  when it exists), e.g. REF=/work/perf-refs/veach-mis for the real veach-mis
 #
 # Prints one line per image (relMSE, spp reached, CPU s) and per scene and seed the ratio
 # guided/path of relMSE (equal time) or of relMSE x CPU s (equal spp). Copy RDR out of
@@ -41,7 +43,7 @@ fi
 
 scene_and_ref() {
   case $1 in
-    *.xml | *.json) scene=$1 ref=$(dirname "$1")/reference ;;
+    *.xml | *.json) scene=$1 ref=${REF:-$(dirname "$1")/reference} ;;
     cbox_path) scene=$refs/scenes/$1.json ref=$refs/cbox ;;
     veach_path) scene=$refs/scenes/$1.json ref=$refs/veach ;;
     *) scene=$refs/scenes/$1.json ref=$refs/$1 ;;
@@ -82,7 +84,9 @@ for sc in "$@"; do
 
     declare -A merit=()
     for i in "${tags[@]}"; do
-      m=$("$rdr" compare "$out/$name.$i.$seed.exr" "$ref.exr" --variance "$ref.var.exr" | grep '^relMSE' | head -1)
+      variance=()
+      [[ -f $ref.var.exr ]] && variance=(--variance "$ref.var.exr")
+      m=$("$rdr" compare "$out/$name.$i.$seed.exr" "$ref.exr" "${variance[@]}" | grep '^relMSE' | head -1)
       rel=$(grep -oE '[0-9.]+e[-+]?[0-9]+|[0-9]+\.[0-9]+' <<<"$m" | head -1)
       cpu=$(awk '/^cpu/ {print $2 + $3}' "$out/$name.$i.$seed.time")
       spp=$(grep -oE 'at [0-9]+ spp' "$out/$name.$i.$seed.log" | head -1)

@@ -74,16 +74,28 @@ pub struct State {
 
 /// What a tile collects: the sub-paths' stack, and the records of its samples.
 #[derive(Default)]
-struct Scratch {
-    branches: Branches,
+pub struct Scratch {
+    pub branches: Branches,
     /// Cell, x (one continuation's estimate), rays.
     records: Vec<(u32, f32, u64)>,
     /// Pixel, y, rays.
     samples: Vec<(u32, f32, u64)>,
 }
 
+impl Scratch {
+    /// Keeps the records of a camera sample of pixel `pixel` (of `pixels`) whose
+    /// sub-paths, in [`Scratch::branches`], gave the estimate `l` with `rays` rays.
+    pub fn keep_sample(&mut self, pixel: usize, pixels: usize, l: Vec3, rays: u64) {
+        if l.is_finite() && pixel < pixels {
+            let records = &mut self.records;
+            self.branches.records(|cell, x, r| records.push((cell, x, r)));
+            self.samples.push((pixel as u32, (l.x + l.y + l.z) / 3.0, rays));
+        }
+    }
+}
+
 impl State {
-    fn new(ctx: &PassContext) -> State {
+    pub fn new(ctx: &PassContext) -> State {
         let (w, h) = (ctx.film.width as usize, ctx.film.height as usize);
         let r = ctx.scene.radius.max(1e-6);
         State {
@@ -113,7 +125,7 @@ impl State {
 
     /// Adds a finished pass's tiles; ends the iteration when the pass count reaches a
     /// power of two (2, 4, 8, …).
-    fn add_pass(&mut self, tiles: &[Scratch], width: usize) {
+    pub fn add_pass<'a>(&mut self, tiles: impl IntoIterator<Item = &'a Scratch>, width: usize) {
         for t in tiles {
             for &(cell, x, rays) in &t.records {
                 let c = &mut self.cells[cell as usize];
@@ -218,6 +230,20 @@ impl State {
         (Some(q), cell)
     }
 
+    /// The expected number of sub-paths from a surface vertex at `p` reached with
+    /// throughput `beta` by segment `segment` (see the module docs), at most 1 without
+    /// `split`, and the vertex's cell: the learned factor where the cell and the pixel
+    /// (`pixel_factor`) have been learned, Mitsuba's roulette elsewhere.
+    pub fn split_factor(&self, pixel_factor: Option<f32>, split: bool, p: Vec3, beta: Vec3, eta_scale: f32, segment: u32) -> (f32, u32) {
+        let (learned, cell) = self.factor(pixel_factor, p, beta);
+        let q = match learned {
+            Some(q) => q,
+            None if segment >= RR_DEPTH => PathTracer::throughput_survival(beta, eta_scale),
+            None => 1.0,
+        };
+        (if split { q } else { q.min(1.0) }, cell)
+    }
+
     /// A line for the render summary.
     pub fn summary(&self) -> String {
         format!(
@@ -266,13 +292,8 @@ impl Policy for Ears<'_> {
     /// The EARS factor (see the module docs) where the cell and the pixel have been
     /// learned; Mitsuba's roulette elsewhere.
     fn split_factor(&self, it: &Interaction, beta: Vec3, eta_scale: f32, segment: u32) -> (f32, u32) {
-        let (learned, cell) = self.state.factor(self.pixel_factor, it.p, beta);
-        let q = match learned {
-            Some(q) => q,
-            None if segment >= RR_DEPTH => PathTracer::throughput_survival(beta, eta_scale),
-            None => 1.0,
-        };
-        (if self.split { q } else { q.min(1.0) }, cell)
+        self.state
+            .split_factor(self.pixel_factor, self.split, it.p, beta, eta_scale, segment)
     }
 
     fn branches(&mut self) -> Option<&mut Branches> {
@@ -294,11 +315,7 @@ pub fn render_pass(path: &PathTracer, ctx: &PassContext, pass: u32, film: &mut F
         let pixel = s.pixel.1 as usize * width + s.pixel.0 as usize;
         let rays = s.counts.rays;
         let l = li(path, learned, scene, s, pixel, &mut scratch.branches);
-        if l.is_finite() && pixel < pixels {
-            let records = &mut scratch.records;
-            scratch.branches.records(|cell, x, r| records.push((cell, x, r)));
-            scratch.samples.push((pixel as u32, (l.x + l.y + l.z) / 3.0, s.counts.rays - rays));
-        }
+        scratch.keep_sample(pixel, pixels, l, s.counts.rays - rays);
         l
     });
     if result.complete {
@@ -308,7 +325,7 @@ pub fn render_pass(path: &PathTracer, ctx: &PassContext, pass: u32, film: &mut F
 }
 
 /// One camera sample's radiance (pixel index `pixel`).
-fn li(path: &PathTracer, state: &State, scene: &Scene, s: &mut super::CameraSample, pixel: usize, branches: &mut Branches) -> Vec3 {
+pub fn li(path: &PathTracer, state: &State, scene: &Scene, s: &mut super::CameraSample, pixel: usize, branches: &mut Branches) -> Vec3 {
     branches.begin(s.counts.rays);
     let mut policy = Ears {
         path,

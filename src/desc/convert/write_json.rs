@@ -100,7 +100,6 @@ pub fn to_json(desc: &SceneDesc, out: &Path) -> Result<Converted> {
                 integ.insert("training_iterations".into(), n.into());
             }
             let combine = match g.combine {
-                crate::integrator::guided::Combine::InverseVariance => "inverse_variance",
                 crate::integrator::guided::Combine::Last => "last",
                 crate::integrator::guided::Combine::Samples => "samples",
             };
@@ -113,6 +112,9 @@ pub fn to_json(desc: &SceneDesc, out: &Path) -> Result<Converted> {
                 crate::integrator::guided::LearnFrom::Photons => "photons",
             };
             integ.insert("learn_from".into(), learn_from.into());
+            if g.rr != Roulette::Mitsuba {
+                integ.insert("rr".into(), g.rr.name().into());
+            }
         }
         Integrator::Rdr171(_) => unreachable!("a description never holds the compat integrator"),
     }

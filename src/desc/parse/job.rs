@@ -288,15 +288,9 @@ fn parse_guided(p: &Props) -> Result<Guided> {
         false => None,
     };
     let combine = match p.string_or("combine", "samples")?.as_str() {
-        "inverse_variance" => guided::Combine::InverseVariance,
         "last" => guided::Combine::Last,
         "samples" => guided::Combine::Samples,
-        other => {
-            return Err(p.error(
-                "combine",
-                format!("unknown combine '{other}' (available: inverse_variance, last, samples)"),
-            ))
-        }
+        other => return Err(p.error("combine", format!("unknown combine '{other}' (available: last, samples)"))),
     };
     let spatial_threshold = p.f32_or("spatial_threshold", d.spatial_threshold)?;
     if !(spatial_threshold > 0.0 && spatial_threshold.is_finite()) {
@@ -310,6 +304,7 @@ fn parse_guided(p: &Props) -> Result<Guided> {
         other => return Err(p.error("learn_from", format!("unknown learn_from '{other}' (available: paths, photons)"))),
     };
     Ok(Guided {
+        rr: roulette(p)?,
         learn_from,
         learn_direct,
         learn_fraction,
@@ -520,7 +515,7 @@ pub(super) fn parse_camera(p: &Props) -> Result<CameraParams> {
     Ok(c)
 }
 
-/// `path`'s `rr`: its Russian roulette, by name.
+/// `path`'s and `guided`'s `rr`: their Russian roulette, by name.
 fn roulette(p: &Props) -> Result<Roulette> {
     let name = p.string_or("rr", Roulette::Mitsuba.name())?;
     Roulette::from_name(&name).ok_or_else(|| {

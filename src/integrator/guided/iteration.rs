@@ -71,6 +71,8 @@ pub struct State {
     pub(super) paid: bool,
     /// The film's sums after the current training iteration's first pass.
     pub(super) probe: Option<(Vec<[f64; 3]>, Vec<f64>)>,
+    /// EARS's statistics (`rr: "ears"`), from the passes that played it.
+    pub(super) ears: Option<Box<crate::integrator::ears::State>>,
 }
 
 /// A finished iteration's image and the variance of each of its pixel means.
@@ -150,6 +152,7 @@ impl Guided {
             guide: !self.learn_fraction || self.learn_from == LearnFrom::Paths,
             probe: None,
             paid: false,
+            ears: None,
         };
         self.begin_iteration(&mut s, ctx);
         s
@@ -194,7 +197,7 @@ impl Guided {
             spp: s.passes,
         };
         match self.combine {
-            Combine::InverseVariance | Combine::Samples => s.finished.push(finished),
+            Combine::Samples => s.finished.push(finished),
             Combine::Last => s.finished = vec![finished],
         }
         let threshold = self.spatial_threshold as f64 * (s.recorded.max(1) as f64).sqrt();
@@ -259,7 +262,7 @@ impl Guided {
     }
 
     /// The image so far (film rows, y up): the iterations, finished and current,
-    /// each weighted by the inverse of its estimated variance (or the last alone).
+    /// every sample alike (or the last alone).
     pub fn image(&self, s: &State, width: usize) -> Vec<Vec3> {
         let current = (s.passes > 0).then(|| (current_image(s.film.sums()), pixel_variances(&s.moments, width)));
         let mut parts: Vec<Part> = match self.combine {
@@ -307,6 +310,7 @@ impl Guided {
                 )
             })
             .collect();
+        let ears = s.ears.as_ref().map_or_else(String::new, |e| format!("; {}", e.summary()));
         format!(
             "guided: schedule {}; learned from {}; combine {}; iterations: {}; SD-tree {} spatial leaves, {} directional nodes (depth ≤ {}), {:.1} MB; leaves per BSDF fraction {}",
             s.schedule,
@@ -315,7 +319,6 @@ impl Guided {
                 LearnFrom::Paths => "camera paths",
             },
             match self.combine {
-                Combine::InverseVariance => "inverse variance",
                 Combine::Last => "last iteration",
                 Combine::Samples => "all samples alike",
             },
@@ -329,7 +332,7 @@ impl Guided {
                 .zip(stats.fractions)
                 .map(|(f, n)| if *f >= 1.0 { format!("1: {n}") } else { format!("≥ {f}: {n}") })
                 .collect::<Vec<_>>()
-                .join(", ")
-        )
+                .join(", "),
+        ) + &ears
     }
 }

@@ -29,8 +29,7 @@
 //! All iterations draw from each pixel's one sample sequence, continuing where
 //! the last stopped as `path`'s passes do; iteration k ≥ 1 takes the indices
 //! [2^(k−1), 2^k), a stratified block on its own. The image weighs every sample
-//! alike (`combine: "samples"`, `path`'s one film), or each iteration by the
-//! inverse of its estimated variance (`"inverse_variance"`), or shows the last
+//! alike (`combine: "samples"`, `path`'s one film), or shows the last
 //! iteration alone (`"last"`). Where no leaf guides, a sample is `path`'s number
 //! for number, so the image is `path`'s.
 //!
@@ -73,7 +72,7 @@ pub use sdtree::{SdTree, TreeStats};
 
 use super::pass::{camera_pass_blocks, camera_pass_with};
 use super::photon::{shoot_deposits, Shooting};
-use super::{PassContext, PassResult, PathProfile, PathTracer, RayCounts, Roulette};
+use super::{ears, PassContext, PassResult, PathProfile, PathTracer, RayCounts, Roulette};
 use crate::math::Vec3;
 use crate::sampler::hash_combine;
 use std::time::Instant;
@@ -124,8 +123,6 @@ pub enum LearnFrom {
 /// How the iterations' images make the final one.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum Combine {
-    /// One weight per iteration, 1 / its estimated variance.
-    InverseVariance,
     /// The last iteration alone.
     Last,
     /// Weights by spp: every sample alike, as `path`'s one film.
@@ -160,7 +157,7 @@ pub enum Combine {
 ///   ancestor's vertices choose together;
 /// * `training_iterations` (int ≥ 0, absent: chosen by the spp budget, see the
 ///   module docs) — doubling iterations before the final one;
-/// * `combine` (`"samples"` | `"inverse_variance"` | `"last"`, `"samples"`) — how the
+/// * `combine` (`"samples"` | `"last"`, `"samples"`) — how the
 ///   iterations make the image (see the module docs);
 /// * `spatial_threshold` (number > 0, 2000) — the paper's c: a spatial leaf is
 ///   split when an iteration's n recording passes record more than c·√n vertices in it (the
@@ -172,8 +169,12 @@ pub enum Combine {
 ///   chains (light sampled at later vertices included), leaving the direct light
 ///   to light sampling, which handles it better (cbox, 33 spp: relMSE 1.2e-2 with
 ///   direct light learned, 7.0e-3 without, `path` 5.5e-3);
+/// * `rr` (`"mitsuba"` | `"ears"`, `"mitsuba"`) — `"ears"`: the final iteration's
+///   passes (which record nothing for the guide) play EARS's learned roulette and
+///   splitting ([`super::ears`]) instead of the roulette above, learning its statistics
+///   from those passes (the first two play Mitsuba's);
 /// ```json
-/// {"type": "guided", "spp": 256, "bsdf_fraction": 0.5, "combine": "inverse_variance"}
+/// {"type": "guided", "spp": 256, "bsdf_fraction": 0.5, "combine": "samples"}
 /// ```
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Guided {
@@ -186,6 +187,7 @@ pub struct Guided {
     pub learn_direct: bool,
     pub learn_fraction: bool,
     pub learn_from: LearnFrom,
+    pub rr: Roulette,
 }
 
 impl Default for Guided {
@@ -200,6 +202,7 @@ impl Default for Guided {
             learn_direct: false,
             learn_fraction: true,
             learn_from: LearnFrom::Photons,
+            rr: Roulette::Mitsuba,
         }
     }
 }
@@ -244,7 +247,17 @@ impl Guided {
         } else {
             Vec::new()
         };
-        let State { film, tree, .. } = &mut **state;
+        // EARS plays in the final iteration, which records nothing (see `Guiding::li_ears`);
+        // not in the training iterations' unguided passes, against which `State::guide`
+        // weighs the guide at a guided pass's cost
+        let ears_pass = self.rr == Roulette::Ears && state.last;
+        if ears_pass && state.ears.is_none() {
+            state.ears = Some(Box::new(ears::State::new(ctx)));
+        }
+        let State {
+            film, tree, ears: learned, ..
+        } = &mut **state;
+        let learned = learned.as_deref().filter(|_| ears_pass);
         let record_radiance = self.learn_from == LearnFrom::Paths;
         // while the guide does not pay (see `State::guide`), BSDF sampling alone, except
         // where the paths that learn sample from it
@@ -267,12 +280,9 @@ impl Guided {
             rr: Roulette::Mitsuba,
         });
         let scene = ctx.scene;
-        if let (Some(p), true) = (
-            &path,
-            self.combine != Combine::InverseVariance && scene.packets() && !scene.has_media,
-        ) {
-            // without per-pixel moments to keep (only inverse-variance weights need them),
-            // `path`'s packet pass, the same samples as its `li`
+        if let (Some(p), true) = (&path, scene.packets() && !scene.has_media && !ears_pass) {
+            // `path`'s packet pass, the same samples as its `li` (no per-pixel moments:
+            // the summary's variance estimate is the recording passes')
             let mut result = camera_pass_blocks(ctx, sample_index, film, |b, out| p.li_block(scene, b, out));
             result.counts += counts;
             if result.complete {
@@ -281,16 +291,28 @@ impl Guided {
             return result;
         }
         // each tile's records and the samples' means (pixel, value) for the moments
-        let new_tile = || (Scratch::default(), Vec::<(usize, f64)>::new());
+        // (and EARS's sub-paths and records)
+        let new_tile = || (Scratch::default(), Vec::<(usize, f64)>::new(), ears::Scratch::default());
         let width = ctx.film.width as usize;
-        let (mut result, tiles) = camera_pass_with(ctx, sample_index, film, new_tile, |s, (scratch, means)| {
+        let pixels = (ctx.film.width * ctx.film.height) as usize;
+        let (mut result, tiles) = camera_pass_with(ctx, sample_index, film, new_tile, |s, (scratch, means, split)| {
             let mark = scratch.records.len();
-            let l = match &path {
-                Some(p) => p.li(scene, s.ray, s.diff, s.sampler, s.counts),
-                None => guiding.li(scene, s.ray, s.diff, s.sampler, s.counts, scratch),
+            let pixel = s.pixel.1 as usize * width + s.pixel.0 as usize;
+            let rays = s.counts.rays;
+            let l = match (&path, learned) {
+                (Some(p), Some(e)) => ears::li(p, e, scene, s, pixel, &mut split.branches),
+                (Some(p), None) => p.li(scene, s.ray, s.diff, s.sampler, s.counts),
+                (None, Some(e)) => {
+                    let learned = (e, e.pixel_factor(pixel));
+                    guiding.li_ears(scene, s, scratch, learned, &mut split.branches)
+                }
+                (None, None) => guiding.li(scene, s.ray, s.diff, s.sampler, s.counts, scratch),
             };
+            if learned.is_some() {
+                split.keep_sample(pixel, pixels, l, s.counts.rays - rays);
+            }
             if l.is_finite() {
-                means.push((s.pixel.1 as usize * width + s.pixel.0 as usize, ((l.x + l.y + l.z) / 3.0) as f64));
+                means.push((pixel, ((l.x + l.y + l.z) / 3.0) as f64));
             } else {
                 scratch.records.truncate(mark);
             }
@@ -302,7 +324,10 @@ impl Guided {
         }
         let s = &mut **state;
         s.recorded += record as u32;
-        for (scratch, means) in &tiles {
+        if let (true, Some(e)) = (ears_pass, s.ears.as_mut()) {
+            e.add_pass(tiles.iter().map(|t| &t.2), width);
+        }
+        for (scratch, means, _) in &tiles {
             for &(pixel, y) in means {
                 let m = &mut s.moments[pixel];
                 m[0] += y;

@@ -7,8 +7,9 @@
 use super::quadtree::{sphere_to_square, square_to_sphere, DTree};
 use super::sdtree::SdTree;
 use crate::geometry::{Ray, RayDifferential};
-use crate::integrator::estimator::{trace, PathProfile, PathState, Policy};
-use crate::integrator::{PathTracer, RayCounts};
+use crate::integrator::ears;
+use crate::integrator::estimator::{trace, Branches, PathProfile, PathState, Policy};
+use crate::integrator::{CameraSample, PathTracer, RayCounts};
 use crate::light::LightSample;
 use crate::material::{Bsdf, BsdfSample};
 use crate::math::{Vec2, Vec3, PI};
@@ -214,28 +215,58 @@ impl Guiding<'_> {
         counts: &mut RayCounts,
         scratch: &mut Scratch,
     ) -> Vec3 {
-        let Scratch { records, verts } = scratch;
-        verts.clear();
-        let mut walk = Walk {
-            guiding: self,
-            records,
-            verts,
-            rr_scale: 1.0,
-            guided: false,
-            square: None,
-            waiting_light: None,
-            vertex_made: false,
-        };
+        let mut walk = Walk::<false>::new(self, scratch, None);
         let l = trace(&mut walk, scene, PathState::new(ray), 1, diff.as_ref(), sampler, counts);
         if self.record {
             walk.record_arrivals(l);
         }
         l
     }
+
+    /// [`Guiding::li`] with EARS's roulette and splitting (`rr: "ears"`) instead of
+    /// guided's roulette, by the statistics `learned` (the sample's pixel factor
+    /// `pixel_factor`), the sub-paths waiting in `branches`; only for passes that do not
+    /// record (a waiting vertex's prefix sum of the estimate follows one path).
+    pub fn li_ears(
+        &self,
+        scene: &Scene,
+        s: &mut CameraSample,
+        scratch: &mut Scratch,
+        learned: (&ears::State, Option<f32>),
+        branches: &mut Branches,
+    ) -> Vec3 {
+        debug_assert!(!self.record, "EARS sub-paths do not record");
+        let (sampler, counts) = (&mut *s.sampler, &mut *s.counts);
+        branches.begin(counts.rays);
+        let (state, pixel_factor) = learned;
+        let ears = Learned {
+            state,
+            pixel_factor,
+            split: !scene.has_media,
+            branches,
+        };
+        let mut walk = Walk::<true>::new(self, scratch, Some(ears));
+        let l = trace(&mut walk, scene, PathState::new(s.ray), 1, s.diff.as_ref(), sampler, counts);
+        if let (true, Some(e)) = (scene.has_media, walk.ears.as_mut()) {
+            // the media loop ends its one path itself
+            e.branches.end_path(l, counts.rays);
+        }
+        l
+    }
 }
 
-/// `guided`'s policy along one camera path, with what it records.
-struct Walk<'g, 's> {
+/// EARS's statistics for a walk that splits (see [`Guiding::li_ears`]).
+struct Learned<'s> {
+    state: &'s ears::State,
+    pixel_factor: Option<f32>,
+    /// Whether factors above 1 split (not in media: their loop traces one path).
+    split: bool,
+    branches: &'s mut Branches,
+}
+
+/// `guided`'s policy along one camera path, with what it records; `EARS`: roulette
+/// and splitting are EARS's ([`Guiding::li_ears`]).
+struct Walk<'g, 's, const EARS: bool> {
     guiding: &'g Guiding<'g>,
     records: &'s mut Vec<Record>,
     verts: &'s mut Vec<Vertex>,
@@ -253,6 +284,26 @@ struct Walk<'g, 's> {
     /// Whether this vertex made a waiting [`Vertex`] (its own direct light is then
     /// no light arriving along its sampled direction).
     vertex_made: bool,
+    /// With `EARS`: the statistics and the sub-paths' stack.
+    ears: Option<Learned<'s>>,
+}
+
+impl<'g, 's, const EARS: bool> Walk<'g, 's, EARS> {
+    fn new(guiding: &'g Guiding<'g>, scratch: &'s mut Scratch, ears: Option<Learned<'s>>) -> Self {
+        let Scratch { records, verts } = scratch;
+        verts.clear();
+        Walk {
+            guiding,
+            records,
+            verts,
+            rr_scale: 1.0,
+            guided: false,
+            square: None,
+            waiting_light: None,
+            vertex_made: false,
+            ears,
+        }
+    }
 }
 
 /// A vertex's spatial leaf, sampling mixture and strategy choice.
@@ -263,8 +314,23 @@ struct Plan<'a> {
     u_choice: f32,
 }
 
-impl<'g> Policy for Walk<'g, '_> {
+impl<'g, const EARS: bool> Policy for Walk<'g, '_, EARS> {
     type Plan = Plan<'g>;
+
+    const SPLITS: bool = EARS;
+
+    #[inline]
+    fn split_factor(&self, it: &Interaction, beta: Vec3, eta_scale: f32, segment: u32) -> (f32, u32) {
+        match &self.ears {
+            Some(e) => e.state.split_factor(e.pixel_factor, e.split, it.p, beta, eta_scale, segment),
+            None => (1.0, u32::MAX),
+        }
+    }
+
+    #[inline]
+    fn branches(&mut self) -> Option<&mut Branches> {
+        self.ears.as_mut().map(|e| &mut *e.branches)
+    }
 
     #[inline]
     fn profile(&self) -> PathProfile {
@@ -399,7 +465,7 @@ impl<'g> Policy for Walk<'g, '_> {
     }
 }
 
-impl Walk<'_, '_> {
+impl<const EARS: bool> Walk<'_, '_, EARS> {
     /// Records what arrived at each waiting vertex of a path whose estimate is `l`.
     fn record_arrivals(&mut self, l: Vec3) {
         let g = self.guiding;

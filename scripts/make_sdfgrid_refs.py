@@ -9,9 +9,9 @@ Mitsuba's `path` integrator, pass p with seed p) and sdfgrid.var.exr (per pixel 
 channel the variance of that mean: the sample variance of the K pass images / K).
 
 The scene: the grid twice on a diffuse floor, under a spherical light and a
-constant sky: squashed by a non-uniform scale with `smooth` normals (Mitsuba's
-default), and stretched upwards with `analytic` normals and a rough conductor that
-shows the facets of the interpolant's gradient. The scales differ per axis, so that
+constant sky, both rough conductors whose highlights show the normals: squashed by
+a non-uniform scale with `smooth` normals (Mitsuba's default), and stretched upwards
+with `analytic` normals, which show the facets of the interpolant's gradient. The scales differ per axis, so that
 a normal carried to the world by the wrong transform shows.
 
 Run from the repository root with the venv that has Mitsuba:
@@ -29,7 +29,7 @@ HERE = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "tests", "
 # x and z counts differ (its rays then miss the surface)
 GRID = (16, 16, 16)
 MAJOR, MINOR = 0.3, 0.14  # the torus's radii in the unit cube, its axis along y
-CAMERA = {"position": [0.0, 2.2, -4.0], "look_at": [0.0, -0.2, 0.0], "ref_up": [0.0, 1.0, 0.0], "fov": 38.0}
+CAMERA = {"position": [0.0, 1.9, -3.2], "look_at": [0.0, -0.45, 0.25], "ref_up": [0.0, 1.0, 0.0], "fov": 36.0}
 FLOOR = {"center": [0.0, -101.0, 0.0], "radius": 100.0, "albedo": [0.5, 0.5, 0.5]}
 LIGHT = {"center": [-1.5, 3.0, -1.5], "radius": 0.5, "radiance": [12.0, 11.0, 9.0]}
 SKY = [0.15, 0.15, 0.2]
@@ -64,7 +64,7 @@ def scene_xml():
   <shape type="sdfgrid">
     <string name="filename" value="sdfgrid.vol"/>
     <transform name="to_world"><scale x="1.8" y="0.9" z="1.5"/><translate x="-1.75" y="-1.0" z="-0.5"/></transform>
-    <bsdf type="diffuse"><rgb name="reflectance" value="0.75, 0.55, 0.3"/></bsdf>
+    <bsdf type="roughconductor"><string name="material" value="Cu"/><float name="alpha" value="0.12"/></bsdf>
   </shape>
   <shape type="sdfgrid">
     <string name="filename" value="sdfgrid.vol"/>

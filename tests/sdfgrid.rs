@@ -182,7 +182,13 @@ fn hits_and_normals_agree_with_a_dense_march_of_the_field() {
                         );
                         normals += 1;
                     }
-                    assert!(it.ns.is_finite() && (it.ns.length() - 1.0).abs() < 1e-4 && it.ns.dot(it.ng) > 0.0);
+                    let unit = it.ns.is_finite() && (it.ns.length() - 1.0).abs() < 1e-4;
+                    assert!(
+                        unit && it.ns.dot(it.ng) > 0.0,
+                        "case {case} ray {k}: ns {} against ng {}",
+                        it.ns,
+                        it.ng
+                    );
                     checked += 1;
                 }
                 // a disagreement where the ray grazes the surface (two roots close together)
@@ -193,7 +199,10 @@ fn hits_and_normals_agree_with_a_dense_march_of_the_field() {
         }
     }
     eprintln!("{checked} hits agree with the march ({normals} normals compared), {grazing} grazing rays left aside");
-    assert!(checked > 800 && normals > 400 && grazing * 50 < checked, "{checked} checked, {grazing} grazing");
+    assert!(
+        checked > 800 && normals > 400 && grazing * 50 < checked,
+        "{checked} checked, {grazing} grazing"
+    );
 }
 
 fn refs() -> std::path::PathBuf {

@@ -19,7 +19,7 @@ Run from the repository root with the venv that has Mitsuba:
 """
 import os
 
-from mitsuba_refs import arguments, mitsuba, perspective_sensor, render_reference, sphere_light_and_sky
+from mitsuba_refs import arguments, floor_sphere, mitsuba, perspective_sensor, render_reference, sphere_light_and_sky
 
 RES = 64
 MAX_DEPTH = 6
@@ -56,11 +56,7 @@ def scene_xml():
   <default name="spp" value="256"/>
   <integrator type="path"><integer name="max_depth" value="{MAX_DEPTH}"/></integrator>
 {perspective_sensor(c['fov'], v(c['position']), v(c['look_at']), v(c['ref_up']), RES)}
-  <shape type="sphere">
-    <point name="center" value="{v(FLOOR['center'])}"/>
-    <float name="radius" value="{FLOOR['radius']}"/>
-    <bsdf type="diffuse"><rgb name="reflectance" value="{v(FLOOR['albedo'])}"/></bsdf>
-  </shape>
+{floor_sphere(FLOOR)}
   <shape type="sdfgrid">
     <string name="filename" value="sdfgrid.vol"/>
     <transform name="to_world"><scale x="1.8" y="0.9" z="1.5"/><translate x="-1.75" y="-1.0" z="-0.5"/></transform>

@@ -211,9 +211,10 @@ fn refs() -> std::path::PathBuf {
 
 #[test]
 fn sdfgrid_scene_converges_to_mitsubas_image() {
+    // a small floor beyond 5σ: rdr's hits and normals are Mitsuba's to 5e-5 per ray
     let xml = refs().join("sdfgrid.xml");
     assert!(
-        converges_to_ref_within(&refs(), &xml, "sdfgrid", &[], 128, 1e-4),
+        converges_to_ref_within(&refs(), &xml, "sdfgrid", &[], 128, 2e-5),
         "the XML scene does not converge to Mitsuba's image"
     );
     // the JSON twin rdr convert writes, and the XML it writes back
@@ -221,7 +222,7 @@ fn sdfgrid_scene_converges_to_mitsubas_image() {
     let (json, text) = converted_to_json(&xml, dir.path());
     assert!(text.contains("\"sdfgrid\"") && text.contains("\"analytic\""), "{text}");
     assert!(
-        converges_to_ref_within(&refs(), &json, "sdfgrid", &[], 128, 1e-4),
+        converges_to_ref_within(&refs(), &json, "sdfgrid", &[], 128, 2e-5),
         "the converted JSON scene does not converge to Mitsuba's image"
     );
     let back = dir.path().join("back.xml");

@@ -25,26 +25,18 @@ pub fn parse(bytes: &[u8]) -> Result<GridData, String> {
     GridData::new(f.res, f.channels, f.bbox, f.values)
 }
 
-/// A `.vol` file as it is: its resolution, channels, box and values (x fastest, the
-/// channels of a voxel together), checked for the format only (1 or 3 channels).
-#[derive(Clone, Debug)]
-pub struct VolFile {
-    pub res: [usize; 3],
-    pub channels: usize,
-    pub bbox: Aabb,
-    pub values: Vec<f32>,
-}
-
 /// Reads a `.vol` file as it is ([`parse_file`]); the error is one line without the
 /// file's name.
-pub fn read_file(path: &Path) -> Result<VolFile, String> {
+pub fn read_file(path: &Path) -> Result<GridData, String> {
     let bytes = crate::limits::read_input_file(path, crate::limits::memory_budget()).map_err(|e| e.to_string())?;
     parse_file(&bytes)
 }
 
-/// Decodes a `.vol` file's header and values. A header that claims more values than
-/// the bytes hold is refused before anything is allocated.
-pub fn parse_file(bytes: &[u8]) -> Result<VolFile, String> {
+/// Decodes a `.vol` file's header and values as they are, checked for the format
+/// only (1 or 3 channels; [`GridData::new`] checks a medium's values, an sdfgrid its
+/// own). A header that claims more values than the bytes hold is refused before
+/// anything is allocated.
+pub fn parse_file(bytes: &[u8]) -> Result<GridData, String> {
     if bytes.len() < HEADER {
         return Err(format!("{} bytes, shorter than the 48-byte .vol header", bytes.len()));
     }
@@ -87,7 +79,7 @@ pub fn parse_file(bytes: &[u8]) -> Result<VolFile, String> {
         Vec3::new(float(24), float(28), float(32)),
         Vec3::new(float(36), float(40), float(44)),
     );
-    Ok(VolFile {
+    Ok(GridData {
         res: [x as usize, y as usize, z as usize],
         channels: channels as usize,
         bbox,

@@ -135,7 +135,8 @@ pub(super) const DOCS: &[PluginDoc] = &[
         status: Status::Read,
         note: "A signed distance grid over the unit cube, its surface the trilinear interpolant's zero set, met per \
                voxel at the first root as in Mitsuba; no uv (zero), and not an area emitter (refused: Mitsuba's has no \
-               area). Mitsuba's `grid` (a tensor) can be given from Python or C++ only, never in XML.",
+               area). Mitsuba's `grid` (a tensor) can be given from Python or C++ only, never in XML. Mitsuba 3.9.1 misses \
+               the surface of grids whose x and z sample counts differ; rdr reads them as its documentation lays them out.",
         params: &[
             read("filename", "string", "", "required: a one-channel `.vol` grid, x fastest"),
             read(

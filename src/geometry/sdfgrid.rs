@@ -332,7 +332,7 @@ impl SdfVoxel {
                 (t1, leave) = (far, Some(a));
             }
         }
-        if !(t0 <= t1) {
+        if t0.is_nan() || t1.is_nan() || t0 > t1 {
             return None;
         }
         // the distances where it enters and leaves, on a crossed face with that

@@ -19,7 +19,7 @@ Run from the repository root with the venv that has Mitsuba:
 """
 import os
 
-from mitsuba_refs import arguments, floor_sphere, mitsuba, perspective_sensor, render_reference, sphere_light_and_sky
+from mitsuba_refs import arguments, floor_sphere, mitsuba, perspective_sensor, sphere_light_and_sky, write_and_render
 
 RES = 64
 MAX_DEPTH = 6
@@ -80,10 +80,7 @@ def main():
 
     os.makedirs(HERE, exist_ok=True)
     mi.VolumeGrid(torus_grid(np)[..., None]).write(os.path.join(HERE, "sdfgrid.vol"))
-    xml_path = os.path.join(HERE, "sdfgrid.xml")
-    with open(xml_path, "w") as f:
-        f.write(scene_xml())
-    render_reference(mi, mi.load_file(xml_path), HERE, "sdfgrid", args.passes, args.spp)
+    write_and_render(mi, HERE, "sdfgrid", scene_xml(), args.passes, args.spp)
 
 
 if __name__ == "__main__":

@@ -15,7 +15,7 @@ use std::path::Path;
 /// invertible) and `normals`.
 ///
 /// ```json
-/// {"type": "sdfgrid", "filename": "torus.vol", "normals": "smooth", "material_name": "white"}
+/// {"type": "sdfgrid", "filename": "showcase/torus.vol", "normals": "smooth", "material_name": "white"}
 /// ```
 #[derive(Clone, Debug, PartialEq)]
 pub struct SdfGridFile {

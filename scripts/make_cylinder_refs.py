@@ -17,7 +17,7 @@ Run from the repository root with the venv that has Mitsuba:
 """
 import os
 
-from mitsuba_refs import arguments, mitsuba, perspective_sensor, render_reference
+from mitsuba_refs import arguments, floor_sphere, mitsuba, perspective_sensor, render_reference
 
 RES = 64
 MAX_DEPTH = 6
@@ -66,11 +66,7 @@ def scene_xml():
   <default name="spp" value="256"/>
   <integrator type="path"><integer name="max_depth" value="{MAX_DEPTH}"/></integrator>
 {perspective_sensor(c['fov'], v(c['position']), v(c['look_at']), v(c['ref_up']), RES)}
-  <shape type="sphere">
-    <point name="center" value="{v(FLOOR['center'])}"/>
-    <float name="radius" value="{FLOOR['radius']}"/>
-    <bsdf type="diffuse"><rgb name="reflectance" value="{v(FLOOR['albedo'])}"/></bsdf>
-  </shape>
+{floor_sphere(FLOOR)}
 {shapes}
   <emitter type="constant"><rgb name="radiance" value="{v(SKY)}"/></emitter>
 </scene>

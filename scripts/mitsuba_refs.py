@@ -63,6 +63,16 @@ def render_reference(mi, scene, out_dir, name, passes, spp):
     return mean
 
 
+def floor_sphere(floor, indent="  "):
+    """A large diffuse sphere as the floor: `floor` a dict of `center`, `radius` and `albedo`."""
+    v = lambda x: ", ".join(str(float(c)) for c in x)  # noqa: E731
+    return f"""{indent}<shape type="sphere">
+{indent}  <point name="center" value="{v(floor['center'])}"/>
+{indent}  <float name="radius" value="{floor['radius']}"/>
+{indent}  <bsdf type="diffuse"><rgb name="reflectance" value="{v(floor['albedo'])}"/></bsdf>
+{indent}</shape>"""
+
+
 def sphere_light_and_sky(center, radius, radiance, sky, indent="  "):
     """A spherical area light (`center`, `radiance` as XML vector strings) and a constant sky."""
     return f"""{indent}<shape type="sphere">

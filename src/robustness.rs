@@ -124,9 +124,38 @@ pub fn ray_file(data: &[u8]) -> Result<(), String> {
     Ok(())
 }
 
-/// Mitsuba's `.vol` grid reader, then the grid's lookups and majorant grid.
+/// Mitsuba's `.vol` grid reader, then the grid's lookups and majorant grid; and the
+/// same bytes as an `sdfgrid`'s distances (its checks, voxels, hits and normals).
 pub fn vol_grid(data: &[u8]) -> Result<(), String> {
+    sdf_grid(data);
     grid_lookups(crate::volume::vol_file::parse(data)?, crate::math::Mat4::IDENTITY)
+}
+
+/// A `.vol` file read as an sdfgrid, and rays through the first of its voxels: from
+/// outside each voxel's box, through its centre.
+fn sdf_grid(data: &[u8]) {
+    use crate::geometry::sdfgrid::{SdfGrid, SdfNormals};
+    let Ok(f) = crate::volume::vol_file::parse_file(data) else { return };
+    if f.channels != 1 {
+        return;
+    }
+    let Ok(g) = SdfGrid::new(f.res, f.values, Mat4::IDENTITY, SdfNormals::Smooth) else {
+        return;
+    };
+    for v in g.voxels().take(64) {
+        let b = v.bounds();
+        let (c, e) = (b.centroid(), b.extent() + crate::math::Vec3::ONE);
+        for d in [
+            crate::math::Vec3::new(1.0, 0.3, 0.2),
+            crate::math::Vec3::new(-0.2, 1.0, -0.7),
+            crate::math::Vec3::Z,
+        ] {
+            if let Some(t) = v.intersect(c - d * e, d, 0.0, f32::INFINITY) {
+                let p = c - d * e + d * t;
+                let _ = g.shading_normal(p, v.normal(p));
+            }
+        }
+    }
 }
 
 /// The OpenVDB reader on grid `density` (made dense within a budget of at most 64 MB

@@ -231,6 +231,13 @@ fn objects(s: &rdr::Scene) -> Vec<(Vec<[f32; 18]>, String, String)> {
                     a[9] = c.radius;
                     a
                 }],
+                // the transform (the grid's values are the file's)
+                Shape::SdfGrid(g) => vec![{
+                    let mut a = [0.0; 18];
+                    a[..16].copy_from_slice(&g.to_world.to_cols_array());
+                    a[16] = g.values.len() as f32;
+                    a
+                }],
             };
             let material = o.material.map_or("none".to_string(), |m| {
                 let m = s.materials[m as usize]

@@ -37,7 +37,9 @@ pub fn scene_obj(prims: &[Prim]) -> Result<String> {
                 };
                 by_object.entry(*object).or_default().extend(grid(1, at));
             }
-            Prim::Instance { .. } => bail!("the scene uses instances: --record-rays exports flat scenes only"),
+            Prim::Instance { .. } | Prim::SdfVoxel { .. } => {
+                bail!("the scene uses instances or sdfgrids: --record-rays exports flat scenes only")
+            }
         }
     }
     let mut out = String::from("# rdr bench --record-rays: the scene's triangles in world space\n");

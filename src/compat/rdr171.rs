@@ -35,7 +35,7 @@ pub fn intersect(scene: &Scene, ray: &Ray) -> Option<Hit> {
             }
             Prim::Sphere { sphere, .. } => sphere.intersect(ray.o, ray.d, ray.t_min, best).map(|t| (t as f64, [0.0; 3])),
             // the course had neither (`RenderJob::from_desc` refuses them under --compat rdr171)
-            Prim::Cylinder { .. } | Prim::Instance { .. } => None,
+            Prim::Cylinder { .. } | Prim::SdfVoxel { .. } | Prim::Instance { .. } => None,
         };
         if let Some((t, b)) = found {
             cands.push(Candidate {

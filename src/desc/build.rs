@@ -264,6 +264,7 @@ pub fn build(desc: &SceneDesc, opts: BuildOptions) -> Result<Scene> {
             Shape::Mesh(file) => load_mesh(desc, file, opts).map(|(m, w)| (Shape::Mesh(m), w)),
             Shape::Sphere(s) => Ok((Shape::Sphere(*s), Vec::new())),
             Shape::Cylinder(c) => Ok((Shape::Cylinder(*c), Vec::new())),
+            Shape::SdfGrid(f) => super::load_sdf_grid(f, &desc.file, &desc.base_dir).map(|g| (Shape::SdfGrid(g), Vec::new())),
         })
         .collect();
     let mut objects = Vec::with_capacity(desc.objects.len());
@@ -331,6 +332,10 @@ pub fn build(desc: &SceneDesc, opts: BuildOptions) -> Result<Scene> {
                     Shape::Mesh(m) => AreaLight::mesh(oi as u32, l.radiance, (0..m.triangles.len()).map(|i| m.vertices(i)).collect()),
                     Shape::Sphere(s) => AreaLight::sphere(oi as u32, l.radiance, s.center, s.radius).with_sphere_uv_frame(s.uv_frame),
                     Shape::Cylinder(c) => AreaLight::cylinder(oi as u32, l.radiance, c.cylinder, c.flip_normals),
+                    Shape::SdfGrid(_) => {
+                        let e = "an sdfgrid cannot be an area emitter (Mitsuba 3's has no area and no sampling)";
+                        return Err(l.source.error(&desc.file, e));
+                    }
                 };
                 if let Some(t) = &l.texture {
                     let texture = emitter_texture(&TextureRef::Named(t.clone()), &texture_names, &mut textures, desc, |m| {
@@ -365,14 +370,14 @@ pub fn build(desc: &SceneDesc, opts: BuildOptions) -> Result<Scene> {
             });
             let on_mesh = |name: &str| match &shape {
                 Shape::Mesh(mesh) => mesh.attributes.iter().find(|a| a.name == name),
-                Shape::Sphere(_) | Shape::Cylinder(_) => None,
+                Shape::Sphere(_) | Shape::Cylinder(_) | Shape::SdfGrid(_) => None,
             };
             let material_name = &desc.materials[m as usize].name;
             let problem = needs.iter().find_map(|&name| match on_mesh(name) {
                 None => {
                     let has: Vec<&str> = match &shape {
                         Shape::Mesh(mesh) => mesh.attributes.iter().map(|a| a.name.as_str()).collect(),
-                        Shape::Sphere(_) | Shape::Cylinder(_) => Vec::new(),
+                        Shape::Sphere(_) | Shape::Cylinder(_) | Shape::SdfGrid(_) => Vec::new(),
                     };
                     let has = if has.is_empty() { "none".to_string() } else { has.join(", ") };
                     Some(format!(
@@ -492,14 +497,45 @@ pub fn build(desc: &SceneDesc, opts: BuildOptions) -> Result<Scene> {
     let bvh_start = std::time::Instant::now();
     // shape groups: one bottom level each; instances: one top-level entry each
     let mut groups = Vec::with_capacity(desc.shapegroups.len());
+    let mut members = Vec::with_capacity(desc.shapegroups.len());
     let mut first = n_top;
     for g in &desc.shapegroups {
         let mut gp = Vec::new();
         for (oi, o) in objects.iter().enumerate().skip(first).take(g.objects.len()) {
             object_prims(&mut gp, oi as u32, &o.shape);
         }
+        members.push(first..first + g.objects.len());
         first += g.objects.len();
         groups.push(crate::accel::instance::Group::new(gp));
+    }
+    // sdfgrids: each grid's voxels a bottom level of its own, placed by an instance
+    // (index space to the world; in a shape group, once per instance of the group)
+    let mut sdf_groups = vec![None; objects.len()];
+    for (oi, o) in objects.iter().enumerate() {
+        if let Shape::SdfGrid(g) = &o.shape {
+            sdf_groups[oi] = Some(groups.len() as u32);
+            let voxels = g.voxels().map(|voxel| Prim::SdfVoxel { voxel, object: oi as u32 });
+            groups.push(crate::accel::instance::Group::new(voxels.collect()));
+        }
+    }
+    let mut instances = Vec::with_capacity(desc.instances.len());
+    let mut place = |to_world: &crate::math::Mat4, gi: u32, prims: &mut Vec<Prim>| {
+        let inst = crate::accel::instance::Instance::new(to_world, gi)?;
+        prims.push(Prim::Instance {
+            bounds: inst.world_bounds(groups[gi as usize].bvh.bounds()),
+            instance: instances.len() as u32,
+        });
+        instances.push(inst);
+        Some(())
+    };
+    for (oi, o) in objects.iter().enumerate().take(n_top) {
+        if let (Shape::SdfGrid(g), Some(gi)) = (&o.shape, sdf_groups[oi]) {
+            if place(&g.index_to_world(), gi, &mut prims).is_none() {
+                return Err(all[oi]
+                    .source
+                    .error(&desc.file, "an sdfgrid's transform must be affine and invertible"));
+            }
+        }
     }
     let group_names: HashMap<&str, u32> = desc
         .shapegroups
@@ -507,17 +543,15 @@ pub fn build(desc: &SceneDesc, opts: BuildOptions) -> Result<Scene> {
         .enumerate()
         .map(|(i, g)| (g.name.as_str(), i as u32))
         .collect();
-    let mut instances = Vec::with_capacity(desc.instances.len());
     for d in &desc.instances {
         let gi = lookup(&group_names, &d.shapegroup.value, "shapegroup", desc, &d.shapegroup.source)?;
-        let Some(inst) = crate::accel::instance::Instance::new(&d.transform, gi) else {
-            return Err(d.source.error(&desc.file, "an instance's transform must be affine and invertible"));
-        };
-        prims.push(Prim::Instance {
-            bounds: inst.world_bounds(groups[gi as usize].bvh.bounds()),
-            instance: instances.len() as u32,
-        });
-        instances.push(inst);
+        let invalid = || d.source.error(&desc.file, "an instance's transform must be affine and invertible");
+        place(&d.transform, gi, &mut prims).ok_or_else(invalid)?;
+        for oi in members[gi as usize].clone() {
+            if let (Shape::SdfGrid(g), Some(si)) = (&objects[oi].shape, sdf_groups[oi]) {
+                place(&(d.transform * g.index_to_world()), si, &mut prims).ok_or_else(invalid)?;
+            }
+        }
     }
     let (prims, bvh) = build_bvh(prims);
     let bvh_seconds = bvh_start.elapsed().as_secs_f64();
@@ -579,6 +613,8 @@ fn object_prims(prims: &mut Vec<Prim>, oi: u32, shape: &Shape) {
             cylinder: c.cylinder,
             object: oi,
         }),
+        // its voxels are a bottom level of their own, placed by an instance
+        Shape::SdfGrid(_) => {}
     }
 }
 

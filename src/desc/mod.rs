@@ -8,7 +8,7 @@
 //!
 //! The variant families are the render layer's own types with their unresolved
 //! parts as parameters: [`Material<TextureRef>`](crate::material::Material),
-//! [`Texture<ImageFile>`](crate::texture::Texture), [`Shape<MeshFile>`](crate::scene::Shape),
+//! [`Texture<ImageFile>`](crate::texture::Texture), [`Shape<MeshFile, SdfGridFile>`](crate::scene::Shape),
 //! and [`Filter`](crate::film::Filter), [`CameraParams`](crate::camera::CameraParams),
 //! [`UvMapping`](crate::texture::UvMapping) as they are. The types are in `types.rs`,
 //! the JSON reader in `parse/`. Each type's documentation (there or on the shared type) lists its keys with
@@ -20,6 +20,7 @@ pub mod convert;
 pub mod json;
 mod parse;
 pub mod principled;
+mod sdfgrid;
 pub mod source;
 mod types;
 pub mod volume;
@@ -30,6 +31,7 @@ pub use checked::{
     cylinder_shape, default_fov_deg, directional_light, light_frame, projector_light, rotation_quat, spot_light, textured_spot,
 };
 pub use parse::integrator_from_value;
+pub use sdfgrid::{load_sdf_grid, SdfGridFile};
 pub use source::{Located, Source};
 pub use types::{
     read_sun_position, AreaLightDesc, DeltaLightDesc, EnvMapDesc, FilmDesc, ImageFile, InstanceDesc, IntegratorDesc, MaterialDesc,

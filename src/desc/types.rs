@@ -280,7 +280,7 @@ pub enum TextureRef {
     Color(Vec3),
 }
 
-/// `objects[i]`: `type` (`"mesh"` | `"sphere"` | `"cylinder"`, required; see [`Shape`]),
+/// `objects[i]`: `type` (`"mesh"` | `"sphere"` | `"cylinder"` | `"sdfgrid"`, required; see [`Shape`]),
 /// `material_name`, `light`; at least one of the last two. (`"instance"` entries are
 /// [`InstanceDesc`]s.) A cylinder (Mitsuba's, open, uv `(φ/2π, height)`):
 ///
@@ -291,7 +291,7 @@ pub enum TextureRef {
 #[derive(Clone, Debug)]
 pub struct ObjectDesc {
     pub source: Source,
-    pub shape: Shape<MeshFile>,
+    pub shape: Shape<MeshFile, super::SdfGridFile>,
     pub material: Option<Located<String>>,
     pub light: Option<AreaLightDesc>,
     /// The media inside and outside the shape (names in `media`; absent: vacuum).

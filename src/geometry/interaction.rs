@@ -58,6 +58,11 @@ impl Interaction {
             Prim::Triangle { p, object, index } => Interaction::on_triangle(p, hit.b, mesh(*object), *index, *object, wo, uv),
             Prim::Sphere { sphere, object } => Interaction::on_sphere(sphere, ray.at(hit.t), uv.then_some(sphere_uv), *object, wo),
             Prim::Cylinder { cylinder, object } => Interaction::on_cylinder(cylinder, ray.at(hit.t), *object, wo),
+            // an sdfgrid's voxel (in its grid's frame): no uv, as Mitsuba's; the scene sets the shading normal
+            Prim::SdfVoxel { voxel, object } => {
+                let (p, n) = (ray.at(hit.t), voxel.normal(ray.at(hit.t)));
+                Interaction::plain(p, n, n, *object, wo)
+            }
             Prim::Instance { .. } => unreachable!("an instance's hit is resolved in its group (Scene::interaction)"),
         }
     }

@@ -10,6 +10,7 @@ pub mod obj;
 pub mod ply;
 pub mod prim;
 pub mod ray;
+pub mod sdfgrid;
 pub mod serialized;
 pub mod shapes;
 pub mod sphere;

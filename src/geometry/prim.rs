@@ -2,6 +2,7 @@
 //! intersection, and the hit record the queries return.
 
 use super::cylinder::Cylinder;
+use super::sdfgrid::SdfVoxel;
 use super::sphere::Sphere;
 use super::triangle::intersect_watertight;
 use super::{Aabb, Ray};
@@ -24,6 +25,12 @@ pub enum Prim {
         cylinder: Cylinder,
         object: u32,
     },
+    /// A voxel of an `sdfgrid` with the surface in it ([`SdfVoxel`]), in its grid's
+    /// index space: only inside the grid's own bottom level, which an instance places.
+    SdfVoxel {
+        voxel: SdfVoxel,
+        object: u32,
+    },
     /// An entry of a two-level structure's top level: instance `instance` with its
     /// world box. Its test needs the instance and its group
     /// ([`crate::accel::instance::TwoLevel`]); [`Prim::intersect`] misses it.
@@ -38,7 +45,7 @@ impl Prim {
     pub fn order_key(&self) -> (u32, u32) {
         match *self {
             Prim::Triangle { object, index, .. } => (object, index),
-            Prim::Sphere { object, .. } | Prim::Cylinder { object, .. } => (object, 0),
+            Prim::Sphere { object, .. } | Prim::Cylinder { object, .. } | Prim::SdfVoxel { object, .. } => (object, 0),
             Prim::Instance { instance, .. } => (u32::MAX, instance),
         }
     }
@@ -49,7 +56,7 @@ impl Prim {
     pub fn is_triangle(&self) -> bool {
         match self {
             Prim::Triangle { .. } => true,
-            Prim::Sphere { .. } | Prim::Cylinder { .. } | Prim::Instance { .. } => false,
+            Prim::Sphere { .. } | Prim::Cylinder { .. } | Prim::SdfVoxel { .. } | Prim::Instance { .. } => false,
         }
     }
 
@@ -62,6 +69,7 @@ impl Prim {
                 Aabb::new(sphere.center - r, sphere.center + r)
             }
             Prim::Cylinder { cylinder, .. } => cylinder.bounds(),
+            Prim::SdfVoxel { voxel, .. } => voxel.bounds(),
             Prim::Instance { bounds, .. } => *bounds,
         }
     }
@@ -75,6 +83,7 @@ impl Prim {
             Prim::Triangle { p, .. } => intersect_watertight(ray.o, ray.d, ray.t_min, t_max, p).map(|h| (h.t, h.b)),
             Prim::Sphere { sphere, .. } => sphere.intersect(ray.o, ray.d, ray.t_min, t_max).map(|t| (t, [0.0; 3])),
             Prim::Cylinder { cylinder, .. } => cylinder.intersect(ray.o, ray.d, ray.t_min, t_max).map(|t| (t, [0.0; 3])),
+            Prim::SdfVoxel { voxel, .. } => voxel.intersect(ray.o, ray.d, ray.t_min, t_max).map(|t| (t, [0.0; 3])),
             Prim::Instance { .. } => None,
         }
     }

@@ -50,7 +50,7 @@ impl RenderJob {
             let cylinder = desc
                 .objects
                 .iter()
-                .position(|o| matches!(o.shape, crate::scene::Shape::Cylinder(_)));
+                .position(|o| matches!(o.shape, crate::scene::Shape::Cylinder(_) | crate::scene::Shape::SdfGrid(_)));
             let key = match (cylinder, desc.instances.first()) {
                 (Some(i), _) => Some(format!("objects[{i}].type")),
                 (None, Some(inst)) => Some(match &inst.source {
@@ -63,7 +63,7 @@ impl RenderJob {
                 return Err(SceneError::new(
                     &desc.file,
                     Some(&key),
-                    "--compat rdr171 has the course renderer's meshes and spheres only (no cylinders or instances)",
+                    "--compat rdr171 has the course renderer's meshes and spheres only (no cylinders, sdfgrids or instances)",
                 ));
             }
             if let Some(m) = desc.materials.iter().find(|m| m.material.mask_opacity().is_some()) {

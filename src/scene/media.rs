@@ -140,7 +140,8 @@ pub fn sealed_media(scene: &Scene) -> Vec<bool> {
 fn encloses_inside(shape: &Shape) -> bool {
     let mesh = match shape {
         Shape::Sphere(_) => return true,
-        Shape::Cylinder(_) => return false,
+        // a grid's surface may end open at the grid's faces
+        Shape::Cylinder(_) | Shape::SdfGrid(_) => return false,
         Shape::Mesh(m) => m,
     };
     let key = |p: Vec3| [p.x.to_bits(), p.y.to_bits(), p.z.to_bits()];

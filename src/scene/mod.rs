@@ -15,6 +15,7 @@ pub use crate::geometry::interaction::Interaction;
 use crate::geometry::interaction::SphereUv;
 use crate::geometry::mesh::Mesh;
 pub use crate::geometry::prim::{Hit, Prim};
+use crate::geometry::sdfgrid::SdfGrid;
 use crate::geometry::sphere::Sphere;
 use crate::geometry::Ray;
 use crate::light::Light;
@@ -25,9 +26,10 @@ use crate::texture::{TexCoord, Texture, TextureConvention};
 
 /// An object's geometry, chosen by `objects[i].type`. The mesh is `M`: a file to
 /// read in the scene description ([`desc::MeshFile`]: `path`, `transform`,
-/// `translate`), the loaded [`Mesh`] (the default) once the scene is built.
+/// `translate`), the loaded [`Mesh`] (the default) once the scene is built; an
+/// sdfgrid is `G`, its file ([`desc::SdfGridFile`]) or the loaded [`SdfGrid`].
 #[derive(Clone, Debug)]
-pub enum Shape<M = Mesh> {
+pub enum Shape<M = Mesh, G = SdfGrid> {
     /// `mesh`: `path` (OBJ, required), `transform` (16 numbers row-major, identity),
     /// `translate` ((0,0,0), added after `transform`); see [`desc::MeshFile`].
     Mesh(M),
@@ -40,6 +42,10 @@ pub enum Shape<M = Mesh> {
     /// `flip_normals` (false), `transform` (16 numbers row-major, identity; a rotation,
     /// translation and a scale uniform across the axis); see [`crate::desc`]'s `parse_cylinder`.
     Cylinder(CylinderShape),
+    /// `sdfgrid`: Mitsuba's signed distance grid, `filename` (a one-channel `.vol`
+    /// grid, required), `normals` (`smooth` | `analytic`, `smooth`), `transform` (16
+    /// numbers row-major, identity: the unit cube to the world); no `light`.
+    SdfGrid(G),
 }
 
 /// One entry of the scene's `objects` list, resolved.
@@ -335,7 +341,7 @@ impl Scene {
                     sub: 0,
                     ..*hit
                 };
-                let l = Interaction::of_hit(
+                let mut l = Interaction::of_hit(
                     &group.prims[hit.sub as usize],
                     &local_ray,
                     &local_hit,
@@ -343,6 +349,9 @@ impl Scene {
                     sphere_uv,
                     self.texture_coords,
                 );
+                if let Shape::SdfGrid(g) = &self.objects[l.object as usize].shape {
+                    l.ns = g.shading_normal(l.p, l.ng);
+                }
                 Interaction {
                     p: inst.point_to_world(l.p),
                     ng: inst.normal_to_world(l.ng),

@@ -18,9 +18,25 @@ pub fn read(path: &Path) -> Result<GridData, String> {
     parse(&bytes)
 }
 
-/// Decodes a `.vol` file's bytes. A header that claims more values than the bytes
-/// hold is refused before anything is allocated.
+/// Decodes a `.vol` file's bytes into a medium's grid ([`GridData::new`] checks the
+/// channels and the values).
 pub fn parse(bytes: &[u8]) -> Result<GridData, String> {
+    let f = parse_file(bytes)?;
+    GridData::new(f.res, f.channels, f.bbox, f.values)
+}
+
+/// Reads a `.vol` file as it is ([`parse_file`]); the error is one line without the
+/// file's name.
+pub fn read_file(path: &Path) -> Result<GridData, String> {
+    let bytes = crate::limits::read_input_file(path, crate::limits::memory_budget()).map_err(|e| e.to_string())?;
+    parse_file(&bytes)
+}
+
+/// Decodes a `.vol` file's header and values as they are, checked for the format
+/// only (1 or 3 channels; [`GridData::new`] checks a medium's values, an sdfgrid its
+/// own). A header that claims more values than the bytes hold is refused before
+/// anything is allocated.
+pub fn parse_file(bytes: &[u8]) -> Result<GridData, String> {
     if bytes.len() < HEADER {
         return Err(format!("{} bytes, shorter than the 48-byte .vol header", bytes.len()));
     }
@@ -63,7 +79,12 @@ pub fn parse(bytes: &[u8]) -> Result<GridData, String> {
         Vec3::new(float(24), float(28), float(32)),
         Vec3::new(float(36), float(40), float(44)),
     );
-    GridData::new([x as usize, y as usize, z as usize], channels as usize, bbox, values)
+    Ok(GridData {
+        res: [x as usize, y as usize, z as usize],
+        channels: channels as usize,
+        bbox,
+        values,
+    })
 }
 
 /// The bytes of a `.vol` file holding `grid` (for tests and tools).

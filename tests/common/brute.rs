@@ -13,6 +13,7 @@ pub fn prim_intersect(p: &Prim, ray: &Ray, t_max: f32) -> Option<f32> {
         Prim::Triangle { p, .. } => intersect_watertight(ray.o, ray.d, ray.t_min, t_max, p).map(|h| h.t),
         Prim::Sphere { sphere, .. } => sphere.intersect(ray.o, ray.d, ray.t_min, t_max),
         Prim::Cylinder { cylinder, .. } => cylinder.intersect(ray.o, ray.d, ray.t_min, t_max),
+        Prim::SdfVoxel { voxel, .. } => voxel.intersect(ray.o, ray.d, ray.t_min, t_max),
         Prim::Instance { .. } => panic!("brute force over instances: flatten them first"),
     }
 }

@@ -68,6 +68,7 @@ pub fn scene_rays(rng: &mut Rng, prims: &[Prim], count: usize) -> Vec<Ray> {
                 Prim::Sphere { sphere, .. } => sphere.center + rng.dir() * sphere.radius * rng.rangef(0.0, 1.0),
                 Prim::Cylinder { cylinder, .. } => cylinder.at(rdr::math::Vec2::new(rng.rangef(0.0, 1.0), rng.rangef(0.0, 1.0))).0,
                 Prim::Instance { bounds, .. } => rng.in_box(&bounds),
+                p @ Prim::SdfVoxel { .. } => rng.in_box(&p.bounds()),
             }
         };
         let (o, d) = match rng.below(5) {

@@ -297,6 +297,16 @@ pub fn to_json(desc: &SceneDesc, out: &Path) -> Result<Converted> {
                 }
                 v
             }
+            Shape::SdfGrid(g) => {
+                let mut v = json!({"type": "sdfgrid", "filename": rebase(desc, &g.path.value, out)});
+                if g.transform != Mat4::IDENTITY {
+                    v["transform"] = Value::Array(row_major(&g.transform).into_iter().map(num).collect());
+                }
+                if g.normals != crate::geometry::sdfgrid::SdfNormals::Smooth {
+                    v["normals"] = g.normals.name().into();
+                }
+                v
+            }
             Shape::Mesh(m) => {
                 let as_is = match (&m.options.format, m.options.normals, m.options.flip_normals, m.options.flip_uv) {
                     (MeshFormat::Obj, MeshNormals::AsInFile, false, false) => true,

@@ -671,6 +671,23 @@ pub fn to_xml(desc: &SceneDesc, out: &Path) -> Result<Converted> {
                 }
                 h
             }
+            Shape::SdfGrid(g) => {
+                let mut h = format!(
+                    "  <shape type=\"sdfgrid\">\n    <string name=\"filename\" value=\"{}\"/>\n",
+                    esc(&rebase(desc, &g.path.value, out))
+                );
+                if g.normals != crate::geometry::sdfgrid::SdfNormals::Smooth {
+                    let _ = writeln!(h, "    <string name=\"normals\" value=\"{}\"/>", g.normals.name());
+                }
+                if g.transform != Mat4::IDENTITY {
+                    let _ = writeln!(
+                        h,
+                        "    <transform name=\"to_world\"><matrix value=\"{}\"/></transform>",
+                        matrix(&g.transform)
+                    );
+                }
+                h
+            }
             Shape::Mesh(m) => {
                 let MeshOptions {
                     format,

@@ -354,10 +354,22 @@ fn parse_object(p: &Props) -> Result<ObjectDesc> {
             let m = p.mat4_or("transform", Mat4::IDENTITY)?;
             Shape::Cylinder(cylinder_shape(p0, p1, radius, flip, &m).map_err(|(k, e)| p.error(k, e))?)
         }
+        "sdfgrid" => {
+            let path = p.string("filename")?;
+            let transform = p.mat4_or("transform", Mat4::IDENTITY)?;
+            crate::volume::check_affine(&transform).map_err(|e| p.error("transform", e))?;
+            let normals = p.string_or("normals", "smooth")?;
+            let normals = crate::geometry::sdfgrid::SdfNormals::from_name(&normals).map_err(|e| p.error("normals", e))?;
+            Shape::SdfGrid(crate::desc::SdfGridFile {
+                path: p.located("filename", path),
+                transform,
+                normals,
+            })
+        }
         _ => {
             return Err(p.error(
                 "type",
-                format!("unknown object type '{ty}' (available: mesh, sphere, cylinder, instance)"),
+                format!("unknown object type '{ty}' (available: mesh, sphere, cylinder, sdfgrid, instance)"),
             ))
         }
     };

@@ -75,7 +75,7 @@ pub fn plugin_table_markdown() -> String {
     table::markdown(FAMILIES)
 }
 
-pub(super) const SHAPES: &str = "obj, ply, serialized, rectangle, cube, disk, sphere, cylinder, shapegroup, instance";
+pub(super) const SHAPES: &str = "obj, ply, serialized, rectangle, cube, disk, sphere, cylinder, sdfgrid, shapegroup, instance";
 pub(super) const BSDFS: &str = concat!(
     "diffuse, dielectric, thindielectric, roughdielectric, conductor, roughconductor, plastic, roughplastic, twosided, ",
     "bumpmap, normalmap, mask, principled, principledthin, blendbsdf, mixturebsdf, phong"
@@ -186,7 +186,6 @@ pub fn scene(root: &Element, file: &Path) -> Result<SceneDesc> {
                     transform: to_world,
                 });
             }
-            Some("sdfgrid") => ids.warn(el, "shape \"sdfgrid\" is not built in rdr: left out, the scene renders without it"),
             _ => objects.push(r.shape(el)?),
         }
     }

@@ -48,17 +48,8 @@ fn cylinder_hits_agree_with_a_fine_triangulation() {
         let r = rng.rangef(0.2, 1.5);
         let flip = case % 2 == 1;
         let dir = tempfile::tempdir().unwrap();
-        let v = json!({
-            "integrator": {"type": "path", "spp": 1},
-            "film": {"resolution": [4, 4]},
-            "camera": {"position": [0, 0, 10], "look_at": [0, 0, 0], "ref_up": [0, 1, 0], "fov": 40},
-            "textures": {"w": {"type": "constant", "color": [0.5, 0.5, 0.5]}},
-            "materials": {"white": {"type": "diffuse", "texture_name": "w"}},
-            "objects": [{"type": "cylinder", "p0": p0.to_array(), "p1": p1.to_array(), "radius": r,
-                         "flip_normals": flip, "material_name": "white"}],
-        });
-        let desc = rdr::desc::SceneDesc::from_value(&v, &dir.path().join("s.json"), dir.path()).unwrap();
-        let scene = rdr::desc::build(&desc, rdr::desc::BuildOptions::default()).unwrap();
+        let object = json!({"type": "cylinder", "p0": p0.to_array(), "p1": p1.to_array(), "radius": r, "flip_normals": flip});
+        let scene = one_object_scene(dir.path(), object);
         // the triangulation, with each triangle's uv corners
         let mut tris = Vec::new();
         let mut uvs = Vec::new();

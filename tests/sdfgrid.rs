@@ -67,16 +67,10 @@ fn random_grid(rng: &mut Rng) -> ([usize; 3], Vec<f32>) {
 /// Loads a JSON scene of one sdfgrid (`grid.vol` in `dir`) placed by `to_world`.
 fn grid_scene(dir: &Path, to_world: Mat4, normals: &str) -> rdr::scene::Scene {
     let m = to_world.transpose().to_cols_array();
-    let v = json!({
-        "integrator": {"type": "path", "spp": 1},
-        "film": {"resolution": [4, 4]},
-        "camera": {"position": [0, 0, 10], "look_at": [0, 0, 0], "ref_up": [0, 1, 0], "fov": 40},
-        "textures": {"w": {"type": "constant", "color": [0.5, 0.5, 0.5]}},
-        "materials": {"white": {"type": "diffuse", "texture_name": "w"}},
-        "objects": [{"type": "sdfgrid", "filename": "grid.vol", "transform": m.to_vec(), "normals": normals, "material_name": "white"}],
-    });
-    let desc = rdr::desc::SceneDesc::from_value(&v, &dir.join("s.json"), dir).unwrap();
-    rdr::desc::build(&desc, rdr::desc::BuildOptions::default()).unwrap()
+    one_object_scene(
+        dir,
+        json!({"type": "sdfgrid", "filename": "grid.vol", "transform": m.to_vec(), "normals": normals}),
+    )
 }
 
 /// The first sign change of the field along `ray` (world), by 4000 steps through

@@ -108,3 +108,19 @@ pub fn scene_rays(rng: &mut Rng, prims: &[Prim], count: usize) -> Vec<Ray> {
     }
     rays
 }
+
+/// A 4×4 scene of one white diffuse `object` (a JSON object without its material)
+/// seen from (0, 0, 10), loaded from `dir` and built: for tests of a shape's hits.
+pub fn one_object_scene(dir: &std::path::Path, mut object: serde_json::Value) -> rdr::scene::Scene {
+    object["material_name"] = "white".into();
+    let v = serde_json::json!({
+        "integrator": {"type": "path", "spp": 1},
+        "film": {"resolution": [4, 4]},
+        "camera": {"position": [0, 0, 10], "look_at": [0, 0, 0], "ref_up": [0, 1, 0], "fov": 40},
+        "textures": {"w": {"type": "constant", "color": [0.5, 0.5, 0.5]}},
+        "materials": {"white": {"type": "diffuse", "texture_name": "w"}},
+        "objects": [object],
+    });
+    let desc = rdr::desc::SceneDesc::from_value(&v, &dir.join("s.json"), dir).unwrap();
+    rdr::desc::build(&desc, rdr::desc::BuildOptions::default()).unwrap()
+}

@@ -6,7 +6,7 @@ use crate::desc::xml::document::Element;
 use crate::desc::xml::props::Plugin;
 use crate::desc::MAX_DEPTH;
 use crate::error::Result;
-use crate::integrator::{bdpt::Heuristic, Bdpt, Integrator, PathProfile, PathTracer, PhotonMapper, Ptracer, Roulette, Sppm};
+use crate::integrator::{Bdpt, Integrator, PathProfile, PathTracer, PhotonMapper, Ptracer, Roulette, Sppm};
 
 const MAX_DEPTH_DOC: super::table::Param = differs(
     "max_depth",
@@ -276,15 +276,7 @@ impl<'a> Reader<'a> {
                 for k in ["light_image", "sample_direct", "strict_normals"] {
                     p.ignore(k);
                 }
-                Integrator::Bdpt(Bdpt {
-                    max_depth,
-                    rr_threshold: 0.1,
-                    heuristic: Heuristic::Power,
-                    strategy: None,
-                    strategy_weighted: false,
-                    visualize_strategies: false,
-                    connection_roulette: crate::integrator::bdpt::CONNECTION_ROULETTE,
-                })
+                Integrator::Bdpt(Bdpt::new(max_depth))
             }
             "photonmapper" | "photon" => {
                 let max_depth = depth(-1)?;

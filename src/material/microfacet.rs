@@ -51,6 +51,13 @@ impl Microfacet {
         if v.dot(m) * v.z <= 0.0 {
             return 0.0;
         }
+        self.g1_unmasked(v)
+    }
+
+    /// G1 of `v` on the side of every facet that faces it: the part of [`Self::g1`]
+    /// that does not depend on the facet normal.
+    #[inline]
+    pub fn g1_unmasked(&self, v: Vec3) -> f32 {
         let xy = (self.alpha_x * v.x).powi(2) + (self.alpha_y * v.y).powi(2);
         if xy == 0.0 {
             return 1.0;

@@ -1087,3 +1087,37 @@ fn guided_mis_weights_the_light_samples_by_the_mixture_density() {
     eprintln!("image mean: guided {guided:.6}, path {path:.6}, ratio {:.5}", guided / path);
     assert!((guided / path - 1.0).abs() < 0.025, "guided {guided} against path {path}");
 }
+
+#[test]
+fn batched_recording_cells_are_the_one_at_a_time_cells() {
+    let Some(shared) = shared() else { return };
+    // the training photons' cells come from lockstep batches of descents
+    // (`SdTree::record_cells`): every one must be `record_cell`'s, in order, over trained
+    // (refined) recording trees and a query count that leaves a partial batch
+    let o = r#"{"integrator": {"type": "guided", "spatial_threshold": 300}, "film": {"resolution": [64, 64]}}"#;
+    let loaded = load_scene(&shared.join("refs/scenes/caustic_cbox.json"), &[o], Profile::Physical);
+    let state = train(&loaded, 8);
+    let tree = state.learned_tree().unwrap();
+    let deepest = tree.leaves.iter().map(|l| l.building.depth()).max().unwrap();
+    assert!(
+        tree.leaves.len() > 1 && deepest > 2,
+        "{} leaves, depth {deepest}: too little tree to test",
+        tree.leaves.len()
+    );
+    let mut rng = Rng::new(3);
+    let queries: Vec<(u32, Vec3)> = (0..10_005)
+        .map(|_| (rng.below(tree.leaves.len()) as u32, square_to_sphere(uniform2(&mut rng))))
+        .collect();
+    let batched = tree.record_cells(&queries);
+    let wrong = queries
+        .iter()
+        .zip(&batched)
+        .filter(|(&(leaf, d), &c)| tree.record_cell(leaf, d) != c)
+        .count();
+    eprintln!(
+        "{} queries over {} leaves (recording depth up to {deepest}): {wrong} cells differ",
+        queries.len(),
+        tree.leaves.len()
+    );
+    assert_eq!((batched.len(), wrong), (queries.len(), 0));
+}

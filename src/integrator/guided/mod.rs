@@ -401,14 +401,20 @@ impl Guided {
         };
         let (points, photons, rays) = shoot_deposits(ctx.scene, shooting, pass, seed, ctx.stop)?;
         counts.rays += rays;
-        let deposits = points
+        let (queries, values): (Vec<_>, Vec<_>) = points
             .iter()
             .zip(&photons)
             .filter_map(|(p, photon)| {
                 let value = path::mean(photon.power);
-                let leaf = tree.leaf_of(Vec3::from_array(*p));
-                (value > 0.0 && value.is_finite()).then(|| (leaf, tree.record_cell(leaf, photon.wi), value))
+                (value > 0.0 && value.is_finite()).then(|| ((tree.leaf_of(Vec3::from_array(*p)), photon.wi), value))
             })
+            .unzip();
+        let cells = tree.record_cells(&queries);
+        let deposits = queries
+            .iter()
+            .zip(cells)
+            .zip(values)
+            .map(|((q, cell), value)| (q.0, cell, value))
             .collect();
         Some(deposits)
     }

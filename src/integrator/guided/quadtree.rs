@@ -138,18 +138,26 @@ impl DTree {
     /// The leaf cell holding point `p` of the square, as `node·4 + child`.
     #[inline]
     pub fn cell_of(&self, p: Vec2) -> u32 {
-        let (mut x, mut y) = (p.x, p.y);
-        let mut n = 0usize;
+        let mut at = (0, p.x, p.y);
         loop {
-            let (bx, by) = (x >= 0.5, y >= 0.5);
-            let c = bx as usize | ((by as usize) << 1);
-            x = 2.0 * x - bx as u32 as f32;
-            y = 2.0 * y - by as u32 as f32;
-            let next = self.nodes[n].child[c];
-            if next == 0 {
-                return (n * 4 + c) as u32;
+            match self.descend(at) {
+                Ok(cell) => return cell,
+                Err(next) => at = next,
             }
-            n = next as usize;
+        }
+    }
+
+    /// One step of [`DTree::cell_of`] from node `n` at the point (x, y) of its
+    /// square: the cell when the child there is a leaf, else the child and the
+    /// point in its square (a step at a time, so that a batch of descents can go
+    /// in lockstep, [`super::SdTree::record_cells`]).
+    #[inline(always)]
+    pub fn descend(&self, (n, x, y): (usize, f32, f32)) -> Result<u32, (usize, f32, f32)> {
+        let (bx, by) = (x >= 0.5, y >= 0.5);
+        let c = bx as usize | ((by as usize) << 1);
+        match self.nodes[n].child[c] {
+            0 => Ok((n * 4 + c) as u32),
+            next => Err((next as usize, 2.0 * x - bx as u32 as f32, 2.0 * y - by as u32 as f32)),
         }
     }
 

@@ -158,6 +158,38 @@ impl SdTree {
         self.leaves[leaf as usize].building.cell_of(sphere_to_square(d))
     }
 
+    /// [`SdTree::record_cell`] of each (leaf, direction) in `queries`, in order. The
+    /// descents of a batch go in lockstep, a level of each in turn: the photons'
+    /// directions land in scattered leaves' trees, and one descent at a time waits
+    /// for each of its loads (caustic_cbox: half of `record_cell`'s time on one load).
+    pub fn record_cells(&self, queries: &[(u32, Vec3)]) -> Vec<u32> {
+        const LANES: usize = 8;
+        let mut cells = vec![0u32; queries.len()];
+        for (batch, out) in queries.chunks(LANES).zip(cells.chunks_mut(LANES)) {
+            let mut at = [(0usize, 0.0f32, 0.0f32); LANES];
+            for (a, &(_, d)) in at.iter_mut().zip(batch) {
+                let p = sphere_to_square(d);
+                *a = (0, p.x, p.y);
+            }
+            let mut running = (1u32 << batch.len()) - 1;
+            while running != 0 {
+                for (i, &(leaf, _)) in batch.iter().enumerate() {
+                    if running & (1 << i) == 0 {
+                        continue;
+                    }
+                    match self.leaves[leaf as usize].building.descend(at[i]) {
+                        Ok(cell) => {
+                            out[i] = cell;
+                            running &= !(1 << i);
+                        }
+                        Err(next) => at[i] = next,
+                    }
+                }
+            }
+        }
+        cells
+    }
+
     /// [`SdTree::record_cell`] for the point `p` of the square.
     #[inline]
     pub fn record_cell_at(&self, leaf: u32, p: Vec2) -> u32 {

@@ -382,8 +382,8 @@ impl SdfVoxel {
 fn first_root(c: &[f64; 4], len: f64, f0: f64, f1: f64) -> Option<f64> {
     let eval = |s: f64| ((c[3] * s + c[2]) * s + c[1]) * s + c[0];
     let slope = |s: f64| (3.0 * c[3] * s + 2.0 * c[2]) * s + c[1];
-    let mut cuts = derivative_roots(c);
-    cuts.sort_by(f64::total_cmp);
+    // NaN (no root) fails the filter below
+    let cuts = derivative_roots(c);
     let (mut a, mut fa) = (0.0, f0);
     let mut bracket = None;
     for s in cuts.into_iter().filter(|&s| s > 0.0 && s < len).chain([len]) {
@@ -428,21 +428,27 @@ fn first_root(c: &[f64; 4], len: f64, f0: f64, f1: f64) -> Option<f64> {
     Some(s)
 }
 
-/// The real roots of the cubic's derivative `3c3 s² + 2c2 s + c1` (none, one or two).
-fn derivative_roots(c: &[f64; 4]) -> Vec<f64> {
+/// The real roots of the cubic's derivative `3c3 s² + 2c2 s + c1`, ascending, NaN
+/// where there is none (none, one or two; an array, as this runs per voxel hit test).
+fn derivative_roots(c: &[f64; 4]) -> [f64; 2] {
     let (qa, qb, qc) = (3.0 * c[3], 2.0 * c[2], c[1]);
     if qa == 0.0 {
-        return if qb != 0.0 { vec![-qc / qb] } else { Vec::new() };
+        return [if qb != 0.0 { -qc / qb } else { f64::NAN }, f64::NAN];
     }
     let disc = qb * qb - 4.0 * qa * qc;
     if disc < 0.0 {
-        return Vec::new();
+        return [f64::NAN; 2];
     }
     let q = -0.5 * (qb + disc.sqrt().copysign(qb));
     if q == 0.0 {
-        return vec![0.0];
+        return [0.0, f64::NAN];
     }
-    vec![q / qa, qc / q]
+    let (r0, r1) = (q / qa, qc / q);
+    if r0 <= r1 {
+        [r0, r1]
+    } else {
+        [r1, r0]
+    }
 }
 
 #[cfg(test)]

@@ -14,14 +14,16 @@ const HEADER: usize = 48;
 /// Reads a `.vol` file; the error is one line without the file's name (the caller
 /// names the file and the key).
 pub fn read(path: &Path) -> Result<GridData, String> {
-    let bytes = crate::limits::read_input_file(path, crate::limits::memory_budget()).map_err(|e| e.to_string())?;
-    parse(&bytes)
+    as_medium(read_file(path)?)
 }
 
 /// Decodes a `.vol` file's bytes into a medium's grid ([`GridData::new`] checks the
 /// channels and the values).
 pub fn parse(bytes: &[u8]) -> Result<GridData, String> {
-    let f = parse_file(bytes)?;
+    as_medium(parse_file(bytes)?)
+}
+
+fn as_medium(f: GridData) -> Result<GridData, String> {
     GridData::new(f.res, f.channels, f.bbox, f.values)
 }
 

@@ -55,14 +55,20 @@ fn schedstat_ns(path: &std::path::Path) -> Option<u64> {
 }
 
 /// On-CPU time of all this process's threads so far in seconds (Linux: the sum of
-/// `/proc/self/task/*/schedstat`, nanoseconds; threads that have ended no longer count).
+/// `/proc/self/task/*/schedstat`, nanoseconds; threads that have ended no longer count,
+/// also one that ends between the listing and the reading of its file).
 /// `None` where that is not available.
 pub fn process_cpu_seconds() -> Option<f64> {
     let mut ns = 0u64;
-    for task in std::fs::read_dir("/proc/self/task").ok()? {
-        ns += schedstat_ns(&task.ok()?.path().join("schedstat"))?;
+    let mut read_any = false;
+    for task in std::fs::read_dir("/proc/self/task").ok()?.flatten() {
+        if let Some(t) = schedstat_ns(&task.path().join("schedstat")) {
+            ns += t;
+            read_any = true;
+        }
     }
-    Some(ns as f64 * 1e-9)
+    // the calling thread is always listed: nothing readable means no schedstat here
+    read_any.then_some(ns as f64 * 1e-9)
 }
 
 /// Runs `work` in `pool`; seconds taken: the worker's CPU time for a one-thread
@@ -84,7 +90,7 @@ pub(super) fn timed<T: Send>(pool: &rayon::ThreadPool, work: impl FnOnce() -> T 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use std::sync::Barrier;
+    use std::sync::mpsc;
 
     /// The process's CPU time counts every thread's: across a stretch of work on two
     /// threads it grows by at least what each thread's own CPU time grew by (on Linux,
@@ -104,19 +110,22 @@ mod tests {
             }
             thread_cpu_seconds().expect("still readable") - c0
         };
-        // the other thread stays alive until its time has been read
-        let (done, read) = (Barrier::new(2), Barrier::new(2));
+        // the other thread stays alive until its time has been read; channels rather
+        // than barriers, so that a panic on either side ends the wait (a sender dropped)
+        // instead of leaving the other thread waiting for ever
         let (mine, other, after) = std::thread::scope(|s| {
-            let t = s.spawn(|| {
+            let (done_tx, done_rx) = mpsc::channel::<()>();
+            let (read_tx, read_rx) = mpsc::channel::<()>();
+            let t = s.spawn(move || {
                 let own = spin();
-                done.wait();
-                read.wait();
+                drop(done_tx);
+                let _ = read_rx.recv();
                 own
             });
             let mine = spin();
-            done.wait();
+            let _ = done_rx.recv();
             let after = process_cpu_seconds().expect("still readable");
-            read.wait();
+            drop(read_tx);
             (mine, t.join().expect("no panic"), after)
         });
         assert!(mine > 0.0 && other > 0.0, "{mine} {other}");

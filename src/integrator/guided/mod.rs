@@ -71,10 +71,11 @@ pub use quadtree::{sphere_to_square, square_to_sphere, DTree};
 pub use sdtree::{SdTree, TreeStats};
 
 use super::pass::{camera_pass_blocks, camera_pass_with};
-use super::photon::{shoot_deposits, Shooting};
+use super::photon::{shoot_into, Shooting};
 use super::{ears, PassContext, PassResult, PathProfile, PathTracer, RayCounts, Roulette};
 use crate::math::Vec3;
 use crate::sampler::hash_combine;
+use rayon::prelude::*;
 use std::time::Instant;
 
 /// Photons' roulette threshold when the tree learns from them (the photon
@@ -356,10 +357,12 @@ impl Guided {
             }
         }
         drop(tiles);
-        for &(leaf, cell, value) in &photon_deposits {
-            let leaf = &mut s.tree.leaves[leaf as usize];
-            leaf.count += 1;
-            leaf.building.deposit(cell, value);
+        for d in &photon_deposits {
+            for ((&(leaf, _), &cell), &value) in d.queries.iter().zip(&d.cells).zip(&d.values) {
+                let leaf = &mut s.tree.leaves[leaf as usize];
+                leaf.count += 1;
+                leaf.building.deposit(cell, value);
+            }
         }
         self.pass_done(s, ctx, pass_start);
         result
@@ -382,7 +385,7 @@ impl Guided {
     }
 
     /// A training pass's photons (one per pixel, at most [`MAX_PHOTONS_PER_PASS`]) as
-    /// deposits (leaf, recording cell, flux); `None` when the stop token was set.
+    /// the tree records them, in chunks; `None` when the stop token was set.
     fn training_photons(
         &self,
         ctx: &PassContext,
@@ -390,7 +393,7 @@ impl Guided {
         pass: u32,
         seed: u32,
         counts: &mut RayCounts,
-    ) -> Option<Vec<(u32, u32, f32)>> {
+    ) -> Option<Vec<PhotonDeposits>> {
         // a vertex after the camera's first segment receives paths of at most
         // max_depth − 1 segments; its direct light only when that is learned
         let shooting = Shooting {
@@ -399,23 +402,34 @@ impl Guided {
             rr_threshold: PHOTON_RR_THRESHOLD,
             min_segments: if self.learn_direct { 1 } else { 2 },
         };
-        let (points, photons, rays) = shoot_deposits(ctx.scene, shooting, pass, seed, ctx.stop)?;
-        counts.rays += rays;
-        let (queries, values): (Vec<_>, Vec<_>) = points
-            .iter()
-            .zip(&photons)
-            .filter_map(|(p, photon)| {
+        let count = shooting.count as usize;
+        let (mut chunks, rays) = shoot_into(
+            ctx.scene,
+            shooting,
+            0..count,
+            (pass, seed),
+            ctx.stop,
+            PhotonDeposits::default,
+            |d, p, photon| {
                 let value = path::mean(photon.power);
-                (value > 0.0 && value.is_finite()).then(|| ((tree.leaf_of(Vec3::from_array(*p)), photon.wi), value))
-            })
-            .unzip();
-        let cells = tree.record_cells(&queries);
-        let deposits = queries
-            .iter()
-            .zip(cells)
-            .zip(values)
-            .map(|((q, cell), value)| (q.0, cell, value))
-            .collect();
-        Some(deposits)
+                if value > 0.0 && value.is_finite() {
+                    d.queries.push((tree.leaf_of(p), photon.wi));
+                    d.values.push(value);
+                }
+            },
+        )?;
+        counts.rays += rays;
+        chunks.par_iter_mut().for_each(|d| d.cells = tree.record_cells(&d.queries));
+        Some(chunks)
     }
+}
+
+/// A chunk of a training pass's photons as the tree records them: each kept photon's
+/// (spatial leaf, direction it arrived from), its flux (mean over channels) and its
+/// recording cell, in photon order.
+#[derive(Default)]
+struct PhotonDeposits {
+    queries: Vec<(u32, Vec3)>,
+    values: Vec<f32>,
+    cells: Vec<u32>,
 }

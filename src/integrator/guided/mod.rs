@@ -49,7 +49,10 @@
 //! photons) in its first pass only and renders its other passes with `path`'s own
 //! code, as does such a final iteration (its packets, without inverse-variance
 //! weights to estimate): the guide keeps learning at the cost of one pass per
-//! iteration.
+//! iteration. Training stops where the guide is off and two measurements in a row
+//! find it does not pay, or one finds a guided sample no less noisy than an unguided
+//! one ([`DECLINES_TO_STOP_TRAINING`]): the rest of the budget is then the final
+//! iteration, `path`'s passes, and the tree is not rebuilt.
 //!
 //! Media: the estimator tracks them as for `path`; guiding acts at surface
 //! vertices only (a medium vertex samples its phase function).
@@ -104,6 +107,15 @@ pub const MAX_TRAINING_ITERATIONS: u32 = 6;
 /// every leaf at fraction 0.5: 3.23 and 3.23 CPU s against `path`'s 2.22 and 2.21
 /// (AMD EPYC Zen 5, AVX-512, loaded).
 pub const GUIDED_PASS_COST: f64 = 1.5;
+
+/// Measurements in a row that find the guide does not pay its cost (see
+/// [`State::guide`]) after which training stops while the guide is off (as it does
+/// after one that finds a guided sample no less noisy than an unguided one): the rest
+/// of the spp budget is the final iteration, `path`'s passes, without photons, records
+/// or tree builds. A recording pass costs about 2.5 `path` passes (its photons, the
+/// scalar camera paths and records, the tree's rebuild); one "no" was not enough:
+/// caustic_cbox (seed 3) said no first and yes next.
+pub const DECLINES_TO_STOP_TRAINING: u32 = 2;
 
 /// Energy share above which a directional cell is split (the paper's ρ).
 pub const RHO: f32 = 0.01;

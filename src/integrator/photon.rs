@@ -131,11 +131,46 @@ pub fn shoot(scene: &Scene, s: Shooting, iteration: u32, seed: u32, stop: &StopT
     })
 }
 
-/// The deposits of `s.count` photons for `iteration`, positions and payloads in
-/// photon order whatever the thread count, and the rays cast; `None` when the stop
-/// token was set.
-pub fn shoot_deposits(scene: &Scene, s: Shooting, iteration: u32, seed: u32, stop: &StopToken) -> Option<Deposits> {
-    shoot_chunks(scene, s, 0..s.count as usize, iteration, seed, stop)
+/// Shoots photons `range` of `iteration` in chunks of [`CHUNK`] in parallel, each
+/// chunk's deposits (position, payload) handed to `store` with the chunk's own
+/// collection made by `new`: the collections in chunk order (so in photon order
+/// whatever the thread count) and the rays cast; `None` when the stop token was set.
+/// A caller that keeps less than the whole photon (`guided`'s recording cells) keeps
+/// it as the photons land, not in a map of them first.
+pub fn shoot_into<A, N, F>(
+    scene: &Scene,
+    s: Shooting,
+    range: std::ops::Range<usize>,
+    (iteration, seed): (u32, u32),
+    stop: &StopToken,
+    new: N,
+    store: F,
+) -> Option<(Vec<A>, u64)>
+where
+    A: Send,
+    N: Fn() -> A + Sync,
+    F: Fn(&mut A, Vec3, Photon) + Sync,
+{
+    if scene.lights.is_empty() || range.is_empty() || s.max_segments < s.min_segments.max(1) {
+        return Some((Vec::new(), 0));
+    }
+    let chunks: Vec<(A, u64)> = (0..range.len().div_ceil(CHUNK))
+        .into_par_iter()
+        .map(|c| {
+            if stop.is_stopped() {
+                return None;
+            }
+            let (mut own, mut rays) = (new(), 0u64);
+            let first = range.start + c * CHUNK;
+            for i in first..(first + CHUNK).min(range.end) {
+                let mut rng = photon_rng(seed, iteration, i as u64);
+                rays += trace_photon(scene, s, &mut rng, &mut |p, photon| store(&mut own, p, photon));
+            }
+            Some((own, rays))
+        })
+        .collect::<Option<_>>()?;
+    let rays = chunks.iter().map(|c| c.1).sum();
+    Some((chunks.into_iter().map(|c| c.0).collect(), rays))
 }
 
 /// The deposits of photons `range`, shot in chunks of [`CHUNK`] from its start, in
@@ -148,28 +183,12 @@ fn shoot_chunks(
     seed: u32,
     stop: &StopToken,
 ) -> Option<Deposits> {
-    if scene.lights.is_empty() || range.is_empty() || s.max_segments < s.min_segments.max(1) {
-        return Some((Vec::new(), Vec::new(), 0));
-    }
-    let chunks: Vec<Deposits> = (0..range.len().div_ceil(CHUNK))
-        .into_par_iter()
-        .map(|c| {
-            if stop.is_stopped() {
-                return None;
-            }
-            let (mut pts, mut ph, mut rays) = (Vec::new(), Vec::new(), 0u64);
-            let first = range.start + c * CHUNK;
-            for i in first..(first + CHUNK).min(range.end) {
-                let mut rng = photon_rng(seed, iteration, i as u64);
-                rays += trace_photon(scene, s, &mut rng, &mut |p, photon| {
-                    pts.push(p.to_array());
-                    ph.push(photon);
-                });
-            }
-            Some((pts, ph, rays))
-        })
-        .collect::<Option<_>>()?;
-    let mut all = Deposits::default();
+    let new = || (Vec::new(), Vec::new(), 0);
+    let (chunks, rays) = shoot_into(scene, s, range, (iteration, seed), stop, new, |d: &mut Deposits, p, photon| {
+        d.0.push(p.to_array());
+        d.1.push(photon);
+    })?;
+    let mut all = (Vec::new(), Vec::new(), rays);
     chunks.into_iter().for_each(|c| append(&mut all, c));
     Some(all)
 }

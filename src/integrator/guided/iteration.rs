@@ -4,7 +4,7 @@
 
 use super::combine::{combine, combine_weighted, current_image, pixel_variances, relative_variances, Part};
 use super::sdtree::{self, SdTree, TreeStats};
-use super::{Combine, DTree, Guided, LearnFrom, GUIDED_PASS_COST, MAX_TRAINING_ITERATIONS, RHO};
+use super::{Combine, DTree, Guided, LearnFrom, DECLINES_TO_STOP_TRAINING, GUIDED_PASS_COST, MAX_TRAINING_ITERATIONS, RHO};
 use crate::film::Film;
 use crate::integrator::PassContext;
 use crate::math::Vec3;
@@ -69,6 +69,11 @@ pub struct State {
     pub guide: bool,
     /// Whether the last measurement found that the guide pays.
     pub(super) paid: bool,
+    /// Measurements in a row that found the guide does not pay.
+    pub(super) declined: u32,
+    /// Whether training stopped where the guide does not pay (see
+    /// [`DECLINES_TO_STOP_TRAINING`]): the rest of the render is the final iteration.
+    pub training_stopped: bool,
     /// The film's sums after the current training iteration's first pass.
     pub(super) probe: Option<(Vec<[f64; 3]>, Vec<f64>)>,
     /// EARS's statistics (`rr: "ears"`), from the passes that played it.
@@ -152,6 +157,8 @@ impl Guided {
             guide: !self.learn_fraction || self.learn_from == LearnFrom::Paths,
             probe: None,
             paid: false,
+            declined: 0,
+            training_stopped: false,
             ears: None,
         };
         self.begin_iteration(&mut s, ctx);
@@ -167,7 +174,7 @@ impl Guided {
         let k = s.history.len() as u32;
         let remaining = ctx.spp.saturating_sub(s.passes_total).max(1);
         let length = Self::iteration_length(k);
-        let training = k < self.training_iterations_for(ctx.spp);
+        let training = k < self.training_iterations_for(ctx.spp) && !s.training_stopped;
         s.last = !training || length >= remaining;
         s.length = if s.last { remaining } else { length };
         s.passes = 0;
@@ -186,11 +193,18 @@ impl Guided {
     pub(super) fn end_iteration(&self, s: &mut State, ctx: &PassContext) {
         let build_start = Instant::now();
         let variance_ratio = self.probe_variance_ratio(s);
+        // a guided sample no less noisy than an unguided one cannot pay for its cost
+        let mut hopeless = false;
         if let Some(r) = variance_ratio {
             let pays = r * GUIDED_PASS_COST < 1.0;
             s.guide = pays && s.paid;
             s.paid = pays;
+            s.declined = if pays { 0 } else { s.declined + 1 };
+            hopeless = r >= 1.0;
         }
+        // training stops where the guide is off and cannot pay (see
+        // `DECLINES_TO_STOP_TRAINING`): the tree is not used again, so not rebuilt either
+        s.training_stopped = !s.guide && (s.declined >= DECLINES_TO_STOP_TRAINING || hopeless);
         let finished = Finished {
             image: current_image(s.film.sums()),
             pixel_variance: pixel_variances(&s.moments, ctx.film.width as usize),
@@ -202,9 +216,12 @@ impl Guided {
         }
         let threshold = self.spatial_threshold as f64 * (s.recorded.max(1) as f64).sqrt();
         let choice = std::mem::take(&mut s.choice);
-        let moments = s
-            .tree
-            .end_iteration(threshold, RHO, true, self.learn_fraction.then_some(&choice[..]));
+        let moments = if s.training_stopped {
+            sdtree::ChoiceMoments::default()
+        } else {
+            s.tree
+                .end_iteration(threshold, RHO, true, self.learn_fraction.then_some(&choice[..]))
+        };
         let build = build_start.elapsed().as_secs_f64();
         let variance = {
             let parts: Vec<Part> = s.finished.iter().map(Finished::part).collect();
@@ -213,10 +230,13 @@ impl Guided {
         let info = s.history.last_mut().expect("an iteration is running");
         info.build_seconds = build;
         info.variance = variance;
-        info.gain = self.learn_fraction.then(|| moments.gain());
+        info.gain = (self.learn_fraction && !s.training_stopped).then(|| moments.gain());
         info.variance_ratio = variance_ratio;
         s.film.take_sums(true);
         s.moments.iter_mut().for_each(|x| *x = [0.0; 3]);
+        if s.training_stopped {
+            s.schedule += &format!(", training stopped after {} spp (the guide did not pay)", s.passes_total);
+        }
         self.begin_iteration(s, ctx);
     }
 

@@ -49,7 +49,10 @@
 //! photons) in its first pass only and renders its other passes with `path`'s own
 //! code, as does such a final iteration (its packets, without inverse-variance
 //! weights to estimate): the guide keeps learning at the cost of one pass per
-//! iteration.
+//! iteration. Training stops where the guide is off and two measurements in a row
+//! find it does not pay, or one finds a guided sample no less noisy than an unguided
+//! one ([`DECLINES_TO_STOP_TRAINING`]): the rest of the budget is then the final
+//! iteration, `path`'s passes, and the tree is not rebuilt.
 //!
 //! Media: the estimator tracks them as for `path`; guiding acts at surface
 //! vertices only (a medium vertex samples its phase function).
@@ -71,10 +74,11 @@ pub use quadtree::{sphere_to_square, square_to_sphere, DTree};
 pub use sdtree::{SdTree, TreeStats};
 
 use super::pass::{camera_pass_blocks, camera_pass_with};
-use super::photon::{shoot_deposits, Shooting};
+use super::photon::{shoot_into, Shooting};
 use super::{ears, PassContext, PassResult, PathProfile, PathTracer, RayCounts, Roulette};
 use crate::math::Vec3;
 use crate::sampler::hash_combine;
+use rayon::prelude::*;
 use std::time::Instant;
 
 /// Photons' roulette threshold when the tree learns from them (the photon
@@ -103,6 +107,15 @@ pub const MAX_TRAINING_ITERATIONS: u32 = 6;
 /// every leaf at fraction 0.5: 3.23 and 3.23 CPU s against `path`'s 2.22 and 2.21
 /// (AMD EPYC Zen 5, AVX-512, loaded).
 pub const GUIDED_PASS_COST: f64 = 1.5;
+
+/// Measurements in a row that find the guide does not pay its cost (see
+/// [`State::guide`]) after which training stops while the guide is off (as it does
+/// after one that finds a guided sample no less noisy than an unguided one): the rest
+/// of the spp budget is the final iteration, `path`'s passes, without photons, records
+/// or tree builds. A recording pass costs about 2.5 `path` passes (its photons, the
+/// scalar camera paths and records, the tree's rebuild); one "no" was not enough:
+/// caustic_cbox (seed 3) said no first and yes next.
+pub const DECLINES_TO_STOP_TRAINING: u32 = 2;
 
 /// Energy share above which a directional cell is split (the paper's ρ).
 pub const RHO: f32 = 0.01;
@@ -356,10 +369,12 @@ impl Guided {
             }
         }
         drop(tiles);
-        for &(leaf, cell, value) in &photon_deposits {
-            let leaf = &mut s.tree.leaves[leaf as usize];
-            leaf.count += 1;
-            leaf.building.deposit(cell, value);
+        for d in &photon_deposits {
+            for ((&(leaf, _), &cell), &value) in d.queries.iter().zip(&d.cells).zip(&d.values) {
+                let leaf = &mut s.tree.leaves[leaf as usize];
+                leaf.count += 1;
+                leaf.building.deposit(cell, value);
+            }
         }
         self.pass_done(s, ctx, pass_start);
         result
@@ -382,7 +397,7 @@ impl Guided {
     }
 
     /// A training pass's photons (one per pixel, at most [`MAX_PHOTONS_PER_PASS`]) as
-    /// deposits (leaf, recording cell, flux); `None` when the stop token was set.
+    /// the tree records them, in chunks; `None` when the stop token was set.
     fn training_photons(
         &self,
         ctx: &PassContext,
@@ -390,7 +405,7 @@ impl Guided {
         pass: u32,
         seed: u32,
         counts: &mut RayCounts,
-    ) -> Option<Vec<(u32, u32, f32)>> {
+    ) -> Option<Vec<PhotonDeposits>> {
         // a vertex after the camera's first segment receives paths of at most
         // max_depth − 1 segments; its direct light only when that is learned
         let shooting = Shooting {
@@ -399,23 +414,34 @@ impl Guided {
             rr_threshold: PHOTON_RR_THRESHOLD,
             min_segments: if self.learn_direct { 1 } else { 2 },
         };
-        let (points, photons, rays) = shoot_deposits(ctx.scene, shooting, pass, seed, ctx.stop)?;
-        counts.rays += rays;
-        let (queries, values): (Vec<_>, Vec<_>) = points
-            .iter()
-            .zip(&photons)
-            .filter_map(|(p, photon)| {
+        let count = shooting.count as usize;
+        let (mut chunks, rays) = shoot_into(
+            ctx.scene,
+            shooting,
+            0..count,
+            (pass, seed),
+            ctx.stop,
+            PhotonDeposits::default,
+            |d, p, photon| {
                 let value = path::mean(photon.power);
-                (value > 0.0 && value.is_finite()).then(|| ((tree.leaf_of(Vec3::from_array(*p)), photon.wi), value))
-            })
-            .unzip();
-        let cells = tree.record_cells(&queries);
-        let deposits = queries
-            .iter()
-            .zip(cells)
-            .zip(values)
-            .map(|((q, cell), value)| (q.0, cell, value))
-            .collect();
-        Some(deposits)
+                if value > 0.0 && value.is_finite() {
+                    d.queries.push((tree.leaf_of(p), photon.wi));
+                    d.values.push(value);
+                }
+            },
+        )?;
+        counts.rays += rays;
+        chunks.par_iter_mut().for_each(|d| d.cells = tree.record_cells(&d.queries));
+        Some(chunks)
     }
+}
+
+/// A chunk of a training pass's photons as the tree records them: each kept photon's
+/// (spatial leaf, direction it arrived from), its flux (mean over channels) and its
+/// recording cell, in photon order.
+#[derive(Default)]
+struct PhotonDeposits {
+    queries: Vec<(u32, Vec3)>,
+    values: Vec<f32>,
+    cells: Vec<u32>,
 }

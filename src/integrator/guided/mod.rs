@@ -179,6 +179,8 @@ pub enum Combine {
 ///   density, it measured worse than photons alone at 64 spp; path records alone under
 ///   the photons' cost gate never took the guide up). Against radiance learned from the
 ///   paths, relMSE at 60 s: caustic_cbox 0.67–0.86×, cbox 0.78–0.99×, veach-mis 1.0×;
+///   with `learn_direct` (the glossy plates' light is direct light) 0.78–0.84×,
+///   0.88–0.94×, 0.88–0.92×;
 /// * `rr` (`"mitsuba"` | `"ears"`, `"mitsuba"`) — `"ears"`: the final iteration's
 ///   passes (which record nothing for the guide) play EARS's learned roulette and
 ///   splitting ([`super::ears`]) instead of the roulette above, learning its statistics

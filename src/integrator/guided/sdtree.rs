@@ -27,7 +27,7 @@ pub struct Leaf {
 
 /// A vertex of the iteration, for its leaf's choice of BSDF fraction: F/q (F =
 /// f·|cos|·L_i, q its sampling density), q, the BSDF's density, the direction's
-/// point on the square, and the energy it deposited there.
+/// point on the square, and what it deposited there (energy, or a second moment).
 #[derive(Clone, Copy, Debug)]
 pub struct ChoiceSample {
     pub leaf: u32,

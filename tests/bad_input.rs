@@ -283,6 +283,14 @@ fn cases() -> Vec<Case> {
             s["integrator"] = json!({"type": "guided", "learn_from": "importons"})
         })
         .err(&["integrator.learn_from", "importons", "paths, photons"]),
+        edit("guided unknown target", |s| {
+            s["integrator"] = json!({"type": "guided", "target": "irradiance"})
+        })
+        .err(&["integrator.target", "irradiance", "radiance, variance"]),
+        edit("guided variance target from photons", |s| {
+            s["integrator"] = json!({"type": "guided", "target": "variance", "learn_from": "photons"})
+        })
+        .err(&["integrator.learn_from", "target 'variance'", "paths"]),
         edit("guided rr_threshold above 1", |s| {
             s["integrator"] = json!({"type": "guided", "rr_threshold": 2.0})
         })

@@ -112,7 +112,7 @@ pub struct InstanceDesc {
 ///   [`PathTracer`] (`spp` 32, `max_depth` 12, `profile`, `rr_threshold`),
 ///   [`Bdpt`] (as `path`, and `mis`, `strategy`, `strategy_weighted`, `visualize_strategies`, `connection_roulette`), [`Guided`] (`spp` 64,
 ///   `max_depth` 12, `rr_threshold`, `bsdf_fraction` 0.5, `training_iterations`, `combine`,
-///   `spatial_threshold`, `learn_direct`, `learn_fraction`, `learn_from`), [`Ptracer`]
+///   `spatial_threshold`, `learn_direct`, `learn_fraction`, `learn_from`, `target`), [`Ptracer`]
 ///   (`spp` 32, `max_depth` 12, `rr_threshold`),
 ///   [`PhotonMapper`] (`spp` 16, `n_photons`, `n_iterations`, `n_near_photons`, …),
 ///   [`Sppm`] (`spp` 64 iterations, `photons_per_iteration`, `initial_radius`, …),

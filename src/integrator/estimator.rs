@@ -138,10 +138,11 @@ pub trait Policy {
         let _ = after_delta;
         *l += c;
     }
-    /// A light sample whose term waits for its shadow ray (MIS weight `w`, density `light_pdf`).
+    /// A light sample whose term waits for its shadow ray (BSDF times cosine `f_cos`,
+    /// MIS weight `w`, density `light_pdf`).
     #[inline(always)]
-    fn light_sampled(&mut self, plan: &Self::Plan, ls: &LightSample, w: f32, light_pdf: f32) {
-        let _ = (plan, ls, w, light_pdf);
+    fn light_sampled(&mut self, plan: &Self::Plan, ls: &LightSample, f_cos: Vec3, w: f32, light_pdf: f32) {
+        let _ = (plan, ls, f_cos, w, light_pdf);
     }
     /// The waiting light sample's shadow ray let `tr > 0` through: `c` was added
     /// to the estimate.
@@ -473,7 +474,7 @@ impl PathState {
                 } else {
                     light_sample_weight(&ls, light_pdf, || policy.pdf(&v.plan, bsdf, it.wo, ls.wi))
                 };
-                policy.light_sampled(&v.plan, &ls, w, light_pdf);
+                policy.light_sampled(&v.plan, &ls, f * cos, w, light_pdf);
                 shadow = Some(Shadow {
                     ray: super::shadow_ray(it, &ls),
                     term: self.beta * f * ls.radiance * (cos * w / light_pdf),

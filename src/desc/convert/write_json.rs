@@ -112,6 +112,9 @@ pub fn to_json(desc: &SceneDesc, out: &Path) -> Result<Converted> {
                 crate::integrator::guided::LearnFrom::Photons => "photons",
             };
             integ.insert("learn_from".into(), learn_from.into());
+            if g.target == crate::integrator::guided::Target::Variance {
+                integ.insert("target".into(), "variance".into());
+            }
             if g.rr != Roulette::Mitsuba {
                 integ.insert("rr".into(), g.rr.name().into());
             }

@@ -298,14 +298,28 @@ fn parse_guided(p: &Props) -> Result<Guided> {
     }
     let learn_direct = p.bool_or("learn_direct", d.learn_direct)?;
     let learn_fraction = p.bool_or("learn_fraction", d.learn_fraction)?;
-    let learn_from = match p.string_or("learn_from", "photons")?.as_str() {
+    let target = match p.string_or("target", "radiance")?.as_str() {
+        "radiance" => guided::Target::Radiance,
+        "variance" => guided::Target::Variance,
+        other => return Err(p.error("target", format!("unknown target '{other}' (available: radiance, variance)"))),
+    };
+    // the variance-aware target is learned from the camera paths' second moments
+    let variance = target == guided::Target::Variance;
+    let learn_from = match p.string_or("learn_from", if variance { "paths" } else { "photons" })?.as_str() {
         "paths" => guided::LearnFrom::Paths,
+        "photons" if variance => {
+            return Err(p.error(
+                "learn_from",
+                "target 'variance' learns from the camera paths: learn_from must be 'paths' (or absent)",
+            ))
+        }
         "photons" => guided::LearnFrom::Photons,
         other => return Err(p.error("learn_from", format!("unknown learn_from '{other}' (available: paths, photons)"))),
     };
     Ok(Guided {
         rr: roulette(p)?,
         learn_from,
+        target,
         learn_direct,
         learn_fraction,
         max_depth,

@@ -4,7 +4,7 @@
 
 use super::combine::{combine, combine_weighted, current_image, pixel_variances, relative_variances, Part};
 use super::sdtree::{self, SdTree, TreeStats};
-use super::{Combine, DTree, Guided, LearnFrom, DECLINES_TO_STOP_TRAINING, GUIDED_PASS_COST, MAX_TRAINING_ITERATIONS, RHO};
+use super::{Combine, DTree, Guided, LearnFrom, Target, DECLINES_TO_STOP_TRAINING, GUIDED_PASS_COST, MAX_TRAINING_ITERATIONS, RHO};
 use crate::film::Film;
 use crate::integrator::PassContext;
 use crate::math::Vec3;
@@ -334,9 +334,10 @@ impl Guided {
         format!(
             "guided: schedule {}; learned from {}; combine {}; iterations: {}; SD-tree {} spatial leaves, {} directional nodes (depth ≤ {}), {:.1} MB; leaves per BSDF fraction {}",
             s.schedule,
-            match self.learn_from {
-                LearnFrom::Photons => "photons (one per pixel and training pass)",
-                LearnFrom::Paths => "camera paths",
+            match (self.learn_from, self.target) {
+                (LearnFrom::Photons, Target::Radiance) => "photons (one per pixel and training pass)",
+                (LearnFrom::Paths, Target::Radiance) => "camera paths",
+                (_, Target::Variance) => "the camera paths' second moments",
             },
             match self.combine {
                 Combine::Last => "last iteration",

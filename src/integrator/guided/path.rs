@@ -4,7 +4,7 @@
 //! non-specular vertices, judges roulette its own way and records the radiance
 //! each such vertex receives for the next iteration's distribution.
 
-use super::quadtree::{sphere_to_square, square_to_sphere, DTree};
+use super::quadtree::{sphere_to_square, square_to_sphere, DTree, Target};
 use super::sdtree::SdTree;
 use crate::geometry::{Ray, RayDifferential};
 use crate::integrator::ears;
@@ -182,6 +182,24 @@ pub struct Guiding<'a> {
     pub record_direct: bool,
     /// Sample with the leaves' learned fractions instead of `bsdf_fraction`.
     pub learn_fraction: bool,
+    /// What the records estimate (with `record_radiance`): with [`Target::Variance`] a
+    /// vertex records the second moment of its estimate, (F/q)²·q (F = f·|cos|·L̂_i, q
+    /// its density), whose mean over the directions of a cell is the cell's ∫E[F²].
+    pub target: Target,
+}
+
+impl Guiding<'_> {
+    /// What a record deposits for a sample of density `q` whose estimate F/q is
+    /// `fq` and whose incident radiance over `q` is `l_q` (nothing without
+    /// `record_radiance`: the tree learns from photons).
+    #[inline]
+    fn record_value(&self, l_q: f32, fq: f32, q: f32) -> f32 {
+        match self.target {
+            _ if !self.record_radiance => 0.0,
+            Target::Radiance => l_q,
+            Target::Variance => fq * fq * q,
+        }
+    }
 }
 
 /// Adds emission `c` found along the direction the last vertex sampled: every
@@ -411,11 +429,13 @@ impl<'g, const EARS: bool> Policy for Walk<'g, '_, EARS> {
         add_emission(l, self.verts, c, !after_delta && !self.guiding.record_direct);
     }
 
-    fn light_sampled(&mut self, plan: &Plan, ls: &LightSample, w: f32, light_pdf: f32) {
+    fn light_sampled(&mut self, plan: &Plan, ls: &LightSample, f_cos: Vec3, w: f32, light_pdf: f32) {
         let g = self.guiding;
         // a point light is no direction a guided sample can find
-        self.waiting_light =
-            (g.record && g.record_radiance && g.record_direct && !ls.delta).then(|| (plan.leaf, ls.wi, mean(ls.radiance) * w / light_pdf));
+        self.waiting_light = (g.record && g.record_radiance && g.record_direct && !ls.delta).then(|| {
+            let fq = mean(f_cos * ls.radiance) * w / light_pdf;
+            (plan.leaf, ls.wi, g.record_value(mean(ls.radiance) * w / light_pdf, fq, light_pdf))
+        });
     }
 
     fn light_arrived(&mut self, c: Vec3, tr: f32) {
@@ -429,7 +449,8 @@ impl<'g, const EARS: bool> Policy for Walk<'g, '_, EARS> {
             self.records.push(Record {
                 leaf,
                 cell: self.guiding.tree.record_cell(leaf, wi),
-                value: value * tr,
+                // the estimate F carries the transmittance, a second moment its square
+                value: value * if self.guiding.target == Target::Variance { tr * tr } else { tr },
                 counted: false,
                 fq: 0.0,
                 q: 0.0,
@@ -476,14 +497,15 @@ impl<const EARS: bool> Walk<'_, '_, EARS> {
                 if v.beta.y > 0.0 { c.y / v.beta.y } else { 0.0 },
                 if v.beta.z > 0.0 { c.z / v.beta.z } else { 0.0 },
             );
+            let fq = mean(arrived * v.weight).max(0.0);
             self.records.push(Record {
                 leaf: v.leaf,
                 cell: v.cell,
                 // nothing to deposit (and no deposit to leave out of the fraction
                 // choice) when the tree learns from elsewhere
-                value: if g.record_radiance { mean(arrived).max(0.0) / v.pdf } else { 0.0 },
+                value: g.record_value(mean(arrived).max(0.0) / v.pdf, fq, v.pdf),
                 counted: true,
-                fq: mean(arrived * v.weight).max(0.0),
+                fq,
                 q: v.pdf,
                 pb: v.pb,
                 p: v.p,

@@ -9,6 +9,10 @@
 //! `4·share` of each child within its node, so the density of a point on the
 //! square is the product of the factors along its path (no division, no sum per
 //! level), and sampling descends by them.
+//!
+//! With the variance-aware target ([`Target::Variance`]) the recorded sums are
+//! second moments, and a leaf cell's energy becomes the square root of its mean
+//! second moment times its area.
 
 use crate::math::{atan2_poly, Vec2, Vec3, PI};
 
@@ -54,6 +58,19 @@ pub fn square_to_sphere(p: Vec2) -> Vec3 {
 /// Largest f32 below 1.
 const ONE_BELOW: f32 = 1.0 - f32::EPSILON / 2.0;
 
+/// What a guide's density is learned to follow (Rath et al. 2020, "Variance-aware
+/// path guiding").
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Target {
+    /// The incident radiance (Müller et al. 2017), or the flux photons bring.
+    #[default]
+    Radiance,
+    /// √E[(f·|cos|·L̂_i)²]: the square root of the second moment of the vertex's
+    /// estimate, BSDF included, over the leaf's vertices; a cell's value is its area
+    /// times the root of its mean second moment.
+    Variance,
+}
+
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 struct Node {
     /// Recorded energies; after [`DTree::finish_recording`] the factors
@@ -69,6 +86,9 @@ pub struct DTree {
     nodes: Vec<Node>,
     /// Sum of the root's energies (0: nothing learned, the tree cannot sample).
     total: f32,
+    /// Whether the recorded sums are second moments ([`DTree::deposit_moment`]); once
+    /// the tree is finished, its leaf cells' energies are their roots.
+    moments: bool,
 }
 
 impl Default for DTree {
@@ -76,6 +96,7 @@ impl Default for DTree {
         DTree {
             nodes: vec![Node::default()],
             total: 0.0,
+            moments: false,
         }
     }
 }
@@ -167,9 +188,19 @@ impl DTree {
         self.nodes[(cell / 4) as usize].energy[(cell % 4) as usize] += energy;
     }
 
-    /// Makes the recorded leaf energies a distribution: inner energies become the
-    /// sums of their subtrees (in a fixed order), the total is set, and every
-    /// node's energies become its density factors `4·e_c / Σe`.
+    /// Adds a recorded second moment (the variance-aware target's record) to a leaf
+    /// cell from [`DTree::cell_of`]; a tree records energies or second moments, not both.
+    #[inline]
+    pub fn deposit_moment(&mut self, cell: u32, moment: f32) {
+        self.moments = true;
+        self.deposit(cell, moment);
+    }
+
+    /// Makes the recorded leaf energies a distribution: second moments become
+    /// √(sum × area) per leaf cell (the root of the cell's mean second moment, times
+    /// its area, up to one factor for the tree); inner energies become the sums of
+    /// their subtrees (in a fixed order), the total is set, and every node's energies
+    /// become its density factors `4·e_c / Σe`.
     pub fn finish_recording(&mut self) {
         fn sum(t: &mut DTree, n: usize) -> f32 {
             let mut s = 0.0f32;
@@ -181,6 +212,17 @@ impl DTree {
                 s += t.nodes[n].energy[c];
             }
             s
+        }
+        fn roots(t: &mut DTree, n: usize, area: f32) {
+            for c in 0..4 {
+                match t.nodes[n].child[c] {
+                    0 => t.nodes[n].energy[c] = (t.nodes[n].energy[c].max(0.0) * area).sqrt(),
+                    ch => roots(t, ch as usize, area * 0.25),
+                }
+            }
+        }
+        if self.moments {
+            roots(self, 0, 0.25);
         }
         let total = sum(self, 0);
         self.total = if total.is_finite() { total } else { 0.0 };
@@ -238,6 +280,32 @@ impl DTree {
             x = 2.0 * x - bx as u32 as f32;
             y = 2.0 * y - by as u32 as f32;
             n = next as usize;
+        }
+    }
+
+    /// The density on the square at `p` of the tree learned without one record there
+    /// that deposited `deposit` (energy, or a second moment where the tree learned
+    /// from those): a vertex's own record left out of the guide it is judged by.
+    pub fn pdf_square_without(&self, p: Vec2, deposit: f32) -> f64 {
+        let (pdf, area) = self.pdf_square_and_area(p);
+        let (pdf, area, total) = (pdf as f64, area as f64, self.total as f64);
+        let e = if deposit > 0.0 && deposit.is_finite() {
+            deposit as f64
+        } else {
+            0.0
+        };
+        let cell = pdf * area * total;
+        // what the record added to the cell's energy: with second moments the energy
+        // is the root √(S·area), which is √((S − e)·area) without the record
+        let added = if self.moments {
+            cell - (cell * cell - e * area).max(0.0).sqrt()
+        } else {
+            e
+        };
+        if total - added > 0.0 {
+            (cell - added).max(0.0) / ((total - added) * area)
+        } else {
+            0.0
         }
     }
 

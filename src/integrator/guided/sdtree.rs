@@ -27,7 +27,7 @@ pub struct Leaf {
 
 /// A vertex of the iteration, for its leaf's choice of BSDF fraction: F/q (F =
 /// f·|cos|·L_i, q its sampling density), q, the BSDF's density, the direction's
-/// point on the square, and the energy it deposited there.
+/// point on the square, and what it deposited there (energy, or a second moment).
 #[derive(Clone, Copy, Debug)]
 pub struct ChoiceSample {
     pub leaf: u32,
@@ -221,7 +221,8 @@ impl SdTree {
     /// whose estimated second moment of the vertex estimator,
     /// Σ (F/q)²·q / (α·p_bsdf + (1−α)·p_guide), is smallest (1, which skips the
     /// guide's lookups, unless another is below 0.6 of its), the guide's density
-    /// being the new tree's with the vertex's own deposit left out (leave-one-out:
+    /// being the new tree's with the vertex's own deposit left out
+    /// ([`DTree::pdf_square_without`], leave-one-out:
     /// the tree was learned from these vertices, and without it every vertex would
     /// find the guide at its own direction); a leaf with fewer takes the fraction
     /// its nearest ancestor's vertices choose together, and keeps its own when no
@@ -279,18 +280,7 @@ impl SdTree {
             if !usable || !t.can_sample() {
                 continue;
             }
-            let (pdf, area) = t.pdf_square_and_area(c.p);
-            let total = t.total() as f64;
-            let e = if c.value > 0.0 && c.value.is_finite() {
-                c.value as f64
-            } else {
-                0.0
-            };
-            let pg = if total - e > 0.0 {
-                ((pdf as f64 * area as f64 * total - e).max(0.0) / ((total - e) * area as f64)) / (4.0 * std::f64::consts::PI)
-            } else {
-                0.0
-            };
+            let pg = t.pdf_square_without(c.p, c.value) / (4.0 * std::f64::consts::PI);
             let x = c.fq as f64 * c.fq as f64 * c.q as f64;
             let m = &mut moments[c.leaf as usize];
             m.1 += 1;

@@ -106,7 +106,7 @@ pub const MAX_TRAINING_ITERATIONS: u32 = 6;
 /// sample with the guide, times this, is below that without (see [`State::guide`]).
 /// Measured: cbox_path and caustic_cbox at 33 spp, one training iteration, then
 /// every leaf at fraction 0.5: 3.23 and 3.23 CPU s against `path`'s 2.22 and 2.21
-/// (AMD EPYC Zen 5, AVX-512, loaded).
+/// (AMD EPYC family 25 model 17, Zen 4, AVX-512, loaded).
 pub const GUIDED_PASS_COST: f64 = 1.5;
 
 /// Measurements in a row that find the guide does not pay its cost (see

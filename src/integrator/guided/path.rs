@@ -194,8 +194,10 @@ impl Guiding<'_> {
     /// `record_radiance`: the tree learns from photons).
     #[inline]
     fn record_value(&self, l_q: f32, fq: f32, q: f32) -> f32 {
+        if !self.record_radiance {
+            return 0.0;
+        }
         match self.target {
-            _ if !self.record_radiance => 0.0,
             Target::Radiance => l_q,
             Target::Variance => fq * fq * q,
         }

@@ -2,7 +2,7 @@
 //! end of a training iteration (the tree rebuilt, the leaves' fractions chosen)
 //! and the summary.
 
-use super::combine::{combine, combine_weighted, current_image, pixel_variances, relative_variances, Part};
+use super::combine::{combine, combine_weighted, current_image, difference_variances, pixel_variances, relative_variances, Part};
 use super::sdtree::{self, SdTree, TreeStats};
 use super::{Combine, DTree, Guided, LearnFrom, Target, DECLINES_TO_STOP_TRAINING, GUIDED_PASS_COST, MAX_TRAINING_ITERATIONS, RHO};
 use crate::film::Film;
@@ -61,23 +61,32 @@ pub struct State {
     /// that without, every leaf samples its BSDF alone and the passes are `path`'s
     /// (its packets): a few leaves guiding for a few per cent cost every pass the
     /// guided code. A training iteration's first pass samples the other way than its
-    /// rest, and the two images against the finished iterations' measure both
-    /// (roulette's part included), so that sample counts decide, never the clock.
-    /// The guide is taken up where two measurements in a row find it pays and left
-    /// where one finds it does not: a few pixels' fireflies swing one measurement
-    /// (veach_path at 64 spp measured 1.35, 0.02, 81.6, 0.39 in turn).
+    /// rest; it and the second pass, one sample per pixel each, against the other
+    /// samples measure both (roulette's part included; see
+    /// [`Guided::probe_variance_ratio`]), so that sample counts decide, never the clock.
+    /// One measurement that finds the guide pays takes it up; it is left, and training
+    /// stops, after [`DECLINES_TO_STOP_TRAINING`] in a row that find it does not, or one
+    /// that finds a guided sample no less noisy than an unguided one.
     pub guide: bool,
-    /// Whether the last measurement found that the guide pays.
-    pub(super) paid: bool,
     /// Measurements in a row that found the guide does not pay.
     pub(super) declined: u32,
     /// Whether training stopped where the guide does not pay (see
     /// [`DECLINES_TO_STOP_TRAINING`]): the rest of the render is the final iteration.
     pub training_stopped: bool,
-    /// The film's sums after the current training iteration's first pass.
-    pub(super) probe: Option<(Vec<[f64; 3]>, Vec<f64>)>,
+    /// The film's sums after the current training iteration's first and second passes.
+    pub(super) probe: Vec<(Vec<[f64; 3]>, Vec<f64>)>,
     /// EARS's statistics (`rr: "ears"`), from the passes that played it.
     pub(super) ears: Option<Box<crate::integrator::ears::State>>,
+}
+
+impl State {
+    /// Keeps the film's sums after a training iteration's first and second passes.
+    pub(super) fn keep_probe(&mut self) {
+        if self.passes <= 2 {
+            let sums = self.film.sums();
+            self.probe.push((sums.sum.clone(), sums.weight.clone()));
+        }
+    }
 }
 
 /// A finished iteration's image and the variance of each of its pixel means.
@@ -155,8 +164,7 @@ impl Guided {
             finished: Vec::new(),
             choice: Vec::new(),
             guide: !self.learn_fraction || self.learn_from == LearnFrom::Paths,
-            probe: None,
-            paid: false,
+            probe: Vec::new(),
             declined: 0,
             training_stopped: false,
             ears: None,
@@ -179,7 +187,7 @@ impl Guided {
         s.length = if s.last { remaining } else { length };
         s.passes = 0;
         s.recorded = 0;
-        s.probe = None;
+        s.probe.clear();
         s.history.push(IterationInfo {
             last: s.last,
             guided: s.guide,
@@ -197,10 +205,9 @@ impl Guided {
         let mut hopeless = false;
         if let Some(r) = variance_ratio {
             let pays = r * GUIDED_PASS_COST < 1.0;
-            s.guide = pays && s.paid;
-            s.paid = pays;
-            s.declined = if pays { 0 } else { s.declined + 1 };
             hopeless = r >= 1.0;
+            s.declined = if pays { 0 } else { s.declined + 1 };
+            s.guide = pays || (s.guide && s.declined < DECLINES_TO_STOP_TRAINING && !hopeless);
         }
         // training stops where the guide is off and cannot pay (see
         // `DECLINES_TO_STOP_TRAINING`): the tree is not used again, so not rebuilt either
@@ -242,43 +249,28 @@ impl Guided {
 
     /// The relative variance per sample of the current training iteration's passes
     /// that sampled the guide over that of those that did not; `None` without two
-    /// kinds of passes to compare or a finished iteration, or where the gate does not
-    /// apply (see [`State::guide`]). Three independent images, the first pass's (f),
-    /// the rest's (r, n passes) and the finished iterations' (m), give three squared
-    /// differences summed over the pixels with relMSE's weights (m standing in for
-    /// the reference): D_fr = a + b/n, D_fm = a + M, D_rm = b/n + M, solved for the
-    /// variance per sample of the first pass (a) and of the rest (b).
-    fn probe_variance_ratio(&self, s: &State) -> Option<f64> {
+    /// passes or a finished iteration, or where the gate does not apply (see
+    /// [`State::guide`]). The first two passes, one sampled each way, give two images of
+    /// one sample per pixel (f, s), the finished iterations and the later passes a third
+    /// (m), all independent; their squared differences with relMSE's weights (m standing
+    /// in for the reference) are per pixel a + b, a + M and b + M, solved for the
+    /// variances per sample of the first pass (a) and of the second (b) by
+    /// [`difference_variances`], which a handful of pixels' fireflies cannot swing. One
+    /// sample against one, so that its medians treat both alike: against the mean of all
+    /// the later passes, whose tails average out, the one-sample probe's tail was cut more,
+    /// and veach_path's guide measured 0.34, 0.59 and 0.49 in three of 18 iterations, as if it
+    /// paid (one against one 0.94, 0.74, 0.84). Where no leaf guides, the two passes
+    /// sampled alike: the ratio is 1.
+    pub(super) fn probe_variance_ratio(&self, s: &State) -> Option<f64> {
         if !self.learn_fraction || self.learn_from == LearnFrom::Paths || s.passes < 2 {
             return None;
         }
-        let (probe_sum, probe_weight) = s.probe.as_ref()?;
-        let parts: Vec<Part> = s.finished.iter().map(Finished::part).collect();
-        let weights: Vec<f64> = parts.iter().map(|p| p.spp as f64).collect();
-        if weights.iter().sum::<f64>() == 0.0 {
-            return None;
+        if s.tree.leaves.iter().all(|l| l.bsdf_fraction >= 1.0) {
+            return Some(1.0);
         }
-        let mean = combine_weighted(&parts, &weights, s.moments.len());
-        let sums = s.film.sums();
-        let luminance = |s: [f64; 3]| (s[0] + s[1] + s[2]) / 3.0;
-        let (mut fr, mut fm, mut rm) = (0.0f64, 0.0f64, 0.0f64);
-        for (i, m) in mean.iter().enumerate() {
-            let (w1, w) = (probe_weight[i], sums.weight[i]);
-            if w1 <= 0.0 || w - w1 <= 0.0 {
-                continue;
-            }
-            let m = (m.x + m.y + m.z) as f64 / 3.0;
-            let f = luminance(probe_sum[i]) / w1;
-            let r = luminance(std::array::from_fn(|c| sums.sum[i][c] - probe_sum[i][c])) / (w - w1);
-            let weight = 1.0 / (m * m + 0.01);
-            fr += weight * (f - r).powi(2);
-            fm += weight * (f - m).powi(2);
-            rm += weight * (r - m).powi(2);
-        }
-        let first = 0.5 * (fr + fm - rm);
-        let rest = 0.5 * (fr + rm - fm) * (s.passes - 1) as f64;
-        let (with, without) = if s.guide { (rest, first) } else { (first, rest) };
-        (with > 0.0 && without > 0.0 && with.is_finite() && without.is_finite()).then(|| with / without)
+        let (first, second) = difference_variances(&probe_terms(s)?)?;
+        let (with, without) = if s.guide { (second, first) } else { (first, second) };
+        Some(with / without)
     }
 
     /// The image so far (film rows, y up): the iterations, finished and current,
@@ -356,4 +348,45 @@ impl Guided {
                 .join(", "),
         ) + &ears
     }
+}
+
+/// Each pixel's weighted squared differences of the current training iteration's first
+/// pass (f), its second (s) and the other samples (m: the finished iterations and the later
+/// passes): [(f − s)², (f − m)², (s − m)²] / (m² + 0.01); `None` before the second pass or
+/// without a finished iteration.
+fn probe_terms(s: &State) -> Option<Vec<[f64; 3]>> {
+    let [(sum1, weight1), (sum2, weight2)] = &s.probe[..] else {
+        return None;
+    };
+    let parts: Vec<Part> = s.finished.iter().map(Finished::part).collect();
+    let weights: Vec<f64> = parts.iter().map(|p| p.spp as f64).collect();
+    let finished_spp: f64 = weights.iter().sum();
+    if finished_spp == 0.0 {
+        return None;
+    }
+    let finished = combine_weighted(&parts, &weights, s.moments.len());
+    let sums = s.film.sums();
+    let later_spp = s.passes.saturating_sub(2) as f64;
+    let luminance = |x: [f64; 3]| (x[0] + x[1] + x[2]) / 3.0;
+    let mean_between = |a: &[f64; 3], b: &[f64; 3], w: f64| luminance(std::array::from_fn(|c| a[c] - b[c])) / w;
+    let mut terms = Vec::with_capacity(finished.len());
+    for (i, m) in finished.iter().enumerate() {
+        let (w1, w2, w) = (weight1[i], weight2[i] - weight1[i], sums.weight[i] - weight2[i]);
+        if w1 <= 0.0 || w2 <= 0.0 {
+            continue;
+        }
+        let f = luminance(sum1[i]) / w1;
+        let second = mean_between(&sum2[i], &sum1[i], w2);
+        let mut m = (m.x + m.y + m.z) as f64 / 3.0;
+        if w > 0.0 {
+            m = (m * finished_spp + mean_between(&sums.sum[i], &sum2[i], w) * later_spp) / (finished_spp + later_spp);
+        }
+        let weight = 1.0 / (m * m + 0.01);
+        terms.push([
+            weight * (f - second).powi(2),
+            weight * (f - m).powi(2),
+            weight * (second - m).powi(2),
+        ]);
+    }
+    Some(terms)
 }

@@ -43,16 +43,20 @@
 //! iteration (a leaf with too few vertices takes its nearest ancestor's choice);
 //! there is no global switch on an estimate. What guiding costs is weighed by
 //! measurement ([`State::guide`]): a training iteration's first pass samples the
-//! other way than its other passes, and the guide is used while the variance per
-//! sample it leaves, times [`GUIDED_PASS_COST`], is below that without (two
-//! measurements in a row to take it up, one to leave it). While it is not used, or
-//! every leaf chooses BSDF sampling alone, a training iteration records (and shoots
-//! photons) in its first pass only and renders its other passes with `path`'s own
-//! code, as does such a final iteration (its packets, without inverse-variance
-//! weights to estimate): the guide keeps learning at the cost of one pass per
-//! iteration. Training stops where the guide is off and two measurements in a row
-//! find it does not pay, or one finds a guided sample no less noisy than an unguided
-//! one ([`DECLINES_TO_STOP_TRAINING`]): the rest of the budget is then the final
+//! other way than its other passes, and in an iteration of two passes or more the
+//! first two, one sample per pixel each way, measure the variance per sample with and
+//! without the guide, against the iteration's other samples and the finished
+//! iterations' ([`difference_variances`]: medians over blocks of pixels, so that a few
+//! pixels' fireflies cannot decide). One measurement that finds the variance with the
+//! guide, times [`GUIDED_PASS_COST`], below that without takes the guide up. While it is
+//! not used, or every leaf chooses BSDF sampling alone, a training iteration records
+//! (and shoots photons) in its first pass only and renders its other passes with
+//! `path`'s own code, as does such a final iteration (its packets, without
+//! inverse-variance weights to estimate): the guide keeps learning at the cost of one
+//! pass per iteration. Where two measurements in a row find the guide does not pay, or
+//! one finds a guided sample no less noisy than an unguided one, or no leaf guides at
+//! all (the two passes then sample alike), a guide in use is left and training stops
+//! ([`DECLINES_TO_STOP_TRAINING`]): the rest of the budget is then the final
 //! iteration, `path`'s passes, and the tree is not rebuilt.
 //!
 //! Media: the estimator tracks them as for `path`; guiding acts at surface
@@ -68,7 +72,10 @@ pub mod path;
 pub mod quadtree;
 pub mod sdtree;
 
-pub use combine::{combine, combine_weighted, iteration_weights, pixel_variances, relative_variances, relative_variances_within, Part};
+pub use combine::{
+    combine, combine_weighted, difference_variances, iteration_weights, pixel_variances, relative_variances, relative_variances_within,
+    Part,
+};
 pub use iteration::{IterationInfo, State};
 pub use path::{Guiding, Mixture, Record, Scratch};
 pub use quadtree::{sphere_to_square, square_to_sphere, DTree, Target};
@@ -110,13 +117,20 @@ pub const MAX_TRAINING_ITERATIONS: u32 = 6;
 pub const GUIDED_PASS_COST: f64 = 1.5;
 
 /// Measurements in a row that find the guide does not pay its cost (see
-/// [`State::guide`]) after which training stops while the guide is off (as it does
-/// after one that finds a guided sample no less noisy than an unguided one): the rest
-/// of the spp budget is the final iteration, `path`'s passes, without photons, records
-/// or tree builds. A recording pass costs about 2.5 `path` passes (its photons, the
-/// scalar camera paths and records, the tree's rebuild); one "no" was not enough:
-/// caustic_cbox (seed 3) said no first and yes next.
+/// [`State::guide`]) after which a guide in use is left and training stops (as after
+/// one that finds a guided sample no less noisy than an unguided one, or where no leaf
+/// guides): the rest of the spp budget is the final iteration, `path`'s passes, without
+/// photons, records or tree builds. A recording pass costs about 2.5 `path` passes (its
+/// photons, the scalar camera paths and records, the tree's rebuild); one "no" was not
+/// enough: caustic_cbox (seeds 3 and 5, 64 spp) measured 0.79 and 0.73 first (the
+/// guide pays below 1/1.5) and 0.38 and 0.39 next.
 pub const DECLINES_TO_STOP_TRAINING: u32 = 2;
+
+/// Blocks of pixels (dealt out in turn) over which the switch's measurement takes its
+/// medians ([`difference_variances`]): fewer than 8 pixels' fireflies move none, and a tail
+/// of one bright sample in a few thousand pixels still lands in most blocks (4,369
+/// pixels each at 256²).
+pub const PROBE_BLOCKS: usize = 15;
 
 /// Energy share above which a directional cell is split (the paper's ρ).
 pub const RHO: f32 = 0.01;
@@ -405,9 +419,8 @@ impl Guided {
         let info = s.history.last_mut().expect("an iteration is running");
         info.spp = s.passes;
         info.seconds += start.elapsed().as_secs_f64();
-        if s.passes == 1 && !s.last {
-            let sums = s.film.sums();
-            s.probe = Some((sums.sum.clone(), sums.weight.clone()));
+        if !s.last {
+            s.keep_probe();
         }
         if s.passes >= s.length && !s.last {
             self.end_iteration(s, ctx);

@@ -739,17 +739,18 @@ fn variance_target_converges_to_the_path_traced_references() {
 }
 
 /// The cost-aware switch ([`rdr::integrator::guided::State::guide`]): at full size and
-/// 64 spp (seed 1) caustic_cbox takes the guide up and renders its final 32 spp guided,
-/// cbox_path, where guiding does not pay its cost, leaves it off and stops training
-/// after two measurements in a row found it does not pay
-/// (`guided::DECLINES_TO_STOP_TRAINING`): its final iteration, unguided, takes the rest of the
-/// 64 spp. Decisions depend on sample counts and images only, so the outcome is fixed.
+/// 64 spp caustic_cbox (seeds 1 and 3) takes the guide up and renders its final 32 spp
+/// guided; cbox_path (seed 1), where guiding does not pay its cost, leaves it off and
+/// stops training after the first two measurements, 8 spp
+/// (`guided::DECLINES_TO_STOP_TRAINING`): its final iteration, unguided, takes the rest of
+/// the 64 spp. Decisions depend on sample counts and images only, so the outcome is fixed.
 /// Measured relative variance per sample with the guide over without, times the guided
-/// pass's cost (1.5), per training iteration: caustic_cbox 0.70, 0.78, 0.88, 0.66;
-/// cbox_path 0.97, 1.35, 1.26 (then training stops). With the cost divided instead of
-/// multiplied cbox_path takes the guide up (see the assertion's message); with the
-/// guide always on, the same; with training never stopped, cbox_path's final iteration
-/// is 32 spp.
+/// pass's cost (1.5), per training iteration: caustic_cbox seed 1 0.70, 0.92, 0.65, 0.50;
+/// seed 3 1.19, 0.57, 0.77, 0.89 (it never took the guide up when two measurements in a
+/// row had to pay); cbox_path 1.21, 1.50. With the plain means over all pixels
+/// (`guided::PROBE_BLOCKS` 1) cbox_path measured 0.97, took the guide up and trained 16 spp;
+/// with three declines to stop, it trained 16 spp too. With the cost divided instead of
+/// multiplied cbox_path takes the guide up (see the assertion's message).
 #[test]
 fn the_cost_aware_switch_guides_caustic_cbox_and_not_cbox_path() {
     let Some(shared) = shared() else { return };
@@ -815,12 +816,11 @@ fn uniform_noise(rng: &mut Rng, variance: f64) -> f64 {
 /// independent images X and Y from their squared differences with each other and with a
 /// third, Z. 256² pixels, X of variance 1, Y of 2 (ratio 0.5), Z of 0.5. (a) Seven
 /// pixels hold fireflies (five of X, one of Y, one of Z, 300 each): a handful of pixels
-/// must not decide; measured ratio 0.493 (|ln| error 0.014); the plain means (the
-/// estimate before) gave 1.59 (error 1.16). (b) Y's variance 3 comes mostly from a
-/// tail that a render does see: 50 in one pixel of 1000 (2.5 of the 3): measured 0.467
-/// (error 0.068); with 255 blocks of pixels instead of 15 (each 257 pixels, most
-/// without a tail sample) 2.68 (error 1.68), with the highest 0.2 % of each column's
-/// terms clamped 2.90 (error 1.76).
+/// must not decide; measured ratio 0.506 (|ln| error 0.012); the plain means over all
+/// pixels (the estimate before; `PROBE_BLOCKS` 1) gave 2.31 (error 1.53). (b) Y's
+/// variance 3 comes mostly from a tail that a render does see: 50 in one pixel of 1000
+/// (2.5 of the 3): measured 0.438 (error 0.132); with 255 blocks of pixels instead of
+/// 15 (257 pixels each, most without a tail sample) 2.81 (error 1.73).
 #[test]
 fn the_switchs_measurement_ignores_a_handful_of_fireflies_but_not_a_heavy_tail() {
     let pixels = 256 * 256;

@@ -63,7 +63,7 @@ pub struct State {
     /// guided code. A training iteration's first pass samples the other way than its
     /// rest; it and the second pass, one sample per pixel each, against the other
     /// samples measure both (roulette's part included; see
-    /// [`Guided::probe_variance_ratio`]), so that sample counts decide, never the clock.
+    /// `Guided::probe_variance_ratio`), so that sample counts decide, never the clock.
     /// One measurement that finds the guide pays takes it up; it is left, and training
     /// stops, after [`DECLINES_TO_STOP_TRAINING`] in a row that find it does not, or one
     /// that finds a guided sample no less noisy than an unguided one.
@@ -261,7 +261,7 @@ impl Guided {
     /// and veach_path's guide measured 0.34, 0.59 and 0.49 in three of 18 iterations, as if it
     /// paid (one against one 0.94, 0.74, 0.84). Where no leaf guides, the two passes
     /// sampled alike: the ratio is 1.
-    pub(super) fn probe_variance_ratio(&self, s: &State) -> Option<f64> {
+    fn probe_variance_ratio(&self, s: &State) -> Option<f64> {
         if !self.learn_fraction || self.learn_from == LearnFrom::Paths || s.passes < 2 {
             return None;
         }

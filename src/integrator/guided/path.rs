@@ -383,9 +383,14 @@ impl<'g, const EARS: bool> Policy for Walk<'g, '_, EARS> {
             } else {
                 g.bsdf_fraction
             };
+            // BSDF sampling alone skips the guide
+            let guide = if fraction >= 1.0 { None } else { g.tree.guide(leaf) };
+            if let Some(t) = guide {
+                // its lookups come after the light sample
+                t.prefetch_top();
+            }
             Mixture {
-                // BSDF sampling alone skips the guide
-                guide: if fraction >= 1.0 { None } else { g.tree.guide(leaf) },
+                guide,
                 bsdf_fraction: fraction,
             }
         };

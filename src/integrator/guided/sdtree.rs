@@ -138,17 +138,20 @@ impl SdTree {
         if !q.is_finite() {
             q = Vec3::ZERO;
         }
+        // the axes in turn, unrolled: each coordinate stays in a register (indexed by
+        // the axis, the point went through memory and every level waited on a store)
+        let (mut x, mut y, mut z) = (q.x, q.y, q.z);
         let mut n = 0usize;
-        let mut axis = 0usize;
         loop {
-            let node = self.nodes[n];
-            if node & LEAF != 0 {
-                return node & !LEAF;
+            for c in [&mut x, &mut y, &mut z] {
+                let node = self.nodes[n];
+                if node & LEAF != 0 {
+                    return node & !LEAF;
+                }
+                let upper = *c >= 0.5;
+                *c = 2.0 * *c - upper as u32 as f32;
+                n = node as usize + upper as usize;
             }
-            let upper = q[axis] >= 0.5;
-            q[axis] = 2.0 * q[axis] - upper as u32 as f32;
-            n = node as usize + upper as usize;
-            axis = if axis == 2 { 0 } else { axis + 1 };
         }
     }
 

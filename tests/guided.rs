@@ -1328,3 +1328,59 @@ fn batched_recording_cells_are_the_one_at_a_time_cells() {
     );
     assert_eq!((batched.len(), wrong), (queries.len(), 0));
 }
+
+/// A guided pass where the scene traces packets takes `path`'s: camera rays and their
+/// shadow rays as packets, each lane then walking on alone with its own records, which
+/// are put back in the pixels' order. The trees learned (mid-iteration too: 6 passes
+/// end inside the 4-spp iteration, whose recording trees hold part of their
+/// deposits) and the image are those of ray-by-ray passes bit for bit:
+/// records from paths with direct light (cornell, 37×29 under a wide filter, whose
+/// samples add in order), from photons (caustic_cbox), the variance target under a
+/// sky (env_sphere).
+#[test]
+fn packet_passes_learn_and_render_as_ray_by_ray() {
+    let res = r#"{"film": {"resolution": [37, 29], "filter": {"type": "gaussian", "radius": 1.5}}}"#;
+    let mut cases = vec![(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell.json"),
+        r#"{"integrator": {"type": "guided", "learn_fraction": false, "learn_from": "paths", "learn_direct": true, "spatial_threshold": 100}}"#,
+    )];
+    if let Some(shared) = shared() {
+        cases.push((
+            shared.join("refs/scenes/caustic_cbox.json"),
+            r#"{"integrator": {"type": "guided", "learn_fraction": false, "spatial_threshold": 100}}"#,
+        ));
+        cases.push((
+            shared.join("refs/scenes/env_sphere.json"),
+            r#"{"integrator": {"type": "guided", "learn_fraction": false, "target": "variance", "spatial_threshold": 100}}"#,
+        ));
+    }
+    for (file, o) in cases {
+        let mut loaded = load_scene(&file, &[res, o], Profile::Physical);
+        assert!(loaded.scene.packets(), "{}: packets expected", file.display());
+        let run = |loaded: &rdr::Loaded| {
+            let mut state = train(loaded, 6);
+            let tree = state.guided().as_ref().expect("a guided state").tree.clone();
+            let job = rdr::RenderJob {
+                spp: 16,
+                target_spp: 16,
+                seed: 5,
+                ..loaded.job.clone()
+            };
+            let out = rdr::render(&loaded.scene, &job, &RenderControl::default());
+            let bits: Vec<[u32; 3]> = out.pixels.iter().map(|p| p.to_array().map(f32::to_bits)).collect();
+            (tree, bits)
+        };
+        let packets = run(&loaded);
+        assert!(loaded.scene.bvh.set_packet_width(0));
+        let alone = run(&loaded);
+        let name = file.display();
+        let differ = packets.1.iter().zip(&alone.1).filter(|(a, b)| a != b).count();
+        let leaves_differ = packets.0.leaves.iter().zip(&alone.0.leaves).filter(|(a, b)| a != b).count();
+        eprintln!(
+            "{name}: {leaves_differ} of {} leaves and {differ} pixels differ",
+            alone.0.leaves.len()
+        );
+        assert!(packets.0 == alone.0, "{name}: the trees differ ({leaves_differ} leaves)");
+        assert_eq!(differ, 0, "{name}: {differ} pixels differ from ray-by-ray");
+    }
+}

@@ -313,6 +313,8 @@ const _: () = assert!((BLOCK_W * BLOCK_H) as usize == LANES);
 /// The camera samples of a pixel block (up to [`BLOCK_W`]×[`BLOCK_H`] pixels, rows
 /// in order): what a packet integrator shades together.
 pub struct CameraBlock<'s> {
+    /// The pixels, and their film positions.
+    pub pixels: &'s [(i32, i32)],
     pub pos: &'s [Vec2],
     pub rays: &'s [Ray],
     pub diffs: &'s [Option<RayDifferential>],
@@ -329,6 +331,18 @@ pub fn camera_pass_blocks<F>(ctx: &PassContext, pass: u32, film: &mut Film, li: 
 where
     F: Fn(&mut CameraBlock, &mut [Vec3]) + Sync,
 {
+    camera_pass_blocks_with(ctx, pass, film, || (), |b, out, _| li(b, out)).0
+}
+
+/// [`camera_pass_blocks`] with something each tile collects besides its samples (as
+/// [`camera_pass_with`]), handed to `li` with every block of the tile; the tiles'
+/// collections come back in tile order (none when the pass was stopped).
+pub fn camera_pass_blocks_with<T, N, F>(ctx: &PassContext, pass: u32, film: &mut Film, new: N, li: F) -> (PassResult, Vec<T>)
+where
+    T: Send,
+    N: Fn() -> T + Sync,
+    F: Fn(&mut CameraBlock, &mut [Vec3], &mut T) + Sync,
+{
     const N: usize = (BLOCK_W * BLOCK_H) as usize;
     let diff_scale = differential_scale(ctx.target_spp);
     // no lens, no differentials, no clipping: the block's rays are made together
@@ -337,6 +351,7 @@ where
     // the block loop (samplers, camera rays, film adds, the integrator's inlined code)
     // compiled for the render's kernel set
     tile_pass(ctx, pass, film, |t| {
+        let mut own = new();
         isa.run(
             #[inline(always)]
             || {
@@ -387,6 +402,7 @@ where
                         let mut l = [Vec3::ZERO; N];
                         li(
                             &mut CameraBlock {
+                                pixels: px,
                                 pos: &pos[..n],
                                 rays: &rays[..n],
                                 diffs: &diffs[..n],
@@ -395,6 +411,7 @@ where
                                 splats: &mut t.splats,
                             },
                             &mut l[..n],
+                            &mut own,
                         );
                         for (i, &(x, y)) in px.iter().enumerate() {
                             if in_order {
@@ -419,9 +436,9 @@ where
                     }
                 }
             },
-        )
+        );
+        own
     })
-    .0
 }
 
 /// The lens point's sample for a camera ray: a thin lens takes the pixel sampler's next

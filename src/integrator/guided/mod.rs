@@ -81,9 +81,10 @@ pub use path::{Guiding, Mixture, Record, Scratch};
 pub use quadtree::{sphere_to_square, square_to_sphere, DTree, Target};
 pub use sdtree::{SdTree, TreeStats};
 
-use super::pass::{camera_pass_blocks, camera_pass_with};
+use super::pass::{camera_pass_blocks, camera_pass_blocks_with, camera_pass_with};
 use super::photon::{shoot_into, Shooting};
 use super::{ears, PassContext, PassResult, PathProfile, PathTracer, RayCounts, Roulette};
+use crate::accel::wide::PACKET;
 use crate::math::Vec3;
 use crate::sampler::hash_combine;
 use rayon::prelude::*;
@@ -332,34 +333,62 @@ impl Guided {
             }
             return result;
         }
-        // each tile's records and the samples' means (pixel, value) for the moments
-        // (and EARS's sub-paths and records)
-        let new_tile = || (Scratch::default(), Vec::<(usize, f64)>::new(), ears::Scratch::default());
         let width = ctx.film.width as usize;
         let pixels = (ctx.film.width * ctx.film.height) as usize;
-        let (mut result, tiles) = camera_pass_with(ctx, sample_index, film, new_tile, |s, (scratch, means, split)| {
-            let mark = scratch.records.len();
-            let pixel = s.pixel.1 as usize * width + s.pixel.0 as usize;
-            let rays = s.counts.rays;
-            let l = match (&path, learned) {
-                (Some(p), Some(e)) => ears::li(p, e, scene, s, pixel, &mut split.branches),
-                (Some(p), None) => p.li(scene, s.ray, s.diff, s.sampler, s.counts),
-                (None, Some(e)) => {
-                    let learned = (e, e.pixel_factor(pixel));
-                    guiding.li_ears(scene, s, scratch, learned, &mut split.branches)
+        // each tile's records (in its pixels' order) and the samples' means (pixel, value)
+        // for the moments (and EARS's sub-paths and records)
+        let (mut result, tiles) = if path.is_none() && learned.is_none() && scene.packets() && !scene.has_media {
+            // `path`'s packets for the camera rays and their shadow rays, each lane then
+            // walking on alone; its records kept apart, and put in the pixels' order below
+            let (result, tiles) = camera_pass_blocks_with(ctx, sample_index, film, PacketTile::default, |b, out, t| {
+                guiding.li_block(scene, b, out, &mut t.lanes);
+                for (i, &(x, y)) in b.pixels.iter().enumerate() {
+                    let pixel = y as usize * width + x as usize;
+                    let lane = &mut t.lanes[i].records;
+                    if out[i].is_finite() {
+                        t.means.push((pixel, sample_mean(out[i])));
+                        let start = t.records.len();
+                        t.records.append(lane);
+                        t.spans.push((pixel, start, t.records.len()));
+                    } else {
+                        lane.clear();
+                    }
                 }
-                (None, None) => guiding.li(scene, s.ray, s.diff, s.sampler, s.counts, scratch),
-            };
-            if learned.is_some() {
-                split.keep_sample(pixel, pixels, l, s.counts.rays - rays);
-            }
-            if l.is_finite() {
-                means.push((pixel, ((l.x + l.y + l.z) / 3.0) as f64));
-            } else {
-                scratch.records.truncate(mark);
-            }
-            l
-        });
+            });
+            (result, tiles.into_iter().map(PacketTile::in_pixel_order).collect())
+        } else {
+            let new_tile = || (Scratch::default(), Vec::<(usize, f64)>::new(), ears::Scratch::default());
+            let (result, tiles) = camera_pass_with(ctx, sample_index, film, new_tile, |s, (scratch, means, split)| {
+                let mark = scratch.records.len();
+                let pixel = s.pixel.1 as usize * width + s.pixel.0 as usize;
+                let rays = s.counts.rays;
+                let l = match (&path, learned) {
+                    (Some(p), Some(e)) => ears::li(p, e, scene, s, pixel, &mut split.branches),
+                    (Some(p), None) => p.li(scene, s.ray, s.diff, s.sampler, s.counts),
+                    (None, Some(e)) => {
+                        let learned = (e, e.pixel_factor(pixel));
+                        guiding.li_ears(scene, s, scratch, learned, &mut split.branches)
+                    }
+                    (None, None) => guiding.li(scene, s.ray, s.diff, s.sampler, s.counts, scratch),
+                };
+                if learned.is_some() {
+                    split.keep_sample(pixel, pixels, l, s.counts.rays - rays);
+                }
+                if l.is_finite() {
+                    means.push((pixel, sample_mean(l)));
+                } else {
+                    scratch.records.truncate(mark);
+                }
+                l
+            });
+            (
+                result,
+                tiles
+                    .into_iter()
+                    .map(|(scratch, means, split)| (scratch.records, means, split))
+                    .collect::<Vec<_>>(),
+            )
+        };
         result.counts += counts;
         if !result.complete {
             return result;
@@ -369,14 +398,14 @@ impl Guided {
         if let (true, Some(e)) = (ears_pass, s.ears.as_mut()) {
             e.add_pass(tiles.iter().map(|t| &t.2), width);
         }
-        for (scratch, means, _) in &tiles {
+        for (records, means, _) in &tiles {
             for &(pixel, y) in means {
                 let m = &mut s.moments[pixel];
                 m[0] += y;
                 m[1] += y * y;
                 m[2] += 1.0;
             }
-            for r in &scratch.records {
+            for r in records {
                 let leaf = &mut s.tree.leaves[r.leaf as usize];
                 if r.counted {
                     leaf.count += 1;
@@ -464,6 +493,33 @@ impl Guided {
         counts.rays += rays;
         chunks.par_iter_mut().for_each(|d| d.cells = tree.record_cells(&d.queries));
         Some(chunks)
+    }
+}
+
+/// A sample's radiance as the per-pixel moments take it (the mean over channels).
+fn sample_mean(l: Vec3) -> f64 {
+    ((l.x + l.y + l.z) / 3.0) as f64
+}
+
+/// What a tile of a packet pass collects: each lane's buffers, the records of the
+/// tile's samples in block order with each sample's span there (pixel, start, end),
+/// and the samples' means (pixel, value).
+#[derive(Default)]
+struct PacketTile {
+    lanes: [Scratch; PACKET],
+    records: Vec<Record>,
+    spans: Vec<(usize, usize, usize)>,
+    means: Vec<(usize, f64)>,
+}
+
+impl PacketTile {
+    /// The tile as a ray-by-ray pass leaves it: the records by pixel, rows in order (a
+    /// tile's pixel indices grow in that order), each sample's in its walk's order, so
+    /// that the trees do not depend on how the pass traced.
+    fn in_pixel_order(mut self) -> (Vec<Record>, Vec<(usize, f64)>, ears::Scratch) {
+        self.spans.sort_unstable_by_key(|s| s.0);
+        let records = self.spans.iter().flat_map(|&(_, a, b)| &self.records[a..b]).copied().collect();
+        (records, self.means, ears::Scratch::default())
     }
 }
 

@@ -6,10 +6,12 @@
 
 use super::quadtree::{sphere_to_square, square_to_sphere, DTree, Target};
 use super::sdtree::SdTree;
+use crate::accel::wide::PACKET;
 use crate::geometry::{Ray, RayDifferential};
 use crate::integrator::ears;
 use crate::integrator::estimator::{trace, Branches, PathProfile, PathState, Policy};
-use crate::integrator::{CameraSample, PathTracer, RayCounts};
+use crate::integrator::path::trace_block;
+use crate::integrator::{CameraBlock, CameraSample, PathTracer, RayCounts};
 use crate::light::LightSample;
 use crate::material::{Bsdf, BsdfSample};
 use crate::math::{Vec2, Vec3, PI};
@@ -243,6 +245,23 @@ impl Guiding<'_> {
         l
     }
 
+    /// [`Guiding::li`] of a pixel block's camera samples as `path`'s packets trace them
+    /// ([`trace_block`]), each lane's walk with its own buffers in `lanes` (one per lane
+    /// of a packet): lane `i`'s radiance goes to `out[i]` and its records to
+    /// `lanes[i].records`, each exactly as `li` makes them.
+    pub fn li_block(&self, scene: &Scene, block: &mut CameraBlock, out: &mut [Vec3], lanes: &mut [Scratch; PACKET]) {
+        let n = block.rays.len();
+        let mut lanes = lanes.iter_mut();
+        let mut walks: [Walk<false>; PACKET] =
+            std::array::from_fn(|_| Walk::new(self, lanes.next().expect("a lane per packet lane"), None));
+        trace_block(scene, block, out, &mut walks[..n]);
+        if self.record {
+            for (walk, &l) in walks.iter_mut().zip(out.iter()) {
+                walk.record_arrivals(l);
+            }
+        }
+    }
+
     /// [`Guiding::li`] with EARS's roulette and splitting (`rr: "ears"`) instead of
     /// guided's roulette, by the statistics `learned` (the sample's pixel factor
     /// `pixel_factor`), the sub-paths waiting in `branches`; only for passes that do not
@@ -383,9 +402,14 @@ impl<'g, const EARS: bool> Policy for Walk<'g, '_, EARS> {
             } else {
                 g.bsdf_fraction
             };
+            // BSDF sampling alone skips the guide
+            let guide = if fraction >= 1.0 { None } else { g.tree.guide(leaf) };
+            if let Some(t) = guide {
+                // its lookups come after the light sample
+                t.prefetch_top();
+            }
             Mixture {
-                // BSDF sampling alone skips the guide
-                guide: if fraction >= 1.0 { None } else { g.tree.guide(leaf) },
+                guide,
                 bsdf_fraction: fraction,
             }
         };

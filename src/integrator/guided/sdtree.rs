@@ -92,12 +92,20 @@ impl ChoiceMoments {
 /// Deepest spatial level (a box of 2⁻¹⁶ of the cube's side per axis).
 const MAX_SPATIAL_DEPTH: u32 = 48;
 
+/// The levels [`SdTree::leaf_of`] skips: its descent starts at the node of depth
+/// 3·`JUMP_BITS` (or the leaf above it) that holds the point's cell of a grid of
+/// 2^`JUMP_BITS` cells per axis, from a table of 512 nodes (2 KB).
+const JUMP_BITS: u32 = 3;
+const JUMP_SIDE: usize = 1 << JUMP_BITS;
+
 #[derive(Clone, Debug, PartialEq)]
 pub struct SdTree {
     origin: Vec3,
     size: f32,
     nodes: Vec<SNode>,
     pub leaves: Vec<Leaf>,
+    /// For each cell of the grid (x fastest), the node [`SdTree::leaf_of`] goes on from.
+    jump: Vec<u32>,
 }
 
 /// Sizes for the summary.
@@ -117,7 +125,7 @@ impl SdTree {
     /// into `initial`.
     pub fn new(center: Vec3, radius: f32, initial: DTree, bsdf_fraction: f32) -> SdTree {
         let r = if radius.is_finite() && radius > 0.0 { radius } else { 1.0 };
-        SdTree {
+        let mut t = SdTree {
             origin: center - Vec3::splat(r),
             size: 2.0 * r,
             nodes: vec![LEAF],
@@ -128,7 +136,30 @@ impl SdTree {
                 depth: 0,
                 bsdf_fraction,
             }],
+            jump: Vec::new(),
+        };
+        t.build_jump();
+        t
+    }
+
+    /// Fills [`SdTree::jump`]: the first 3·[`JUMP_BITS`] steps of a descent depend only on
+    /// the point's grid cell, the step along an axis taking that coordinate's next bit.
+    fn build_jump(&mut self) {
+        let mut jump = vec![0u32; JUMP_SIDE * JUMP_SIDE * JUMP_SIDE];
+        for (i, j) in jump.iter_mut().enumerate() {
+            let cell = [i % JUMP_SIDE, i / JUMP_SIDE % JUMP_SIDE, i / (JUMP_SIDE * JUMP_SIDE)];
+            let mut n = 0usize;
+            for level in 0..3 * JUMP_BITS as usize {
+                let node = self.nodes[n];
+                if node & LEAF != 0 {
+                    break;
+                }
+                let bit = cell[level % 3] >> (JUMP_BITS as usize - 1 - level / 3) & 1;
+                n = node as usize + bit;
+            }
+            *j = n as u32;
         }
+        self.jump = jump;
     }
 
     /// Index of the leaf whose box holds `p` (points outside go to the nearest).
@@ -138,17 +169,26 @@ impl SdTree {
         if !q.is_finite() {
             q = Vec3::ZERO;
         }
-        let mut n = 0usize;
-        let mut axis = 0usize;
+        // the grid cell's node, and the point in its box: each step of the descent doubles
+        // a coordinate and drops its integer part, exactly, so this is the point those
+        // 3·JUMP_BITS steps leave (2^JUMP_BITS·q and its fraction are exact too)
+        let side = JUMP_SIDE as f32;
+        let g = [(q.x * side) as usize, (q.y * side) as usize, (q.z * side) as usize];
+        let (mut x, mut y, mut z) = (q.x * side - g[0] as f32, q.y * side - g[1] as f32, q.z * side - g[2] as f32);
+        let mut n = self.jump[(g[2] * JUMP_SIDE + g[1]) * JUMP_SIDE + g[0]] as usize;
+        // the axes in turn from x (3·JUMP_BITS levels down), unrolled: each coordinate
+        // stays in a register (indexed by the axis, the point went through memory and
+        // every level waited on a store)
         loop {
-            let node = self.nodes[n];
-            if node & LEAF != 0 {
-                return node & !LEAF;
+            for c in [&mut x, &mut y, &mut z] {
+                let node = self.nodes[n];
+                if node & LEAF != 0 {
+                    return node & !LEAF;
+                }
+                let upper = *c >= 0.5;
+                *c = 2.0 * *c - upper as u32 as f32;
+                n = node as usize + upper as usize;
             }
-            let upper = q[axis] >= 0.5;
-            q[axis] = 2.0 * q[axis] - upper as u32 as f32;
-            n = node as usize + upper as usize;
-            axis = if axis == 2 { 0 } else { axis + 1 };
         }
     }
 
@@ -266,6 +306,7 @@ impl SdTree {
             leaf.building = leaf.sampling.refined(rho);
             leaf.count = 0;
         }
+        self.build_jump();
         totals
     }
 
@@ -388,4 +429,79 @@ fn least_moment(m: &[f64; GRID]) -> (f32, usize) {
         0.0
     };
     ((a + shift * step).clamp(MIN_FRACTION as f64, 1.0) as f32, best)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::math::xorshift32;
+
+    /// The descent from the root, one level at a time (what the grid's table skips).
+    fn leaf_by_descent(t: &SdTree, p: Vec3) -> u32 {
+        let mut q = ((p - t.origin) / t.size).clamp(Vec3::ZERO, Vec3::splat(1.0 - f32::EPSILON));
+        if !q.is_finite() {
+            q = Vec3::ZERO;
+        }
+        let (mut n, mut axis) = (0usize, 0usize);
+        loop {
+            let node = t.nodes[n];
+            if node & LEAF != 0 {
+                return node & !LEAF;
+            }
+            let upper = q[axis] >= 0.5;
+            q[axis] = 2.0 * q[axis] - upper as u32 as f32;
+            n = node as usize + upper as usize;
+            axis = (axis + 1) % 3;
+        }
+    }
+
+    /// `leaf_of` through the grid's table finds the leaf the level-by-level descent does,
+    /// in a tree split unevenly to depths 0 to 30 (leaves above and below the table's
+    /// depth), for random points, points on the grid's planes and the halves' planes below
+    /// them, and points outside the box or not finite.
+    #[test]
+    fn leaf_lookup_through_the_grid_is_the_descent() {
+        let mut state = 0x1234_5678u32;
+        let mut t = SdTree::new(Vec3::new(0.5, -1.0, 2.0), 3.0, DTree::default(), 1.0);
+        for _ in 0..3 {
+            for leaf in &mut t.leaves {
+                // most leaves split a few times, some not at all, some 10 times
+                leaf.count = match xorshift32(&mut state) % 8 {
+                    0 => 0,
+                    1 => 1000 << 10,
+                    _ => (xorshift32(&mut state) % 8000) as u64,
+                };
+            }
+            t.end_iteration(1000.0, 0.01, true, None);
+        }
+        let depths: Vec<u32> = t.leaves.iter().map(|l| l.depth).collect();
+        let (shallow, deep) = (depths.iter().filter(|&&d| d < 9).count(), depths.iter().filter(|&&d| d > 9).count());
+        assert!(shallow > 0 && deep > 0, "{shallow} leaves above and {deep} below the table's depth");
+        let mut points = Vec::new();
+        for _ in 0..20000 {
+            let mut u = || (xorshift32(&mut state) >> 8) as f32 / (1 << 24) as f32;
+            points.push(t.origin + Vec3::new(u(), u(), u()) * t.size);
+        }
+        for k in 0..=64 {
+            // planes of the grid (k = 8·i) and of finer halves, and the box's faces
+            let f = k as f32 / 64.0;
+            points.push(t.origin + Vec3::new(f, 0.3, 0.7) * t.size);
+            points.push(t.origin + Vec3::new(0.6, f, f) * t.size);
+            points.push(t.origin + Vec3::new(f, f, f) * t.size);
+        }
+        points.extend([
+            Vec3::splat(-100.0),
+            Vec3::splat(100.0),
+            Vec3::splat(f32::NAN),
+            Vec3::new(f32::INFINITY, 0.0, 0.0),
+        ]);
+        let wrong = points.iter().filter(|&&p| t.leaf_of(p) != leaf_by_descent(&t, p)).count();
+        assert_eq!(
+            wrong,
+            0,
+            "{wrong} of {} points in another leaf ({} leaves)",
+            points.len(),
+            t.leaves.len()
+        );
+    }
 }

@@ -23,6 +23,8 @@ pub struct IterationInfo {
     /// What the leaves' fractions chosen at its end are estimated to gain
     /// ([`sdtree::ChoiceMoments::gain`]; `None` without a choice).
     pub gain: Option<f64>,
+    /// The vertices that chose the leaves' fractions at its end.
+    pub choice_vertices: u64,
     /// Measured relative variance per sample with the guide over that without
     /// (see [`State::guide`]; `None` where not measured).
     pub variance_ratio: Option<f64>,
@@ -53,7 +55,8 @@ pub struct State {
     /// Finished iterations, weighted anew whenever the image is made (`last`:
     /// the previous one only).
     finished: Vec<Finished>,
-    /// The current iteration's first-pass vertices, for the leaves' fractions.
+    /// The vertices of the current iteration's first [`super::CHOICE_PASSES`] passes that
+    /// record, for the leaves' fractions.
     pub(super) choice: Vec<sdtree::ChoiceSample>,
     /// Whether the leaves sample their guides at their learned fractions (with
     /// `learn_fraction` and photons to learn from; else always): while the relative
@@ -238,6 +241,7 @@ impl Guided {
         info.build_seconds = build;
         info.variance = variance;
         info.gain = (self.learn_fraction && !s.training_stopped).then(|| moments.gain());
+        info.choice_vertices = moments.vertices;
         info.variance_ratio = variance_ratio;
         s.film.take_sums(true);
         s.moments.iter_mut().for_each(|x| *x = [0.0; 3]);

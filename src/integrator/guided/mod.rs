@@ -40,7 +40,8 @@
 //! `--time-limit` the budget is the spp cap and the render loop stops the
 //! schedule where the time runs out. Every decision depends on sample counts
 //! only, never on the clock. The leaves choose their BSDF fractions after every
-//! iteration (a leaf with too few vertices takes its nearest ancestor's choice);
+//! iteration, from the vertices of its first [`CHOICE_PASSES`] recording passes (a
+//! leaf with too few vertices takes its nearest ancestor's choice);
 //! there is no global switch on an estimate. What guiding costs is weighed by
 //! measurement ([`State::guide`]): a training iteration's first pass samples the
 //! other way than its other passes, and in an iteration of two passes or more the
@@ -108,6 +109,14 @@ pub const MAX_PHOTONS_PER_PASS: u32 = 1 << 20;
 /// still has most of its samples ahead (caustic_cbox at 256 spp with 31 of
 /// training: relMSE 2.9e-3, `path` 1.3e-2).
 pub const MAX_TRAINING_ITERATIONS: u32 = 6;
+
+/// Passes of a training iteration whose vertices choose the leaves' BSDF fractions
+/// (those of them that record: the first, or every pass while the guide is used; see
+/// [`sdtree::SdTree::end_iteration`]). The caustic light a leaf's choice hinges on
+/// reaches few of one pass's vertices, so one pass's estimate of the second moment
+/// misses it in most leaves; more passes hold more vertices in memory until the
+/// iteration ends (a few per pixel and pass).
+pub const CHOICE_PASSES: u32 = 4;
 
 /// What a pass that samples the guide costs against `path`'s pass (its packets),
 /// the price the guide must pay for: the leaves guide only while the variance per
@@ -181,9 +190,10 @@ pub enum Combine {
 ///   after every iteration, a continuous value in [0.1, 1]: the one whose
 ///   estimated second moment of the vertex estimator, ∫F²/p, is smallest (1, BSDF
 ///   sampling without guide lookups, unless another's is below 0.6 of its),
-///   estimated on the iteration's first pass with the new tree (leave-one-out);
-///   a leaf with fewer than 128 vertices there takes the fraction its nearest
-///   ancestor's vertices choose together;
+///   estimated on the vertices of the iteration's first [`CHOICE_PASSES`] passes
+///   that record (the first alone while the guide is off) with the new tree
+///   (leave-one-out); a leaf with fewer than 128 vertices there takes the fraction
+///   its nearest ancestor's vertices choose together;
 /// * `training_iterations` (int ≥ 0, absent: chosen by the spp budget, see the
 ///   module docs) — doubling iterations before the final one;
 /// * `combine` (`"samples"` | `"last"`, `"samples"`) — how the
@@ -416,8 +426,8 @@ impl Guided {
                         Target::Variance => leaf.building.deposit_moment(r.cell, r.value),
                     }
                 }
-                // the first pass's vertices choose the leaves' fractions
-                if self.learn_fraction && s.passes == 0 && r.counted && r.fq > 0.0 {
+                // the first passes' vertices choose the leaves' fractions
+                if self.learn_fraction && s.passes < CHOICE_PASSES && r.counted && r.fq > 0.0 {
                     s.choice.push(sdtree::ChoiceSample {
                         leaf: r.leaf,
                         fq: r.fq,

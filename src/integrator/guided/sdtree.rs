@@ -75,6 +75,8 @@ const GUIDE_MARGIN: f64 = 0.6;
 pub struct ChoiceMoments {
     pub chosen: f64,
     pub bsdf: f64,
+    /// The vertices that took part (in leaves with a guide to choose against).
+    pub vertices: u64,
 }
 
 impl ChoiceMoments {
@@ -349,7 +351,10 @@ impl SdTree {
             p.1 += count;
             p.0.iter_mut().zip(m).for_each(|(a, b)| *a += b);
         }
-        let mut totals = ChoiceMoments::default();
+        let mut totals = ChoiceMoments {
+            vertices: moments.iter().map(|m| m.1).sum(),
+            ..ChoiceMoments::default()
+        };
         for n in 0..self.nodes.len() {
             let node = self.nodes[n];
             if node & LEAF == 0 {

@@ -107,7 +107,8 @@ pub const MAX_PHOTONS_PER_PASS: u32 = 1 << 20;
 /// guide's lookups; caustic_cbox under `--time-limit` 30 s: 11 spp with 7 training
 /// iterations against `path`'s 41), so training stops where a minute's render
 /// still has most of its samples ahead (caustic_cbox at 256 spp with 31 of
-/// training: relMSE 2.9e-3, `path` 1.3e-2).
+/// training: relMSE 2.9e-3, `path` 1.3e-2). More did not pay: at 256 spp, 7 and 8
+/// iterations gave relMSE × CPU s 0.146 and 0.167 against 6's 0.142 (caustic_cbox).
 pub const MAX_TRAINING_ITERATIONS: u32 = 6;
 
 /// Passes of a training iteration whose vertices choose the leaves' BSDF fractions
@@ -122,8 +123,11 @@ pub const CHOICE_PASSES: u32 = 4;
 /// the price the guide must pay for: the leaves guide only while the variance per
 /// sample with the guide, times this, is below that without (see [`State::guide`]).
 /// Measured: cbox_path and caustic_cbox at 33 spp, one training iteration, then
-/// every leaf at fraction 0.5: 3.23 and 3.23 CPU s against `path`'s 2.22 and 2.21
-/// (AMD EPYC family 25 model 17, Zen 4, AVX-512, loaded).
+/// every leaf at fraction 0.5: 2.50 and 2.61 CPU s against `path`'s 2.08 and 2.03
+/// (AMD EPYC family 25 model 17, Zen 4, AVX-512, loaded), 1.20 and 1.29 since guided
+/// passes trace packets; deeper trees cost more. Kept above the measured cost as a
+/// margin against one measurement's noise: at 1.25, cbox_path's first ratios
+/// (0.74–0.98) would take up a guide that does not pay.
 pub const GUIDED_PASS_COST: f64 = 1.5;
 
 /// Measurements in a row that find the guide does not pay its cost (see
@@ -131,7 +135,7 @@ pub const GUIDED_PASS_COST: f64 = 1.5;
 /// one that finds a guided sample no less noisy than an unguided one, or where no leaf
 /// guides): the rest of the spp budget is the final iteration, `path`'s passes, without
 /// photons, records or tree builds. A recording pass costs about 2.5 `path` passes (its
-/// photons, the scalar camera paths and records, the tree's rebuild); one "no" was not
+/// photons, the camera paths and records, the tree's rebuild); one "no" was not
 /// enough: caustic_cbox (seeds 3 and 5, 64 spp) measured 0.79 and 0.73 first (the
 /// guide pays below 1/1.5) and 0.38 and 0.39 next.
 pub const DECLINES_TO_STOP_TRAINING: u32 = 2;

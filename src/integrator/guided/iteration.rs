@@ -25,6 +25,8 @@ pub struct IterationInfo {
     pub gain: Option<f64>,
     /// The vertices that chose the leaves' fractions at its end.
     pub choice_vertices: u64,
+    /// The vertices held for that choice (at most [`State::choice_budget`] per pass).
+    pub choice_samples: u64,
     /// Measured relative variance per sample with the guide over that without
     /// (see [`State::guide`]; `None` where not measured).
     pub variance_ratio: Option<f64>,
@@ -58,6 +60,9 @@ pub struct State {
     /// The vertices of the current iteration's first [`super::CHOICE_PASSES`] passes that
     /// record, for the leaves' fractions.
     pub(super) choice: Vec<sdtree::ChoiceSample>,
+    /// Most vertices a pass keeps in `choice`: [`super::CHOICE_SAMPLES_PER_PASS`] (tests
+    /// lower it).
+    pub choice_budget: usize,
     /// Whether the leaves sample their guides at their learned fractions (with
     /// `learn_fraction` and photons to learn from; else always): while the relative
     /// variance per sample with the guide, times [`GUIDED_PASS_COST`], is at least
@@ -83,12 +88,57 @@ pub struct State {
 }
 
 impl State {
+    /// Room in `choice` for `kept` more vertices: where a pass reaches its budget, for
+    /// the iteration's other choosing passes too, so that `choice` grows once to its
+    /// most (doubling its capacity, it would hold up to twice its length).
+    pub(super) fn reserve_choice(&mut self, kept: usize) {
+        let more = if kept >= self.choice_budget {
+            self.choice_budget * super::CHOICE_PASSES.saturating_sub(self.passes) as usize
+        } else {
+            kept
+        };
+        if self.choice.capacity() - self.choice.len() < kept {
+            self.choice.reserve_exact(more);
+        }
+    }
+
     /// Keeps the film's sums after a training iteration's first and second passes.
     pub(super) fn keep_probe(&mut self) {
         if self.passes <= 2 {
             let sums = self.film.sums();
             self.probe.push((sums.sum.clone(), sums.weight.clone()));
         }
+    }
+}
+
+/// Which of a pass's `n` candidate vertices (in deposit order) the choice keeps: all
+/// of them within the budget, else exactly `budget`, the i-th where ⌊i·budget/n⌋ steps
+/// up (evenly spread over the order, which is fixed: the tiles', then the pixels').
+pub(super) struct ChoiceStride {
+    n: u64,
+    budget: u64,
+    seen: u64,
+}
+
+impl ChoiceStride {
+    pub(super) fn new(n: usize, budget: usize) -> ChoiceStride {
+        ChoiceStride {
+            n: n as u64,
+            budget: budget as u64,
+            seen: 0,
+        }
+    }
+
+    /// The vertices kept of the `n`.
+    pub(super) fn kept(&self) -> usize {
+        self.n.min(self.budget) as usize
+    }
+
+    /// Whether the next candidate is kept.
+    pub(super) fn keep(&mut self) -> bool {
+        let i = self.seen;
+        self.seen += 1;
+        self.n <= self.budget || (i + 1) * self.budget / self.n != i * self.budget / self.n
     }
 }
 
@@ -166,6 +216,7 @@ impl Guided {
             moments: vec![[0.0; 3]; n],
             finished: Vec::new(),
             choice: Vec::new(),
+            choice_budget: super::CHOICE_SAMPLES_PER_PASS,
             guide: !self.learn_fraction || self.learn_from == LearnFrom::Paths,
             probe: Vec::new(),
             declined: 0,
@@ -242,6 +293,7 @@ impl Guided {
         info.variance = variance;
         info.gain = (self.learn_fraction && !s.training_stopped).then(|| moments.gain());
         info.choice_vertices = moments.vertices;
+        info.choice_samples = choice.len() as u64;
         info.variance_ratio = variance_ratio;
         s.film.take_sums(true);
         s.moments.iter_mut().for_each(|x| *x = [0.0; 3]);

@@ -40,8 +40,9 @@
 //! `--time-limit` the budget is the spp cap and the render loop stops the
 //! schedule where the time runs out. Every decision depends on sample counts
 //! only, never on the clock. The leaves choose their BSDF fractions after every
-//! iteration, from the vertices of its first [`CHOICE_PASSES`] recording passes (a
-//! leaf with too few vertices takes its nearest ancestor's choice);
+//! iteration, from the vertices of its first [`CHOICE_PASSES`] recording passes (at
+//! most [`CHOICE_SAMPLES_PER_PASS`] of each; a leaf with too few vertices takes its
+//! nearest ancestor's choice);
 //! there is no global switch on an estimate. What guiding costs is weighed by
 //! measurement ([`State::guide`]): a training iteration's first pass samples the
 //! other way than its other passes, and in an iteration of two passes or more the
@@ -88,6 +89,7 @@ use super::{ears, PassContext, PassResult, PathProfile, PathTracer, RayCounts, R
 use crate::accel::wide::PACKET;
 use crate::math::Vec3;
 use crate::sampler::hash_combine;
+use iteration::ChoiceStride;
 use rayon::prelude::*;
 use std::time::Instant;
 
@@ -118,6 +120,14 @@ pub const MAX_TRAINING_ITERATIONS: u32 = 6;
 /// misses it in most leaves; more passes hold more vertices in memory until the
 /// iteration ends (a few per pixel and pass).
 pub const CHOICE_PASSES: u32 = 4;
+
+/// Most vertices a pass keeps for the leaves' choice of fractions (see [`CHOICE_PASSES`]):
+/// where a pass has more, it keeps this many spread evenly over the deposit order (tile
+/// order, then pixel order: fixed), so the choice depends on sample counts only. A
+/// [`sdtree::ChoiceSample`] takes 28 bytes, so an iteration holds at most
+/// 4 × 800,000 × 28 B = 90 MB; 1080p records about 3 million per pass (350 MB for four
+/// passes before this cap), 256² about 100,000 (under the cap: nothing changes there).
+pub const CHOICE_SAMPLES_PER_PASS: usize = 800_000;
 
 /// What a pass that samples the guide costs against `path`'s pass (its packets),
 /// the price the guide must pay for: the leaves guide only while the variance per
@@ -195,7 +205,8 @@ pub enum Combine {
 ///   estimated second moment of the vertex estimator, ∫F²/p, is smallest (1, BSDF
 ///   sampling without guide lookups, unless another's is below 0.6 of its),
 ///   estimated on the vertices of the iteration's first [`CHOICE_PASSES`] passes
-///   that record (the first alone while the guide is off) with the new tree
+///   that record (the first alone while the guide is off; at most
+///   [`CHOICE_SAMPLES_PER_PASS`] of a pass's, spread evenly) with the new tree
 ///   (leave-one-out); a leaf with fewer than 128 vertices there takes the fraction
 ///   its nearest ancestor's vertices choose together;
 /// * `training_iterations` (int ≥ 0, absent: chosen by the spp budget, see the
@@ -409,6 +420,15 @@ impl Guided {
         }
         let s = &mut **state;
         s.recorded += record as u32;
+        // the first passes' vertices choose the leaves' fractions, at most a budget of them
+        let chooses = |r: &Record| r.counted && r.fq > 0.0;
+        let candidates = if self.learn_fraction && s.passes < CHOICE_PASSES {
+            tiles.iter().map(|t| t.0.iter().filter(|r| chooses(r)).count()).sum()
+        } else {
+            0
+        };
+        let mut choice = ChoiceStride::new(candidates, s.choice_budget);
+        s.reserve_choice(choice.kept());
         if let (true, Some(e)) = (ears_pass, s.ears.as_mut()) {
             e.add_pass(tiles.iter().map(|t| &t.2), width);
         }
@@ -430,8 +450,7 @@ impl Guided {
                         Target::Variance => leaf.building.deposit_moment(r.cell, r.value),
                     }
                 }
-                // the first passes' vertices choose the leaves' fractions
-                if self.learn_fraction && s.passes < CHOICE_PASSES && r.counted && r.fq > 0.0 {
+                if candidates > 0 && chooses(r) && choice.keep() {
                     s.choice.push(sdtree::ChoiceSample {
                         leaf: r.leaf,
                         fq: r.fq,

@@ -85,6 +85,8 @@ pub struct State {
     pub(super) probe: Vec<(Vec<[f64; 3]>, Vec<f64>)>,
     /// EARS's statistics (`rr: "ears"`), from the passes that played it.
     pub(super) ears: Option<Box<crate::integrator::ears::State>>,
+    /// The training photons kept for later trees (`learn_from: "photons"`).
+    pub photons: super::photons::TrainingPhotons,
 }
 
 impl State {
@@ -222,6 +224,7 @@ impl Guided {
             declined: 0,
             training_stopped: false,
             ears: None,
+            photons: Default::default(),
         };
         self.begin_iteration(&mut s, ctx);
         s
@@ -383,7 +386,7 @@ impl Guided {
             "guided: schedule {}; learned from {}; combine {}; iterations: {}; SD-tree {} spatial leaves, {} directional nodes (depth ≤ {}), {:.1} MB; leaves per BSDF fraction {}",
             s.schedule,
             match (self.learn_from, self.target) {
-                (LearnFrom::Photons, Target::Radiance) => "photons (one per pixel and training pass)",
+                (LearnFrom::Photons, Target::Radiance) => "photons (kept for every later tree; new ones a quarter per pixel and recording pass, or more)",
                 (LearnFrom::Paths, Target::Radiance) => "camera paths",
                 (_, Target::Variance) => "the camera paths' second moments",
             },

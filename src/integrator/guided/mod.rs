@@ -6,10 +6,13 @@
 //! leaves hold directional quadtrees, [`quadtree`]) learns the light arriving
 //! at surfaces. Rendering goes in iterations of 1, 1, 2, 4, … samples per pixel;
 //! each training iteration samples from the tree the previous one recorded and
-//! records into the next: by default the flux of photons shot from the lights
-//! (one per pixel and pass, at most 2²⁰) into the cell of the direction they arrive from, so
-//! a leaf's density follows L_i·cos, sharp where light is focused (Vorba et
-//! al. 2014 train their guiding from photons too); or, as in the paper
+//! records into the next: by default the flux of photons shot from the lights into
+//! the cell of the direction they arrive from, so a leaf's density follows L_i·cos,
+//! sharp where light is focused (Vorba et al. 2014 train their guiding from photons
+//! too). Photons do not depend on the guide, so every training photon is kept and
+//! deposited again into each later recording tree ([`photons`]): a recording pass
+//! shoots a quarter of a photon per pixel, or more where the kept ones fall short of
+//! one per pixel and recording pass of the iteration (at most 2²⁰ a pass); or, as in the paper
 //! (`learn_from: "paths"`), what the camera paths find (radiance from light
 //! samples and from BSDF- or guide-sampled hits, MIS-weighted, divided by the
 //! sampling density), or with `target: "variance"` the second moments of their
@@ -71,6 +74,7 @@
 pub mod combine;
 pub mod iteration;
 pub mod path;
+pub mod photons;
 pub mod quadtree;
 pub mod sdtree;
 
@@ -84,24 +88,18 @@ pub use quadtree::{sphere_to_square, square_to_sphere, DTree, Target};
 pub use sdtree::{SdTree, TreeStats};
 
 use super::pass::{camera_pass_blocks, camera_pass_blocks_with, camera_pass_with};
-use super::photon::{shoot_into, Shooting};
 use super::{ears, PassContext, PassResult, PathProfile, PathTracer, RayCounts, Roulette};
 use crate::accel::wide::PACKET;
 use crate::math::Vec3;
 use crate::sampler::hash_combine;
 use iteration::ChoiceStride;
-use rayon::prelude::*;
 use std::time::Instant;
-
-/// Photons' roulette threshold when the tree learns from them (the photon
-/// integrators' default).
-const PHOTON_RR_THRESHOLD: f32 = 0.1;
 
 /// The training photons' seed offset (their own sequence, apart from the camera's).
 const PHOTON_SEED: u32 = 0x5eed_0000;
 
-/// Most photons a training pass shoots (one per pixel below it): their deposits,
-/// a few per photon, are held until the pass ends.
+/// Most photons a training pass of one photon per pixel shoots (see [`photons`]):
+/// their deposits, a few per photon, are held until the pass ends.
 pub const MAX_PHOTONS_PER_PASS: u32 = 1 << 20;
 
 /// Most training iterations the spp budget gives (1 + 1 + 2 + 4 + 8 + 16 = 32 spp):
@@ -165,9 +163,12 @@ pub enum LearnFrom {
     /// The camera paths' vertices (the paper): radiance arriving along sampled
     /// directions divided by their density.
     Paths,
-    /// Photons shot from the lights, one per pixel and pass (at most 2²⁰), deposited with their
-    /// flux where they land (the camera paths still count vertices for the
-    /// spatial splits and choose the leaves' BSDF fractions).
+    /// Photons shot from the lights, deposited with their flux where they land, each
+    /// into its own iteration's recording tree and every later one ([`photons`]): at
+    /// least as many as one per pixel and recording pass of the iteration (at most 2²⁰ a
+    /// pass), of which a recording pass shoots a quarter per pixel or more (the camera
+    /// paths still count vertices for the spatial splits and choose the leaves' BSDF
+    /// fractions).
     #[default]
     Photons,
 }
@@ -191,9 +192,11 @@ pub enum Combine {
 ///   `path`'s rule, min(β, 0.95), ends the very paths guiding finds the light by
 ///   (caustic_cbox's ceiling: per-sample relative variance 60 with it, 8 with this);
 /// * `learn_from` (`"photons"` | `"paths"`, `"photons"`) — what training
-///   iterations learn from: photons shot from the lights, one per pixel and pass
-///   (at most 2²⁰),
-///   deposited with their flux (segments ≥ 2 unless `learn_direct`; the camera
+///   iterations learn from: photons shot from the lights, deposited with their flux
+///   into the recording tree and kept for every later one (a recording pass shoots a
+///   quarter of a photon per pixel, or more while the tree has seen fewer than one per
+///   pixel and recording pass, at most 2²⁰ a pass; see [`photons`]; segments ≥ 2 unless
+///   `learn_direct`; the camera
 ///   paths still count vertices for the splits and choose the BSDF fractions), or
 ///   the camera paths' vertices as in the paper. Photons find light that arrives
 ///   through glass where camera paths rarely do (caustic_cbox, 256 spp with 31 of
@@ -306,8 +309,10 @@ impl Guided {
         let record = !state.last && (state.passes == 0 || guides);
         // the pass's photons before the camera samples, which are merged as the pass
         // ends: a pass stopped on the way leaves the state as it was
-        let photon_deposits = if record && self.learn_from == LearnFrom::Photons && self.target == Target::Radiance {
-            match self.training_photons(ctx, &state.tree, state.passes_total, photon_seed, &mut counts) {
+        let photon_chunks = if record && self.learn_from == LearnFrom::Photons && self.target == Target::Radiance {
+            let count = state.photons.pass_count(photons_per_pass(ctx), state.recorded + 1);
+            let shooting = (count, self.max_depth, self.learn_direct);
+            match photons::shoot(ctx, &state.tree, shooting, (state.passes_total, photon_seed), &mut counts) {
                 Some(d) => d,
                 None => return PassResult { complete: false, counts },
             }
@@ -463,19 +468,19 @@ impl Guided {
             }
         }
         drop(tiles);
-        for d in &photon_deposits {
-            for ((&(leaf, _), &cell), &value) in d.queries.iter().zip(&d.cells).zip(&d.values) {
-                let leaf = &mut s.tree.leaves[leaf as usize];
-                leaf.count += 1;
-                leaf.building.deposit(cell, value);
-            }
-        }
+        s.photons.deposit(&mut s.tree, photon_chunks);
         self.pass_done(s, ctx, pass_start);
         result
     }
 
     /// Counts a finished pass (begun at `start`) and ends its iteration when that is full.
     fn pass_done(&self, s: &mut State, ctx: &PassContext, start: Instant) {
+        if s.last {
+            s.photons.release();
+        } else if s.passes + 1 >= s.length && self.learn_from == LearnFrom::Photons && self.target == Target::Radiance {
+            // the earlier iterations' photons go into the recording trees too
+            s.photons.end_iteration(&mut s.tree, s.recorded, photons_per_pass(ctx));
+        }
         s.passes += 1;
         s.passes_total += 1;
         let info = s.history.last_mut().expect("an iteration is running");
@@ -488,45 +493,11 @@ impl Guided {
             self.end_iteration(s, ctx);
         }
     }
+}
 
-    /// A training pass's photons (one per pixel, at most [`MAX_PHOTONS_PER_PASS`]) as
-    /// the tree records them, in chunks; `None` when the stop token was set.
-    fn training_photons(
-        &self,
-        ctx: &PassContext,
-        tree: &SdTree,
-        pass: u32,
-        seed: u32,
-        counts: &mut RayCounts,
-    ) -> Option<Vec<PhotonDeposits>> {
-        // a vertex after the camera's first segment receives paths of at most
-        // max_depth − 1 segments; its direct light only when that is learned
-        let shooting = Shooting {
-            count: (ctx.film.width * ctx.film.height).min(MAX_PHOTONS_PER_PASS),
-            max_segments: self.max_depth.saturating_sub(1),
-            rr_threshold: PHOTON_RR_THRESHOLD,
-            min_segments: if self.learn_direct { 1 } else { 2 },
-        };
-        let count = shooting.count as usize;
-        let (mut chunks, rays) = shoot_into(
-            ctx.scene,
-            shooting,
-            0..count,
-            (pass, seed),
-            ctx.stop,
-            PhotonDeposits::default,
-            |d, p, photon| {
-                let value = path::mean(photon.power);
-                if value > 0.0 && value.is_finite() {
-                    d.queries.push((tree.leaf_of(p), photon.wi));
-                    d.values.push(value);
-                }
-            },
-        )?;
-        counts.rays += rays;
-        chunks.par_iter_mut().for_each(|d| d.cells = tree.record_cells(&d.queries));
-        Some(chunks)
-    }
+/// Photons of a training pass of one photon per pixel (at most [`MAX_PHOTONS_PER_PASS`]).
+fn photons_per_pass(ctx: &PassContext) -> u64 {
+    (ctx.film.width * ctx.film.height).min(MAX_PHOTONS_PER_PASS) as u64
 }
 
 /// A sample's radiance as the per-pixel moments take it (the mean over channels).
@@ -554,14 +525,4 @@ impl PacketTile {
         let records = self.spans.iter().flat_map(|&(_, a, b)| &self.records[a..b]).copied().collect();
         (records, self.means, ears::Scratch::default())
     }
-}
-
-/// A chunk of a training pass's photons as the tree records them: each kept photon's
-/// (spatial leaf, direction it arrived from), its flux (mean over channels) and its
-/// recording cell, in photon order.
-#[derive(Default)]
-struct PhotonDeposits {
-    queries: Vec<(u32, Vec3)>,
-    values: Vec<f32>,
-    cells: Vec<u32>,
 }

@@ -94,6 +94,22 @@ impl ChoiceMoments {
 /// Deepest spatial level (a box of 2⁻¹⁶ of the cube's side per axis).
 const MAX_SPATIAL_DEPTH: u32 = 48;
 
+/// Bits per axis of a [`SdTree::quantized_point`]: the deepest leaf's halvings per axis.
+pub const UNIT_BITS: u32 = MAX_SPATIAL_DEPTH / 3;
+
+/// A coordinate in [0, 1) as the index of its interval of 2^−[`UNIT_BITS`] (its first
+/// [`UNIT_BITS`] binary digits; a tree's descent reads no more).
+#[inline]
+pub fn quantize_unit(x: f32) -> u16 {
+    ((x * (1u32 << UNIT_BITS) as f32) as u32).min((1 << UNIT_BITS) - 1) as u16
+}
+
+/// The middle of [`quantize_unit`]'s interval `i`: its digits are `i`'s (exact in f32).
+#[inline]
+pub fn dequantize_unit(i: u16) -> f32 {
+    (i as f32 + 0.5) / (1u32 << UNIT_BITS) as f32
+}
+
 /// The levels [`SdTree::leaf_of`] skips: its descent starts at the node of depth
 /// 3·`JUMP_BITS` (or the leaf above it) that holds the point's cell of a grid of
 /// 2^`JUMP_BITS` cells per axis, from a table of 512 nodes (2 KB).
@@ -167,10 +183,38 @@ impl SdTree {
     /// Index of the leaf whose box holds `p` (points outside go to the nearest).
     #[inline]
     pub fn leaf_of(&self, p: Vec3) -> u32 {
-        let mut q = ((p - self.origin) / self.size).clamp(Vec3::ZERO, Vec3::splat(1.0 - f32::EPSILON));
-        if !q.is_finite() {
-            q = Vec3::ZERO;
+        self.leaf_at_unit(self.unit_point(p))
+    }
+
+    /// `p` in the cube's own coordinates, [0, 1)³ (points outside clamped to the
+    /// nearest, non-finite ones at 0); the cube does not change as the tree grows.
+    #[inline]
+    pub fn unit_point(&self, p: Vec3) -> Vec3 {
+        let q = ((p - self.origin) / self.size).clamp(Vec3::ZERO, Vec3::splat(1.0 - f32::EPSILON));
+        if q.is_finite() {
+            q
+        } else {
+            Vec3::ZERO
         }
+    }
+
+    /// [`SdTree::unit_point`] in [`UNIT_BITS`] bits per axis: a leaf's box is at least
+    /// 2^−[`UNIT_BITS`] of the cube's side per axis, so the point's leaf is exact (the
+    /// training photons keep their positions so, [`super::photons`]).
+    #[inline]
+    pub fn quantized_point(&self, p: Vec3) -> [u16; 3] {
+        self.unit_point(p).to_array().map(quantize_unit)
+    }
+
+    /// The leaf of a point from [`SdTree::quantized_point`].
+    #[inline]
+    pub fn leaf_of_quantized(&self, q: [u16; 3]) -> u32 {
+        self.leaf_at_unit(Vec3::from_array(q.map(dequantize_unit)))
+    }
+
+    /// The leaf holding the point `q` of [0, 1)³ ([`SdTree::unit_point`]).
+    #[inline]
+    fn leaf_at_unit(&self, q: Vec3) -> u32 {
         // the grid cell's node, and the point in its box: each step of the descent doubles
         // a coordinate and drops its integer part, exactly, so this is the point those
         // 3·JUMP_BITS steps leave (2^JUMP_BITS·q and its fraction are exact too)
@@ -204,13 +248,13 @@ impl SdTree {
     /// descents of a batch go in lockstep, a level of each in turn: the photons'
     /// directions land in scattered leaves' trees, and one descent at a time waits
     /// for each of its loads (caustic_cbox: half of `record_cell`'s time on one load).
-    pub fn record_cells(&self, queries: &[(u32, Vec3)]) -> Vec<u32> {
+    /// The directions are given as points on the square ([`sphere_to_square`]).
+    pub fn record_cells(&self, queries: &[(u32, Vec2)]) -> Vec<u32> {
         const LANES: usize = 8;
         let mut cells = vec![0u32; queries.len()];
         for (batch, out) in queries.chunks(LANES).zip(cells.chunks_mut(LANES)) {
             let mut at = [(0usize, 0.0f32, 0.0f32); LANES];
-            for (a, &(_, d)) in at.iter_mut().zip(batch) {
-                let p = sphere_to_square(d);
+            for (a, &(_, p)) in at.iter_mut().zip(batch) {
                 *a = (0, p.x, p.y);
             }
             let mut running = (1u32 << batch.len()) - 1;
@@ -460,32 +504,40 @@ mod tests {
         }
     }
 
-    /// `leaf_of` through the grid's table finds the leaf the level-by-level descent does,
-    /// in a tree split unevenly to depths 0 to 30 (leaves above and below the table's
-    /// depth), for random points, points on the grid's planes and the halves' planes below
-    /// them, and points outside the box or not finite.
-    #[test]
-    fn leaf_lookup_through_the_grid_is_the_descent() {
-        let mut state = 0x1234_5678u32;
+    /// A tree split unevenly to depths 0 to 30 (most leaves split a few times, some not
+    /// at all, some 10 times), and around `deep` (unit coordinates) to the deepest level.
+    fn uneven_tree(state: &mut u32, deep: Vec3) -> SdTree {
         let mut t = SdTree::new(Vec3::new(0.5, -1.0, 2.0), 3.0, DTree::default(), 1.0);
         for _ in 0..3 {
             for leaf in &mut t.leaves {
-                // most leaves split a few times, some not at all, some 10 times
-                leaf.count = match xorshift32(&mut state) % 8 {
+                leaf.count = match xorshift32(state) % 8 {
                     0 => 0,
                     1 => 1000 << 10,
-                    _ => (xorshift32(&mut state) % 8000) as u64,
+                    _ => (xorshift32(state) % 8000) as u64,
                 };
             }
             t.end_iteration(1000.0, 0.01, true, None);
         }
-        let depths: Vec<u32> = t.leaves.iter().map(|l| l.depth).collect();
-        let (shallow, deep) = (depths.iter().filter(|&&d| d < 9).count(), depths.iter().filter(|&&d| d > 9).count());
-        assert!(shallow > 0 && deep > 0, "{shallow} leaves above and {deep} below the table's depth");
+        for _ in 0..MAX_SPATIAL_DEPTH {
+            t.leaves.iter_mut().for_each(|l| l.count = 0);
+            let l = t.leaf_of(t.origin + deep * t.size);
+            t.leaves[l as usize].count = 2000;
+            t.end_iteration(1000.0, 0.01, true, None);
+        }
+        t
+    }
+
+    /// Random points, points on the grid's planes and the halves' planes below them,
+    /// random points about `deep`, and points outside the box or not finite.
+    fn test_points(t: &SdTree, state: &mut u32, deep: Vec3) -> Vec<Vec3> {
         let mut points = Vec::new();
+        let mut u = || (xorshift32(state) >> 8) as f32 / (1 << 24) as f32;
         for _ in 0..20000 {
-            let mut u = || (xorshift32(&mut state) >> 8) as f32 / (1 << 24) as f32;
             points.push(t.origin + Vec3::new(u(), u(), u()) * t.size);
+        }
+        for _ in 0..20000 {
+            let d = Vec3::new(u(), u(), u()) - Vec3::splat(0.5);
+            points.push(t.origin + (deep + d * 2f32.powi(-13)) * t.size);
         }
         for k in 0..=64 {
             // planes of the grid (k = 8·i) and of finer halves, and the box's faces
@@ -500,6 +552,25 @@ mod tests {
             Vec3::splat(f32::NAN),
             Vec3::new(f32::INFINITY, 0.0, 0.0),
         ]);
+        points
+    }
+
+    /// Where [`uneven_tree`] splits to the deepest level: an arbitrary point off the grid's
+    /// planes (its digits happen to begin those of 1/π and 1/√2).
+    #[allow(clippy::approx_constant)]
+    const DEEP: Vec3 = Vec3::new(0.3183, 0.7071, 0.5772);
+
+    /// `leaf_of` through the grid's table finds the leaf the level-by-level descent does,
+    /// in a tree split unevenly to depths 0 to 48 (leaves above and below the table's
+    /// depth), for the points of [`test_points`].
+    #[test]
+    fn leaf_lookup_through_the_grid_is_the_descent() {
+        let mut state = 0x1234_5678u32;
+        let t = uneven_tree(&mut state, DEEP);
+        let depths: Vec<u32> = t.leaves.iter().map(|l| l.depth).collect();
+        let (shallow, deep) = (depths.iter().filter(|&&d| d < 9).count(), depths.iter().filter(|&&d| d > 9).count());
+        assert!(shallow > 0 && deep > 0, "{shallow} leaves above and {deep} below the table's depth");
+        let points = test_points(&t, &mut state, DEEP);
         let wrong = points.iter().filter(|&&p| t.leaf_of(p) != leaf_by_descent(&t, p)).count();
         assert_eq!(
             wrong,
@@ -508,5 +579,25 @@ mod tests {
             points.len(),
             t.leaves.len()
         );
+    }
+
+    /// A point kept in [`UNIT_BITS`] bits per axis (the training photons') finds the leaf
+    /// of the point itself, in a tree with leaves at the deepest level, for the points of
+    /// [`test_points`], half of them about the deep leaves. Fails with 15 bits (307 of
+    /// 40,199 points in another leaf) and with round-to-nearest instead of the interval's
+    /// index (5,659).
+    #[test]
+    fn quantized_points_find_the_leaf_of_the_point() {
+        let mut state = 0x1234_5678u32;
+        let t = uneven_tree(&mut state, DEEP);
+        let deepest = t.leaves.iter().map(|l| l.depth).max().unwrap_or(0);
+        assert_eq!(deepest, MAX_SPATIAL_DEPTH, "the tree is not split to the deepest level");
+        let points = test_points(&t, &mut state, DEEP);
+        let wrong = points
+            .iter()
+            .filter(|&&p| t.leaf_of_quantized(t.quantized_point(p)) != t.leaf_of(p))
+            .count();
+        eprintln!("{wrong} of {} points in another leaf (depth up to {deepest})", points.len());
+        assert_eq!(wrong, 0, "{wrong} of {} points in another leaf", points.len());
     }
 }

@@ -90,6 +90,7 @@ use crate::math::Vec3;
 use crate::sampler::hash_combine;
 use rayon::prelude::*;
 use std::cell::RefCell;
+use std::sync::Mutex;
 use std::time::Instant;
 
 /// Photons' roulette threshold when the tree learns from them (the photon
@@ -294,6 +295,9 @@ impl Guided {
             self.bsdf_fraction < 1.0
         };
         let record = !state.last && (state.passes == 0 || guides);
+        if !record {
+            drop(SPARE_TILES.take());
+        }
         // the pass's photons before the camera samples, which are merged as the pass
         // ends: a pass stopped on the way leaves the state as it was
         let photon_deposits = if record && self.learn_from == LearnFrom::Photons && self.target == Target::Radiance {
@@ -355,8 +359,11 @@ impl Guided {
         let (mut result, tiles) = if path.is_none() && learned.is_none() && scene.packets() && !scene.has_media {
             // `path`'s packets for the camera rays and their shadow rays, each lane then
             // walking on alone with the thread's buffers; its records kept apart, each
-            // pixel's span noted for the deposits in the pixels' order below
-            camera_pass_blocks_with(ctx, sample_index, film, TileRecords::default, |b, out, t| {
+            // pixel's span noted for the deposits in the pixels' order below, in the last
+            // recording pass's tiles (see `SPARE_TILES`)
+            let spare = Mutex::new(SPARE_TILES.take());
+            let new_tile = || spare.lock().ok().and_then(|mut s| s.pop()).unwrap_or_default();
+            camera_pass_blocks_with(ctx, sample_index, film, new_tile, |b, out, t| {
                 LANES.with_borrow_mut(|lanes| {
                     guiding.li_block(scene, b, out, lanes);
                     t.add_block(ctx, b.pixels, out, lanes, width);
@@ -441,7 +448,9 @@ impl Guided {
                 }
             });
         }
-        drop(tiles);
+        if record {
+            SPARE_TILES.set(tiles.into_iter().map(TileRecords::emptied).collect());
+        }
         for d in &photon_deposits {
             for ((&(leaf, _), &cell), &value) in d.queries.iter().zip(&d.cells).zip(&d.values) {
                 let leaf = &mut s.tree.leaves[leaf as usize];
@@ -520,6 +529,14 @@ thread_local! {
     static LANES: RefCell<[Scratch; PACKET]> = RefCell::new(std::array::from_fn(|_| Scratch::default()));
 }
 
+thread_local! {
+    /// The tiles of the last recording pass run by this thread, emptied, for the next
+    /// to fill: each pass's records made anew (megabytes) were pages faulted in and
+    /// given back every pass (cbox_path: 4 % of a pass). Left empty by a pass that does
+    /// not record, so that a render's training holds them no longer.
+    static SPARE_TILES: RefCell<Vec<TileRecords>> = const { RefCell::new(Vec::new()) };
+}
+
 /// What a tile of a pass collects for the deposits: the records of its samples, the
 /// samples' means (pixel, value) and EARS's sub-paths. A ray-by-ray pass leaves the
 /// records in its pixels' order; a packet pass in its blocks' order, with each pixel's
@@ -544,7 +561,7 @@ impl TileRecords {
             let (x0, y0, x1, y1) = tile_of(ctx.film, pixels[0]);
             let area = ((x1 - x0) * (y1 - y0)) as usize;
             (self.origin, self.width) = ((x0, y0), (x1 - x0) as usize);
-            self.spans = vec![(0, 0); area];
+            self.spans.resize(area, (0, 0));
             self.means.reserve(area);
         }
         for (i, &(x, y)) in pixels.iter().enumerate() {
@@ -559,6 +576,15 @@ impl TileRecords {
                 lane.clear();
             }
         }
+    }
+
+    /// The tile without its samples, its buffers kept.
+    fn emptied(mut self) -> TileRecords {
+        self.records.clear();
+        self.spans.clear();
+        self.means.clear();
+        self.split = ears::Scratch::default();
+        self
     }
 
     /// Calls `f` with the records by pixel, rows in order, each sample's in its walk's

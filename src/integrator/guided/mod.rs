@@ -87,12 +87,14 @@ pub use path::{Guiding, Mixture, Record, Scratch};
 pub use quadtree::{sphere_to_square, square_to_sphere, DTree, Target};
 pub use sdtree::{SdTree, TreeStats};
 
-use super::pass::{camera_pass_blocks, camera_pass_blocks_with, camera_pass_with};
+use super::pass::{camera_pass_blocks, camera_pass_blocks_with, camera_pass_with, tile_of};
 use super::{ears, PassContext, PassResult, PathProfile, PathTracer, RayCounts, Roulette};
 use crate::accel::wide::PACKET;
 use crate::math::Vec3;
 use crate::sampler::hash_combine;
 use iteration::ChoiceStride;
+use std::cell::RefCell;
+use std::sync::Mutex;
 use std::time::Instant;
 
 /// The training photons' seed offset (their own sequence, apart from the camera's).
@@ -307,6 +309,9 @@ impl Guided {
             self.bsdf_fraction < 1.0
         };
         let record = !state.last && (state.passes == 0 || guides);
+        if !record {
+            drop(SPARE_TILES.take());
+        }
         // the pass's photons before the camera samples, which are merged as the pass
         // ends: a pass stopped on the way leaves the state as it was
         let photon_chunks = if record && self.learn_from == LearnFrom::Photons && self.target == Target::Radiance {
@@ -365,27 +370,21 @@ impl Guided {
         }
         let width = ctx.film.width as usize;
         let pixels = (ctx.film.width * ctx.film.height) as usize;
-        // each tile's records (in its pixels' order) and the samples' means (pixel, value)
-        // for the moments (and EARS's sub-paths and records)
+        // each tile's records and the samples' means (pixel, value) for the moments (and
+        // EARS's sub-paths and records)
         let (mut result, tiles) = if path.is_none() && learned.is_none() && scene.packets() && !scene.has_media {
             // `path`'s packets for the camera rays and their shadow rays, each lane then
-            // walking on alone; its records kept apart, and put in the pixels' order below
-            let (result, tiles) = camera_pass_blocks_with(ctx, sample_index, film, PacketTile::default, |b, out, t| {
-                guiding.li_block(scene, b, out, &mut t.lanes);
-                for (i, &(x, y)) in b.pixels.iter().enumerate() {
-                    let pixel = y as usize * width + x as usize;
-                    let lane = &mut t.lanes[i].records;
-                    if out[i].is_finite() {
-                        t.means.push((pixel, sample_mean(out[i])));
-                        let start = t.records.len();
-                        t.records.append(lane);
-                        t.spans.push((pixel, start, t.records.len()));
-                    } else {
-                        lane.clear();
-                    }
-                }
-            });
-            (result, tiles.into_iter().map(PacketTile::in_pixel_order).collect())
+            // walking on alone with the thread's buffers; its records kept apart, each
+            // pixel's span noted for the deposits in the pixels' order below, in the last
+            // recording pass's tiles (see `SPARE_TILES`)
+            let spare = Mutex::new(SPARE_TILES.take());
+            let new_tile = || spare.lock().ok().and_then(|mut s| s.pop()).unwrap_or_default();
+            camera_pass_blocks_with(ctx, sample_index, film, new_tile, |b, out, t| {
+                LANES.with_borrow_mut(|lanes| {
+                    guiding.li_block(scene, b, out, lanes);
+                    t.add_block(ctx, b.pixels, out, lanes, width);
+                })
+            })
         } else {
             let new_tile = || (Scratch::default(), Vec::<(usize, f64)>::new(), ears::Scratch::default());
             let (result, tiles) = camera_pass_with(ctx, sample_index, film, new_tile, |s, (scratch, means, split)| {
@@ -415,7 +414,12 @@ impl Guided {
                 result,
                 tiles
                     .into_iter()
-                    .map(|(scratch, means, split)| (scratch.records, means, split))
+                    .map(|(scratch, means, split)| TileRecords {
+                        records: scratch.records,
+                        means,
+                        split,
+                        ..TileRecords::default()
+                    })
                     .collect::<Vec<_>>(),
             )
         };
@@ -428,23 +432,23 @@ impl Guided {
         // the first passes' vertices choose the leaves' fractions, at most a budget of them
         let chooses = |r: &Record| r.counted && r.fq > 0.0;
         let candidates = if self.learn_fraction && s.passes < CHOICE_PASSES {
-            tiles.iter().map(|t| t.0.iter().filter(|r| chooses(r)).count()).sum()
+            tiles.iter().map(|t| t.records.iter().filter(|r| chooses(r)).count()).sum()
         } else {
             0
         };
         let mut choice = ChoiceStride::new(candidates, s.choice_budget);
         s.reserve_choice(choice.kept());
         if let (true, Some(e)) = (ears_pass, s.ears.as_mut()) {
-            e.add_pass(tiles.iter().map(|t| &t.2), width);
+            e.add_pass(tiles.iter().map(|t| &t.split), width);
         }
-        for (records, means, _) in &tiles {
-            for &(pixel, y) in means {
+        for tile in &tiles {
+            for &(pixel, y) in &tile.means {
                 let m = &mut s.moments[pixel];
                 m[0] += y;
                 m[1] += y * y;
                 m[2] += 1.0;
             }
-            for r in records {
+            tile.for_each_in_pixel_order(|r| {
                 let leaf = &mut s.tree.leaves[r.leaf as usize];
                 if r.counted {
                     leaf.count += 1;
@@ -465,9 +469,11 @@ impl Guided {
                         value: r.value,
                     });
                 }
-            }
+            });
         }
-        drop(tiles);
+        if record {
+            SPARE_TILES.set(tiles.into_iter().map(TileRecords::emptied).collect());
+        }
         s.photons.deposit(&mut s.tree, photon_chunks);
         self.pass_done(s, ctx, pass_start);
         result
@@ -505,24 +511,82 @@ fn sample_mean(l: Vec3) -> f64 {
     ((l.x + l.y + l.z) / 3.0) as f64
 }
 
-/// What a tile of a packet pass collects: each lane's buffers, the records of the
-/// tile's samples in block order with each sample's span there (pixel, start, end),
-/// and the samples' means (pixel, value).
-#[derive(Default)]
-struct PacketTile {
-    lanes: [Scratch; PACKET],
-    records: Vec<Record>,
-    spans: Vec<(usize, usize, usize)>,
-    means: Vec<(usize, f64)>,
+thread_local! {
+    /// Each lane's buffers of a packet pass (one per lane of a packet), kept by the thread
+    /// from tile to tile and pass to pass: made anew for every tile, their growth was a
+    /// tenth of what recording adds to a pass (cbox_path).
+    static LANES: RefCell<[Scratch; PACKET]> = RefCell::new(std::array::from_fn(|_| Scratch::default()));
 }
 
-impl PacketTile {
-    /// The tile as a ray-by-ray pass leaves it: the records by pixel, rows in order (a
-    /// tile's pixel indices grow in that order), each sample's in its walk's order, so
-    /// that the trees do not depend on how the pass traced.
-    fn in_pixel_order(mut self) -> (Vec<Record>, Vec<(usize, f64)>, ears::Scratch) {
-        self.spans.sort_unstable_by_key(|s| s.0);
-        let records = self.spans.iter().flat_map(|&(_, a, b)| &self.records[a..b]).copied().collect();
-        (records, self.means, ears::Scratch::default())
+thread_local! {
+    /// The tiles of the last recording pass run by this thread, emptied, for the next
+    /// to fill: each pass's records made anew (megabytes) were pages faulted in and
+    /// given back every pass (cbox_path: 4 % of a pass). Left empty by a pass that does
+    /// not record, so that a render's training holds them no longer.
+    static SPARE_TILES: RefCell<Vec<TileRecords>> = const { RefCell::new(Vec::new()) };
+}
+
+/// What a tile of a pass collects for the deposits: the records of its samples, the
+/// samples' means (pixel, value) and EARS's sub-paths. A ray-by-ray pass leaves the
+/// records in its pixels' order; a packet pass in its blocks' order, with each pixel's
+/// span there (`spans`, by the pixels' order in the tile, from pixel `origin` on, rows
+/// of `width`).
+#[derive(Default)]
+struct TileRecords {
+    records: Vec<Record>,
+    spans: Vec<(u32, u32)>,
+    origin: (i32, i32),
+    width: usize,
+    means: Vec<(usize, f64)>,
+    split: ears::Scratch,
+}
+
+impl TileRecords {
+    /// Takes a packet's samples (pixels `pixels` of a block, radiance `out`) and each
+    /// lane's records from `lanes`; a sample that is not finite records nothing.
+    #[inline]
+    fn add_block(&mut self, ctx: &PassContext, pixels: &[(i32, i32)], out: &[Vec3], lanes: &mut [Scratch; PACKET], width: usize) {
+        if self.spans.is_empty() {
+            let (x0, y0, x1, y1) = tile_of(ctx.film, pixels[0]);
+            let area = ((x1 - x0) * (y1 - y0)) as usize;
+            (self.origin, self.width) = ((x0, y0), (x1 - x0) as usize);
+            self.spans.resize(area, (0, 0));
+            self.means.reserve(area);
+        }
+        for (i, &(x, y)) in pixels.iter().enumerate() {
+            let lane = &mut lanes[i].records;
+            if out[i].is_finite() {
+                self.means.push((y as usize * width + x as usize, sample_mean(out[i])));
+                let start = self.records.len() as u32;
+                self.records.append(lane);
+                let local = (y - self.origin.1) as usize * self.width + (x - self.origin.0) as usize;
+                self.spans[local] = (start, self.records.len() as u32);
+            } else {
+                lane.clear();
+            }
+        }
+    }
+
+    /// The tile without its samples, its buffers kept.
+    fn emptied(mut self) -> TileRecords {
+        self.records.clear();
+        self.spans.clear();
+        self.means.clear();
+        self.split = ears::Scratch::default();
+        self
+    }
+
+    /// Calls `f` with the records by pixel, rows in order, each sample's in its walk's
+    /// order, as a ray-by-ray pass leaves them, so that the trees do not depend on how
+    /// the pass traced.
+    #[inline]
+    fn for_each_in_pixel_order(&self, mut f: impl FnMut(&Record)) {
+        if self.spans.is_empty() {
+            self.records.iter().for_each(f);
+            return;
+        }
+        for &(start, end) in &self.spans {
+            self.records[start as usize..end as usize].iter().for_each(&mut f);
+        }
     }
 }

@@ -114,6 +114,10 @@ pub struct GuidedPoint {
 /// `fq` is the vertex's local estimate F/q (F = f·|cos|·L_i, luminance; q the
 /// density it was sampled with), `pb` the BSDF's density there and `p` the
 /// direction's point on the square, for the leaf's choice of BSDF fraction.
+/// A vertex's record has its `p` only where `fq` or `value` is positive and its
+/// `cell` only where `value` is (elsewhere 0): nothing reads them there (no deposit,
+/// no part in the choice), and most vertices of a pass that learns from photons
+/// record nothing but their leaf.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Record {
     pub leaf: u32,
@@ -131,19 +135,37 @@ pub struct Record {
 #[derive(Clone, Copy, Debug)]
 pub struct Vertex {
     leaf: u32,
-    cell: u32,
     pdf: f32,
     /// Throughput from the camera up to and including this vertex's scattering
     /// (before roulette): a later contribution C arrived here as C / beta.
     beta: Vec3,
-    /// The sample's weight f·|cos|/q, the BSDF's density and the point on the square.
+    /// The sample's weight f·|cos|/q, the BSDF's density and the direction.
     weight: Vec3,
     pb: f32,
-    p: Vec2,
+    dir: Direction,
     /// The estimate when the vertex was made (or after its own direct light, when
     /// that is not recorded): what arrives here is the estimate's growth since (a
     /// prefix sum instead of adding every contribution to every waiting vertex).
     l_before: Vec3,
+}
+
+/// A vertex's sampled direction: its point on the square where a sample of the
+/// guide's mixture made it, else the direction, whose point (an arctangent) is made
+/// only for a record that reads it.
+#[derive(Clone, Copy, Debug)]
+enum Direction {
+    Square(Vec2),
+    Sphere(Vec3),
+}
+
+impl Direction {
+    #[inline]
+    fn point(self) -> Vec2 {
+        match self {
+            Direction::Square(p) => p,
+            Direction::Sphere(d) => sphere_to_square(d),
+        }
+    }
 }
 
 /// Per-thread buffers: the records of a tile, and the current path's vertices.
@@ -421,10 +443,21 @@ impl<'g, const EARS: bool> Policy for Walk<'g, '_, EARS> {
 
     #[inline]
     fn pdf(&self, plan: &Plan, bsdf: &Bsdf, wo: Vec3, wi: Vec3) -> f32 {
-        plan.mixture.pdf(bsdf, wo, wi)
+        // without the guide the mixture's density is the BSDF's: called as `path` calls it
+        match plan.mixture.guide {
+            None => bsdf.pdf(wo, wi),
+            Some(_) => plan.mixture.pdf(bsdf, wo, wi),
+        }
     }
 
+    #[inline]
     fn sample(&mut self, plan: &Plan, bsdf: &Bsdf, wo: Vec3, u: Vec2, uc: f32) -> Option<BsdfSample> {
+        if plan.mixture.guide.is_none() {
+            // the mixture's BSDF sample without the guide, as `path` takes it
+            let bs = bsdf.sample(wo, u, uc)?;
+            self.square = None;
+            return Some(bs);
+        }
         let (bs, square) = plan.mixture.sample_on_square(bsdf, wo, plan.u_choice, u, uc)?;
         if let Some(g) = square {
             self.guided = true;
@@ -492,20 +525,14 @@ impl<'g, const EARS: bool> Policy for Walk<'g, '_, EARS> {
             return;
         }
         let square = self.square;
-        let p = square.map_or_else(|| sphere_to_square(bs.wi), |s| s.p);
         self.verts.push(Vertex {
             leaf: plan.leaf,
-            cell: if g.record_radiance {
-                g.tree.record_cell_at(plan.leaf, p)
-            } else {
-                0
-            },
             pdf: bs.pdf,
             beta,
             weight: bs.weight,
             // without the guide the sample is the BSDF's own
             pb: square.map_or(bs.pdf, |s| s.pb),
-            p,
+            dir: square.map_or(Direction::Sphere(bs.wi), |s| Direction::Square(s.p)),
             l_before: l,
         });
         self.vertex_made = true;
@@ -524,17 +551,25 @@ impl<const EARS: bool> Walk<'_, '_, EARS> {
                 if v.beta.z > 0.0 { c.z / v.beta.z } else { 0.0 },
             );
             let fq = mean(arrived * v.weight).max(0.0);
+            // nothing to deposit (and no deposit to leave out of the fraction
+            // choice) when the tree learns from elsewhere
+            let value = g.record_value(mean(arrived).max(0.0) / v.pdf, fq, v.pdf);
+            // the point and the cell only where they are read (see `Record`)
+            let (p, cell) = if fq > 0.0 || value > 0.0 {
+                let p = v.dir.point();
+                (p, if value > 0.0 { g.tree.record_cell_at(v.leaf, p) } else { 0 })
+            } else {
+                (Vec2::ZERO, 0)
+            };
             self.records.push(Record {
                 leaf: v.leaf,
-                cell: v.cell,
-                // nothing to deposit (and no deposit to leave out of the fraction
-                // choice) when the tree learns from elsewhere
-                value: g.record_value(mean(arrived).max(0.0) / v.pdf, fq, v.pdf),
+                cell,
+                value,
                 counted: true,
                 fq,
                 q: v.pdf,
                 pb: v.pb,
-                p: v.p,
+                p,
             });
         }
     }

@@ -105,10 +105,10 @@ const PHOTON_SEED: u32 = 0x5eed_0000;
 pub const MAX_PHOTONS_PER_PASS: u32 = 1 << 20;
 
 /// Most training iterations the spp budget gives (1 + 1 + 2 + 4 + 8 + 16 = 32 spp):
-/// a training pass costs about 2.5 `path` passes (its photons, records and the
-/// guide's lookups; caustic_cbox under `--time-limit` 30 s: 11 spp with 7 training
-/// iterations against `path`'s 41), so training stops where a minute's render
-/// still has most of its samples ahead (caustic_cbox at 256 spp with 31 of
+/// a recording pass costs about two `path` passes (its photons, records and the
+/// guide's lookups; cbox_path: 2.4 for the first, 1.6–1.9 for the next ones), and
+/// every pass of a training iteration records while the guide is used, so training
+/// stops where a minute's render still has most of its samples ahead (caustic_cbox at 256 spp with 31 of
 /// training: relMSE 2.9e-3, `path` 1.3e-2). More did not pay: at 256 spp, 7 and 8
 /// iterations gave relMSE × CPU s 0.146 and 0.167 against 6's 0.142 (caustic_cbox).
 pub const MAX_TRAINING_ITERATIONS: u32 = 6;
@@ -144,7 +144,7 @@ pub const GUIDED_PASS_COST: f64 = 1.5;
 /// [`State::guide`]) after which a guide in use is left and training stops (as after
 /// one that finds a guided sample no less noisy than an unguided one, or where no leaf
 /// guides): the rest of the spp budget is the final iteration, `path`'s passes, without
-/// photons, records or tree builds. A recording pass costs about 2.5 `path` passes (its
+/// photons, records or tree builds. A recording pass costs about two `path` passes (its
 /// photons, the camera paths and records, the tree's rebuild); one "no" was not
 /// enough: caustic_cbox (seeds 3 and 5, 64 spp) measured 0.79 and 0.73 first (the
 /// guide pays below 1/1.5) and 0.38 and 0.39 next.
@@ -298,8 +298,8 @@ impl Guided {
         let mut counts = RayCounts::default();
         // where no leaf guides, a sample is `path`'s: a training iteration then records
         // (and shoots photons) in its first pass only and renders the rest as `path`,
-        // at `path`'s cost (a recording pass costs about 1.4 `path` passes, which trace
-        // packets: env_sphere), and so does a final iteration
+        // at `path`'s cost (a recording pass costs about two `path` passes, which trace
+        // packets: cbox_path), and so does a final iteration
         // a training iteration's first pass samples the other way than the rest (the
         // guide where they do not, and back), for the choice of `State::guide`
         let probe = !state.last && state.passes == 0;

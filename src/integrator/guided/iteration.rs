@@ -278,6 +278,11 @@ impl Guided {
             Combine::Samples => s.finished.push(finished),
             Combine::Last => s.finished = vec![finished],
         }
+        if !s.training_stopped && self.learns_from_photons() {
+            // the earlier iterations' photons go into the recording trees too (not where
+            // training stops: the tree is not rebuilt, and the final passes free them)
+            s.photons.end_iteration(&mut s.tree, s.recorded, super::photons_per_pass(ctx));
+        }
         let threshold = self.spatial_threshold as f64 * (s.recorded.max(1) as f64).sqrt();
         let choice = std::mem::take(&mut s.choice);
         let moments = if s.training_stopped {

@@ -314,7 +314,7 @@ impl Guided {
         }
         // the pass's photons before the camera samples, which are merged as the pass
         // ends: a pass stopped on the way leaves the state as it was
-        let photon_chunks = if record && self.learn_from == LearnFrom::Photons && self.target == Target::Radiance {
+        let photon_chunks = if record && self.learns_from_photons() {
             let count = state.photons.pass_count(photons_per_pass(ctx), state.recorded + 1);
             let shooting = (count, self.max_depth, self.learn_direct);
             match photons::shoot(ctx, &state.tree, shooting, (state.passes_total, photon_seed), &mut counts) {
@@ -482,10 +482,8 @@ impl Guided {
     /// Counts a finished pass (begun at `start`) and ends its iteration when that is full.
     fn pass_done(&self, s: &mut State, ctx: &PassContext, start: Instant) {
         if s.last {
+            // no tree is rebuilt from the training photons again
             s.photons.release();
-        } else if s.passes + 1 >= s.length && self.learn_from == LearnFrom::Photons && self.target == Target::Radiance {
-            // the earlier iterations' photons go into the recording trees too
-            s.photons.end_iteration(&mut s.tree, s.recorded, photons_per_pass(ctx));
         }
         s.passes += 1;
         s.passes_total += 1;
@@ -498,6 +496,11 @@ impl Guided {
         if s.passes >= s.length && !s.last {
             self.end_iteration(s, ctx);
         }
+    }
+
+    /// Whether the recording trees learn from training photons ([`photons`]).
+    fn learns_from_photons(&self) -> bool {
+        self.learn_from == LearnFrom::Photons && self.target == Target::Radiance
     }
 }
 

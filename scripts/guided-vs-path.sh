@@ -10,6 +10,10 @@
 # Modes (environment):
 #   SPP=N          equal spp instead of equal time: N spp each, no time limit; the figure of
 #                  merit is relMSE x CPU seconds (user + system, from /usr/bin/time)
+#   REPEAT=N       with SPP: the group of renders of a scene and seed runs N times side by
+#                  side and each render's CPU time is its least of the N (a render's image
+#                  depends on seed and spp only, so a repeat's must equal the first: checked);
+#                  the CPU time of one run on this shared VM moves by 5-10 %
 #   LOAD=1         a third render (`path` on cbox_path, one thread) runs beside the pair for
 #                  the whole run: the loaded case (the schedule must not care)
 #   GUIDED='{...}' extra override for `guided` (e.g. '{"integrator": {"mis_compensation": true}}'
@@ -65,22 +69,37 @@ for sc in "$@"; do
       /usr/bin/time -f 'cpu %U %S' -o "$out/$name.$tag.$seed.time" \
         "$bin" render "$scene" "$@" "${common[@]}" -o "$out/$name.$tag.$seed.exr" >"$out/$name.$tag.$seed.log" 2>&1
     }
-    tags=(path guided)
-    run path "$rdr" &
-    pids=($!)
-    run guided "$rdr" --override '{"integrator":{"type":"guided"}}' --override "$guided_extra" &
-    pids+=($!)
-    if [[ -n ${BASE:-} ]]; then
-      tags+=(base)
-      run base "$BASE" --override '{"integrator":{"type":"guided"}}' --override "${BASE_GUIDED:-{\}}" &
+    group() { # one render of each tag side by side; $round names the repeat (empty: the first)
+      tags=(path guided)
+      run "path$round" "$rdr" &
+      pids=($!)
+      run "guided$round" "$rdr" --override '{"integrator":{"type":"guided"}}' --override "$guided_extra" &
       pids+=($!)
-    fi
-    for v in ${VARIANTS:-}; do
-      tags+=("${v%%=*}")
-      run "${v%%=*}" "$rdr" --override '{"integrator":{"type":"guided"}}' --override "${v#*=}" &
-      pids+=($!)
+      if [[ -n ${BASE:-} ]]; then
+        tags+=(base)
+        run "base$round" "$BASE" --override '{"integrator":{"type":"guided"}}' --override "${BASE_GUIDED:-{\}}" &
+        pids+=($!)
+      fi
+      for v in ${VARIANTS:-}; do
+        tags+=("${v%%=*}")
+        run "${v%%=*}$round" "$rdr" --override '{"integrator":{"type":"guided"}}' --override "${v#*=}" &
+        pids+=($!)
+      done
+      wait "${pids[@]}" # not the load
+    }
+    round='' group
+    repeats=1
+    [[ -n ${SPP:-} ]] && repeats=${REPEAT:-1}
+    for ((r = 2; r <= repeats; r++)); do
+      round=".r$r" group
+      for i in "${tags[@]}"; do
+        same=$("$rdr" compare "$out/$name.$i.r$r.$seed.exr" "$out/$name.$i.$seed.exr" | grep '^relMSE' | head -1)
+        if ! grep -qE '\b0(\.0+)?e0\b|\b0\.0+\b' <<<"$same"; then
+          echo "$name seed $seed $i: repeat $r differs from the first ($same)" >&2
+          exit 1
+        fi
+      done
     done
-    wait "${pids[@]}" # not the load
 
     declare -A merit=()
     for i in "${tags[@]}"; do
@@ -88,7 +107,9 @@ for sc in "$@"; do
       [[ -f $ref.var.exr ]] && variance=(--variance "$ref.var.exr")
       m=$("$rdr" compare "$out/$name.$i.$seed.exr" "$ref.exr" "${variance[@]}" | grep '^relMSE' | head -1)
       rel=$(grep -oE '[0-9.]+e[-+]?[0-9]+|[0-9]+\.[0-9]+' <<<"$m" | head -1)
-      cpu=$(awk '/^cpu/ {print $2 + $3}' "$out/$name.$i.$seed.time")
+      times=("$out/$name.$i.$seed.time")
+      for ((r = 2; r <= repeats; r++)); do times+=("$out/$name.$i.r$r.$seed.time"); done
+      cpu=$(awk '/^cpu/ {c = $2 + $3; if (best == "" || c < best) best = c} END {print best}' "${times[@]}")
       spp=$(grep -oE 'at [0-9]+ spp' "$out/$name.$i.$seed.log" | head -1)
       if [[ -n ${SPP:-} ]]; then
         merit[$i]=$(awk -v r="$rel" -v c="$cpu" 'BEGIN {print r * c}')

@@ -72,7 +72,7 @@ pub(super) fn parse_integrator(p: &Props) -> Result<IntegratorDesc> {
                 n_iterations: p.int_at_least("n_iterations", 1, 1)?,
                 n_near_photons: p.int_at_least("n_near_photons", 64, 1)?,
                 max_depth: capped(p, "max_depth", p.int_at_least("max_depth", 12, 1)?, MAX_DEPTH),
-                rr_threshold: unit_interval(p, "rr_threshold")?,
+                rr_threshold: unit_interval(p, "rr_threshold", 0.1)?,
             }),
             p.int_at_least("spp", 16, 1)?,
         ),
@@ -93,7 +93,7 @@ pub(super) fn parse_integrator(p: &Props) -> Result<IntegratorDesc> {
                 initial_radius,
                 alpha,
                 max_depth: capped(p, "max_depth", p.int_at_least("max_depth", 12, 1)?, MAX_DEPTH),
-                rr_threshold: unit_interval(p, "rr_threshold")?,
+                rr_threshold: unit_interval(p, "rr_threshold", 0.1)?,
             };
             (Integrator::Sppm(sppm), p.int_at_least("spp", 64, 1)?)
         }
@@ -274,7 +274,7 @@ fn integrator_keys(ty: &str) -> Vec<String> {
 /// The keys of [`Guided`] (documented there).
 fn parse_guided(p: &Props) -> Result<Guided> {
     let d = Guided::default();
-    let rr_threshold = unit_interval(p, "rr_threshold")?;
+    let rr_threshold = unit_interval(p, "rr_threshold", d.rr_threshold)?;
     let max_depth = capped(p, "max_depth", p.int_at_least("max_depth", d.max_depth as i32, 1)?, MAX_DEPTH);
     let bsdf_fraction = p.f32_or("bsdf_fraction", d.bsdf_fraction)?;
     if !(bsdf_fraction > 0.0 && bsdf_fraction <= 1.0) {

@@ -224,9 +224,9 @@ fn parse_shapegroup(name: &str, p: &Props) -> Result<ShapeGroupDesc> {
     })
 }
 
-/// `rr_threshold` of the photon integrators: a number in [0, 1], 0.1 when absent.
-fn unit_interval(p: &Props, key: &str) -> Result<f32> {
-    let v = p.f32_or(key, 0.1)?;
+/// A number in [0, 1] (`rr_threshold`), `default` when absent.
+fn unit_interval(p: &Props, key: &str, default: f32) -> Result<f32> {
+    let v = p.f32_or(key, default)?;
     if !(0.0..=1.0).contains(&v) {
         return Err(p.error(key, format!("{key} must lie in [0, 1]")));
     }

@@ -188,11 +188,14 @@ pub enum Combine {
 /// Parameters (JSON `integrator` keys, besides `type`):
 /// * `spp` (int ≥ 1, 64) — the whole budget, training included;
 /// * `max_depth` (int ≥ 1, 12) — as `path`;
-/// * `rr_threshold` (number in [0, 1], 0.1) — from the 5th segment on a path
+/// * `rr_threshold` (number in [0, 1], 0.3) — from the 5th segment on a path
 ///   survives roulette with probability min(1, β'/`rr_threshold`), β' its
 ///   throughput as if every guided vertex had sampled its BSDF (0: no roulette);
 ///   `path`'s rule, min(β, 0.95), ends the very paths guiding finds the light by
 ///   (caustic_cbox's ceiling: per-sample relative variance 60 with it, 8 with this);
+///   caustic_cbox at 256 spp, relMSE × CPU s against 0.1's, seeds 1–6: 0.3 0.95
+///   (0.87–1.02: 7 % less CPU, 2 % more error), 0.05 1.04, 0.2 0.96, 0.4 0.97, 0.6 1.06,
+///   1 1.25;
 /// * `learn_from` (`"photons"` | `"paths"`, `"photons"`) — what training
 ///   iterations learn from: photons shot from the lights, deposited with their flux
 ///   into the recording tree and kept for every later one (a recording pass shoots a
@@ -265,7 +268,7 @@ impl Default for Guided {
     fn default() -> Self {
         Guided {
             max_depth: 12,
-            rr_threshold: 0.1,
+            rr_threshold: 0.3,
             bsdf_fraction: 0.5,
             training_iterations: None,
             combine: Combine::Samples,

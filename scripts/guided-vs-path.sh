@@ -10,10 +10,12 @@
 # Modes (environment):
 #   SPP=N          equal spp instead of equal time: N spp each, no time limit; the figure of
 #                  merit is relMSE x CPU seconds (user + system, from /usr/bin/time)
-#   REPEAT=N       with SPP: the group of renders of a scene and seed runs N times side by
-#                  side and each render's CPU time is its least of the N (a render's image
-#                  depends on seed and spp only, so a repeat's must equal the first: checked);
-#                  the CPU time of one run on this shared VM moves by 5-10 %
+#   REPEAT=N       with SPP: the renders of a scene and seed run one after another instead
+#                  of side by side (path, guided, the others, and again), N rounds, and each
+#                  render's CPU time is its least of the N, as speed is measured (alternate
+#                  binaries, best of several): a render's image depends on seed and spp only
+#                  (a repeat's must equal the first: checked), and one run's CPU time on a
+#                  shared VM moves by 5-10 % (cbox_path's path 14.0-17.0 s side by side)
 #   LOAD=1         a third render (`path` on cbox_path, one thread) runs beside the pair for
 #                  the whole run: the loaded case (the schedule must not care)
 #   GUIDED='{...}' extra override for `guided` (e.g. '{"integrator": {"mis_compensation": true}}'
@@ -69,23 +71,29 @@ for sc in "$@"; do
       /usr/bin/time -f 'cpu %U %S' -o "$out/$name.$tag.$seed.time" \
         "$bin" render "$scene" "$@" "${common[@]}" -o "$out/$name.$tag.$seed.exr" >"$out/$name.$tag.$seed.log" 2>&1
     }
-    group() { # one render of each tag side by side; $round names the repeat (empty: the first)
+    pids=()
+    start() { # runs a render: in the background (side by side), or to its end with REPEAT
+      if [[ -n ${SPP:-} && -n ${REPEAT:-} ]]; then
+        run "$@"
+      else
+        run "$@" &
+        pids+=($!)
+      fi
+    }
+    group() { # one render of each tag; $round names the repeat (empty: the first)
       tags=(path guided)
-      run "path$round" "$rdr" &
-      pids=($!)
-      run "guided$round" "$rdr" --override '{"integrator":{"type":"guided"}}' --override "$guided_extra" &
-      pids+=($!)
+      pids=()
+      start "path$round" "$rdr"
+      start "guided$round" "$rdr" --override '{"integrator":{"type":"guided"}}' --override "$guided_extra"
       if [[ -n ${BASE:-} ]]; then
         tags+=(base)
-        run "base$round" "$BASE" --override '{"integrator":{"type":"guided"}}' --override "${BASE_GUIDED:-{\}}" &
-        pids+=($!)
+        start "base$round" "$BASE" --override '{"integrator":{"type":"guided"}}' --override "${BASE_GUIDED:-{\}}"
       fi
       for v in ${VARIANTS:-}; do
         tags+=("${v%%=*}")
-        run "${v%%=*}$round" "$rdr" --override '{"integrator":{"type":"guided"}}' --override "${v#*=}" &
-        pids+=($!)
+        start "${v%%=*}$round" "$rdr" --override '{"integrator":{"type":"guided"}}' --override "${v#*=}"
       done
-      wait "${pids[@]}" # not the load
+      [[ ${#pids[@]} -eq 0 ]] || wait "${pids[@]}" # not the load
     }
     round='' group
     repeats=1

@@ -18,7 +18,7 @@
 #                  shared VM moves by 5-10 % (cbox_path's path 14.0-17.0 s side by side)
 #   LOAD=1         a third render (`path` on cbox_path, one thread) runs beside the pair for
 #                  the whole run: the loaded case (the schedule must not care)
-#   GUIDED='{...}' extra override for `guided` (e.g. '{"integrator": {"mis_compensation": true}}'
+#   GUIDED='{...}' extra override for `guided` (e.g. '{"integrator":{"target":"variance"}}'
 #                  to measure one switch on and off; the default: none)
 #   BASE=RDR2      a second binary whose `guided` renders beside too (before/after in one run);
 #   BASE_GUIDED='{...}' its extra override (BASE=RDR, GUIDED and BASE_GUIDED: a switch on and off)

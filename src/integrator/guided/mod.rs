@@ -193,9 +193,9 @@ pub enum Combine {
 ///   throughput as if every guided vertex had sampled its BSDF (0: no roulette);
 ///   `path`'s rule, min(β, 0.95), ends the very paths guiding finds the light by
 ///   (caustic_cbox's ceiling: per-sample relative variance 60 with it, 8 with this);
-///   caustic_cbox at 256 spp, relMSE × CPU s against 0.1's, seeds 1–6: 0.3 0.95
-///   (0.87–1.02: 7 % less CPU, 2 % more error), 0.05 1.04, 0.2 0.96, 0.4 0.97, 0.6 1.06,
-///   1 1.25;
+///   caustic_cbox at 256 spp, relMSE × CPU s against 0.1's in the same run: 0.3 0.95
+///   over seeds 1–6 (0.87–1.02: about 7 % less CPU, 2 % more error); seeds 1–3: 0.05
+///   1.03, 0.2 0.95, 0.4 0.93, 0.6 1.03, 1 1.26;
 /// * `learn_from` (`"photons"` | `"paths"`, `"photons"`) — what training
 ///   iterations learn from: photons shot from the lights, deposited with their flux
 ///   into the recording tree and kept for every later one (a recording pass shoots a

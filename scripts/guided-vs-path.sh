@@ -15,7 +15,7 @@
 #                  render's CPU time is its least of the N, as speed is measured (alternate
 #                  binaries, best of several): a render's image depends on seed and spp only
 #                  (a repeat's must equal the first: checked), and one run's CPU time on a
-#                  shared VM moves by 5-10 % (cbox_path's path 14.0-17.0 s side by side)
+#                  shared VM moves by 10-15 % (cbox_path's path at 256 spp: 13.3-18.4 s)
 #   LOAD=1         a third render (`path` on cbox_path, one thread) runs beside the pair for
 #                  the whole run: the loaded case (the schedule must not care)
 #   GUIDED='{...}' extra override for `guided` (e.g. '{"integrator":{"target":"variance"}}'

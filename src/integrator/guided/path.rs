@@ -443,21 +443,13 @@ impl<'g, const EARS: bool> Policy for Walk<'g, '_, EARS> {
 
     #[inline]
     fn pdf(&self, plan: &Plan, bsdf: &Bsdf, wo: Vec3, wi: Vec3) -> f32 {
-        // without the guide the mixture's density is the BSDF's: called as `path` calls it
-        match plan.mixture.guide {
-            None => bsdf.pdf(wo, wi),
-            Some(_) => plan.mixture.pdf(bsdf, wo, wi),
-        }
+        // without the guide the mixture's density is the BSDF's own, as `path` takes it
+        plan.mixture.pdf(bsdf, wo, wi)
     }
 
     #[inline]
     fn sample(&mut self, plan: &Plan, bsdf: &Bsdf, wo: Vec3, u: Vec2, uc: f32) -> Option<BsdfSample> {
-        if plan.mixture.guide.is_none() {
-            // the mixture's BSDF sample without the guide, as `path` takes it
-            let bs = bsdf.sample(wo, u, uc)?;
-            self.square = None;
-            return Some(bs);
-        }
+        // without the guide the mixture's sample is the BSDF's own, as `path` takes it
         let (bs, square) = plan.mixture.sample_on_square(bsdf, wo, plan.u_choice, u, uc)?;
         if let Some(g) = square {
             self.guided = true;

@@ -329,7 +329,7 @@ impl Guided {
         if !self.learn_fraction || self.learn_from == LearnFrom::Paths || s.passes < 2 {
             return None;
         }
-        if s.tree.leaves.iter().all(|l| l.bsdf_fraction >= 1.0) {
+        if !s.tree.any_guides() {
             return Some(1.0);
         }
         let (first, second) = difference_variances(&probe_terms(s)?)?;

@@ -307,7 +307,7 @@ impl Guided {
         // guide where they do not, and back), for the choice of `State::guide`
         let probe = !state.last && state.passes == 0;
         let guides = if self.learn_fraction {
-            state.guide != probe && state.tree.leaves.iter().any(|l| l.bsdf_fraction < 1.0)
+            state.guide != probe && state.tree.any_guides()
         } else {
             self.bsdf_fraction < 1.0
         };

@@ -420,7 +420,7 @@ impl<'g, const EARS: bool> Policy for Walk<'g, '_, EARS> {
             // trained by BSDF samples alone, the caustic leaf of caustic_cbox gave
             // the sphere 54 % of its samples instead of 76 %)
             let fraction = if g.learn_fraction && !(g.record && g.record_radiance) {
-                g.tree.leaves[leaf as usize].bsdf_fraction
+                g.tree.bsdf_fraction(leaf)
             } else {
                 g.bsdf_fraction
             };

@@ -16,6 +16,11 @@
 #                  binaries, best of several): a render's image depends on seed and spp only
 #                  (a repeat's must equal the first: checked), and one run's CPU time on a
 #                  shared VM moves by 10-15 % (cbox_path's path at 256 spp: 13.3-18.4 s)
+#   COST=instructions  with SPP: the cost is the instructions a render executes instead of
+#                  its CPU seconds (valgrind's callgrind, no cache simulation: about 30x slower,
+#                  one render at a time per core); it does not depend on the machine's load,
+#                  but counts no cache miss (a render that waits on memory looks cheaper than
+#                  it is) and runs the AVX2 kernels (valgrind has no AVX-512; images are the same)
 #   LOAD=1         a third render (`path` on cbox_path, one thread) runs beside the pair for
 #                  the whole run: the loaded case (the schedule must not care)
 #   GUIDED='{...}' extra override for `guided` (e.g. '{"integrator":{"target":"variance"}}'
@@ -39,6 +44,14 @@ shift 3
 out=${OUT:-/tmp/guided-vs-path}
 guided_extra=${GUIDED:-'{}'}
 mkdir -p "$out"
+case ${COST:-} in
+  '') ;;
+  instructions)
+    [[ -n ${SPP:-} ]] || { echo "COST=instructions needs SPP (equal spp)" >&2; exit 2; }
+    command -v valgrind >/dev/null || { echo "COST=instructions needs valgrind (apt-get install valgrind)" >&2; exit 2; }
+    ;;
+  *) echo "COST is 'instructions' or unset, not '$COST'" >&2; exit 2 ;;
+esac
 lscpu | grep -E '^Model name' || true
 
 if [[ -n ${LOAD:-} ]]; then
@@ -68,8 +81,11 @@ for sc in "$@"; do
     run() { # tag binary override...
       local tag=$1 bin=$2
       shift 2
+      local counter=()
+      [[ ${COST:-} == instructions ]] &&
+        counter=(valgrind --tool=callgrind --cache-sim=no --branch-sim=no --callgrind-out-file=/dev/null)
       /usr/bin/time -f 'cpu %U %S' -o "$out/$name.$tag.$seed.time" \
-        "$bin" render "$scene" "$@" "${common[@]}" -o "$out/$name.$tag.$seed.exr" >"$out/$name.$tag.$seed.log" 2>&1
+        "${counter[@]}" "$bin" render "$scene" "$@" "${common[@]}" -o "$out/$name.$tag.$seed.exr" >"$out/$name.$tag.$seed.log" 2>&1
     }
     pids=()
     start() { # runs a render: in the background (side by side), or to its end with REPEAT
@@ -118,17 +134,23 @@ for sc in "$@"; do
       times=("$out/$name.$i.$seed.time")
       for ((r = 2; r <= repeats; r++)); do times+=("$out/$name.$i.r$r.$seed.time"); done
       cpu=$(awk '/^cpu/ {c = $2 + $3; if (best == "" || c < best) best = c} END {print best}' "${times[@]}")
+      cost=$cpu unit='CPU s'
+      if [[ ${COST:-} == instructions ]]; then
+        cost=$(grep -oE 'refs: +[0-9,]+' "$out/$name.$i.$seed.log" | grep -oE '[0-9,]+$' | tr -d ,)
+        unit=instructions
+      fi
       spp=$(grep -oE 'at [0-9]+ spp' "$out/$name.$i.$seed.log" | head -1)
       if [[ -n ${SPP:-} ]]; then
-        merit[$i]=$(awk -v r="$rel" -v c="$cpu" 'BEGIN {print r * c}')
+        merit[$i]=$(awk -v r="$rel" -v c="$cost" 'BEGIN {print r * c}')
       else
         merit[$i]=$rel
       fi
-      echo "$name seed $seed $i: $m | $spp | cpu ${cpu} s"
+      echo "$name seed $seed $i: $m | $spp | cpu ${cpu} s${COST:+ | $cost $unit}"
     done
     for i in "${tags[@]:1}"; do
       awk -v n="$name" -v s="$seed" -v i="$i" -v g="${merit[$i]}" -v p="${merit[path]}" -v spp="${SPP:-}" \
-        'BEGIN {printf "%s seed %s: %s/path %s %.3f\n", n, s, i, (spp == "" ? "relMSE" : "relMSE x CPU s"), g / p}'
+        -v unit="${unit:-CPU s}" \
+        'BEGIN {printf "%s seed %s: %s/path %s %.3f\n", n, s, i, (spp == "" ? "relMSE" : "relMSE x " unit), g / p}'
     done
     unset merit
   done

@@ -349,7 +349,10 @@ mod tests {
             }
             None
         };
-        let layout = Layout::from_size_align(8 * HUGE, 16).unwrap();
+        // 64 MiB, above glibc's largest mmap threshold (32 MiB) and its arenas' heaps, so
+        // the plain block is a fresh mapping: a 16 MiB one could reuse memory that a test
+        // running beside this one had advised and freed, and failed so once in the suite
+        let layout = Layout::from_size_align(32 * HUGE, 16).unwrap();
         // SAFETY: a non-zero size; nothing is read or written; freed with its layout.
         unsafe {
             let advised = HugePageAllocator.alloc(layout);
@@ -362,7 +365,7 @@ mod tests {
             System.dealloc(plain, layout);
             match (a, b) {
                 (Some(a), Some(b)) => {
-                    assert!(a, "an advised 16 MiB block is not eligible for huge pages");
+                    assert!(a, "an advised 64 MiB block is not eligible for huge pages");
                     assert!(!b, "a plain block is eligible too: the check cannot tell");
                 }
                 _ => eprintln!("skipped: /proc/self/smaps has no THPeligible lines"),

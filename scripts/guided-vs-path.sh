@@ -87,7 +87,6 @@ for sc in "$@"; do
       /usr/bin/time -f 'cpu %U %S' -o "$out/$name.$tag.$seed.time" \
         "${counter[@]}" "$bin" render "$scene" "$@" "${common[@]}" -o "$out/$name.$tag.$seed.exr" >"$out/$name.$tag.$seed.log" 2>&1
     }
-    pids=()
     start() { # runs a render: in the background (side by side), or to its end with REPEAT
       if [[ -n ${SPP:-} && -n ${REPEAT:-} ]]; then
         run "$@"

@@ -458,15 +458,17 @@ impl DTree {
 }
 
 /// Chooses the lower part (false) with probability `p` and rescales `u` to [0, 1).
+/// Both rescalings are computed and one is selected, without a branch: the choice is a
+/// coin flip at every level of a descent, which a branch mispredicts about half the time
+/// (caustic_cbox at 64 spp, callgrind's branch simulation: 11 million of guided's 233
+/// million mispredictions were here).
 #[inline]
 fn pick(u: &mut f32, p: f32) -> bool {
-    if *u < p {
-        *u = (*u / p).min(ONE_BELOW);
-        false
-    } else {
-        *u = ((*u - p) / (1.0 - p)).clamp(0.0, ONE_BELOW);
-        true
-    }
+    let lower = *u < p;
+    let lower_u = (*u / p).min(ONE_BELOW);
+    let upper_u = ((*u - p) / (1.0 - p)).clamp(0.0, ONE_BELOW);
+    *u = std::hint::select_unpredictable(lower, lower_u, upper_u);
+    !lower
 }
 
 #[cfg(test)]

@@ -872,7 +872,7 @@ fn the_leaves_choose_their_fractions_from_the_first_recording_passes() {
     let loaded = load_scene(&shared.join("refs/scenes/caustic_cbox.json"), &[o], Profile::Physical);
     let mut state = train_with(&loaded, 20, 1, |state| {
         if let Some(s) = state.guided().as_mut() {
-            s.tree.fractions_mut().iter_mut().for_each(|f| *f = f.min(0.5));
+            s.tree.map_fractions(|f| f.min(0.5));
         }
     });
     let s = state.guided().as_ref().expect("guided state");
@@ -909,7 +909,7 @@ fn a_pass_keeps_at_most_its_budget_of_choice_vertices() {
     let mut state = train_with(&loaded, 20, 1, |state| {
         if let Some(s) = state.guided().as_mut() {
             s.choice_budget = budget;
-            s.tree.fractions_mut().iter_mut().for_each(|f| *f = f.min(0.5));
+            s.tree.map_fractions(|f| f.min(0.5));
         }
     });
     let s = state.guided().as_ref().expect("guided state");

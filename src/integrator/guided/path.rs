@@ -406,24 +406,20 @@ impl<'g, const EARS: bool> Policy for Walk<'g, '_, EARS> {
     fn plan(&mut self, it: &Interaction, bsdf: &Bsdf, sampler: &mut PixelSampler) -> Plan<'g> {
         let g = self.guiding;
         self.vertex_made = false;
-        let delta = bsdf.is_delta();
-        let leaf = if delta { 0 } else { g.tree.leaf_of(it.p) };
-        let mixture = if delta {
-            Mixture {
-                guide: None,
-                bsdf_fraction: 1.0,
-            }
-        } else {
-            // every iteration samples with the leaf's learned fraction, except that
-            // training from the paths' radiance samples with the guide at
-            // `bsdf_fraction` (what it learns from its own samples sharpens it:
-            // trained by BSDF samples alone, the caustic leaf of caustic_cbox gave
-            // the sphere 54 % of its samples instead of 76 %)
-            let fraction = if g.learn_fraction && !(g.record && g.record_radiance) {
-                g.tree.bsdf_fraction(leaf)
-            } else {
-                g.bsdf_fraction
-            };
+        // every iteration samples with the leaf's learned fraction, except that
+        // training from the paths' radiance samples with the guide at
+        // `bsdf_fraction` (what it learns from its own samples sharpens it:
+        // trained by BSDF samples alone, the caustic leaf of caustic_cbox gave
+        // the sphere 54 % of its samples instead of 76 %)
+        let learned = g.learn_fraction && !(g.record && g.record_radiance);
+        // a vertex that records nothing needs its leaf only where a leaf may guide
+        let leaf = match (bsdf.is_delta(), g.record || !learned) {
+            (true, _) => None,
+            (false, true) => Some(g.tree.leaf_of(it.p)),
+            (false, false) => g.tree.guiding_leaf_of(it.p),
+        };
+        let mixture = if let Some(leaf) = leaf {
+            let fraction = if learned { g.tree.bsdf_fraction(leaf) } else { g.bsdf_fraction };
             // BSDF sampling alone skips the guide
             let guide = if fraction >= 1.0 { None } else { g.tree.guide(leaf) };
             if let Some(t) = guide {
@@ -434,7 +430,13 @@ impl<'g, const EARS: bool> Policy for Walk<'g, '_, EARS> {
                 guide,
                 bsdf_fraction: fraction,
             }
+        } else {
+            Mixture {
+                guide: None,
+                bsdf_fraction: 1.0,
+            }
         };
+        let leaf = leaf.unwrap_or(0);
         // the strategy's number only where there is a choice: a vertex without the
         // guide draws `path`'s numbers
         let u_choice = if mixture.guide.is_some() { sampler.next_1d() } else { 0.0 };

@@ -16,6 +16,15 @@
 #                  binaries, best of several): a render's image depends on seed and spp only
 #                  (a repeat's must equal the first: checked), and one run's CPU time on a
 #                  shared VM moves by 10-15 % (cbox_path's path at 256 spp: 13.3-18.4 s)
+#   PAIRED=1       with SPP and REPEAT: each round runs path and guided side by side, each
+#                  pinned to its own core (the cores swapped every round), and the core that
+#                  finishes first goes on with a `path` render of the scene (untimed, stopped
+#                  when the other ends), so that each timed render has a busy neighbour for
+#                  its whole run; the cost ratio is the median over the rounds of guided's CPU
+#                  time over path's in the same round (each round's is printed). Machine load
+#                  that comes and goes then slows both renders of a round alike: on a shared
+#                  VM the ratios of a round stay within a few per cent where the least of N
+#                  serial CPU times moves by 10 %. Not with BASE, VARIANTS, LOAD or COST
 #   COST=instructions  with SPP: the cost is the instructions a render executes instead of
 #                  its CPU seconds (valgrind's callgrind, no cache simulation: about 30x slower,
 #                  one render at a time per core); it does not depend on the machine's load,
@@ -52,6 +61,11 @@ case ${COST:-} in
     ;;
   *) echo "COST is 'instructions' or unset, not '$COST'" >&2; exit 2 ;;
 esac
+if [[ -n ${PAIRED:-} ]]; then
+  [[ -n ${SPP:-} && -n ${REPEAT:-} ]] || { echo "PAIRED needs SPP and REPEAT" >&2; exit 2; }
+  [[ -z ${BASE:-}${VARIANTS:-}${LOAD:-}${COST:-} ]] || { echo "PAIRED takes path and guided alone (no BASE, VARIANTS, LOAD or COST)" >&2; exit 2; }
+  [[ $(nproc) -ge 2 ]] || { echo "PAIRED needs two cores" >&2; exit 2; }
+fi
 lscpu | grep -E '^Model name' || true
 
 if [[ -n ${LOAD:-} ]]; then
@@ -84,7 +98,9 @@ for sc in "$@"; do
       local counter=()
       [[ ${COST:-} == instructions ]] &&
         counter=(valgrind --tool=callgrind --cache-sim=no --branch-sim=no --callgrind-out-file=/dev/null)
-      /usr/bin/time -f 'cpu %U %S' -o "$out/$name.$tag.$seed.time" \
+      local pinned=()
+      [[ -n ${pin:-} ]] && pinned=(taskset -c "$pin")
+      "${pinned[@]}" /usr/bin/time -f 'cpu %U %S' -o "$out/$name.$tag.$seed.time" \
         "${counter[@]}" "$bin" render "$scene" "$@" "${common[@]}" -o "$out/$name.$tag.$seed.exr" >"$out/$name.$tag.$seed.log" 2>&1
     }
     start() { # runs a render: in the background (side by side), or to its end with REPEAT
@@ -95,7 +111,28 @@ for sc in "$@"; do
         pids+=($!)
       fi
     }
+    paired() { # path and guided side by side on cores $1 and $2, a filler after the first ends
+      tags=(path guided)
+      pin=$1 run "path$round" "$rdr" &
+      local p=$!
+      pin=$2 run "guided$round" "$rdr" --override '{"integrator":{"type":"guided"}}' --override "$guided_extra" &
+      local g=$! done_pid filler
+      wait -n -p done_pid "$p" "$g"
+      local free=$1 other=$g
+      [[ $done_pid == "$g" ]] && free=$2 other=$p
+      taskset -c "$free" "$rdr" render "$scene" --override '{"integrator":{"type":"path"}}' --spp 1000000 --threads 1 \
+        --seed "$seed" -q -o "$out/filler.exr" >/dev/null 2>&1 &
+      filler=$!
+      wait "$other"
+      kill "$filler" 2>/dev/null || true
+      wait "$filler" 2>/dev/null || true
+    }
     group() { # one render of each tag; $round names the repeat (empty: the first)
+      if [[ -n ${PAIRED:-} ]]; then
+        local r=${round#.r}
+        if ((${r:-1} % 2)); then paired 0 1; else paired 1 0; fi
+        return
+      fi
       tags=(path guided)
       pids=()
       start "path$round" "$rdr"
@@ -124,7 +161,7 @@ for sc in "$@"; do
       done
     done
 
-    declare -A merit=()
+    declare -A merit=() cpus=() rels=()
     for i in "${tags[@]}"; do
       variance=()
       [[ -f $ref.var.exr ]] && variance=(--variance "$ref.var.exr")
@@ -134,6 +171,12 @@ for sc in "$@"; do
       for ((r = 2; r <= repeats; r++)); do times+=("$out/$name.$i.r$r.$seed.time"); done
       cpu=$(awk '/^cpu/ {c = $2 + $3; if (best == "" || c < best) best = c} END {print best}' "${times[@]}")
       cost=$cpu unit='CPU s'
+      if [[ -n ${PAIRED:-} ]]; then
+        # each round's CPU time (in the order of the rounds); the merit below takes the
+        # median of the rounds' ratios instead of the least times
+        cpus[$i]=$(awk '/^cpu/ {printf "%s ", $2 + $3}' "${times[@]}")
+        rels[$i]=$rel
+      fi
       if [[ ${COST:-} == instructions ]]; then
         cost=$(grep -oE 'refs: +[0-9,]+' "$out/$name.$i.$seed.log" | grep -oE '[0-9,]+$' | tr -d ,)
         unit=instructions
@@ -146,6 +189,19 @@ for sc in "$@"; do
       fi
       echo "$name seed $seed $i: $m | $spp | cpu ${cpu} s${COST:+ | $cost $unit}"
     done
+    if [[ -n ${PAIRED:-} ]]; then
+      awk -v n="$name" -v s="$seed" -v g="${cpus[guided]}" -v p="${cpus[path]}" -v rg="${rels[guided]}" -v rp="${rels[path]}" \
+        'BEGIN {
+          k = split(g, gs, " "); split(p, ps, " ")
+          for (j = 1; j <= k; j++) { q[j] = gs[j] / ps[j]; line = line sprintf(" %.3f", q[j]) }
+          for (a = 1; a <= k; a++) for (b = a + 1; b <= k; b++) if (q[b] < q[a]) { t = q[a]; q[a] = q[b]; q[b] = t }
+          med = (k % 2) ? q[(k + 1) / 2] : (q[k / 2] + q[k / 2 + 1]) / 2
+          printf "%s seed %s: guided/path CPU time by round%s (median %.3f)\n", n, s, line, med
+          printf "%s seed %s: guided/path relMSE x CPU s %.3f (paired: relMSE ratio x median CPU ratio)\n", n, s, rg / rp * med
+        }'
+      unset merit cpus rels
+      continue
+    fi
     for i in "${tags[@]:1}"; do
       awk -v n="$name" -v s="$seed" -v i="$i" -v g="${merit[$i]}" -v p="${merit[path]}" -v spp="${SPP:-}" \
         -v unit="${unit:-CPU s}" \

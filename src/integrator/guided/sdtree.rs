@@ -185,6 +185,9 @@ impl SdTree {
                 let bit = cell[level % 3] >> (JUMP_BITS as usize - 1 - level / 3) & 1;
                 n = node as usize + bit;
             }
+            // node indices stay far below the flag's bit: 2^30 nodes would be half as
+            // many leaves, each with two directional trees
+            debug_assert!(n < UNGUIDED as usize, "spatial node {n} reaches the jump table's flag");
             *j = n as u32 | if self.guides_below(n) { 0 } else { UNGUIDED };
         }
         self.jump = jump;

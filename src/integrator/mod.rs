@@ -141,9 +141,7 @@ impl Integrator {
             Integrator::IntersectionTest(i) if i.packets(scene) => camera_pass_blocks(ctx, pass, film, |b, out| i.li_block(scene, b, out)),
             Integrator::IntersectionTest(i) => camera_pass(ctx, pass, film, |s| i.li(scene, s.ray, s.diff, s.sampler, s.counts)),
             Integrator::Path(p) if p.rr == Roulette::Ears => ears::render_pass(p, ctx, pass, film, state.ears()),
-            Integrator::Path(p) if scene.packets() && !scene.has_media => {
-                camera_pass_blocks(ctx, pass, film, |b, out| p.li_block(scene, b, out))
-            }
+            Integrator::Path(p) if scene.packets() && !scene.has_media => p.render_pass_blocks(ctx, pass, film),
             Integrator::Path(p) => camera_pass(ctx, pass, film, |s| p.li(scene, s.ray, s.diff, s.sampler, s.counts)),
             Integrator::Bdpt(b) if b.visualize_strategies => bdpt::strategies::render_pass(b, ctx, pass, film, state.strategies()),
             Integrator::Bdpt(b) => camera_pass(ctx, pass, film, |s| b.li(scene, ctx.camera, s)),

@@ -13,7 +13,7 @@
 //! its packet code.
 
 use super::estimator::{trace, Found, PathProfile, PathState, Policy, Vertex};
-use super::pass::CameraBlock;
+use super::pass::{camera_pass_blocks, CameraBlock, PassContext, PassResult};
 use super::RayCounts;
 use crate::accel::wide::{PacketHits, PACKET};
 use crate::geometry::{Ray, RayDifferential};
@@ -101,6 +101,14 @@ impl PathTracer {
     /// path draws its numbers in `li`'s order and sums its terms in the same order.
     pub fn li_block(&self, scene: &Scene, block: &mut CameraBlock, out: &mut [Vec3]) {
         trace_block(scene, block, out, &mut [*self; PACKET]);
+    }
+
+    /// A pass of packets ([`PathTracer::li_block`]) into `film`: `path`'s, and `guided`'s
+    /// where it does not guide, through this one compiled copy (each caller's own copy of
+    /// the pass made `guided`'s unguided passes slower than `path`'s).
+    #[inline(never)]
+    pub fn render_pass_blocks(&self, ctx: &PassContext, pass: u32, film: &mut crate::film::Film) -> PassResult {
+        camera_pass_blocks(ctx, pass, film, |b, out| self.li_block(ctx.scene, b, out))
     }
 }
 

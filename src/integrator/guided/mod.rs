@@ -87,7 +87,7 @@ pub use path::{Guiding, Mixture, Record, Scratch};
 pub use quadtree::{sphere_to_square, square_to_sphere, DTree, Target};
 pub use sdtree::{SdTree, TreeStats};
 
-use super::pass::{camera_pass_blocks, camera_pass_blocks_with, camera_pass_with, tile_of};
+use super::pass::{camera_pass_blocks_with, camera_pass_with, tile_of};
 use super::{ears, PassContext, PassResult, PathProfile, PathTracer, RayCounts, Roulette};
 use crate::accel::wide::PACKET;
 use crate::math::Vec3;
@@ -364,7 +364,7 @@ impl Guided {
         if let (Some(p), true) = (&path, scene.packets() && !scene.has_media && !ears_pass) {
             // `path`'s packet pass, the same samples as its `li` (no per-pixel moments:
             // the summary's variance estimate is the recording passes')
-            let mut result = camera_pass_blocks(ctx, sample_index, film, |b, out| p.li_block(scene, b, out));
+            let mut result = p.render_pass_blocks(ctx, sample_index, film);
             result.counts += counts;
             if result.complete {
                 self.pass_done(state, ctx, pass_start);

@@ -23,8 +23,9 @@
 #                  its whole run; the cost ratio is the median over the rounds of guided's CPU
 #                  time over path's in the same round (each round's is printed). Machine load
 #                  that comes and goes then slows both renders of a round alike: on a shared
-#                  VM the ratios of a round stay within a few per cent where the least of N
-#                  serial CPU times moves by 10 %. Not with BASE, VARIANTS, LOAD or COST
+#                  VM the ratios of a round stay within a few per cent (a run's median moves
+#                  by up to 4 % from one hour to the next) where the least of N serial CPU
+#                  times moves by 10-20 %. Not with BASE, VARIANTS, LOAD or COST
 #   COST=instructions  with SPP: the cost is the instructions a render executes instead of
 #                  its CPU seconds (valgrind's callgrind, no cache simulation: about 30x slower,
 #                  one render at a time per core); it does not depend on the machine's load,

@@ -16,6 +16,7 @@ use super::estimator::{trace, Found, PathProfile, PathState, Policy, Vertex};
 use super::pass::{camera_pass_blocks, CameraBlock, PassContext, PassResult};
 use super::RayCounts;
 use crate::accel::wide::{PacketHits, PACKET};
+use crate::film::Film;
 use crate::geometry::{Ray, RayDifferential};
 use crate::light::environment::EnvironmentLight;
 use crate::light::{LightSample, LightSampling};
@@ -107,7 +108,7 @@ impl PathTracer {
     /// where it does not guide, through this one compiled copy (each caller's own copy of
     /// the pass made `guided`'s unguided passes slower than `path`'s).
     #[inline(never)]
-    pub fn render_pass_blocks(&self, ctx: &PassContext, pass: u32, film: &mut crate::film::Film) -> PassResult {
+    pub fn render_pass_blocks(&self, ctx: &PassContext, pass: u32, film: &mut Film) -> PassResult {
         camera_pass_blocks(ctx, pass, film, |b, out| self.li_block(ctx.scene, b, out))
     }
 }

@@ -30,7 +30,8 @@
 #                  its CPU seconds (valgrind's callgrind, no cache simulation: about 30x slower,
 #                  one render at a time per core); it does not depend on the machine's load,
 #                  but counts no cache miss (a render that waits on memory looks cheaper than
-#                  it is) and runs the AVX2 kernels (valgrind has no AVX-512; images are the same)
+#                  it is) and runs the AVX2 kernels (valgrind has no AVX-512; images are the same);
+#                  not with REPEAT (a count does not change from one run to the next)
 #   LOAD=1         a third render (`path` on cbox_path, one thread) runs beside the pair for
 #                  the whole run: the loaded case (the schedule must not care)
 #   GUIDED='{...}' extra override for `guided` (e.g. '{"integrator":{"target":"variance"}}'
@@ -58,6 +59,7 @@ case ${COST:-} in
   '') ;;
   instructions)
     [[ -n ${SPP:-} ]] || { echo "COST=instructions needs SPP (equal spp)" >&2; exit 2; }
+    [[ -z ${REPEAT:-} ]] || { echo "COST=instructions counts the same every run: no REPEAT" >&2; exit 2; }
     command -v valgrind >/dev/null || { echo "COST=instructions needs valgrind (apt-get install valgrind)" >&2; exit 2; }
     ;;
   *) echo "COST is 'instructions' or unset, not '$COST'" >&2; exit 2 ;;

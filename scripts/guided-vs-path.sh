@@ -115,7 +115,6 @@ for sc in "$@"; do
       fi
     }
     paired() { # path and guided side by side on cores $1 and $2, a filler after the first ends
-      tags=(path guided)
       pin=$1 run "path$round" "$rdr" &
       local p=$!
       pin=$2 run "guided$round" "$rdr" --override '{"integrator":{"type":"guided"}}' --override "$guided_extra" &
@@ -131,12 +130,12 @@ for sc in "$@"; do
       wait "$filler" 2>/dev/null || true
     }
     group() { # one render of each tag; $round names the repeat (empty: the first)
+      tags=(path guided)
       if [[ -n ${PAIRED:-} ]]; then
         local r=${round#.r}
         if ((${r:-1} % 2)); then paired 0 1; else paired 1 0; fi
         return
       fi
-      tags=(path guided)
       pids=()
       start "path$round" "$rdr"
       start "guided$round" "$rdr" --override '{"integrator":{"type":"guided"}}' --override "$guided_extra"
